@@ -1,0 +1,31 @@
+# Project-wide helpers: warnings applied per target (PRIVATE), library and test registration.
+
+function(mlp_set_warnings target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Werror)
+endfunction()
+
+# mlp_add_library(<name> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
+# Creates mlp_<name> with alias mlp::<name>, public headers in <module>/include.
+function(mlp_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(mlp_${name} ${ARG_SOURCES})
+  add_library(mlp::${name} ALIAS mlp_${name})
+  target_include_directories(mlp_${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+  target_link_libraries(mlp_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  target_compile_features(mlp_${name} PUBLIC cxx_std_20)
+  mlp_set_warnings(mlp_${name})
+endfunction()
+
+# mlp_add_test(<module> <name> SOURCES ... DEPS ...): one gtest binary, tests discovered as
+# <module>/<Suite>.<Case> so ctest -R geometry/ selects a module.
+function(mlp_add_test module name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  set(target test_${module}_${name})
+  add_executable(${target} ${ARG_SOURCES})
+  target_link_libraries(${target} PRIVATE ${ARG_DEPS} mlp_test_main GTest::gmock)
+  mlp_set_warnings(${target})
+  set_target_properties(${target} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  gtest_discover_tests(${target} TEST_PREFIX "${module}/" DISCOVERY_TIMEOUT 60
+                       PROPERTIES ENVIRONMENT "MLP_SHARED_DATA=${MLP_SHARED_DATA_DIR}"
+                                  TIMEOUT 300)
+endfunction()

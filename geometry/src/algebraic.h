@@ -1,0 +1,19 @@
+#pragma once
+// Algebraic (linear) fits used only as starting points for the geometric fits.
+
+#include "mlp/geometry/types.h"
+
+namespace mlp::geometry::internal {
+
+/// Kasa's circle: minimises sum (|p|^2 + D.p + F)^2. Returns false for collinear points.
+bool KasaCircle(const Points2& centred, Vec2* center, double* radius);
+/// Kasa's sphere, as KasaCircle in 3D. Returns false for coplanar points.
+bool KasaSphere(const Points3& centred, Vec3* center, double* radius);
+
+/// Symmetric 3x3 part A of the algebraic quadric x^T A x + b^T x + c = 0 through the points
+/// (smallest right singular vector of the 10-column design matrix). For a cylinder A is
+/// proportional to I - a a^T, for a cone to I - (1 + tan^2 psi) a a^T: the axis is the
+/// eigenvector whose eigenvalue stands apart.
+Mat3 AlgebraicQuadric(const Points3& centred);
+
+}  // namespace mlp::geometry::internal

@@ -1,0 +1,34 @@
+#include "common.h"
+
+namespace mlp::geometry::internal {
+
+void OrthonormalBasis(const Vec3& axis, Vec3* u, Vec3* v) {
+  const Vec3 w = axis.normalized();
+  // Cross with the coordinate axis least aligned with w: never near-parallel.
+  Eigen::Index k = 0;
+  w.cwiseAbs().minCoeff(&k);
+  *u = Vec3::Unit(k).cross(w).normalized();
+  *v = w.cross(*u);
+}
+
+Points3 ToFrame(const Points3& points, const Vec3& origin, const Vec3& u, const Vec3& v,
+                const Vec3& w) {
+  Mat3 r;
+  r.row(0) = u.transpose();
+  r.row(1) = v.transpose();
+  r.row(2) = w.transpose();
+  return r * (points.colwise() - origin);
+}
+
+void ThrowDegenerate(const std::string& shape, const std::string& why) {
+  throw GeometryError(ErrorCode::kDegenerate, shape + ": the points do not determine it (" + why +
+                                                  ")");
+}
+
+void ThrowNotConverged(const std::string& shape, int iterations) {
+  throw GeometryError(ErrorCode::kNotConverged,
+                      shape + ": the least-squares solver found no stationary point in " +
+                          std::to_string(iterations) + " iterations");
+}
+
+}  // namespace mlp::geometry::internal

@@ -1,0 +1,117 @@
+#pragma once
+// Helpers shared by the fits: input checks, moments, bases, residual statistics.
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "mlp/geometry/error.h"
+#include "mlp/geometry/fit_result.h"
+#include "mlp/geometry/types.h"
+
+namespace mlp::geometry::internal {
+
+/// Throws kTooFewPoints / kNonFinite with the shape's name in the message.
+template <class Derived>
+void CheckPoints(const Eigen::MatrixBase<Derived>& points, int min_points, const char* shape) {
+  if (points.cols() < min_points) {
+    throw GeometryError(ErrorCode::kTooFewPoints,
+                        std::string(shape) + " needs at least " + std::to_string(min_points) +
+                            " points, got " + std::to_string(points.cols()));
+  }
+  if (!points.allFinite()) {
+    throw GeometryError(ErrorCode::kNonFinite,
+                        std::string(shape) + ": input contains NaN or infinite coordinates");
+  }
+}
+
+template <int N>
+struct Moments {
+  Eigen::Matrix<double, N, 1> centroid;
+  Eigen::Matrix<double, N, N> scatter;  // sum (p - centroid)(p - centroid)^T
+};
+
+/// One pass over the points, shifted by the first point so that data far from the origin keeps
+/// its precision (the shifted one-pass formula loses only |mean - first|^2 / extent^2 digits).
+template <int N>
+Moments<N> ComputeMoments(const Eigen::Matrix<double, N, Eigen::Dynamic>& points) {
+  using VecN = Eigen::Matrix<double, N, 1>;
+  const VecN shift = points.col(0);
+  VecN sum = VecN::Zero();
+  Eigen::Matrix<double, N, N> outer = Eigen::Matrix<double, N, N>::Zero();
+  const Eigen::Index n = points.cols();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const VecN q = points.col(i) - shift;
+    sum += q;
+    outer.noalias() += q * q.transpose();
+  }
+  const VecN mean_q = sum / static_cast<double>(n);
+  Moments<N> m;
+  m.centroid = shift + mean_q;
+  m.scatter = outer - static_cast<double>(n) * mean_q * mean_q.transpose();
+  return m;
+}
+
+/// Unit vectors u, v with u x v = axis (deterministic for a given axis).
+void OrthonormalBasis(const Vec3& axis, Vec3* u, Vec3* v);
+
+/// Points minus `origin`, expressed in the basis (u, v, w) as 3 x N.
+Points3 ToFrame(const Points3& points, const Vec3& origin, const Vec3& u, const Vec3& v,
+                const Vec3& w);
+
+/// Residual statistics from a residual function r(i), i in [0, n).
+template <class F>
+FitStats ComputeStats(Eigen::Index n, F residual, int iterations) {
+  FitStats s;
+  s.n = static_cast<int>(n);
+  s.iterations = iterations;
+  double ss = 0.0;
+  s.min_residual = INFINITY;
+  s.max_residual = -INFINITY;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double r = residual(i);
+    ss += r * r;
+    s.min_residual = std::min(s.min_residual, r);
+    s.max_residual = std::max(s.max_residual, r);
+  }
+  s.rms = std::sqrt(ss / static_cast<double>(n));
+  return s;
+}
+
+/// Evenly strided subsample of at most `max_count` columns (all of them if fewer).
+template <int N>
+Eigen::Matrix<double, N, Eigen::Dynamic> Subsample(
+    const Eigen::Matrix<double, N, Eigen::Dynamic>& points, Eigen::Index max_count) {
+  const Eigen::Index n = points.cols();
+  if (n <= max_count) return points;
+  Eigen::Matrix<double, N, Eigen::Dynamic> out(N, max_count);
+  for (Eigen::Index k = 0; k < max_count; ++k) out.col(k) = points.col(k * n / max_count);
+  return out;
+}
+
+/// RMS distance of centred points from their centroid: the length scale of the data [mm].
+template <int N>
+double DataScale(const Moments<N>& m, Eigen::Index n) {
+  return std::sqrt(m.scatter.trace() / static_cast<double>(n));
+}
+
+/// Eigen-decomposition of a scatter matrix, ascending eigenvalues.
+template <int N>
+Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> SortedEigen(
+    const Eigen::Matrix<double, N, N>& scatter) {
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>>(scatter);
+}
+
+/// Flips `v` so that its largest-magnitude component is positive (a stable sign convention).
+template <class V>
+V CanonicalSign(const V& v) {
+  Eigen::Index k = 0;
+  v.cwiseAbs().maxCoeff(&k);
+  return v(k) < 0 ? V(-v) : v;
+}
+
+[[noreturn]] void ThrowDegenerate(const std::string& shape, const std::string& why);
+[[noreturn]] void ThrowNotConverged(const std::string& shape, int iterations);
+
+}  // namespace mlp::geometry::internal

@@ -1,0 +1,303 @@
+// Least-squares cylinder and cone. Each iteration moves to a local frame in which the current
+// axis is z through the current axis point, so the five (six) parameters are small offsets and
+// tilts with closed-form derivatives (Forbes, "Least-squares best-fit geometric elements",
+// NPL DITC 140/89, sections 3.6-3.7; Shakarji 1998). The axis point is kept at the projection of
+// the centroid, NIST's convention, which also keeps offsets and tilts uncorrelated.
+
+#include <functional>
+#include <limits>
+
+#include "algebraic.h"
+#include "common.h"
+#include "lm.h"
+#include "mlp/geometry/fit.h"
+
+namespace mlp::geometry {
+namespace {
+
+using internal::NormalEquations;
+
+struct AxialState {
+  Vec3 point = Vec3::Zero();  // on the axis, centred coordinates
+  Vec3 axis = Vec3::UnitZ();
+  double p0 = 0.0;  // cylinder: radius; cone: half-angle [rad]
+  double p1 = 0.0;  // cone: orthogonal distance s at `point`
+};
+
+// Local coordinates of a point relative to the current axis.
+struct Local {
+  double x, y, z, rho;
+};
+
+template <int P>
+class AxialModelBase {
+ public:
+  static constexpr int kParams = P;
+  using State = AxialState;
+  using Delta = Eigen::Matrix<double, P, 1>;
+
+  AxialModelBase(const Points3& centred, double scale) : points_(centred), scale_(scale) {}
+  double Scale() const { return scale_; }
+  double StepLength(const Delta& d) const {
+    return std::sqrt(d(0) * d(0) + d(1) * d(1) + scale_ * scale_ * (d(2) * d(2) + d(3) * d(3)) +
+                     (P == 6 ? scale_ * scale_ * d(4) * d(4) : d(4) * d(4)) +
+                     (P == 6 ? d(5) * d(5) : 0.0));
+  }
+  // Offsets and tilts along the current u, v; then the axis point is moved back to the
+  // projection of the centroid (the origin); returns how far it moved along the new axis.
+  double UpdateAxis(const State& s, const Delta& d, State* out) const {
+    Vec3 u, v;
+    internal::OrthonormalBasis(s.axis, &u, &v);
+    out->point = s.point + d(0) * u + d(1) * v;
+    out->axis = (s.axis + d(2) * u + d(3) * v).normalized();
+    const double t = -out->point.dot(out->axis);
+    out->point += t * out->axis;
+    return t;
+  }
+  template <class F>
+  void ForEachLocal(const State& s, F f) const {
+    Vec3 u, v;
+    internal::OrthonormalBasis(s.axis, &u, &v);
+    for (Eigen::Index i = 0; i < points_.cols(); ++i) {
+      const Vec3 q = points_.col(i) - s.point;
+      Local l{q.dot(u), q.dot(v), q.dot(s.axis), 0.0};
+      l.rho = std::hypot(l.x, l.y);
+      f(l);
+    }
+  }
+
+ protected:
+  const Points3& points_;
+  double scale_;
+};
+
+class CylinderModel : public AxialModelBase<5> {
+ public:
+  using AxialModelBase::AxialModelBase;
+  NormalEquations<5> Linearize(const State& s) const {
+    NormalEquations<5> ne;
+    Delta j;
+    ForEachLocal(s, [&](const Local& l) {
+      const double cx = l.rho > 0.0 ? l.x / l.rho : 0.0;
+      const double cy = l.rho > 0.0 ? l.y / l.rho : 0.0;
+      j << -cx, -cy, -cx * l.z, -cy * l.z, -1.0;
+      ne.Add(j, l.rho - s.p0);
+    });
+    return ne;
+  }
+  State Update(const State& s, const Delta& d) const {
+    State out;
+    UpdateAxis(s, d, &out);
+    out.p0 = s.p0 + d(4);
+    return out;
+  }
+};
+
+// Cone residual rho cos(psi) - h sin(psi) - s (NIST); h along the axis from the axis point.
+class ConeModel : public AxialModelBase<6> {
+ public:
+  using AxialModelBase::AxialModelBase;
+  NormalEquations<6> Linearize(const State& s) const {
+    NormalEquations<6> ne;
+    Delta j;
+    const double c = std::cos(s.p0), sn = std::sin(s.p0);
+    ForEachLocal(s, [&](const Local& l) {
+      const double cx = l.rho > 0.0 ? l.x / l.rho : 0.0;
+      const double cy = l.rho > 0.0 ? l.y / l.rho : 0.0;
+      j << -c * cx, -c * cy, -c * cx * l.z - sn * l.x, -c * cy * l.z - sn * l.y,
+          -l.rho * sn - l.z * c, -1.0;
+      ne.Add(j, l.rho * c - l.z * sn - s.p1);
+    });
+    return ne;
+  }
+  State Update(const State& s, const Delta& d) const {
+    State out;
+    const double t = UpdateAxis(s, d, &out);
+    out.p0 = s.p0 + d(4);
+    // Moving the axis point by t along the axis changes the distance to the surface by t sin(psi).
+    out.p1 = s.p1 + d(5) + t * std::sin(out.p0);
+    return out;
+  }
+};
+
+constexpr Eigen::Index kStartSubsample = 2000;
+
+// Candidate axis directions: eigenvectors of the algebraic quadric, then principal axes.
+std::vector<Vec3> CandidateAxes(const Points3& centred_sub, bool multi_start) {
+  const Mat3 a = internal::AlgebraicQuadric(centred_sub);
+  Eigen::SelfAdjointEigenSolver<Mat3> qes(a);
+  const Vec3 ev = qes.eigenvalues();
+  // The eigenvalue that stands apart from the other two marks the axis.
+  int odd = 0;
+  double best = -1.0;
+  for (int k = 0; k < 3; ++k) {
+    const double others = 0.5 * (ev((k + 1) % 3) + ev((k + 2) % 3));
+    const double spread = std::abs(ev((k + 1) % 3) - ev((k + 2) % 3));
+    const double score = std::abs(ev(k) - others) / (spread + 1e-12 * ev.cwiseAbs().maxCoeff());
+    if (score > best) best = score, odd = k;
+  }
+  std::vector<Vec3> axes = {qes.eigenvectors().col(odd)};
+  if (!multi_start) return axes;
+  for (int k = 0; k < 3; ++k) {
+    if (k != odd) axes.push_back(qes.eigenvectors().col(k));
+  }
+  const auto pes = internal::SortedEigen<3>(Mat3(centred_sub * centred_sub.transpose()));
+  for (int k = 2; k >= 0; --k) axes.push_back(pes.eigenvectors().col(k));
+  return axes;
+}
+
+// Axis point and radius for a given axis direction: Kasa circle of the projected points.
+bool StartOnAxis(const Points3& centred, const Vec3& axis, AxialState* s) {
+  Vec3 u, v;
+  internal::OrthonormalBasis(axis, &u, &v);
+  const Points2 proj = internal::ToFrame(centred, Vec3::Zero(), u, v, axis).topRows<2>();
+  Vec2 c;
+  double r = 0.0;
+  if (!internal::KasaCircle(proj, &c, &r)) return false;
+  s->point = u * c.x() + v * c.y();
+  s->axis = axis;
+  s->p0 = r;
+  return true;
+}
+
+// Cone start: axis point from the projected circle, then rho = alpha + beta h by least squares.
+bool ConeStartOnAxis(const Points3& centred, const Vec3& axis_in, AxialState* s) {
+  if (!StartOnAxis(centred, axis_in, s)) return false;
+  Vec3 axis = axis_in;
+  Eigen::Matrix2d ata = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d atb = Eigen::Vector2d::Zero();
+  for (Eigen::Index i = 0; i < centred.cols(); ++i) {
+    const Vec3 q = centred.col(i) - s->point;
+    const double h = q.dot(axis);
+    const double rho = (q - h * axis).norm();
+    ata += Eigen::Vector2d(1.0, h) * Eigen::RowVector2d(1.0, h);
+    atb += Eigen::Vector2d(1.0, h) * rho;
+  }
+  Eigen::Vector2d ab = ata.ldlt().solve(atb);
+  if (!ab.allFinite()) return false;
+  if (ab(1) < 0.0) axis = -axis, ab(1) = -ab(1);
+  s->axis = axis;
+  s->p0 = std::clamp(std::atan(ab(1)), 1e-4, 1.5);
+  s->p1 = ab(0) * std::cos(s->p0);
+  return true;
+}
+
+bool ValidCylinder(const AxialState& s) { return s.point.allFinite() && s.p0 > 0.0; }
+bool ValidCone(const AxialState& s) {
+  return s.point.allFinite() && std::isfinite(s.p1) && std::abs(s.p0) > 0.0 &&
+         std::abs(s.p0) < M_PI / 2;
+}
+
+// Runs the model from every start on the subsample and returns the lowest-cost valid solution.
+template <class Model>
+std::optional<AxialState> BestStart(const Points3& centred_sub, double scale,
+                                    const std::vector<AxialState>& starts,
+                                    const std::function<bool(const AxialState&)>& valid) {
+  Model model(centred_sub, scale);
+  std::optional<AxialState> best;
+  double best_ss = std::numeric_limits<double>::infinity();
+  for (AxialState s : starts) {
+    const auto summary = internal::SolveLm(model, s, 100);
+    if (valid(s) && summary.ss < best_ss) best_ss = summary.ss, best = s;
+  }
+  return best;
+}
+
+struct AxialSolution {
+  AxialState state;
+  FitStats stats;
+  Covariance covariance;
+};
+
+template <class Model>
+AxialSolution SolveAxial(const Points3& points, const FitOptions& options, const char* shape,
+                         const std::optional<AxialState>& initial_centred,
+                         const std::function<bool(const Points3&, const Vec3&, AxialState*)>& start,
+                         const std::function<bool(const AxialState&)>& valid) {
+  const auto m = internal::ComputeMoments<3>(points);
+  const Points3 centred = points.colwise() - m.centroid;
+  const double scale = internal::DataScale<3>(m, points.cols());
+  if (!(scale > 1e-12 * (1.0 + m.centroid.norm()))) {
+    internal::ThrowDegenerate(shape, "all points coincide");
+  }
+  AxialState state;
+  if (initial_centred) {
+    state = *initial_centred;
+  } else {
+    const Points3 sub = internal::Subsample<3>(centred, kStartSubsample);
+    std::vector<AxialState> starts;
+    for (const Vec3& axis : CandidateAxes(sub, options.multi_start)) {
+      AxialState s;
+      if (start(sub, axis, &s)) starts.push_back(s);
+    }
+    const auto best = BestStart<Model>(sub, scale, starts, valid);
+    if (!best) internal::ThrowDegenerate(shape, "no starting axis found");
+    state = *best;
+  }
+  Model model(centred, scale);
+  const auto summary = internal::SolveLm(model, state, options.max_iterations);
+  if (!summary.converged || !valid(state)) internal::ThrowNotConverged(shape, summary.iterations);
+  const auto ne = model.Linearize(state);
+  if (internal::IsRankDeficient(ne)) internal::ThrowDegenerate(shape, "parameters not separable");
+  AxialSolution sol;
+  sol.state = state;
+  sol.stats.iterations = summary.iterations;
+  sol.covariance.matrix = internal::CovarianceFrom(ne, static_cast<int>(points.cols()));
+  internal::OrthonormalBasis(state.axis, &sol.covariance.u, &sol.covariance.v);
+  sol.state.point += m.centroid;
+  return sol;
+}
+
+template <class Shape>
+void FinishStats(const Points3& points, FitResult<Shape>* fit, int iterations) {
+  fit->stats = internal::ComputeStats(
+      points.cols(), [&](Eigen::Index i) { return SignedDistance(fit->shape, points.col(i)); },
+      iterations);
+}
+
+}  // namespace
+
+FitResult<Cylinder> FitCylinder(const Points3& points, const FitOptions& options,
+                                const std::optional<Cylinder>& initial) {
+  options.Check();
+  internal::CheckPoints(points, 5, "cylinder");
+  std::optional<AxialState> init;
+  if (initial) {
+    const Vec3 centroid = points.rowwise().mean();
+    init = AxialState{initial->point - centroid, initial->axis.normalized(), initial->radius, 0.0};
+  }
+  const auto sol =
+      SolveAxial<CylinderModel>(points, options, "cylinder", init, StartOnAxis, ValidCylinder);
+  FitResult<Cylinder> fit;
+  fit.shape = Cylinder{sol.state.point, internal::CanonicalSign<Vec3>(sol.state.axis), sol.state.p0};
+  fit.covariance = sol.covariance;
+  fit.covariance.parameters = {"offset_u", "offset_v", "tilt_u", "tilt_v", "radius"};
+  FinishStats(points, &fit, sol.stats.iterations);
+  return fit;
+}
+
+FitResult<Cone> FitCone(const Points3& points, const FitOptions& options,
+                        const std::optional<Cone>& initial) {
+  options.Check();
+  internal::CheckPoints(points, 6, "cone");
+  std::optional<AxialState> init;
+  if (initial) {
+    const Vec3 centroid = points.rowwise().mean();
+    init = AxialState{initial->point - centroid, initial->axis.normalized(), initial->half_angle,
+                      initial->distance};
+  }
+  const auto sol = SolveAxial<ConeModel>(points, options, "cone", init, ConeStartOnAxis, ValidCone);
+  FitResult<Cone> fit;
+  AxialState s = sol.state;
+  if (s.p0 < 0.0) s.axis = -s.axis, s.p0 = -s.p0;  // same cone, axis towards growing radius
+  fit.shape = Cone{s.point, s.axis, s.p0, s.p1};
+  fit.covariance = sol.covariance;
+  fit.covariance.parameters = {"offset_u", "offset_v", "tilt_u", "tilt_v", "half_angle", "distance"};
+  FinishStats(points, &fit, sol.stats.iterations);
+  return fit;
+}
+
+Vec3 Cone::Apex() const { return point - axis * (distance / std::sin(half_angle)); }
+double Cone::RadiusAtPoint() const { return distance / std::cos(half_angle); }
+
+}  // namespace mlp::geometry

@@ -1,0 +1,153 @@
+// Least-squares circle (2D), sphere and circle in 3D (plane first, then circle: ISO/NIST).
+// Start: the algebraic fit of Kasa (IEEE Trans. Instrum. Meas. 25 (1976) 8); then
+// Levenberg-Marquardt on the geometric residual |p - c| - r, which is what ISO 10360-6 asks.
+
+#include "algebraic.h"
+#include "common.h"
+#include "lm.h"
+#include "mlp/geometry/fit.h"
+
+namespace mlp::geometry {
+namespace {
+
+using internal::NormalEquations;
+
+template <int N>
+using PointsN = Eigen::Matrix<double, N, Eigen::Dynamic>;
+
+// Circle (N = 2) or sphere (N = 3) model; state = (centre, radius) in centred coordinates.
+template <int N>
+class NSphereModel {
+ public:
+  static constexpr int kParams = N + 1;
+  using State = Eigen::Matrix<double, N + 1, 1>;
+
+  NSphereModel(const PointsN<N>& centred, double scale) : points_(centred), scale_(scale) {}
+
+  NormalEquations<kParams> Linearize(const State& s) const {
+    NormalEquations<kParams> ne;
+    const Eigen::Matrix<double, N, 1> c = s.template head<N>();
+    Eigen::Matrix<double, kParams, 1> j;
+    j(N) = -1.0;
+    for (Eigen::Index i = 0; i < points_.cols(); ++i) {
+      const Eigen::Matrix<double, N, 1> d = points_.col(i) - c;
+      const double dist = d.norm();
+      // A point exactly at the centre has no radial direction; it only informs the radius.
+      j.template head<N>() = dist > 0.0 ? Eigen::Matrix<double, N, 1>(-d / dist)
+                                        : Eigen::Matrix<double, N, 1>::Zero();
+      ne.Add(j, dist - s(N));
+    }
+    return ne;
+  }
+  State Update(const State& s, const State& delta) const { return s + delta; }
+  double StepLength(const State& delta) const { return delta.norm(); }
+  double Scale() const { return scale_; }
+
+ private:
+  const PointsN<N>& points_;
+  double scale_;
+};
+
+template <int N>
+Eigen::Matrix<double, N + 1, 1> KasaStart(const PointsN<N>& centred, const char* shape) {
+  Eigen::Matrix<double, N, 1> center;
+  double radius = 0.0;
+  bool ok = false;
+  if constexpr (N == 2) {
+    ok = internal::KasaCircle(centred, &center, &radius);
+  } else {
+    ok = internal::KasaSphere(centred, &center, &radius);
+  }
+  if (!ok) internal::ThrowDegenerate(shape, "no algebraic start");
+  Eigen::Matrix<double, N + 1, 1> state;
+  state << center, radius;
+  return state;
+}
+
+struct NSphereSolution {
+  Eigen::VectorXd center;
+  double radius = 0.0;
+  FitStats stats;
+  Eigen::MatrixXd covariance;
+};
+
+template <int N>
+NSphereSolution FitNSphere(const PointsN<N>& points, const FitOptions& options, const char* shape) {
+  options.Check();
+  internal::CheckPoints(points, N + 1, shape);
+  const auto m = internal::ComputeMoments<N>(points);
+  const auto ev = internal::SortedEigen<N>(m.scatter).eigenvalues();
+  // Points in a subspace (collinear for a circle, coplanar for a sphere) fit a family of shapes.
+  if (!(ev(0) > 1e-14 * ev(N - 1))) {
+    internal::ThrowDegenerate(shape, N == 2 ? "the points are collinear" : "the points are coplanar");
+  }
+  const PointsN<N> centred = points.colwise() - m.centroid;
+  const double scale = internal::DataScale<N>(m, points.cols());
+  NSphereModel<N> model(centred, scale);
+  auto state = KasaStart<N>(centred, shape);
+  const auto summary = internal::SolveLm(model, state, options.max_iterations);
+  if (!summary.converged || !state.allFinite() || !(state(N) > 0.0)) {
+    internal::ThrowNotConverged(shape, summary.iterations);
+  }
+  const auto ne = model.Linearize(state);
+  if (internal::IsRankDeficient(ne)) internal::ThrowDegenerate(shape, "parameters not separable");
+  NSphereSolution sol;
+  sol.center = state.template head<N>() + m.centroid;
+  sol.radius = state(N);
+  sol.stats = internal::ComputeStats(
+      points.cols(),
+      [&](Eigen::Index i) { return (centred.col(i) - state.template head<N>()).norm() - state(N); },
+      summary.iterations);
+  sol.covariance = internal::CovarianceFrom(ne, static_cast<int>(points.cols()));
+  return sol;
+}
+
+}  // namespace
+
+FitResult<Circle2> FitCircle2(const Points2& points, const FitOptions& options) {
+  const auto sol = FitNSphere<2>(points, options, "circle");
+  FitResult<Circle2> fit;
+  fit.shape.center = sol.center;
+  fit.shape.radius = sol.radius;
+  fit.stats = sol.stats;
+  fit.covariance.parameters = {"center_x", "center_y", "radius"};
+  fit.covariance.matrix = sol.covariance;
+  return fit;
+}
+
+FitResult<Sphere> FitSphere(const Points3& points, const FitOptions& options) {
+  const auto sol = FitNSphere<3>(points, options, "sphere");
+  FitResult<Sphere> fit;
+  fit.shape.center = sol.center;
+  fit.shape.radius = sol.radius;
+  fit.stats = sol.stats;
+  fit.covariance.parameters = {"center_x", "center_y", "center_z", "radius"};
+  fit.covariance.matrix = sol.covariance;
+  return fit;
+}
+
+FitResult<Circle3> FitCircle3(const Points3& points, const FitOptions& options) {
+  internal::CheckPoints(points, 3, "circle");
+  const auto plane = FitPlane(points);
+  const Vec3 u = plane.covariance.u;
+  const Vec3 v = plane.covariance.v;
+  const Points2 in_plane =
+      internal::ToFrame(points, plane.shape.point, u, v, plane.shape.normal).topRows<2>();
+  const auto circle = FitCircle2(in_plane, options);
+  FitResult<Circle3> fit;
+  fit.shape.center = plane.shape.point + u * circle.shape.center.x() + v * circle.shape.center.y();
+  fit.shape.normal = plane.shape.normal;
+  fit.shape.radius = circle.shape.radius;
+  fit.stats = circle.stats;
+  // Two-stage convention: the plane and the in-plane circle are estimated independently.
+  auto& cov = fit.covariance;
+  cov.parameters = {"offset", "tilt_u", "tilt_v", "center_u", "center_v", "radius"};
+  cov.matrix = Eigen::MatrixXd::Zero(6, 6);
+  cov.matrix.topLeftCorner<3, 3>() = plane.covariance.matrix;
+  cov.matrix.bottomRightCorner<3, 3>() = circle.covariance.matrix;
+  cov.u = u;
+  cov.v = v;
+  return fit;
+}
+
+}  // namespace mlp::geometry
