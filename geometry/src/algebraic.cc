@@ -44,8 +44,8 @@ Mat3 AlgebraicQuadric(const Points3& centred) {
   Eigen::Matrix<double, 10, 1> row;
   for (Eigen::Index i = 0; i < centred.cols(); ++i) {
     const Vec3 p = centred.col(i) * inv;
-    row << p.x() * p.x(), p.y() * p.y(), p.z() * p.z(), p.x() * p.y(), p.x() * p.z(),
-        p.y() * p.z(), p.x(), p.y(), p.z(), 1.0;
+    row << p.x() * p.x(), p.y() * p.y(), p.z() * p.z(), p.x() * p.y(), p.x() * p.z(), p.y() * p.z(),
+        p.x(), p.y(), p.z(), 1.0;
     dtd.noalias() += row * row.transpose();
   }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 10, 10>> es(dtd);

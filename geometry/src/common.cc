@@ -11,8 +11,8 @@ void OrthonormalBasis(const Vec3& axis, Vec3* u, Vec3* v) {
   *v = w.cross(*u);
 }
 
-Points3 ToFrame(const Points3& points, const Vec3& origin, const Vec3& u, const Vec3& v,
-                const Vec3& w) {
+Points3 ToFrame(
+    const Points3& points, const Vec3& origin, const Vec3& u, const Vec3& v, const Vec3& w) {
   Mat3 r;
   r.row(0) = u.transpose();
   r.row(1) = v.transpose();
@@ -21,8 +21,8 @@ Points3 ToFrame(const Points3& points, const Vec3& origin, const Vec3& u, const 
 }
 
 void ThrowDegenerate(const std::string& shape, const std::string& why) {
-  throw GeometryError(ErrorCode::kDegenerate, shape + ": the points do not determine it (" + why +
-                                                  ")");
+  throw GeometryError(ErrorCode::kDegenerate,
+                      shape + ": the points do not determine it (" + why + ")");
 }
 
 void ThrowNotConverged(const std::string& shape, int iterations) {

@@ -1,14 +1,15 @@
 #pragma once
 // Helpers shared by the fits: input checks, moments, bases, residual statistics.
 
-#include <Eigen/Eigenvalues>
+#include "mlp/geometry/error.h"
+#include "mlp/geometry/fit_result.h"
+#include "mlp/geometry/types.h"
+
 #include <cmath>
 #include <string>
 #include <vector>
 
-#include "mlp/geometry/error.h"
-#include "mlp/geometry/fit_result.h"
-#include "mlp/geometry/types.h"
+#include <Eigen/Eigenvalues>
 
 namespace mlp::geometry::internal {
 
@@ -16,9 +17,9 @@ namespace mlp::geometry::internal {
 template <class Derived>
 void CheckPoints(const Eigen::MatrixBase<Derived>& points, int min_points, const char* shape) {
   if (points.cols() < min_points) {
-    throw GeometryError(ErrorCode::kTooFewPoints,
-                        std::string(shape) + " needs at least " + std::to_string(min_points) +
-                            " points, got " + std::to_string(points.cols()));
+    throw GeometryError(ErrorCode::kTooFewPoints, std::string(shape) + " needs at least " +
+                                                      std::to_string(min_points) + " points, got " +
+                                                      std::to_string(points.cols()));
   }
   if (!points.allFinite()) {
     throw GeometryError(ErrorCode::kNonFinite,
@@ -57,8 +58,8 @@ Moments<N> ComputeMoments(const Eigen::Matrix<double, N, Eigen::Dynamic>& points
 void OrthonormalBasis(const Vec3& axis, Vec3* u, Vec3* v);
 
 /// Points minus `origin`, expressed in the basis (u, v, w) as 3 x N.
-Points3 ToFrame(const Points3& points, const Vec3& origin, const Vec3& u, const Vec3& v,
-                const Vec3& w);
+Points3 ToFrame(
+    const Points3& points, const Vec3& origin, const Vec3& u, const Vec3& v, const Vec3& w);
 
 /// Residual statistics from a residual function r(i), i in [0, n).
 template <class F>

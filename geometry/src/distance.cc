@@ -52,8 +52,8 @@ Vec2 FootFirstQuadrant(double e0, double e1, double y0, double y1) {
   return {e0, 0.0};
 }
 
-Vec3 PlanePoint(const Vec3& center, const Vec3& normal, const Vec3& p, Vec2* in_plane,
-                const Vec3& x_axis) {
+Vec3 PlanePoint(
+    const Vec3& center, const Vec3& normal, const Vec3& p, Vec2* in_plane, const Vec3& x_axis) {
   const Vec3 q = p - center;
   const Vec3 y_axis = normal.cross(x_axis);
   *in_plane = Vec2(q.dot(x_axis), q.dot(y_axis));
@@ -124,7 +124,8 @@ double SignedDistance(const Ellipse2& e, const Vec2& p) {
 double SignedDistance(const Ellipse3& e, const Vec3& p) {
   Vec2 in_plane;
   const Vec3 q = PlanePoint(e.center, e.normal, p, &in_plane, e.major_axis);
-  const double d = SignedDistance(Ellipse2{Vec2::Zero(), 0.0, e.semi_major, e.semi_minor}, in_plane);
+  const double d =
+      SignedDistance(Ellipse2{Vec2::Zero(), 0.0, e.semi_major, e.semi_minor}, in_plane);
   const double h = q.dot(e.normal);
   return std::copysign(std::hypot(d, h), d);
 }

@@ -4,13 +4,14 @@
 // NPL DITC 140/89, sections 3.6-3.7; Shakarji 1998). The axis point is kept at the projection of
 // the centroid, NIST's convention, which also keeps offsets and tilts uncorrelated.
 
+#include "mlp/geometry/fit.h"
+
 #include <functional>
 #include <limits>
 
 #include "algebraic.h"
 #include "common.h"
 #include "lm.h"
-#include "mlp/geometry/fit.h"
 
 namespace mlp::geometry {
 namespace {
@@ -190,7 +191,8 @@ bool ValidCone(const AxialState& s) {
 
 // Runs the model from every start on the subsample and returns the lowest-cost valid solution.
 template <class Model>
-std::optional<AxialState> BestStart(const Points3& centred_sub, double scale,
+std::optional<AxialState> BestStart(const Points3& centred_sub,
+                                    double scale,
                                     const std::vector<AxialState>& starts,
                                     const std::function<bool(const AxialState&)>& valid) {
   Model model(centred_sub, scale);
@@ -210,7 +212,9 @@ struct AxialSolution {
 };
 
 template <class Model>
-AxialSolution SolveAxial(const Points3& points, const FitOptions& options, const char* shape,
+AxialSolution SolveAxial(const Points3& points,
+                         const FitOptions& options,
+                         const char* shape,
                          const std::optional<AxialState>& initial_centred,
                          const std::function<bool(const Points3&, const Vec3&, AxialState*)>& start,
                          const std::function<bool(const AxialState&)>& valid) {
@@ -257,7 +261,8 @@ void FinishStats(const Points3& points, FitResult<Shape>* fit, int iterations) {
 
 }  // namespace
 
-FitResult<Cylinder> FitCylinder(const Points3& points, const FitOptions& options,
+FitResult<Cylinder> FitCylinder(const Points3& points,
+                                const FitOptions& options,
                                 const std::optional<Cylinder>& initial) {
   options.Check();
   internal::CheckPoints(points, 5, "cylinder");
@@ -269,14 +274,16 @@ FitResult<Cylinder> FitCylinder(const Points3& points, const FitOptions& options
   const auto sol =
       SolveAxial<CylinderModel>(points, options, "cylinder", init, StartOnAxis, ValidCylinder);
   FitResult<Cylinder> fit;
-  fit.shape = Cylinder{sol.state.point, internal::CanonicalSign<Vec3>(sol.state.axis), sol.state.p0};
+  fit.shape =
+      Cylinder{sol.state.point, internal::CanonicalSign<Vec3>(sol.state.axis), sol.state.p0};
   fit.covariance = sol.covariance;
   fit.covariance.parameters = {"offset_u", "offset_v", "tilt_u", "tilt_v", "radius"};
   FinishStats(points, &fit, sol.stats.iterations);
   return fit;
 }
 
-FitResult<Cone> FitCone(const Points3& points, const FitOptions& options,
+FitResult<Cone> FitCone(const Points3& points,
+                        const FitOptions& options,
                         const std::optional<Cone>& initial) {
   options.Check();
   internal::CheckPoints(points, 6, "cone");
@@ -292,7 +299,8 @@ FitResult<Cone> FitCone(const Points3& points, const FitOptions& options,
   if (s.p0 < 0.0) s.axis = -s.axis, s.p0 = -s.p0;  // same cone, axis towards growing radius
   fit.shape = Cone{s.point, s.axis, s.p0, s.p1};
   fit.covariance = sol.covariance;
-  fit.covariance.parameters = {"offset_u", "offset_v", "tilt_u", "tilt_v", "half_angle", "distance"};
+  fit.covariance.parameters = {"offset_u", "offset_v",   "tilt_u",
+                               "tilt_v",   "half_angle", "distance"};
   FinishStats(points, &fit, sol.stats.iterations);
   return fit;
 }

@@ -4,13 +4,13 @@
 // parameter t* held at its optimum, dd/dparam = -n . dx(t*)/dparam (Ahn, Rauh & Warnecke,
 // Pattern Recognition 34 (2001) 2283).
 
-#include <Eigen/Eigenvalues>
-#include <Eigen/LU>
+#include "mlp/geometry/distance.h"
+#include "mlp/geometry/fit.h"
 
 #include "common.h"
 #include "lm.h"
-#include "mlp/geometry/distance.h"
-#include "mlp/geometry/fit.h"
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 
 namespace mlp::geometry {
 namespace {
@@ -173,8 +173,8 @@ FitResult<Ellipse3> FitEllipse3(const Points3& points, const FitOptions& options
   fit.shape.semi_minor = e2.shape.semi_minor;
   fit.stats = e2.stats;
   auto& cov = fit.covariance;
-  cov.parameters = {"offset", "tilt_u", "tilt_v", "center_u", "center_v",
-                    "semi_axis_1", "semi_axis_2", "angle"};
+  cov.parameters = {"offset",   "tilt_u",      "tilt_v",      "center_u",
+                    "center_v", "semi_axis_1", "semi_axis_2", "angle"};
   cov.matrix = Eigen::MatrixXd::Zero(8, 8);
   cov.matrix.topLeftCorner<3, 3>() = plane.covariance.matrix;
   cov.matrix.bottomRightCorner<5, 5>() = e2.covariance.matrix;

@@ -1,8 +1,9 @@
 // Closed-form orthogonal least-squares line and plane: centroid plus eigenvectors of the
 // scatter matrix (Pearson 1901; ISO 10360-6 reference solutions for these shapes).
 
-#include "common.h"
 #include "mlp/geometry/fit.h"
+
+#include "common.h"
 
 namespace mlp::geometry {
 namespace {

@@ -2,10 +2,11 @@
 // Start: the algebraic fit of Kasa (IEEE Trans. Instrum. Meas. 25 (1976) 8); then
 // Levenberg-Marquardt on the geometric residual |p - c| - r, which is what ISO 10360-6 asks.
 
+#include "mlp/geometry/fit.h"
+
 #include "algebraic.h"
 #include "common.h"
 #include "lm.h"
-#include "mlp/geometry/fit.h"
 
 namespace mlp::geometry {
 namespace {
@@ -33,8 +34,8 @@ class NSphereModel {
       const Eigen::Matrix<double, N, 1> d = points_.col(i) - c;
       const double dist = d.norm();
       // A point exactly at the centre has no radial direction; it only informs the radius.
-      j.template head<N>() = dist > 0.0 ? Eigen::Matrix<double, N, 1>(-d / dist)
-                                        : Eigen::Matrix<double, N, 1>::Zero();
+      j.template head<N>() =
+          dist > 0.0 ? Eigen::Matrix<double, N, 1>(-d / dist) : Eigen::Matrix<double, N, 1>::Zero();
       ne.Add(j, dist - s(N));
     }
     return ne;
@@ -64,6 +65,29 @@ Eigen::Matrix<double, N + 1, 1> KasaStart(const PointsN<N>& centred, const char*
   return state;
 }
 
+template <int N>
+internal::LmSummary SolveFromTangentStarts(const NSphereModel<N>& model,
+                                           const internal::Moments<N>& m,
+                                           double scale,
+                                           int max_iterations,
+                                           Eigen::Matrix<double, N + 1, 1>* best) {
+  const Eigen::Matrix<double, N, 1> normal =
+      internal::SortedEigen<N>(m.scatter).eigenvectors().col(0);
+  internal::LmSummary best_summary;
+  double best_ss = INFINITY;
+  for (double radius_factor : {1.0, 3.0, 10.0, 30.0}) {
+    for (double side : {-1.0, 1.0}) {
+      Eigen::Matrix<double, N + 1, 1> s;
+      s << side * radius_factor * scale * normal, radius_factor * scale;
+      const auto summary = internal::SolveLm(model, s, max_iterations);
+      if (summary.converged && s.allFinite() && s(N) > 0.0 && summary.ss < best_ss) {
+        best_ss = summary.ss, *best = s, best_summary = summary;
+      }
+    }
+  }
+  return best_summary;
+}
+
 struct NSphereSolution {
   Eigen::VectorXd center;
   double radius = 0.0;
@@ -79,13 +103,20 @@ NSphereSolution FitNSphere(const PointsN<N>& points, const FitOptions& options, 
   const auto ev = internal::SortedEigen<N>(m.scatter).eigenvalues();
   // Points in a subspace (collinear for a circle, coplanar for a sphere) fit a family of shapes.
   if (!(ev(0) > 1e-14 * ev(N - 1))) {
-    internal::ThrowDegenerate(shape, N == 2 ? "the points are collinear" : "the points are coplanar");
+    internal::ThrowDegenerate(shape,
+                              N == 2 ? "the points are collinear" : "the points are coplanar");
   }
   const PointsN<N> centred = points.colwise() - m.centroid;
   const double scale = internal::DataScale<N>(m, points.cols());
   NSphereModel<N> model(centred, scale);
   auto state = KasaStart<N>(centred, shape);
-  const auto summary = internal::SolveLm(model, state, options.max_iterations);
+  auto summary = internal::SolveLm(model, state, options.max_iterations);
+  if (!summary.converged || !state.allFinite() || !(state(N) > 0.0)) {
+    // Kasa's start fails on shallow arcs and caps whose form deviation exceeds their sagitta.
+    // Fall back to circles/spheres tangent to the least-squares line/plane at the centroid, on
+    // both sides and at several radii, and keep the best stationary point.
+    summary = SolveFromTangentStarts<N>(model, m, scale, options.max_iterations, &state);
+  }
   if (!summary.converged || !state.allFinite() || !(state(N) > 0.0)) {
     internal::ThrowNotConverged(shape, summary.iterations);
   }

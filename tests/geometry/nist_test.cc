@@ -1,13 +1,13 @@
 // All 37 NIST least-squares reference pairs in ../shared/data/nist must agree with our fits to
 // the tightest limits PTB's TraCIM service accepts for ISO 10360-6: 0.1 um and 0.1 urad.
 
-#include <gtest/gtest.h>
+#include "mlp/geometry/fit.h"
 
 #include <fstream>
 #include <vector>
 
-#include "mlp/geometry/fit.h"
 #include "test_data.h"
+#include <gtest/gtest.h>
 
 namespace mlp::geometry {
 namespace {
@@ -120,18 +120,15 @@ TEST_P(NistReference, AgreesToTraCimLimits) {
 std::vector<NistCase> AllCases() {
   std::vector<NistCase> cases;
   const char* sets[][2] = {
-      {"Circle3d", "cir5"},   {"Circle3d", "cir7"},    {"Circle3d", "cir10"},
-      {"Circle3d", "cir20"},  {"Circle3d", "cir22"},   {"Circle3d", "cir25"},
-      {"Cone", "con17"},      {"Cone", "con19"},       {"Cone", "con24"},
-      {"Cylinder", "cyl21"},  {"Cylinder", "cyl23"},   {"Cylinder", "cyl29"},
-      {"Line2d", "lin2d1"},   {"Line2d", "lin2d2"},    {"Line2d", "lin2d3"},
-      {"Line2d", "lin2d9"},   {"Line2d", "lin2d10"},   {"Line2d", "lin2d11"},
-      {"Line2d", "lin2d12"},  {"Line2d", "lin2d16"},   {"Line2d", "lin2d17"},
-      {"Line2d", "lin2d19"},  {"Line2d", "lin2d21"},   {"Line2d", "lin2d27"},
-      {"Line3d", "lin3"},     {"Line3d", "lin8"},      {"Line3d", "lin17"},
-      {"Plane", "pla7"},      {"Plane", "pla8"},       {"Plane", "pla22"},
-      {"Plane", "pla26"},     {"Sphere", "sph5"},      {"Sphere", "sph11"},
-      {"Sphere", "sph14"},    {"Sphere", "sph16"},     {"Sphere", "sph20"},
+      {"Circle3d", "cir5"},  {"Circle3d", "cir7"},  {"Circle3d", "cir10"}, {"Circle3d", "cir20"},
+      {"Circle3d", "cir22"}, {"Circle3d", "cir25"}, {"Cone", "con17"},     {"Cone", "con19"},
+      {"Cone", "con24"},     {"Cylinder", "cyl21"}, {"Cylinder", "cyl23"}, {"Cylinder", "cyl29"},
+      {"Line2d", "lin2d1"},  {"Line2d", "lin2d2"},  {"Line2d", "lin2d3"},  {"Line2d", "lin2d9"},
+      {"Line2d", "lin2d10"}, {"Line2d", "lin2d11"}, {"Line2d", "lin2d12"}, {"Line2d", "lin2d16"},
+      {"Line2d", "lin2d17"}, {"Line2d", "lin2d19"}, {"Line2d", "lin2d21"}, {"Line2d", "lin2d27"},
+      {"Line3d", "lin3"},    {"Line3d", "lin8"},    {"Line3d", "lin17"},   {"Plane", "pla7"},
+      {"Plane", "pla8"},     {"Plane", "pla22"},    {"Plane", "pla26"},    {"Sphere", "sph5"},
+      {"Sphere", "sph11"},   {"Sphere", "sph14"},   {"Sphere", "sph16"},   {"Sphere", "sph20"},
       {"Sphere", "sph22"}};
   for (const auto& s : sets) cases.push_back({s[0], s[1]});
   return cases;
@@ -146,8 +143,9 @@ TEST(NistReference, AllThirtySevenPairsArePresent) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Nist, NistReference, testing::ValuesIn(AllCases()),
-                         [](const auto& info) { return info.param.name; });
+INSTANTIATE_TEST_SUITE_P(Nist, NistReference, testing::ValuesIn(AllCases()), [](const auto& info) {
+  return info.param.name;
+});
 
 }  // namespace
 }  // namespace mlp::geometry

@@ -10,11 +10,11 @@
 /// Errors: GeometryError (kTooFewPoints, kNonFinite, kDegenerate, kNotConverged). Results are
 /// always finite.
 
-#include <optional>
-
 #include "mlp/geometry/distance.h"
 #include "mlp/geometry/fit_result.h"
 #include "mlp/geometry/types.h"
+
+#include <optional>
 
 namespace mlp::geometry {
 

@@ -1,10 +1,10 @@
 #pragma once
 /// @file What every fit reports besides its parameters (DESIGN.md "Metrology first").
 
+#include "mlp/geometry/types.h"
+
 #include <string>
 #include <vector>
-
-#include "mlp/geometry/types.h"
 
 namespace mlp::geometry {
 
