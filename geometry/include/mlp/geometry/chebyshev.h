@@ -1,0 +1,56 @@
+#pragma once
+/// @file Chebyshev (minimum-zone) fits and the functional sizes of bores and bosses.
+///
+/// Minimum zone (ISO 1101 form tolerances; ISO 12781 flatness, ISO 12780 straightness,
+/// ISO 12181 roundness): the narrowest zone between two parallel lines/planes or two concentric
+/// circles containing all points. Maximum-inscribed circle (the largest pin that fits a bore)
+/// and minimum-circumscribed circle (the smallest ring over a boss) give functional sizes
+/// (ISO 14405-1 GX/GN). Circles in 3D are solved in the least-squares plane of the points.
+///
+/// Errors: GeometryError (kTooFewPoints, kNonFinite, kDegenerate, kUnbounded, kNotConverged).
+
+#include "mlp/geometry/fit_result.h"
+#include "mlp/geometry/types.h"
+
+namespace mlp::geometry {
+
+/// Minimum-zone straightness of a profile in the least-squares plane of its points.
+struct MinZoneLineFit {
+  Line3 line;                 ///< mid-line of the zone
+  Vec3 plane_normal;          ///< normal of the profile plane
+  double straightness = 0.0;  ///< zone width [mm]
+  FitStats stats;             ///< residuals to the mid-line, signed in the profile plane
+};
+
+/// Minimum-zone flatness.
+struct MinZonePlaneFit {
+  Plane plane;            ///< mid-plane of the zone
+  double flatness = 0.0;  ///< zone width [mm]
+  FitStats stats;
+};
+
+/// Minimum-zone roundness: two concentric circles with the smallest radial separation.
+struct MinZoneCircleFit {
+  Circle3 circle;             ///< centre of the zone, radius = mean of inner and outer
+  double roundness = 0.0;     ///< outer - inner radius [mm]
+  double inner_radius = 0.0;  ///< [mm]
+  double outer_radius = 0.0;  ///< [mm]
+  FitStats stats;
+};
+
+/// Circle with functional size (MIC or MCC); stats are residuals to that circle.
+struct FunctionalCircleFit {
+  Circle3 circle;
+  FitStats stats;
+};
+
+MinZoneLineFit FitMinZoneLine(const Points3& points);
+MinZonePlaneFit FitMinZonePlane(const Points3& points);
+MinZoneCircleFit FitMinZoneCircle(const Points3& points);
+/// Largest circle with no point inside (a bore's functional size). Throws kUnbounded when the
+/// points do not surround a centre (an arc under 180 deg).
+FunctionalCircleFit FitMaxInscribedCircle(const Points3& points);
+/// Smallest circle containing every point (a boss's functional size). Exact (Welzl 1991).
+FunctionalCircleFit FitMinCircumscribedCircle(const Points3& points);
+
+}  // namespace mlp::geometry
