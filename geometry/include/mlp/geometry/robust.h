@@ -1,0 +1,47 @@
+#pragma once
+/// @file Robust fits for laser clouds (spurious reflections at edges, specks, background).
+///
+/// Consensus start: random minimal samples fitted by least squares and scored on the whole
+/// cloud (MSAC, Torr & Zisserman 2000, with a given threshold; LMedS, Rousseeuw 1984, without
+/// one). Then iterative trimming: points within the threshold are refitted by least squares and
+/// re-selected until the inlier set is stable. The final result is the ordinary least-squares
+/// fit of the inliers, so its statistics and covariance keep their meaning.
+
+#include "mlp/geometry/fit_result.h"
+#include "mlp/geometry/types.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace mlp::geometry {
+
+struct RobustOptions {
+  /// Inlier threshold on |orthogonal distance| [mm]; 0 = automatic: 2.5 robust sigma, with
+  /// sigma = 1.4826 * median |residual| (Rousseeuw & Leroy), re-estimated while trimming.
+  double inlier_threshold_mm = 0.0;
+  int max_samples = 2000;     ///< upper bound on consensus samples
+  double confidence = 0.999;  ///< MSAC stops adaptively at this probability of a clean sample
+  uint64_t random_seed = 42;  ///< fixed seed: same cloud, same answer
+  int max_refinements = 20;
+  void Check() const;
+};
+
+template <class Shape>
+struct RobustFitResult {
+  FitResult<Shape> fit;       ///< least-squares fit of the inliers
+  std::vector<int> inliers;   ///< indices into the input
+  double threshold_mm = 0.0;  ///< threshold finally used
+  int samples = 0;            ///< consensus samples drawn
+};
+
+RobustFitResult<Line3> FitLine3Robust(const Points3& points, const RobustOptions& options = {});
+RobustFitResult<Plane> FitPlaneRobust(const Points3& points, const RobustOptions& options = {});
+RobustFitResult<Circle3> FitCircle3Robust(const Points3& points, const RobustOptions& options = {});
+RobustFitResult<Sphere> FitSphereRobust(const Points3& points, const RobustOptions& options = {});
+RobustFitResult<Cylinder> FitCylinderRobust(const Points3& points,
+                                            const RobustOptions& options = {});
+RobustFitResult<Cone> FitConeRobust(const Points3& points, const RobustOptions& options = {});
+RobustFitResult<Ellipse3> FitEllipse3Robust(const Points3& points,
+                                            const RobustOptions& options = {});
+
+}  // namespace mlp::geometry

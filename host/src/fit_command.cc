@@ -1,0 +1,275 @@
+#include "mlp/host/fit_command.h"
+
+#include "mlp/geometry/chebyshev.h"
+#include "mlp/geometry/error.h"
+#include "mlp/geometry/fit.h"
+#include "mlp/geometry/robust.h"
+#include "mlp/host/cloud_io.h"
+
+#include <cmath>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+namespace mlp::host {
+namespace {
+
+using geometry::Points3;
+using geometry::Vec3;
+using Json = nlohmann::ordered_json;
+
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct FitRequest {
+  std::string shape;
+  std::string method = "ls";
+  std::string path;
+  double unit_scale = 1.0;  // file units -> mm
+  geometry::RobustOptions robust;
+};
+
+double ParseNumber(const std::string& flag, const std::string& value) {
+  char* end = nullptr;
+  const double v = std::strtod(value.c_str(), &end);
+  if (value.empty() || *end != '\0' || !std::isfinite(v)) {
+    throw UsageError(flag + " needs a number, got '" + value + "'");
+  }
+  return v;
+}
+
+FitRequest ParseArgs(const std::vector<std::string>& args) {
+  FitRequest req;
+  std::vector<std::string> positional;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    const auto value = [&]() -> const std::string& {
+      if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
+      return args[++i];
+    };
+    if (a == "--method") {
+      req.method = value();
+    } else if (a == "--units") {
+      const std::string u = value();
+      if (u == "mm")
+        req.unit_scale = 1.0;
+      else if (u == "m")
+        req.unit_scale = 1000.0;
+      else if (u == "um")
+        req.unit_scale = 1e-3;
+      else if (u == "in")
+        req.unit_scale = 25.4;
+      else
+        throw UsageError("--units must be mm, m, um or in");
+    } else if (a == "--threshold") {
+      req.robust.inlier_threshold_mm = ParseNumber(a, value());
+    } else if (a == "--seed") {
+      req.robust.random_seed = static_cast<uint64_t>(ParseNumber(a, value()));
+    } else if (a.size() > 1 && a[0] == '-' && a != "-") {
+      throw UsageError("unknown option " + a);
+    } else {
+      positional.push_back(a);
+    }
+  }
+  if (positional.size() != 2) throw UsageError("expected SHAPE and FILE");
+  req.shape = positional[0];
+  req.path = positional[1];
+  return req;
+}
+
+Json Vec(const Vec3& v) { return Json::array({v.x(), v.y(), v.z()}); }
+
+void AddStats(const geometry::FitStats& s, Json* j) {
+  (*j)["n"] = s.n;
+  (*j)["rms"] = s.rms;
+  (*j)["min"] = s.min_residual;
+  (*j)["max"] = s.max_residual;
+}
+
+void AddCovariance(const geometry::Covariance& c, Json* j) {
+  Json sd = Json::object();
+  for (size_t k = 0; k < c.parameters.size(); ++k) sd[c.parameters[k]] = c.StdDev(c.parameters[k]);
+  (*j)["std_dev"] = sd;
+}
+
+Json ShapeJson(const geometry::Line3& s) {
+  return {{"point", Vec(s.point)}, {"direction", Vec(s.direction)}};
+}
+Json ShapeJson(const geometry::Plane& s) {
+  return {{"point", Vec(s.point)}, {"normal", Vec(s.normal)}};
+}
+Json ShapeJson(const geometry::Circle3& s) {
+  return {{"center", Vec(s.center)}, {"normal", Vec(s.normal)}, {"radius", s.radius}};
+}
+Json ShapeJson(const geometry::Sphere& s) {
+  return {{"center", Vec(s.center)}, {"radius", s.radius}};
+}
+Json ShapeJson(const geometry::Cylinder& s) {
+  return {{"point", Vec(s.point)}, {"axis", Vec(s.axis)}, {"radius", s.radius}};
+}
+Json ShapeJson(const geometry::Cone& s) {
+  return {{"apex", Vec(s.Apex())},
+          {"axis", Vec(s.axis)},
+          {"half_angle_deg", s.half_angle * 180.0 / M_PI},
+          {"point", Vec(s.point)},
+          {"radius_at_point", s.RadiusAtPoint()}};
+}
+Json ShapeJson(const geometry::Ellipse3& s) {
+  return {{"center", Vec(s.center)},
+          {"normal", Vec(s.normal)},
+          {"major_axis", Vec(s.major_axis)},
+          {"semi_major", s.semi_major},
+          {"semi_minor", s.semi_minor}};
+}
+
+template <class Shape>
+Json LsJson(const geometry::FitResult<Shape>& fit) {
+  Json j = ShapeJson(fit.shape);
+  AddStats(fit.stats, &j);
+  j["iterations"] = fit.stats.iterations;
+  AddCovariance(fit.covariance, &j);
+  return j;
+}
+
+template <class Shape>
+Json RobustJson(const geometry::RobustFitResult<Shape>& r, Eigen::Index n_input) {
+  Json j = LsJson(r.fit);
+  j["inliers"] = r.inliers.size();
+  j["outliers"] = n_input - static_cast<Eigen::Index>(r.inliers.size());
+  j["threshold"] = r.threshold_mm;
+  j["samples"] = r.samples;
+  return j;
+}
+
+template <class Shape, class LsFn, class RobustFn>
+Json LsOrRobust(const FitRequest& req, const Points3& p, LsFn ls, RobustFn robust) {
+  if (req.method == "ls") return LsJson<Shape>(ls(p));
+  if (req.method == "robust") return RobustJson<Shape>(robust(p, req.robust), p.cols());
+  throw UsageError("method " + req.method + " is not available for " + req.shape +
+                   " (use ls or robust" +
+                   (req.shape == "line" || req.shape == "plane" ? ", minzone" : "") + ")");
+}
+
+Json MinZone(const std::string& shape, const Points3& p) {
+  Json j;
+  if (shape == "line") {
+    const auto f = geometry::FitMinZoneLine(p);
+    j = ShapeJson(f.line);
+    j["straightness"] = f.straightness;
+    j["profile_normal"] = Vec(f.plane_normal);
+    AddStats(f.stats, &j);
+  } else if (shape == "plane") {
+    const auto f = geometry::FitMinZonePlane(p);
+    j = ShapeJson(f.plane);
+    j["flatness"] = f.flatness;
+    AddStats(f.stats, &j);
+  } else {
+    const auto f = geometry::FitMinZoneCircle(p);
+    j = ShapeJson(f.circle);
+    j["roundness"] = f.roundness;
+    j["inner_radius"] = f.inner_radius;
+    j["outer_radius"] = f.outer_radius;
+    AddStats(f.stats, &j);
+  }
+  return j;
+}
+
+Json Fit(const FitRequest& req, const Points3& p) {
+  namespace g = geometry;
+  const auto opts = g::FitOptions{};
+  const std::string& s = req.shape;
+  const std::string& m = req.method;
+  if (m == "minzone" && (s == "line" || s == "plane" || s == "circle")) return MinZone(s, p);
+  if ((m == "mic" || m == "mcc") && s == "circle") {
+    const auto f = m == "mic" ? g::FitMaxInscribedCircle(p) : g::FitMinCircumscribedCircle(p);
+    Json j = ShapeJson(f.circle);
+    AddStats(f.stats, &j);
+    return j;
+  }
+  if (s == "line") return LsOrRobust<g::Line3>(req, p, g::FitLine3, g::FitLine3Robust);
+  if (s == "plane") return LsOrRobust<g::Plane>(req, p, g::FitPlane, g::FitPlaneRobust);
+  if (s == "circle") {
+    if (m != "ls" && m != "robust")
+      throw UsageError("circle methods: ls, robust, minzone, mic, mcc");
+    return LsOrRobust<g::Circle3>(
+        req, p, [&](const Points3& q) { return g::FitCircle3(q, opts); }, g::FitCircle3Robust);
+  }
+  if (s == "sphere") {
+    return LsOrRobust<g::Sphere>(
+        req, p, [&](const Points3& q) { return g::FitSphere(q, opts); }, g::FitSphereRobust);
+  }
+  if (s == "cylinder") {
+    return LsOrRobust<g::Cylinder>(
+        req, p, [&](const Points3& q) { return g::FitCylinder(q, opts); }, g::FitCylinderRobust);
+  }
+  if (s == "cone") {
+    return LsOrRobust<g::Cone>(
+        req, p, [&](const Points3& q) { return g::FitCone(q, opts); }, g::FitConeRobust);
+  }
+  if (s == "ellipse") {
+    return LsOrRobust<g::Ellipse3>(
+        req, p, [&](const Points3& q) { return g::FitEllipse3(q, opts); }, g::FitEllipse3Robust);
+  }
+  throw UsageError("unknown shape '" + s +
+                   "' (line, plane, circle, sphere, cylinder, cone, ellipse)");
+}
+
+// Last line of defence of "no NaN out": every number in the reply must be finite.
+bool AllFinite(const Json& j) {
+  if (j.is_number_float()) return std::isfinite(j.get<double>());
+  if (j.is_structured()) {
+    for (const auto& v : j) {
+      if (!AllFinite(v)) return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+std::string FitUsage() {
+  return "usage: mlp fit SHAPE [--method ls|robust|minzone|mic|mcc] [--units mm|m|um|in]\n"
+         "                     [--threshold MM] [--seed N] FILE\n"
+         "  SHAPE: line plane circle sphere cylinder cone ellipse\n"
+         "  FILE:  .xyz/.txt (x y z per line), .pcd, .ply, or - for stdin\n"
+         "  minzone: line (straightness), plane (flatness), circle (roundness);\n"
+         "  mic/mcc: circle (maximum inscribed / minimum circumscribed).\n"
+         "  Prints one JSON object, lengths in mm. Exit 0 ok, 2 bad input, 1 internal error.\n";
+}
+
+int RunFitCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  try {
+    if (!args.empty() && (args[0] == "--help" || args[0] == "-h")) {
+      out << FitUsage();
+      return kExitOk;
+    }
+    const FitRequest req = ParseArgs(args);
+    Cloud cloud = ReadCloud(req.path);
+    cloud.points *= req.unit_scale;
+    Json j = {{"shape", req.shape}, {"method", req.method}, {"units", "mm"}};
+    j.update(Fit(req, cloud.points));
+    j["points_read"] = cloud.points.cols() + static_cast<Eigen::Index>(cloud.dropped_non_finite);
+    j["dropped_non_finite"] = cloud.dropped_non_finite;
+    if (!AllFinite(j)) throw std::logic_error("non-finite value in the result");
+    out << j.dump(2) << "\n";
+    return kExitOk;
+  } catch (const UsageError& e) {
+    err << "mlp fit: " << e.what() << "\n" << FitUsage();
+    return kExitBadInput;
+  } catch (const CloudIoError& e) {
+    err << "mlp fit: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const geometry::GeometryError& e) {
+    err << "mlp fit: " << geometry::ToString(e.code()) << ": " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    err << "mlp fit: internal error: " << e.what() << "\n";
+    return kExitInternal;
+  }
+}
+
+}  // namespace mlp::host
