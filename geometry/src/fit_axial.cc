@@ -224,6 +224,9 @@ AxialSolution SolveAxial(const Points3& points,
   if (!(scale > 1e-12 * (1.0 + m.centroid.norm()))) {
     internal::ThrowDegenerate(shape, "all points coincide");
   }
+  // Points on one line lie on infinitely many cylinders and cones (it is a generatrix).
+  const Vec3 ev = internal::SortedEigen<3>(m.scatter).eigenvalues();
+  if (!(ev(1) > 1e-14 * ev(2))) internal::ThrowDegenerate(shape, "the points are collinear");
   AxialState state;
   if (initial_centred) {
     state = *initial_centred;

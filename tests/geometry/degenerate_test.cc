@@ -1,0 +1,99 @@
+// Bad input gets a typed error and never a NaN: every fit, every kind of bad cloud.
+
+#include "mlp/geometry/chebyshev.h"
+#include "mlp/geometry/error.h"
+#include "mlp/geometry/fit.h"
+#include "mlp/geometry/robust.h"
+
+#include <functional>
+
+#include <gtest/gtest.h>
+
+namespace mlp::geometry {
+namespace {
+
+using Fit3 = std::function<void(const Points3&)>;
+
+std::vector<std::pair<std::string, Fit3>> AllFits() {
+  return {{"line", [](const Points3& p) { FitLine3(p); }},
+          {"plane", [](const Points3& p) { FitPlane(p); }},
+          {"circle", [](const Points3& p) { FitCircle3(p); }},
+          {"sphere", [](const Points3& p) { FitSphere(p); }},
+          {"cylinder", [](const Points3& p) { FitCylinder(p); }},
+          {"cone", [](const Points3& p) { FitCone(p); }},
+          {"ellipse", [](const Points3& p) { FitEllipse3(p); }},
+          {"minzone plane", [](const Points3& p) { FitMinZonePlane(p); }},
+          {"minzone circle", [](const Points3& p) { FitMinZoneCircle(p); }},
+          {"mcc", [](const Points3& p) { FitMinCircumscribedCircle(p); }},
+          {"robust plane", [](const Points3& p) { FitPlaneRobust(p); }},
+          {"robust sphere", [](const Points3& p) { FitSphereRobust(p); }}};
+}
+
+ErrorCode CodeOf(const Fit3& fit, const Points3& p) {
+  try {
+    fit(p);
+  } catch (const GeometryError& e) {
+    EXPECT_FALSE(std::string(e.what()).empty());
+    return e.code();
+  }
+  ADD_FAILURE() << "no error";
+  return ErrorCode::kInvalidArgument;
+}
+
+TEST(BadInput, EmptyAndTooFewPoints) {
+  for (const auto& [name, fit] : AllFits()) {
+    EXPECT_EQ(CodeOf(fit, Points3(3, 0)), ErrorCode::kTooFewPoints) << name;
+    EXPECT_EQ(CodeOf(fit, Points3::Random(3, 1)), ErrorCode::kTooFewPoints) << name;
+  }
+}
+
+TEST(BadInput, NanAndInfinity) {
+  for (double bad : {NAN, INFINITY, -INFINITY}) {
+    Points3 p = Points3::Random(3, 50);
+    p(1, 17) = bad;
+    for (const auto& [name, fit] : AllFits())
+      EXPECT_EQ(CodeOf(fit, p), ErrorCode::kNonFinite) << name;
+  }
+}
+
+TEST(BadInput, CoincidentPoints) {
+  const Points3 p = Vec3(1000, 2, 3).replicate(1, 40);
+  for (const auto& [name, fit] : AllFits()) {
+    const ErrorCode code = CodeOf(fit, p);
+    EXPECT_TRUE(code == ErrorCode::kDegenerate) << name << " " << ToString(code);
+  }
+}
+
+TEST(BadInput, CollinearPointsDoNotMakeSurfaces) {
+  Points3 p(3, 40);
+  for (int i = 0; i < 40; ++i) p.col(i) = Vec3(1, 2, 3) + i * Vec3(0.3, -0.2, 0.9);
+  for (const auto& [name, fit] : AllFits()) {
+    if (name == "line") continue;  // a line is exactly what they make
+    EXPECT_EQ(CodeOf(fit, p), ErrorCode::kDegenerate) << name;
+  }
+}
+
+TEST(BadInput, CoplanarPointsDoNotDetermineSphereCylinderCone) {
+  Points3 p(3, 60);
+  for (int i = 0; i < 60; ++i) {
+    const double t = 2 * M_PI * i / 60;
+    p.col(i) = Vec3(10 * std::cos(t), 10 * std::sin(t), 5.0);  // one circle: many spheres fit
+  }
+  EXPECT_EQ(CodeOf(AllFits()[3].second, p), ErrorCode::kDegenerate);
+  EXPECT_EQ(CodeOf(AllFits()[4].second, p), ErrorCode::kDegenerate);
+}
+
+TEST(BadInput, BadOptionsAreRejected) {
+  FitOptions o;
+  o.max_iterations = 0;
+  EXPECT_THROW(FitSphere(Points3::Random(3, 10), o), GeometryError);
+  RobustOptions r;
+  r.confidence = 1.5;
+  EXPECT_THROW(FitPlaneRobust(Points3::Random(3, 10), r), GeometryError);
+  r = RobustOptions{};
+  r.inlier_threshold_mm = NAN;
+  EXPECT_THROW(FitPlaneRobust(Points3::Random(3, 10), r), GeometryError);
+}
+
+}  // namespace
+}  // namespace mlp::geometry
