@@ -37,8 +37,11 @@ class AxialModelBase {
   using State = AxialState;
   using Delta = Eigen::Matrix<double, P, 1>;
 
-  AxialModelBase(const Points3& centred, double scale) : points_(centred), scale_(scale) {}
+  // State is relative to `origin` (the centroid), so the points need no centred copy.
+  AxialModelBase(const Points3& points, const Vec3& origin, double scale)
+      : points_(points), origin_(origin), scale_(scale) {}
   double Scale() const { return scale_; }
+  Eigen::Index Size() const { return points_.cols(); }
   double StepLength(const Delta& d) const {
     return std::sqrt(d(0) * d(0) + d(1) * d(1) + scale_ * scale_ * (d(2) * d(2) + d(3) * d(3)) +
                      (P == 6 ? scale_ * scale_ * d(4) * d(4) : d(4) * d(4)) +
@@ -59,31 +62,36 @@ class AxialModelBase {
   void ForEachLocal(const State& s, F f) const {
     Vec3 u, v;
     internal::OrthonormalBasis(s.axis, &u, &v);
+    const Vec3 axis_point = origin_ + s.point;
     for (Eigen::Index i = 0; i < points_.cols(); ++i) {
-      const Vec3 q = points_.col(i) - s.point;
+      const Vec3 q = points_.col(i) - axis_point;
       Local l{q.dot(u), q.dot(v), q.dot(s.axis), 0.0};
-      l.rho = std::hypot(l.x, l.y);
+      l.rho = std::sqrt(l.x * l.x + l.y * l.y);
       f(l);
     }
   }
 
  protected:
   const Points3& points_;
+  Vec3 origin_;
   double scale_;
 };
 
 class CylinderModel : public AxialModelBase<5> {
  public:
   using AxialModelBase::AxialModelBase;
-  NormalEquations<5> Linearize(const State& s) const {
+  NormalEquations<5> Linearize(const State& s, NormalEquations<5>* sink = nullptr) const {
+    // Accumulate in a local (kept in registers), copy out at the end.
     NormalEquations<5> ne;
+    if (sink != nullptr) ne.rows = sink->rows, ne.residuals = sink->residuals;
     Delta j;
     ForEachLocal(s, [&](const Local& l) {
-      const double cx = l.rho > 0.0 ? l.x / l.rho : 0.0;
-      const double cy = l.rho > 0.0 ? l.y / l.rho : 0.0;
+      const double inv_rho = l.rho > 0.0 ? 1.0 / l.rho : 0.0;
+      const double cx = l.x * inv_rho, cy = l.y * inv_rho;
       j << -cx, -cy, -cx * l.z, -cy * l.z, -1.0;
       ne.Add(j, l.rho - s.p0);
     });
+    if (sink != nullptr) *sink = ne;
     return ne;
   }
   State Update(const State& s, const Delta& d) const {
@@ -92,23 +100,28 @@ class CylinderModel : public AxialModelBase<5> {
     out.p0 = s.p0 + d(4);
     return out;
   }
+  static double Radius(const State& s) { return s.p0; }
+  static Delta Units(double scale) { return Delta(1.0, 1.0, scale, scale, 1.0); }
 };
 
 // Cone residual rho cos(psi) - h sin(psi) - s (NIST); h along the axis from the axis point.
 class ConeModel : public AxialModelBase<6> {
  public:
   using AxialModelBase::AxialModelBase;
-  NormalEquations<6> Linearize(const State& s) const {
+  NormalEquations<6> Linearize(const State& s, NormalEquations<6>* sink = nullptr) const {
+    // Accumulate in a local (kept in registers), copy out at the end.
     NormalEquations<6> ne;
+    if (sink != nullptr) ne.rows = sink->rows, ne.residuals = sink->residuals;
     Delta j;
     const double c = std::cos(s.p0), sn = std::sin(s.p0);
     ForEachLocal(s, [&](const Local& l) {
-      const double cx = l.rho > 0.0 ? l.x / l.rho : 0.0;
-      const double cy = l.rho > 0.0 ? l.y / l.rho : 0.0;
+      const double inv_rho = l.rho > 0.0 ? 1.0 / l.rho : 0.0;
+      const double cx = l.x * inv_rho, cy = l.y * inv_rho;
       j << -c * cx, -c * cy, -c * cx * l.z - sn * l.x, -c * cy * l.z - sn * l.y,
           -l.rho * sn - l.z * c, -1.0;
       ne.Add(j, l.rho * c - l.z * sn - s.p1);
     });
+    if (sink != nullptr) *sink = ne;
     return ne;
   }
   State Update(const State& s, const Delta& d) const {
@@ -118,6 +131,12 @@ class ConeModel : public AxialModelBase<6> {
     // Moving the axis point by t along the axis changes the distance to the surface by t sin(psi).
     out.p1 = s.p1 + d(5) + t * std::sin(out.p0);
     return out;
+  }
+  static double Radius(const State& s) { return s.p1 / std::cos(s.p0); }
+  static Delta Units(double scale) {
+    Delta u;
+    u << 1.0, 1.0, scale, scale, scale, 1.0;
+    return u;
   }
 };
 
@@ -139,11 +158,11 @@ std::vector<Vec3> CandidateAxes(const Points3& centred_sub, bool multi_start) {
   }
   std::vector<Vec3> axes = {qes.eigenvectors().col(odd)};
   if (!multi_start) return axes;
+  const auto pes = internal::SortedEigen<3>(Mat3(centred_sub * centred_sub.transpose()));
+  for (int k = 2; k >= 0; --k) axes.push_back(pes.eigenvectors().col(k));
   for (int k = 0; k < 3; ++k) {
     if (k != odd) axes.push_back(qes.eigenvectors().col(k));
   }
-  const auto pes = internal::SortedEigen<3>(Mat3(centred_sub * centred_sub.transpose()));
-  for (int k = 2; k >= 0; --k) axes.push_back(pes.eigenvectors().col(k));
   return axes;
 }
 
@@ -189,18 +208,23 @@ bool ValidCone(const AxialState& s) {
          std::abs(s.p0) < M_PI / 2;
 }
 
-// Runs the model from every start on the subsample and returns the lowest-cost valid solution.
+// Runs the model from the starts on the subsample and returns the lowest-cost valid solution.
+// A start whose fit explains the data to 0.1 % of the radius ends the search: no other
+// cylinder (cone) can then do meaningfully better, and trying five more costs 5x the time.
 template <class Model>
 std::optional<AxialState> BestStart(const Points3& centred_sub,
                                     double scale,
                                     const std::vector<AxialState>& starts,
                                     const std::function<bool(const AxialState&)>& valid) {
-  Model model(centred_sub, scale);
+  Model model(centred_sub, Vec3::Zero(), scale);
   std::optional<AxialState> best;
   double best_ss = std::numeric_limits<double>::infinity();
   for (AxialState s : starts) {
     const auto summary = internal::SolveLm(model, s, 100);
-    if (valid(s) && summary.ss < best_ss) best_ss = summary.ss, best = s;
+    if (!valid(s) || !(summary.ss < best_ss)) continue;
+    best_ss = summary.ss, best = s;
+    const double rms = std::sqrt(summary.ss / static_cast<double>(centred_sub.cols()));
+    if (summary.converged && rms < 1e-3 * std::abs(Model::Radius(s))) break;
   }
   return best;
 }
@@ -219,7 +243,6 @@ AxialSolution SolveAxial(const Points3& points,
                          const std::function<bool(const Points3&, const Vec3&, AxialState*)>& start,
                          const std::function<bool(const AxialState&)>& valid) {
   const auto m = internal::ComputeMoments<3>(points);
-  const Points3 centred = points.colwise() - m.centroid;
   const double scale = internal::DataScale<3>(m, points.cols());
   if (!(scale > 1e-12 * (1.0 + m.centroid.norm()))) {
     internal::ThrowDegenerate(shape, "all points coincide");
@@ -231,7 +254,7 @@ AxialSolution SolveAxial(const Points3& points,
   if (initial_centred) {
     state = *initial_centred;
   } else {
-    const Points3 sub = internal::Subsample<3>(centred, kStartSubsample);
+    const Points3 sub = internal::Subsample<3>(points, kStartSubsample).colwise() - m.centroid;
     std::vector<AxialState> starts;
     for (const Vec3& axis : CandidateAxes(sub, options.multi_start)) {
       AxialState s;
@@ -241,25 +264,37 @@ AxialSolution SolveAxial(const Points3& points,
     if (!best) internal::ThrowDegenerate(shape, "no starting axis found");
     state = *best;
   }
-  Model model(centred, scale);
-  const auto summary = internal::SolveLm(model, state, options.max_iterations);
+  // Converge on a subsample, then finish on every point.
+  const Points3 coarse = internal::Subsample<3>(points, internal::kCoarsePoints);
+  Model coarse_model(coarse, m.centroid, scale);
+  auto summary = internal::SolveLm(coarse_model, state, options.max_iterations);
+  internal::NormalEquations<Model::kParams> ne;
+  if (coarse.cols() < points.cols()) {
+    Model model(points, m.centroid, scale);
+    const int coarse_iterations = summary.iterations;
+    summary = internal::SolveLm(model, state, options.max_iterations, &ne);
+    summary.iterations += coarse_iterations;
+  } else {
+    ne = coarse_model.Linearize(state);
+  }
   if (!summary.converged || !valid(state)) internal::ThrowNotConverged(shape, summary.iterations);
-  const auto ne = model.Linearize(state);
-  if (internal::IsRankDeficient(ne)) internal::ThrowDegenerate(shape, "parameters not separable");
+  // Points spread only across the axis (one circle) leave its direction free: any small tilt
+  // changes the distances only at second order, so no rank test on J can see it reliably.
+  const Eigen::VectorXd h = state.axis.transpose() * (coarse.colwise() - m.centroid);
+  const double h_spread = std::sqrt((h.array() - h.mean()).square().mean());
+  if (!(h_spread > 1e-6 * std::abs(Model::Radius(state)))) {
+    internal::ThrowDegenerate(shape, "the points have no extent along the axis");
+  }
+  if (internal::IsRankDeficient(ne, Model::Units(scale))) {
+    internal::ThrowDegenerate(shape, "parameters not separable");
+  }
   AxialSolution sol;
   sol.state = state;
-  sol.stats.iterations = summary.iterations;
+  sol.stats = internal::StatsFrom(ne, points.cols(), summary.iterations);
   sol.covariance.matrix = internal::CovarianceFrom(ne, static_cast<int>(points.cols()));
   internal::OrthonormalBasis(state.axis, &sol.covariance.u, &sol.covariance.v);
   sol.state.point += m.centroid;
   return sol;
-}
-
-template <class Shape>
-void FinishStats(const Points3& points, FitResult<Shape>* fit, int iterations) {
-  fit->stats = internal::ComputeStats(
-      points.cols(), [&](Eigen::Index i) { return SignedDistance(fit->shape, points.col(i)); },
-      iterations);
 }
 
 }  // namespace
@@ -281,7 +316,7 @@ FitResult<Cylinder> FitCylinder(const Points3& points,
       Cylinder{sol.state.point, internal::CanonicalSign<Vec3>(sol.state.axis), sol.state.p0};
   fit.covariance = sol.covariance;
   fit.covariance.parameters = {"offset_u", "offset_v", "tilt_u", "tilt_v", "radius"};
-  FinishStats(points, &fit, sol.stats.iterations);
+  fit.stats = sol.stats;
   return fit;
 }
 
@@ -304,7 +339,7 @@ FitResult<Cone> FitCone(const Points3& points,
   fit.covariance = sol.covariance;
   fit.covariance.parameters = {"offset_u", "offset_v",   "tilt_u",
                                "tilt_v",   "half_angle", "distance"};
-  FinishStats(points, &fit, sol.stats.iterations);
+  fit.stats = sol.stats;
   return fit;
 }
 

@@ -28,8 +28,10 @@ class EllipseModel {
 
   EllipseModel(const Points2& centred, double scale) : points_(centred), scale_(scale) {}
 
-  NormalEquations<5> Linearize(const State& s) const {
+  NormalEquations<5> Linearize(const State& s, NormalEquations<5>* sink = nullptr) const {
+    // Accumulate in a local (kept in registers), copy out at the end.
     NormalEquations<5> ne;
+    if (sink != nullptr) ne.rows = sink->rows, ne.residuals = sink->residuals;
     const Eigen::Rotation2Dd rot(s(4));
     const Eigen::Matrix2d r = rot.toRotationMatrix();
     const double a = s(2), b = s(3);
@@ -48,6 +50,7 @@ class EllipseModel {
       j(4) = round ? 0.0 : n.x() * f.y() - n.y() * f.x();
       ne.Add(j, d);
     }
+    if (sink != nullptr) *sink = ne;
     return ne;
   }
   State Update(const State& s, const State& d) const { return s + d; }
@@ -55,6 +58,7 @@ class EllipseModel {
     return std::sqrt(d.head<4>().squaredNorm() + scale_ * scale_ * d(4) * d(4));
   }
   double Scale() const { return scale_; }
+  Eigen::Index Size() const { return points_.cols(); }
 
  private:
   const Points2& points_;
@@ -116,9 +120,11 @@ Ellipse2 Canonical(const State5& s, const Vec2& centroid) {
   return e;
 }
 
-bool RankDeficient(const NormalEquations<5>& ne, const State5& s) {
+bool RankDeficient(const NormalEquations<5>& ne, const State5& s, double scale) {
   if (std::abs(s(2) - s(3)) > kRoundRelative * std::max(s(2), s(3))) {
-    return internal::IsRankDeficient(ne);
+    State5 units;
+    units << 1.0, 1.0, 1.0, 1.0, scale;
+    return internal::IsRankDeficient(ne, units);
   }
   NormalEquations<4> sub;
   sub.jtj = ne.jtj.topLeftCorner<4, 4>();
@@ -146,12 +152,11 @@ FitResult<Ellipse2> FitEllipse2(const Points2& points, const FitOptions& options
     internal::ThrowNotConverged("ellipse", summary.iterations);
   }
   const auto ne = model.Linearize(state);
-  if (RankDeficient(ne, state)) internal::ThrowDegenerate("ellipse", "parameters not separable");
+  if (RankDeficient(ne, state, scale))
+    internal::ThrowDegenerate("ellipse", "parameters not separable");
   FitResult<Ellipse2> fit;
   fit.shape = Canonical(state, m.centroid);
-  fit.stats = internal::ComputeStats(
-      points.cols(), [&](Eigen::Index i) { return SignedDistance(fit.shape, points.col(i)); },
-      summary.iterations);
+  fit.stats = internal::StatsFrom(ne, points.cols(), summary.iterations);
   fit.covariance.parameters = {"center_x", "center_y", "semi_axis_1", "semi_axis_2", "angle"};
   fit.covariance.matrix = internal::CovarianceFrom(ne, static_cast<int>(points.cols()));
   return fit;

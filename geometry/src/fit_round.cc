@@ -23,11 +23,16 @@ class NSphereModel {
   static constexpr int kParams = N + 1;
   using State = Eigen::Matrix<double, N + 1, 1>;
 
-  NSphereModel(const PointsN<N>& centred, double scale) : points_(centred), scale_(scale) {}
+  // State is relative to `origin` (the centroid), so the points need no centred copy.
+  NSphereModel(const PointsN<N>& points, const Eigen::Matrix<double, N, 1>& origin, double scale)
+      : points_(points), origin_(origin), scale_(scale) {}
 
-  NormalEquations<kParams> Linearize(const State& s) const {
+  NormalEquations<kParams> Linearize(const State& s,
+                                     NormalEquations<kParams>* sink = nullptr) const {
+    // Accumulate in a local (kept in registers), copy out at the end.
     NormalEquations<kParams> ne;
-    const Eigen::Matrix<double, N, 1> c = s.template head<N>();
+    if (sink != nullptr) ne.rows = sink->rows, ne.residuals = sink->residuals;
+    const Eigen::Matrix<double, N, 1> c = s.template head<N>() + origin_;
     Eigen::Matrix<double, kParams, 1> j;
     j(N) = -1.0;
     for (Eigen::Index i = 0; i < points_.cols(); ++i) {
@@ -38,14 +43,17 @@ class NSphereModel {
           dist > 0.0 ? Eigen::Matrix<double, N, 1>(-d / dist) : Eigen::Matrix<double, N, 1>::Zero();
       ne.Add(j, dist - s(N));
     }
+    if (sink != nullptr) *sink = ne;
     return ne;
   }
   State Update(const State& s, const State& delta) const { return s + delta; }
   double StepLength(const State& delta) const { return delta.norm(); }
   double Scale() const { return scale_; }
+  Eigen::Index Size() const { return points_.cols(); }
 
  private:
   const PointsN<N>& points_;
+  Eigen::Matrix<double, N, 1> origin_;
   double scale_;
 };
 
@@ -106,29 +114,37 @@ NSphereSolution FitNSphere(const PointsN<N>& points, const FitOptions& options, 
     internal::ThrowDegenerate(shape,
                               N == 2 ? "the points are collinear" : "the points are coplanar");
   }
-  const PointsN<N> centred = points.colwise() - m.centroid;
   const double scale = internal::DataScale<N>(m, points.cols());
-  NSphereModel<N> model(centred, scale);
-  auto state = KasaStart<N>(centred, shape);
-  auto summary = internal::SolveLm(model, state, options.max_iterations);
+  // Start and converge on a subsample, then finish on every point.
+  const PointsN<N> coarse = internal::Subsample<N>(points, internal::kCoarsePoints);
+  const PointsN<N> coarse_centred = coarse.colwise() - m.centroid;
+  auto state = KasaStart<N>(coarse_centred, shape);
+  NSphereModel<N> coarse_model(coarse, m.centroid, scale);
+  auto summary = internal::SolveLm(coarse_model, state, options.max_iterations);
   if (!summary.converged || !state.allFinite() || !(state(N) > 0.0)) {
     // Kasa's start fails on shallow arcs and caps whose form deviation exceeds their sagitta.
     // Fall back to circles/spheres tangent to the least-squares line/plane at the centroid, on
     // both sides and at several radii, and keep the best stationary point.
-    summary = SolveFromTangentStarts<N>(model, m, scale, options.max_iterations, &state);
+    summary = SolveFromTangentStarts<N>(coarse_model, m, scale, options.max_iterations, &state);
+  }
+  internal::NormalEquations<N + 1> ne;
+  if (coarse.cols() < points.cols()) {
+    NSphereModel<N> model(points, m.centroid, scale);
+    const int coarse_iterations = summary.iterations;
+    summary = internal::SolveLm(model, state, options.max_iterations, &ne);
+    summary.iterations += coarse_iterations;
+  } else {
+    ne = coarse_model.Linearize(state);
   }
   if (!summary.converged || !state.allFinite() || !(state(N) > 0.0)) {
     internal::ThrowNotConverged(shape, summary.iterations);
   }
-  const auto ne = model.Linearize(state);
   if (internal::IsRankDeficient(ne)) internal::ThrowDegenerate(shape, "parameters not separable");
+  const Eigen::Matrix<double, N, 1> center = state.template head<N>() + m.centroid;
   NSphereSolution sol;
-  sol.center = state.template head<N>() + m.centroid;
+  sol.center = center;
   sol.radius = state(N);
-  sol.stats = internal::ComputeStats(
-      points.cols(),
-      [&](Eigen::Index i) { return (centred.col(i) - state.template head<N>()).norm() - state(N); },
-      summary.iterations);
+  sol.stats = internal::StatsFrom(ne, points.cols(), summary.iterations);
   sol.covariance = internal::CovarianceFrom(ne, static_cast<int>(points.cols()));
   return sol;
 }
