@@ -13,15 +13,20 @@
 
 namespace mlp::geometry::internal {
 
-/// Throws kTooFewPoints / kNonFinite with the shape's name in the message.
+/// Throws kTooFewPoints, and kNonFinite if `check_finite`. Fits that start from ComputeMoments
+/// pass check_finite = false: NaN and infinity propagate into the moments, which are checked
+/// there, saving a pass over the points.
 template <class Derived>
-void CheckPoints(const Eigen::MatrixBase<Derived>& points, int min_points, const char* shape) {
+void CheckPoints(const Eigen::MatrixBase<Derived>& points,
+                 int min_points,
+                 const char* shape,
+                 bool check_finite = true) {
   if (points.cols() < min_points) {
     throw GeometryError(ErrorCode::kTooFewPoints, std::string(shape) + " needs at least " +
                                                       std::to_string(min_points) + " points, got " +
                                                       std::to_string(points.cols()));
   }
-  if (!points.allFinite()) {
+  if (check_finite && !points.allFinite()) {
     throw GeometryError(ErrorCode::kNonFinite,
                         std::string(shape) + ": input contains NaN or infinite coordinates");
   }
@@ -40,18 +45,42 @@ Moments<N> ComputeMoments(const Eigen::Matrix<double, N, Eigen::Dynamic>& points
   using VecN = Eigen::Matrix<double, N, 1>;
   const VecN shift = points.col(0);
   VecN sum = VecN::Zero();
-  Eigen::Matrix<double, N, N> outer = Eigen::Matrix<double, N, N>::Zero();
+  // The N(N+1)/2 distinct products as plain scalars: the compiler keeps them in registers.
+  double outer[N][N] = {};
   const Eigen::Index n = points.cols();
   for (Eigen::Index i = 0; i < n; ++i) {
     const VecN q = points.col(i) - shift;
-    sum += q;
-    outer.noalias() += q * q.transpose();
+    sum += q;  // NaN or inf anywhere ends up here (inf - inf is NaN): checked below
+#pragma GCC unroll 4
+    for (int a = 0; a < N; ++a) {
+#pragma GCC unroll 4
+      for (int b = 0; b <= a; ++b) outer[a][b] += q(a) * q(b);
+    }
   }
   const VecN mean_q = sum / static_cast<double>(n);
+  if (!sum.allFinite() || !shift.allFinite()) {
+    throw GeometryError(ErrorCode::kNonFinite, "input contains NaN or infinite coordinates");
+  }
   Moments<N> m;
   m.centroid = shift + mean_q;
-  m.scatter = outer - static_cast<double>(n) * mean_q * mean_q.transpose();
+  for (int a = 0; a < N; ++a) {
+    for (int b = 0; b <= a; ++b) {
+      m.scatter(a, b) = m.scatter(b, a) =
+          outer[a][b] - static_cast<double>(n) * mean_q(a) * mean_q(b);
+    }
+  }
   return m;
+}
+
+/// Statistics of residuals given as a vector (vectorised passes for the closed-form fits).
+inline FitStats StatsOf(const Eigen::VectorXd& r, int iterations) {
+  FitStats s;
+  s.n = static_cast<int>(r.size());
+  s.rms = std::sqrt(r.squaredNorm() / static_cast<double>(r.size()));
+  s.min_residual = r.minCoeff();
+  s.max_residual = r.maxCoeff();
+  s.iterations = iterations;
+  return s;
 }
 
 /// Unit vectors u, v with u x v = axis (deterministic for a given axis).
@@ -111,6 +140,12 @@ V CanonicalSign(const V& v) {
   v.cwiseAbs().maxCoeff(&k);
   return v(k) < 0 ? V(-v) : v;
 }
+
+/// Least-squares plane from precomputed moments, without residual statistics (used by the
+/// two-stage circle and ellipse fits, which report in-plane residuals instead).
+FitResult<Plane> PlaneFromMoments(const Moments<3>& m, Eigen::Index count);
+/// In-plane coordinates (along the plane's covariance u, v) of the points.
+Points2 ProjectOnPlane(const Points3& points, const FitResult<Plane>& plane);
 
 [[noreturn]] void ThrowDegenerate(const std::string& shape, const std::string& why);
 [[noreturn]] void ThrowNotConverged(const std::string& shape, int iterations);

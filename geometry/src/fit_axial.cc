@@ -303,7 +303,7 @@ FitResult<Cylinder> FitCylinder(const Points3& points,
                                 const FitOptions& options,
                                 const std::optional<Cylinder>& initial) {
   options.Check();
-  internal::CheckPoints(points, 5, "cylinder");
+  internal::CheckPoints(points, 5, "cylinder", false);
   std::optional<AxialState> init;
   if (initial) {
     const Vec3 centroid = points.rowwise().mean();
@@ -324,7 +324,7 @@ FitResult<Cone> FitCone(const Points3& points,
                         const FitOptions& options,
                         const std::optional<Cone>& initial) {
   options.Check();
-  internal::CheckPoints(points, 6, "cone");
+  internal::CheckPoints(points, 6, "cone", false);
   std::optional<AxialState> init;
   if (initial) {
     const Vec3 centroid = points.rowwise().mean();

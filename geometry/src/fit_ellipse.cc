@@ -136,7 +136,7 @@ bool RankDeficient(const NormalEquations<5>& ne, const State5& s, double scale) 
 
 FitResult<Ellipse2> FitEllipse2(const Points2& points, const FitOptions& options) {
   options.Check();
-  internal::CheckPoints(points, 5, "ellipse");
+  internal::CheckPoints(points, 5, "ellipse", false);
   const auto m = internal::ComputeMoments<2>(points);
   const auto ev = internal::SortedEigen<2>(m.scatter).eigenvalues();
   if (!(ev(0) > 1e-14 * ev(1))) internal::ThrowDegenerate("ellipse", "the points are collinear");
@@ -163,11 +163,10 @@ FitResult<Ellipse2> FitEllipse2(const Points2& points, const FitOptions& options
 }
 
 FitResult<Ellipse3> FitEllipse3(const Points3& points, const FitOptions& options) {
-  internal::CheckPoints(points, 5, "ellipse");
-  const auto plane = FitPlane(points);
+  internal::CheckPoints(points, 5, "ellipse", false);
+  const auto plane = internal::PlaneFromMoments(internal::ComputeMoments<3>(points), points.cols());
   const Vec3 u = plane.covariance.u, v = plane.covariance.v;
-  const Points2 in_plane =
-      internal::ToFrame(points, plane.shape.point, u, v, plane.shape.normal).topRows<2>();
+  const Points2 in_plane = internal::ProjectOnPlane(points, plane);
   const auto e2 = FitEllipse2(in_plane, options);
   FitResult<Ellipse3> fit;
   const Vec2& c = e2.shape.center;

@@ -34,7 +34,7 @@ double Covariance::StdDev(const std::string& name) const {
 }
 
 FitResult<Line2> FitLine2(const Points2& points) {
-  internal::CheckPoints(points, 2, "line");
+  internal::CheckPoints(points, 2, "line", false);
   const auto m = ComputeMoments<2>(points);
   CheckNotCoincident(m, points.cols(), "line");
   const auto es = internal::SortedEigen<2>(m.scatter);
@@ -53,7 +53,7 @@ FitResult<Line2> FitLine2(const Points2& points) {
 }
 
 FitResult<Line3> FitLine3(const Points3& points) {
-  internal::CheckPoints(points, 2, "line");
+  internal::CheckPoints(points, 2, "line", false);
   const auto m = ComputeMoments<3>(points);
   CheckNotCoincident(m, points.cols(), "line");
   const auto es = internal::SortedEigen<3>(m.scatter);
@@ -62,8 +62,12 @@ FitResult<Line3> FitLine3(const Points3& points) {
   FitResult<Line3> fit;
   fit.shape.point = m.centroid;
   fit.shape.direction = internal::CanonicalSign<Vec3>(es.eigenvectors().col(2));
-  fit.stats = internal::ComputeStats(
-      points.cols(), [&](Eigen::Index i) { return SignedDistance(fit.shape, points.col(i)); }, 0);
+  // Distance to the line from its two across-components (vectorised).
+  Eigen::Matrix<double, 2, 3> across;
+  across.row(0) = es.eigenvectors().col(1).transpose();
+  across.row(1) = es.eigenvectors().col(0).transpose();
+  const Eigen::Matrix2Xd q = (across * points).colwise() - across * m.centroid;
+  fit.stats = internal::StatsOf(q.colwise().norm().transpose(), 0);
   // Two residual components per point (across u and v), four parameters.
   const double n = static_cast<double>(points.cols());
   const double sigma2 = points.cols() > 2 ? (ev(0) + ev(1)) / (2.0 * n - 4.0) : 0.0;
@@ -75,27 +79,47 @@ FitResult<Line3> FitLine3(const Points3& points) {
   return fit;
 }
 
-FitResult<Plane> FitPlane(const Points3& points) {
-  internal::CheckPoints(points, 3, "plane");
-  const auto m = ComputeMoments<3>(points);
-  CheckNotCoincident(m, points.cols(), "plane");
-  const auto es = internal::SortedEigen<3>(m.scatter);
+namespace internal {
+
+FitResult<Plane> PlaneFromMoments(const Moments<3>& m, Eigen::Index count) {
+  CheckNotCoincident(m, count, "plane");
+  const auto es = SortedEigen<3>(m.scatter);
   const Vec3 ev = es.eigenvalues().cwiseMax(0.0);
   // Collinear points: the second extent is below 1e-7 of the first.
   if (ev(1) <= 1e-14 * ev(2)) ThrowDegenerate("plane", "the points are collinear");
   if (ev(1) - ev(0) <= 1e-9 * ev(1)) ThrowDegenerate("plane", "no dominant plane");
   FitResult<Plane> fit;
   fit.shape.point = m.centroid;
-  fit.shape.normal = internal::CanonicalSign<Vec3>(es.eigenvectors().col(0));
-  fit.stats = internal::ComputeStats(
-      points.cols(), [&](Eigen::Index i) { return SignedDistance(fit.shape, points.col(i)); }, 0);
-  const double n = static_cast<double>(points.cols());
-  const double sigma2 = points.cols() > 3 ? ev(0) / (n - 3.0) : 0.0;
+  fit.shape.normal = CanonicalSign<Vec3>(es.eigenvectors().col(0));
+  const double n = static_cast<double>(count);
+  const double sigma2 = count > 3 ? ev(0) / (n - 3.0) : 0.0;
   auto& cov = fit.covariance;
   cov.parameters = {"offset", "tilt_u", "tilt_v"};
   cov.matrix = Vec3(sigma2 / n, sigma2 / ev(2), sigma2 / ev(1)).asDiagonal();
   cov.u = es.eigenvectors().col(2);
   cov.v = fit.shape.normal.cross(cov.u);
+  return fit;
+}
+
+Points2 ProjectOnPlane(const Points3& points, const FitResult<Plane>& plane) {
+  Eigen::Matrix<double, 2, 3> uv;
+  uv.row(0) = plane.covariance.u.transpose();
+  uv.row(1) = plane.covariance.v.transpose();
+  Points2 q = uv * points;
+  q.colwise() -= uv * plane.shape.point;
+  return q;
+}
+
+}  // namespace internal
+
+FitResult<Plane> FitPlane(const Points3& points) {
+  internal::CheckPoints(points, 3, "plane", false);
+  const auto m = ComputeMoments<3>(points);
+  FitResult<Plane> fit = internal::PlaneFromMoments(m, points.cols());
+  const Vec3 normal = fit.shape.normal;
+  const double offset = normal.dot(m.centroid);
+  fit.stats = internal::ComputeStats(
+      points.cols(), [&](Eigen::Index i) { return normal.dot(points.col(i)) - offset; }, 0);
   return fit;
 }
 

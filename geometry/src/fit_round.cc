@@ -106,7 +106,7 @@ struct NSphereSolution {
 template <int N>
 NSphereSolution FitNSphere(const PointsN<N>& points, const FitOptions& options, const char* shape) {
   options.Check();
-  internal::CheckPoints(points, N + 1, shape);
+  internal::CheckPoints(points, N + 1, shape, false);
   const auto m = internal::ComputeMoments<N>(points);
   const auto ev = internal::SortedEigen<N>(m.scatter).eigenvalues();
   // Points in a subspace (collinear for a circle, coplanar for a sphere) fit a family of shapes.
@@ -174,12 +174,11 @@ FitResult<Sphere> FitSphere(const Points3& points, const FitOptions& options) {
 }
 
 FitResult<Circle3> FitCircle3(const Points3& points, const FitOptions& options) {
-  internal::CheckPoints(points, 3, "circle");
-  const auto plane = FitPlane(points);
+  internal::CheckPoints(points, 3, "circle", false);
+  const auto plane = internal::PlaneFromMoments(internal::ComputeMoments<3>(points), points.cols());
   const Vec3 u = plane.covariance.u;
   const Vec3 v = plane.covariance.v;
-  const Points2 in_plane =
-      internal::ToFrame(points, plane.shape.point, u, v, plane.shape.normal).topRows<2>();
+  const Points2 in_plane = internal::ProjectOnPlane(points, plane);
   const auto circle = FitCircle2(in_plane, options);
   FitResult<Circle3> fit;
   fit.shape.center = plane.shape.point + u * circle.shape.center.x() + v * circle.shape.center.y();

@@ -30,6 +30,7 @@ struct FitRequest {
   std::string method = "ls";
   std::string path;
   double unit_scale = 1.0;  // file units -> mm
+  bool text = false;        // readable summary instead of JSON
   geometry::RobustOptions robust;
 };
 
@@ -65,6 +66,8 @@ FitRequest ParseArgs(const std::vector<std::string>& args) {
         req.unit_scale = 25.4;
       else
         throw UsageError("--units must be mm, m, um or in");
+    } else if (a == "--text") {
+      req.text = true;
     } else if (a == "--threshold") {
       req.robust.inlier_threshold_mm = ParseNumber(a, value());
     } else if (a == "--seed") {
@@ -218,6 +221,31 @@ Json Fit(const FitRequest& req, const Points3& p) {
                    "' (line, plane, circle, sphere, cylinder, cone, ellipse)");
 }
 
+std::string Number(const Json& v) {
+  if (!v.is_number_float()) return v.dump();
+  std::ostringstream os;
+  os.precision(6);
+  os << std::fixed << v.get<double>();
+  return os.str();
+}
+
+// One "key: value" line per field, vectors as "x y z", numbers to 1 nm / 1e-6.
+void PrintText(const Json& j, std::ostream& out) {
+  for (const auto& [key, value] : j.items()) {
+    out << "  " << key << ": ";
+    if (value.is_array()) {
+      for (size_t k = 0; k < value.size(); ++k) out << (k ? " " : "") << Number(value[k]);
+    } else if (value.is_object()) {
+      for (const auto& [k, v] : value.items()) out << k << "=" << Number(v) << " ";
+    } else if (value.is_string()) {
+      out << value.get<std::string>();
+    } else {
+      out << Number(value);
+    }
+    out << "\n";
+  }
+}
+
 // Last line of defence of "no NaN out": every number in the reply must be finite.
 bool AllFinite(const Json& j) {
   if (j.is_number_float()) return std::isfinite(j.get<double>());
@@ -233,12 +261,13 @@ bool AllFinite(const Json& j) {
 
 std::string FitUsage() {
   return "usage: mlp fit SHAPE [--method ls|robust|minzone|mic|mcc] [--units mm|m|um|in]\n"
-         "                     [--threshold MM] [--seed N] FILE\n"
+         "                     [--threshold MM] [--seed N] [--text] FILE\n"
          "  SHAPE: line plane circle sphere cylinder cone ellipse\n"
          "  FILE:  .xyz/.txt (x y z per line), .pcd, .ply, or - for stdin\n"
          "  minzone: line (straightness), plane (flatness), circle (roundness);\n"
          "  mic/mcc: circle (maximum inscribed / minimum circumscribed).\n"
-         "  Prints one JSON object, lengths in mm. Exit 0 ok, 2 bad input, 1 internal error.\n";
+         "  Prints one JSON object (or, with --text, a readable summary), lengths in mm.\n"
+         "  Exit 0 ok, 2 bad input, 1 internal error.\n";
 }
 
 int RunFitCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -255,7 +284,12 @@ int RunFitCommand(const std::vector<std::string>& args, std::ostream& out, std::
     j["points_read"] = cloud.points.cols() + static_cast<Eigen::Index>(cloud.dropped_non_finite);
     j["dropped_non_finite"] = cloud.dropped_non_finite;
     if (!AllFinite(j)) throw std::logic_error("non-finite value in the result");
-    out << j.dump(2) << "\n";
+    if (req.text) {
+      out << "mlp fit " << req.shape << " (" << req.method << ") " << req.path << "\n";
+      PrintText(j, out);
+    } else {
+      out << j.dump(2) << "\n";
+    }
     return kExitOk;
   } catch (const UsageError& e) {
     err << "mlp fit: " << e.what() << "\n" << FitUsage();

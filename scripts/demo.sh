@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# The README's main job: install, build, and run the fits on the sample clouds (ground truth in
+# samples/clouds/README.md). Later issues extend it to the full demo on the virtual probe.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install-deps.sh
+bash scripts/build.sh
+mlp=build/bin/mlp
+run() { echo; echo "\$ mlp fit $*"; "$mlp" fit --text "$@"; }
+echo "== Reference ball (d 25.4 mm at 250, -120, -310) with 2 % specks: robust vs plain least squares"
+run sphere --method robust samples/clouds/reference_ball_cap.xyz
+run sphere samples/clouds/reference_ball_cap.xyz
+echo
+echo "== Bore to be finished to d 60 (actual d 59.94): least squares, inscribed (functional) size, roundness"
+run cylinder samples/clouds/bore_before_finish.xyz
+run circle --method mic samples/clouds/bore_before_finish.xyz
+run circle --method minzone samples/clouds/bore_before_finish.xyz
+echo
+echo "== Machined face: flatness (minimum zone)"
+run plane --method minzone samples/clouds/top_face.xyz
+echo
+echo "== Real sensor cloud (PCL test data, metres): robust plane"
+run plane --method robust --units m ../shared/data/pcl/sac_plane_test.pcd
