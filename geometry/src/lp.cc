@@ -1,5 +1,6 @@
 #include "lp.h"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -7,6 +8,8 @@
 
 namespace mlp::geometry::internal {
 namespace {
+
+constexpr size_t kWorkingSetGrowth = 64;  // violated rows added per full scan
 
 // Row j of the extended system: the data rows, then +x_k <= bound_k, then -x_k <= bound_k.
 struct Extended {
@@ -42,25 +45,44 @@ LpResult SolveSmallLp(const Eigen::VectorXd& c,
   Eigen::MatrixXd rows(d, d);
   Eigen::VectorXd rhs(d), x(d);
   int degenerate = 0;
+  std::vector<Eigen::Index> work;  // data rows the pivots look at
+  std::vector<bool> in_work(static_cast<size_t>(a.rows()), false);
   for (int it = 0; it < 100000; ++it) {
     for (Eigen::Index i = 0; i < d; ++i)
       rows.row(i) = ext.Row(basis[i]).transpose(), rhs(i) = ext.Rhs(basis[i]);
     const Eigen::PartialPivLU<Eigen::MatrixXd> lu(rows);
     x = lu.solve(rhs);
     const Eigen::VectorXd y = lu.transpose().solve(-c);  // dual values of the basic rows
-    // Entering row: most violated (Dantzig), or the first violated one after a run of
-    // degenerate pivots (Bland's rule, which cannot cycle).
+    // Entering row: most violated within the working set and the bounds (Dantzig), or the first
+    // violated one after a run of degenerate pivots (Bland's rule, which cannot cycle). Only
+    // when the working set is satisfied are all rows scanned; the worst violators join it. Few
+    // points are ever active (the extremes), so pivots cost O(working set), not O(points).
     Eigen::Index enter = -1;
     double worst = tol;
-    const Eigen::VectorXd data_viol = a * x - b;  // one pass over the data rows
-    for (Eigen::Index j = 0; j < ext.rows(); ++j) {
-      const double viol = j < a.rows() ? data_viol(j) : ext.Row(j).dot(x) - ext.Rhs(j);
-      if (viol > worst) {
-        worst = viol, enter = j;
-        if (degenerate > 20) break;
+    const auto consider = [&](Eigen::Index j, double viol) {
+      if (viol > worst) worst = viol, enter = j;
+    };
+    for (Eigen::Index j : work) {
+      consider(j, a.row(j).dot(x) - b(j));
+      if (degenerate > 20 && enter >= 0) break;
+    }
+    for (Eigen::Index j = a.rows(); j < ext.rows(); ++j)
+      consider(j, ext.Row(j).dot(x) - ext.Rhs(j));
+    if (enter < 0) {
+      const Eigen::VectorXd viol = a * x - b;
+      std::vector<Eigen::Index> violated;
+      for (Eigen::Index j = 0; j < a.rows(); ++j) {
+        if (viol(j) > tol && !in_work[j]) violated.push_back(j);
+      }
+      const size_t add = std::min<size_t>(violated.size(), kWorkingSetGrowth);
+      std::partial_sort(violated.begin(), violated.begin() + add, violated.end(),
+                        [&](Eigen::Index p, Eigen::Index q) { return viol(p) > viol(q); });
+      for (size_t k = 0; k < add; ++k) {
+        work.push_back(violated[k]), in_work[violated[k]] = true;
+        consider(violated[k], viol(violated[k]));
       }
     }
-    if (enter < 0) {
+    if (enter < 0) {  // every row satisfied: optimal
       result.optimal = true;
       break;
     }
