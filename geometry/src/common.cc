@@ -20,6 +20,23 @@ Points3 ToFrame(
   return r * (points.colwise() - origin);
 }
 
+Covariance TwoStageCovariance(const FitResult<Plane>& plane,
+                              const Covariance& in_plane,
+                              const std::vector<std::string>& renamed_first) {
+  Covariance cov;
+  cov.parameters = plane.covariance.parameters;
+  for (size_t k = 0; k < in_plane.parameters.size(); ++k) {
+    cov.parameters.push_back(k < renamed_first.size() ? renamed_first[k] : in_plane.parameters[k]);
+  }
+  const Eigen::Index p = plane.covariance.matrix.rows(), q = in_plane.matrix.rows();
+  cov.matrix = Eigen::MatrixXd::Zero(p + q, p + q);
+  cov.matrix.topLeftCorner(p, p) = plane.covariance.matrix;
+  cov.matrix.bottomRightCorner(q, q) = in_plane.matrix;
+  cov.u = plane.covariance.u;
+  cov.v = plane.covariance.v;
+  return cov;
+}
+
 void ThrowDegenerate(const std::string& shape, const std::string& why) {
   throw GeometryError(ErrorCode::kDegenerate,
                       shape + ": the points do not determine it (" + why + ")");

@@ -147,6 +147,13 @@ FitResult<Plane> PlaneFromMoments(const Moments<3>& m, Eigen::Index count);
 /// In-plane coordinates (along the plane's covariance u, v) of the points.
 Points2 ProjectOnPlane(const Points3& points, const FitResult<Plane>& plane);
 
+/// Covariance of a two-stage fit (plane, then a shape in it): block-diagonal, since the stages
+/// are estimated independently. The in-plane parameters keep their names except the first ones,
+/// which are renamed (e.g. center_x -> center_u) because they are along the plane's u, v.
+Covariance TwoStageCovariance(const FitResult<Plane>& plane,
+                              const Covariance& in_plane,
+                              const std::vector<std::string>& renamed_first);
+
 [[noreturn]] void ThrowDegenerate(const std::string& shape, const std::string& why);
 [[noreturn]] void ThrowNotConverged(const std::string& shape, int iterations);
 

@@ -176,14 +176,7 @@ FitResult<Ellipse3> FitEllipse3(const Points3& points, const FitOptions& options
   fit.shape.semi_major = e2.shape.semi_major;
   fit.shape.semi_minor = e2.shape.semi_minor;
   fit.stats = e2.stats;
-  auto& cov = fit.covariance;
-  cov.parameters = {"offset",   "tilt_u",      "tilt_v",      "center_u",
-                    "center_v", "semi_axis_1", "semi_axis_2", "angle"};
-  cov.matrix = Eigen::MatrixXd::Zero(8, 8);
-  cov.matrix.topLeftCorner<3, 3>() = plane.covariance.matrix;
-  cov.matrix.bottomRightCorner<5, 5>() = e2.covariance.matrix;
-  cov.u = u;
-  cov.v = v;
+  fit.covariance = internal::TwoStageCovariance(plane, e2.covariance, {"center_u", "center_v"});
   return fit;
 }
 

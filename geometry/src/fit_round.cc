@@ -185,14 +185,7 @@ FitResult<Circle3> FitCircle3(const Points3& points, const FitOptions& options) 
   fit.shape.normal = plane.shape.normal;
   fit.shape.radius = circle.shape.radius;
   fit.stats = circle.stats;
-  // Two-stage convention: the plane and the in-plane circle are estimated independently.
-  auto& cov = fit.covariance;
-  cov.parameters = {"offset", "tilt_u", "tilt_v", "center_u", "center_v", "radius"};
-  cov.matrix = Eigen::MatrixXd::Zero(6, 6);
-  cov.matrix.topLeftCorner<3, 3>() = plane.covariance.matrix;
-  cov.matrix.bottomRightCorner<3, 3>() = circle.covariance.matrix;
-  cov.u = u;
-  cov.v = v;
+  fit.covariance = internal::TwoStageCovariance(plane, circle.covariance, {"center_u", "center_v"});
   return fit;
 }
 
