@@ -58,8 +58,10 @@ class AxialModelBase {
     out->point += t * out->axis;
     return t;
   }
+  // Always inlined: the caller's accumulator must not escape into a call, or it cannot stay in
+  // registers (the per-point loop is the cost of every fit).
   template <class F>
-  void ForEachLocal(const State& s, F f) const {
+  [[gnu::always_inline]] inline void ForEachLocal(const State& s, F f) const {
     Vec3 u, v;
     internal::OrthonormalBasis(s.axis, &u, &v);
     const Vec3 axis_point = origin_ + s.point;
@@ -81,9 +83,7 @@ class CylinderModel : public AxialModelBase<5> {
  public:
   using AxialModelBase::AxialModelBase;
   NormalEquations<5> Linearize(const State& s, NormalEquations<5>* sink = nullptr) const {
-    // Accumulate in a local (kept in registers), copy out at the end.
-    NormalEquations<5> ne;
-    if (sink != nullptr) ne.rows = sink->rows, ne.residuals = sink->residuals;
+    internal::Accumulator<5> ne(sink);
     Delta j;
     ForEachLocal(s, [&](const Local& l) {
       const double inv_rho = l.rho > 0.0 ? 1.0 / l.rho : 0.0;
@@ -91,8 +91,7 @@ class CylinderModel : public AxialModelBase<5> {
       j << -cx, -cy, -cx * l.z, -cy * l.z, -1.0;
       ne.Add(j, l.rho - s.p0);
     });
-    if (sink != nullptr) *sink = ne;
-    return ne;
+    return ne.Finish(sink);
   }
   State Update(const State& s, const Delta& d) const {
     State out;
@@ -109,9 +108,7 @@ class ConeModel : public AxialModelBase<6> {
  public:
   using AxialModelBase::AxialModelBase;
   NormalEquations<6> Linearize(const State& s, NormalEquations<6>* sink = nullptr) const {
-    // Accumulate in a local (kept in registers), copy out at the end.
-    NormalEquations<6> ne;
-    if (sink != nullptr) ne.rows = sink->rows, ne.residuals = sink->residuals;
+    internal::Accumulator<6> ne(sink);
     Delta j;
     const double c = std::cos(s.p0), sn = std::sin(s.p0);
     ForEachLocal(s, [&](const Local& l) {
@@ -121,8 +118,7 @@ class ConeModel : public AxialModelBase<6> {
           -l.rho * sn - l.z * c, -1.0;
       ne.Add(j, l.rho * c - l.z * sn - s.p1);
     });
-    if (sink != nullptr) *sink = ne;
-    return ne;
+    return ne.Finish(sink);
   }
   State Update(const State& s, const Delta& d) const {
     State out;

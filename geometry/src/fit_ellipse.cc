@@ -29,9 +29,7 @@ class EllipseModel {
   EllipseModel(const Points2& centred, double scale) : points_(centred), scale_(scale) {}
 
   NormalEquations<5> Linearize(const State& s, NormalEquations<5>* sink = nullptr) const {
-    // Accumulate in a local (kept in registers), copy out at the end.
-    NormalEquations<5> ne;
-    if (sink != nullptr) ne.rows = sink->rows, ne.residuals = sink->residuals;
+    internal::Accumulator<5> ne(sink);
     const Eigen::Rotation2Dd rot(s(4));
     const Eigen::Matrix2d r = rot.toRotationMatrix();
     const double a = s(2), b = s(3);
@@ -50,8 +48,7 @@ class EllipseModel {
       j(4) = round ? 0.0 : n.x() * f.y() - n.y() * f.x();
       ne.Add(j, d);
     }
-    if (sink != nullptr) *sink = ne;
-    return ne;
+    return ne.Finish(sink);
   }
   State Update(const State& s, const State& d) const { return s + d; }
   double StepLength(const State& d) const {

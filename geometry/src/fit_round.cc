@@ -29,9 +29,7 @@ class NSphereModel {
 
   NormalEquations<kParams> Linearize(const State& s,
                                      NormalEquations<kParams>* sink = nullptr) const {
-    // Accumulate in a local (kept in registers), copy out at the end.
-    NormalEquations<kParams> ne;
-    if (sink != nullptr) ne.rows = sink->rows, ne.residuals = sink->residuals;
+    internal::Accumulator<kParams> ne(sink);
     const Eigen::Matrix<double, N, 1> c = s.template head<N>() + origin_;
     Eigen::Matrix<double, kParams, 1> j;
     j(N) = -1.0;
@@ -43,8 +41,7 @@ class NSphereModel {
           dist > 0.0 ? Eigen::Matrix<double, N, 1>(-d / dist) : Eigen::Matrix<double, N, 1>::Zero();
       ne.Add(j, dist - s(N));
     }
-    if (sink != nullptr) *sink = ne;
-    return ne;
+    return ne.Finish(sink);
   }
   State Update(const State& s, const State& delta) const { return s + delta; }
   double StepLength(const State& delta) const { return delta.norm(); }

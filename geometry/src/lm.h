@@ -50,6 +50,52 @@ struct NormalEquations {
   void Finish() { jtj = jtj.template selfadjointView<Eigen::Lower>(); }
 };
 
+// Accumulates normal equations in a local object whose address never escapes, so the compiler
+// keeps the sums in registers; a NormalEquations returned by value is the caller's memory, which
+// may alias the point data and forces a store per point (measured: 2x slower per pass).
+template <int P>
+class Accumulator {
+ public:
+  explicit Accumulator(const NormalEquations<P>* sink)
+      : rows_(sink != nullptr ? sink->rows : nullptr),
+        residuals_(sink != nullptr ? sink->residuals : nullptr) {}
+
+  void Add(const Eigen::Matrix<double, P, 1>& j, double r) {
+    if (rows_ != nullptr) rows_->push_back(j), residuals_->push_back(r);
+#pragma GCC unroll 8
+    for (int a = 0; a < P; ++a) {
+#pragma GCC unroll 8
+      for (int b = 0; b <= a; ++b) jtj_[a][b] += j(a) * j(b);
+      jtr_[a] += j(a) * r;
+    }
+    ss_ += r * r;
+    min_r_ = std::min(min_r_, r);
+    max_r_ = std::max(max_r_, r);
+  }
+
+  /// The accumulated equations; also copied into `sink` when given.
+  NormalEquations<P> Finish(NormalEquations<P>* sink) const {
+    NormalEquations<P> ne;
+    for (int a = 0; a < P; ++a) {
+      for (int b = 0; b <= a; ++b) ne.jtj(a, b) = jtj_[a][b];
+      ne.jtr(a) = jtr_[a];
+    }
+    ne.ss = ss_, ne.min_r = min_r_, ne.max_r = max_r_;
+    ne.rows = rows_, ne.residuals = residuals_;
+    if (sink != nullptr) *sink = ne;
+    return ne;
+  }
+
+ private:
+  std::vector<Eigen::Matrix<double, P, 1>>* rows_;
+  std::vector<double>* residuals_;
+  double jtj_[P][P] = {};
+  double jtr_[P] = {};
+  double ss_ = 0.0;
+  double min_r_ = std::numeric_limits<double>::infinity();
+  double max_r_ = -std::numeric_limits<double>::infinity();
+};
+
 struct LmSummary {
   int iterations = 0;
   double ss = 0.0;
