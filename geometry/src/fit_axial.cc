@@ -88,7 +88,8 @@ class CylinderModel : public AxialModelBase<5> {
     ForEachLocal(s, [&](const Local& l) {
       const double inv_rho = l.rho > 0.0 ? 1.0 / l.rho : 0.0;
       const double cx = l.x * inv_rho, cy = l.y * inv_rho;
-      j << -cx, -cy, -cx * l.z, -cy * l.z, -1.0;
+      // Element-wise, not Eigen's comma initializer: this is the hot loop.
+      j(0) = -cx, j(1) = -cy, j(2) = -cx * l.z, j(3) = -cy * l.z, j(4) = -1.0;
       ne.Add(j, l.rho - s.p0);
     });
     return ne.Finish(sink);
@@ -114,8 +115,8 @@ class ConeModel : public AxialModelBase<6> {
     ForEachLocal(s, [&](const Local& l) {
       const double inv_rho = l.rho > 0.0 ? 1.0 / l.rho : 0.0;
       const double cx = l.x * inv_rho, cy = l.y * inv_rho;
-      j << -c * cx, -c * cy, -c * cx * l.z - sn * l.x, -c * cy * l.z - sn * l.y,
-          -l.rho * sn - l.z * c, -1.0;
+      j(0) = -c * cx, j(1) = -c * cy, j(2) = -c * cx * l.z - sn * l.x;
+      j(3) = -c * cy * l.z - sn * l.y, j(4) = -l.rho * sn - l.z * c, j(5) = -1.0;
       ne.Add(j, l.rho * c - l.z * sn - s.p1);
     });
     return ne.Finish(sink);
