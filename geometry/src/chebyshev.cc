@@ -75,6 +75,14 @@ Frame CirclePlaneFrame(const Points3& points, Points2* in_plane) {
   return f;
 }
 
+// The same frame taken from a least-squares circle (its plane is the least-squares plane and
+// its u, v are the plane's), centred on the circle: no second plane fit.
+Frame CirclePlaneFrame(const FitResult<Circle3>& circle, const Points3& points, Points2* in_plane) {
+  const Frame f{circle.shape.center, circle.covariance.u, circle.covariance.v, circle.shape.normal};
+  *in_plane = f.Local(points).topRows<2>();
+  return f;
+}
+
 // Radii from a centre, and unit directions.
 Eigen::VectorXd Radii(const Points2& p, const Vec2& c) {
   return (p.colwise() - c).colwise().norm();
@@ -241,8 +249,8 @@ MinZoneLineFit FitMinZoneLine(const Points3& points) {
 MinZoneCircleFit FitMinZoneCircle(const Points3& points) {
   const auto ls = FitCircle3(points);  // checks the input, gives the start
   Points2 p;
-  const Frame f = CirclePlaneFrame(points, &p);
-  const Vec2 start((ls.shape.center - f.origin).dot(f.u), (ls.shape.center - f.origin).dot(f.v));
+  const Frame f = CirclePlaneFrame(ls, points, &p);
+  const Vec2 start = Vec2::Zero();  // the frame is centred on the least-squares circle
   const auto width = [](const Eigen::VectorXd& r) { return r.maxCoeff() - r.minCoeff(); };
   const Vec2 c = SequentialLp(p, start, ls.shape.radius, width, ZoneLp, "minimum-zone circle");
   const Eigen::VectorXd r = Radii(p, c);
@@ -259,8 +267,8 @@ MinZoneCircleFit FitMinZoneCircle(const Points3& points) {
 FunctionalCircleFit FitMaxInscribedCircle(const Points3& points) {
   const auto ls = FitCircle3(points);
   Points2 p;
-  const Frame f = CirclePlaneFrame(points, &p);
-  const Vec2 start((ls.shape.center - f.origin).dot(f.u), (ls.shape.center - f.origin).dot(f.v));
+  const Frame f = CirclePlaneFrame(ls, points, &p);
+  const Vec2 start = Vec2::Zero();  // the frame is centred on the least-squares circle
   const auto neg_min = [](const Eigen::VectorXd& r) { return -r.minCoeff(); };
   const Vec2 c = SequentialLp(p, start, ls.shape.radius, neg_min, InscribedLp, "inscribed circle");
   // The centre must lie inside the points' convex hull, or "inscribed" has no meaning: a centre

@@ -79,17 +79,20 @@ internal::LmSummary SolveFromTangentStarts(const NSphereModel<N>& model,
   const Eigen::Matrix<double, N, 1> normal =
       internal::SortedEigen<N>(m.scatter).eigenvectors().col(0);
   internal::LmSummary best_summary;
+  int total_iterations = 0;  // reported in the error if no start converges
   double best_ss = INFINITY;
   for (double radius_factor : {1.0, 3.0, 10.0, 30.0}) {
     for (double side : {-1.0, 1.0}) {
       Eigen::Matrix<double, N + 1, 1> s;
       s << side * radius_factor * scale * normal, radius_factor * scale;
       const auto summary = internal::SolveLm(model, s, max_iterations);
+      total_iterations += summary.iterations;
       if (summary.converged && s.allFinite() && s(N) > 0.0 && summary.ss < best_ss) {
         best_ss = summary.ss, *best = s, best_summary = summary;
       }
     }
   }
+  if (!best_summary.converged) best_summary.iterations = total_iterations;
   return best_summary;
 }
 

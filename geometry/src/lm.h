@@ -29,24 +29,11 @@ struct NormalEquations {
   double min_r = std::numeric_limits<double>::infinity();   // most negative residual
   double max_r = -std::numeric_limits<double>::infinity();  // most positive residual
 
-  // Lower triangle only, unrolled by the compiler for fixed P: this is the inner loop of every
-  // iterative fit (Eigen's rankUpdate is several times slower for P <= 6).
-  // When set, Add also keeps every Jacobian row and residual (for the QR polish).
+  // Set by the QR polish: the Accumulator then also keeps every Jacobian row and residual.
   std::vector<Eigen::Matrix<double, P, 1>>* rows = nullptr;
   std::vector<double>* residuals = nullptr;
 
-  void Add(const Eigen::Matrix<double, P, 1>& j, double r) {
-    if (rows != nullptr) rows->push_back(j), residuals->push_back(r);
-#pragma GCC unroll 8
-    for (int a = 0; a < P; ++a) {
-#pragma GCC unroll 8
-      for (int b = 0; b <= a; ++b) jtj(a, b) += j(a) * j(b);
-      jtr(a) += j(a) * r;
-    }
-    ss += r * r;
-    min_r = std::min(min_r, r);
-    max_r = std::max(max_r, r);
-  }
+  // Filled by Accumulator (lower triangle); Finish mirrors it to the full matrix.
   void Finish() { jtj = jtj.template selfadjointView<Eigen::Lower>(); }
 };
 
@@ -60,6 +47,7 @@ class Accumulator {
       : rows_(sink != nullptr ? sink->rows : nullptr),
         residuals_(sink != nullptr ? sink->residuals : nullptr) {}
 
+  // Lower triangle only, unrolled for fixed P: the inner loop of every iterative fit.
   void Add(const Eigen::Matrix<double, P, 1>& j, double r) {
     if (rows_ != nullptr) rows_->push_back(j), residuals_->push_back(r);
 #pragma GCC unroll 8
