@@ -5,10 +5,12 @@
 
 namespace mlp::geometry::internal {
 
-/// Kasa's circle: minimises sum (|p|^2 + D.p + F)^2. Returns false for collinear points.
-bool KasaCircle(const Points2& centred, Vec2* center, double* radius);
+/// Kasa's circle: minimises sum (|q|^2 + D.q + F)^2 over q = p - origin (pass the centroid:
+/// the sums then keep their precision far from the origin); `center` is relative to `origin`.
+/// Returns false for collinear points.
+bool KasaCircle(const Points2& points, const Vec2& origin, Vec2* center, double* radius);
 /// Kasa's sphere, as KasaCircle in 3D. Returns false for coplanar points.
-bool KasaSphere(const Points3& centred, Vec3* center, double* radius);
+bool KasaSphere(const Points3& points, const Vec3& origin, Vec3* center, double* radius);
 
 /// Symmetric 3x3 part A of the algebraic quadric x^T A x + b^T x + c = 0 through the points
 /// (smallest right singular vector of the 10-column design matrix). For a cylinder A is

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "kernels.h"
 #include <Eigen/Eigenvalues>
 
 namespace mlp::geometry::internal {
@@ -38,29 +39,19 @@ struct Moments {
   Eigen::Matrix<double, N, N> scatter;  // sum (p - centroid)(p - centroid)^T
 };
 
-/// One pass over the points, shifted by the first point so that data far from the origin keeps
-/// its precision (the shifted one-pass formula loses only |mean - first|^2 / extent^2 digits).
+/// Centroid and scatter from sums of points shifted by the first point, so that data far from
+/// the origin keeps its precision (the shifted one-pass formula loses only
+/// |mean - first|^2 / extent^2 digits). Throws kNonFinite if any coordinate is NaN or infinite
+/// (inf - inf is NaN: either ends up in the sums).
 template <int N>
-Moments<N> ComputeMoments(const Eigen::Matrix<double, N, Eigen::Dynamic>& points) {
-  using VecN = Eigen::Matrix<double, N, 1>;
-  const VecN shift = points.col(0);
-  VecN sum = VecN::Zero();
-  // The N(N+1)/2 distinct products as plain scalars: the compiler keeps them in registers.
-  double outer[N][N] = {};
-  const Eigen::Index n = points.cols();
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const VecN q = points.col(i) - shift;
-    sum += q;  // NaN or inf anywhere ends up here (inf - inf is NaN): checked below
-#pragma GCC unroll 4
-    for (int a = 0; a < N; ++a) {
-#pragma GCC unroll 4
-      for (int b = 0; b <= a; ++b) outer[a][b] += q(a) * q(b);
-    }
-  }
-  const VecN mean_q = sum / static_cast<double>(n);
+Moments<N> MomentsFromSums(const Eigen::Matrix<double, N, 1>& shift,
+                           const Eigen::Matrix<double, N, 1>& sum,
+                           const double (&outer)[N][N],
+                           Eigen::Index n) {
   if (!sum.allFinite() || !shift.allFinite()) {
     throw GeometryError(ErrorCode::kNonFinite, "input contains NaN or infinite coordinates");
   }
+  const Eigen::Matrix<double, N, 1> mean_q = sum / static_cast<double>(n);
   Moments<N> m;
   m.centroid = shift + mean_q;
   for (int a = 0; a < N; ++a) {
@@ -70,6 +61,38 @@ Moments<N> ComputeMoments(const Eigen::Matrix<double, N, Eigen::Dynamic>& points
     }
   }
   return m;
+}
+
+/// Moments of 3D points from the vectorised kernel's sums.
+inline Moments<3> MomentsFromSums(const Vec3& shift, const PointSums3& s, Eigen::Index n) {
+  const double outer[3][3] = {{s.outer[0], s.outer[1], s.outer[2]},
+                              {s.outer[1], s.outer[3], s.outer[4]},
+                              {s.outer[2], s.outer[4], s.outer[5]}};
+  return MomentsFromSums<3>(shift, Vec3(s.sum[0], s.sum[1], s.sum[2]), outer, n);
+}
+
+/// One pass over the points (the vectorised kernel for 3D).
+template <int N>
+Moments<N> ComputeMoments(const Eigen::Matrix<double, N, Eigen::Dynamic>& points) {
+  using VecN = Eigen::Matrix<double, N, 1>;
+  const VecN shift = points.col(0);
+  if constexpr (N == 3) {
+    return MomentsFromSums(shift, SumShiftedPoints(points.data(), points.cols(), shift.data()),
+                           points.cols());
+  } else {
+    VecN sum = VecN::Zero();
+    double outer[N][N] = {};
+    for (Eigen::Index i = 0; i < points.cols(); ++i) {
+      const VecN q = points.col(i) - shift;
+      sum += q;
+#pragma GCC unroll 4
+      for (int a = 0; a < N; ++a) {
+#pragma GCC unroll 4
+        for (int b = 0; b <= a; ++b) outer[a][b] += q(a) * q(b);
+      }
+    }
+    return MomentsFromSums<N>(shift, sum, outer, points.cols());
+  }
 }
 
 /// Statistics of residuals given as a vector (vectorised passes for the closed-form fits).
@@ -118,6 +141,18 @@ Eigen::Matrix<double, N, Eigen::Dynamic> Subsample(
   Eigen::Matrix<double, N, Eigen::Dynamic> out(N, max_count);
   for (Eigen::Index k = 0; k < max_count; ++k) out.col(k) = points.col(k * n / max_count);
   return out;
+}
+
+/// Subsample as above, but without a copy when every point is kept: returns `points` itself,
+/// or the subsample stored in `storage`.
+template <int N>
+const Eigen::Matrix<double, N, Eigen::Dynamic>& SubsampleView(
+    const Eigen::Matrix<double, N, Eigen::Dynamic>& points,
+    Eigen::Index max_count,
+    Eigen::Matrix<double, N, Eigen::Dynamic>* storage) {
+  if (points.cols() <= max_count) return points;
+  *storage = Subsample<N>(points, max_count);
+  return *storage;
 }
 
 /// RMS distance of centred points from their centroid: the length scale of the data [mm].

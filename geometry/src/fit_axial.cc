@@ -170,7 +170,7 @@ bool StartOnAxis(const Points3& centred, const Vec3& axis, AxialState* s) {
   const Points2 proj = internal::ToFrame(centred, Vec3::Zero(), u, v, axis).topRows<2>();
   Vec2 c;
   double r = 0.0;
-  if (!internal::KasaCircle(proj, &c, &r)) return false;
+  if (!internal::KasaCircle(proj, Vec2::Zero(), &c, &r)) return false;
   s->point = u * c.x() + v * c.y();
   s->axis = axis;
   s->p0 = r;
@@ -262,17 +262,16 @@ AxialSolution SolveAxial(const Points3& points,
     state = *best;
   }
   // Converge on a subsample, then finish on every point.
-  const Points3 coarse = internal::Subsample<3>(points, internal::kCoarsePoints);
+  Points3 storage;
+  const Points3& coarse = internal::SubsampleView<3>(points, internal::kCoarsePoints, &storage);
   Model coarse_model(coarse, m.centroid, scale);
-  auto summary = internal::SolveLm(coarse_model, state, options.max_iterations);
   internal::NormalEquations<Model::kParams> ne;
+  auto summary = internal::SolveLm(coarse_model, state, options.max_iterations, &ne);
   if (coarse.cols() < points.cols()) {
     Model model(points, m.centroid, scale);
     const int coarse_iterations = summary.iterations;
     summary = internal::SolveLm(model, state, options.max_iterations, &ne);
     summary.iterations += coarse_iterations;
-  } else {
-    ne = coarse_model.Linearize(state);
   }
   if (!summary.converged || !valid(state)) internal::ThrowNotConverged(shape, summary.iterations);
   // Points spread only across the axis (one circle) leave its direction free: any small tilt

@@ -4,6 +4,9 @@
 
 #include "mlp/geometry/fit.h"
 
+#include <algorithm>
+#include <limits>
+
 #include "algebraic.h"
 #include "common.h"
 #include "lm.h"
@@ -16,53 +19,117 @@ using internal::NormalEquations;
 template <int N>
 using PointsN = Eigen::Matrix<double, N, Eigen::Dynamic>;
 
-// Circle (N = 2) or sphere (N = 3) model; state = (centre, radius) in centred coordinates.
+// Circle (N = 2) or sphere (N = 3) model; state = (centre, radius) relative to `origin`.
+// A circle model can also read 3D points and project them on the fly onto a plane (basis rows
+// u, v through origin3): the circle in 3D then needs no projected copy of the whole cloud.
 template <int N>
 class NSphereModel {
  public:
   static constexpr int kParams = N + 1;
   using State = Eigen::Matrix<double, N + 1, 1>;
 
-  // State is relative to `origin` (the centroid), so the points need no centred copy.
   NSphereModel(const PointsN<N>& points, const Eigen::Matrix<double, N, 1>& origin, double scale)
-      : points_(points), origin_(origin), scale_(scale) {}
+      : points_(points.data()), size_(points.cols()), origin_(origin), scale_(scale) {}
+  // Projected circle: in-plane coordinates basis * (p - origin3); the state is relative to them.
+  NSphereModel(const Points3& points3,
+               const Eigen::Matrix<double, 2, 3>& basis,
+               const Vec3& origin3,
+               double scale) requires(N == 2)
+      : points_(points3.data()),
+        size_(points3.cols()),
+        origin_(Vec2::Zero()),
+        scale_(scale),
+        projected_(true),
+        basis_(basis),
+        origin3_(origin3) {}
 
   NormalEquations<kParams> Linearize(const State& s,
                                      NormalEquations<kParams>* sink = nullptr) const {
     internal::Accumulator<kParams> ne(sink);
-    const Eigen::Matrix<double, N, 1> c = s.template head<N>() + origin_;
-    Eigen::Matrix<double, kParams, 1> j;
-    j(N) = -1.0;
-    for (Eigen::Index i = 0; i < points_.cols(); ++i) {
-      const Eigen::Matrix<double, N, 1> d = points_.col(i) - c;
-      const double dist = d.norm();
-      // A point exactly at the centre has no radial direction; it only informs the radius.
-      j.template head<N>() =
-          dist > 0.0 ? Eigen::Matrix<double, N, 1>(-d / dist) : Eigen::Matrix<double, N, 1>::Zero();
-      ne.Add(j, dist - s(N));
+    double c[N];
+    for (int k = 0; k < N; ++k) c[k] = s(k) + origin_(k);
+    const double radius = s(N);
+    if constexpr (N == 2) {
+      if (projected_) {
+        LinearizeProjected(c, radius, &ne);
+        return ne.Finish(sink);
+      }
     }
+    const double* p = points_;
+    ne.AddRows(size_, [&](Eigen::Index first, int m, internal::RowChunk<kParams>& chunk) {
+      const double* q = p + N * first;
+#pragma omp simd
+      for (int i = 0; i < m; ++i) {
+        // Written out per dimension: an inner loop here stops GCC vectorising the outer one.
+        double d[N];
+        d[0] = q[N * i] - c[0];
+        d[1] = q[N * i + 1] - c[1];
+        double d2 = d[0] * d[0] + d[1] * d[1];
+        if constexpr (N == 3) d[2] = q[N * i + 2] - c[2], d2 += d[2] * d[2];
+        Row(d, d2, radius, i, chunk);
+      }
+    });
     return ne.Finish(sink);
   }
   State Update(const State& s, const State& delta) const { return s + delta; }
   double StepLength(const State& delta) const { return delta.norm(); }
   double Scale() const { return scale_; }
-  Eigen::Index Size() const { return points_.cols(); }
+  Eigen::Index Size() const { return size_; }
 
  private:
-  const PointsN<N>& points_;
+  // Jacobian row and residual of one point at offset d from the centre (|d|^2 = d2). A point
+  // exactly at the centre has no radial direction (d = 0 gives a zero row: it only informs the
+  // radius). Branch-free, so that the loop vectorises.
+  [[gnu::always_inline]] static void Row(
+      const double (&d)[N], double d2, double radius, int i, internal::RowChunk<kParams>& chunk) {
+    const double dist = std::sqrt(d2);
+    const double inv = 1.0 / std::max(dist, std::numeric_limits<double>::min());
+    chunk.j[0][i] = -d[0] * inv;
+    chunk.j[1][i] = -d[1] * inv;
+    if constexpr (N == 3) chunk.j[2][i] = -d[2] * inv;
+    chunk.j[N][i] = -1.0;
+    chunk.r[i] = dist - radius;
+  }
+
+  void LinearizeProjected(const double (&c)[N],
+                          double radius,
+                          internal::Accumulator<kParams>* ne) const {
+    const double* p = points_;
+    double b[2][3], o[3];
+    for (int k = 0; k < 3; ++k) b[0][k] = basis_(0, k), b[1][k] = basis_(1, k), o[k] = origin3_(k);
+    ne->AddRows(size_, [&](Eigen::Index first, int m, internal::RowChunk<kParams>& chunk) {
+      const double* q = p + 3 * first;
+#pragma omp simd
+      for (int i = 0; i < m; ++i) {
+        const double x = q[3 * i] - o[0], y = q[3 * i + 1] - o[1], z = q[3 * i + 2] - o[2];
+        double d[N];
+        d[0] = b[0][0] * x + b[0][1] * y + b[0][2] * z - c[0];
+        d[1] = b[1][0] * x + b[1][1] * y + b[1][2] * z - c[1];
+        Row(d, d[0] * d[0] + d[1] * d[1], radius, i, chunk);
+      }
+    });
+  }
+
+  const double* points_;  // N x size (or 3 x size when projected), column-major
+  Eigen::Index size_;
   Eigen::Matrix<double, N, 1> origin_;
   double scale_;
+  bool projected_ = false;
+  Eigen::Matrix<double, 2, 3> basis_ = Eigen::Matrix<double, 2, 3>::Zero();
+  Vec3 origin3_ = Vec3::Zero();
 };
 
 template <int N>
-Eigen::Matrix<double, N + 1, 1> KasaStart(const PointsN<N>& centred, const char* shape) {
-  Eigen::Matrix<double, N, 1> center;
+Eigen::Matrix<double, N + 1, 1> KasaStart(const PointsN<N>& points,
+                                          const Eigen::Matrix<double, N, 1>& centroid,
+                                          const char* shape) {
+  Eigen::Matrix<double, N, 1> center;  // relative to the centroid
   double radius = 0.0;
   bool ok = false;
   if constexpr (N == 2) {
-    ok = internal::KasaCircle(centred, &center, &radius);
+    ok = internal::KasaCircle(points, centroid, &center, &radius);
   } else {
-    ok = internal::KasaSphere(centred, &center, &radius);
+    ok = internal::KasaSphere(points, centroid, &center, &radius);
   }
   if (!ok) internal::ThrowDegenerate(shape, "no algebraic start");
   Eigen::Matrix<double, N + 1, 1> state;
@@ -103,50 +170,62 @@ struct NSphereSolution {
   Eigen::MatrixXd covariance;
 };
 
+// Least-squares circle/sphere in the coordinates of `m` (moments of all points): converged on
+// `coarse` (a subsample, or every point), then finished on every point by `full` when given.
 template <int N>
-NSphereSolution FitNSphere(const PointsN<N>& points, const FitOptions& options, const char* shape) {
-  options.Check();
-  internal::CheckPoints(points, N + 1, shape, false);
-  const auto m = internal::ComputeMoments<N>(points);
+NSphereSolution SolveNSphere(const PointsN<N>& coarse,
+                             const internal::Moments<N>& m,
+                             Eigen::Index count,
+                             const NSphereModel<N>* full,
+                             const FitOptions& options,
+                             const char* shape) {
   const auto ev = internal::SortedEigen<N>(m.scatter).eigenvalues();
   // Points in a subspace (collinear for a circle, coplanar for a sphere) fit a family of shapes.
   if (!(ev(0) > 1e-14 * ev(N - 1))) {
     internal::ThrowDegenerate(shape,
                               N == 2 ? "the points are collinear" : "the points are coplanar");
   }
-  const double scale = internal::DataScale<N>(m, points.cols());
-  // Start and converge on a subsample, then finish on every point.
-  const PointsN<N> coarse = internal::Subsample<N>(points, internal::kCoarsePoints);
-  const PointsN<N> coarse_centred = coarse.colwise() - m.centroid;
-  auto state = KasaStart<N>(coarse_centred, shape);
+  const double scale = internal::DataScale<N>(m, count);
+  auto state = KasaStart<N>(coarse, m.centroid, shape);
   NSphereModel<N> coarse_model(coarse, m.centroid, scale);
-  auto summary = internal::SolveLm(coarse_model, state, options.max_iterations);
+  internal::NormalEquations<N + 1> ne;
+  auto summary = internal::SolveLm(coarse_model, state, options.max_iterations, &ne);
   if (!summary.converged || !state.allFinite() || !(state(N) > 0.0)) {
     // Kasa's start fails on shallow arcs and caps whose form deviation exceeds their sagitta.
     // Fall back to circles/spheres tangent to the least-squares line/plane at the centroid, on
     // both sides and at several radii, and keep the best stationary point.
     summary = SolveFromTangentStarts<N>(coarse_model, m, scale, options.max_iterations, &state);
-  }
-  internal::NormalEquations<N + 1> ne;
-  if (coarse.cols() < points.cols()) {
-    NSphereModel<N> model(points, m.centroid, scale);
-    const int coarse_iterations = summary.iterations;
-    summary = internal::SolveLm(model, state, options.max_iterations, &ne);
-    summary.iterations += coarse_iterations;
-  } else {
     ne = coarse_model.Linearize(state);
+  }
+  if (full != nullptr) {
+    const int coarse_iterations = summary.iterations;
+    summary = internal::SolveLm(*full, state, options.max_iterations, &ne);
+    summary.iterations += coarse_iterations;
   }
   if (!summary.converged || !state.allFinite() || !(state(N) > 0.0)) {
     internal::ThrowNotConverged(shape, summary.iterations);
   }
   if (internal::IsRankDeficient(ne)) internal::ThrowDegenerate(shape, "parameters not separable");
-  const Eigen::Matrix<double, N, 1> center = state.template head<N>() + m.centroid;
   NSphereSolution sol;
-  sol.center = center;
+  sol.center = state.template head<N>() + m.centroid;
   sol.radius = state(N);
-  sol.stats = internal::StatsFrom(ne, points.cols(), summary.iterations);
-  sol.covariance = internal::CovarianceFrom(ne, static_cast<int>(points.cols()));
+  sol.stats = internal::StatsFrom(ne, count, summary.iterations);
+  sol.covariance = internal::CovarianceFrom(ne, static_cast<int>(count));
   return sol;
+}
+
+template <int N>
+NSphereSolution FitNSphere(const PointsN<N>& points, const FitOptions& options, const char* shape) {
+  options.Check();
+  internal::CheckPoints(points, N + 1, shape, false);
+  const auto m = internal::ComputeMoments<N>(points);
+  // Start and converge on a subsample, then finish on every point.
+  PointsN<N> storage;
+  const PointsN<N>& coarse = internal::SubsampleView<N>(points, internal::kCoarsePoints, &storage);
+  const double scale = internal::DataScale<N>(m, points.cols());
+  const NSphereModel<N> full(points, m.centroid, scale);
+  return SolveNSphere<N>(coarse, m, points.cols(), coarse.cols() < points.cols() ? &full : nullptr,
+                         options, shape);
 }
 
 }  // namespace
@@ -173,19 +252,38 @@ FitResult<Sphere> FitSphere(const Points3& points, const FitOptions& options) {
   return fit;
 }
 
+// The plane first, then the circle in plane coordinates (u, v through the centroid); the
+// circle model projects the points on the fly, so no projected copy of the cloud is made.
 FitResult<Circle3> FitCircle3(const Points3& points, const FitOptions& options) {
+  options.Check();
   internal::CheckPoints(points, 3, "circle", false);
-  const auto plane = internal::PlaneFromMoments(internal::ComputeMoments<3>(points), points.cols());
+  const auto m3 = internal::ComputeMoments<3>(points);
+  const auto plane = internal::PlaneFromMoments(m3, points.cols());
   const Vec3 u = plane.covariance.u;
   const Vec3 v = plane.covariance.v;
-  const Points2 in_plane = internal::ProjectOnPlane(points, plane);
-  const auto circle = FitCircle2(in_plane, options);
+  Eigen::Matrix<double, 2, 3> basis;
+  basis.row(0) = u.transpose();
+  basis.row(1) = v.transpose();
+  internal::Moments<2> m2;  // in plane coordinates: the centroid is their origin
+  m2.centroid = Vec2::Zero();
+  m2.scatter = basis * m3.scatter * basis.transpose();
+  Points3 storage;
+  const Points3& coarse3 = internal::SubsampleView<3>(points, internal::kCoarsePoints, &storage);
+  const Points2 coarse = (basis * coarse3).colwise() - basis * m3.centroid;
+  const double scale = internal::DataScale<2>(m2, points.cols());
+  const NSphereModel<2> full(points, basis, m3.centroid, scale);
+  const auto sol =
+      SolveNSphere<2>(coarse, m2, points.cols(), coarse3.cols() < points.cols() ? &full : nullptr,
+                      options, "circle");
   FitResult<Circle3> fit;
-  fit.shape.center = plane.shape.point + u * circle.shape.center.x() + v * circle.shape.center.y();
+  fit.shape.center = m3.centroid + u * sol.center(0) + v * sol.center(1);
   fit.shape.normal = plane.shape.normal;
-  fit.shape.radius = circle.shape.radius;
-  fit.stats = circle.stats;
-  fit.covariance = internal::TwoStageCovariance(plane, circle.covariance, {"center_u", "center_v"});
+  fit.shape.radius = sol.radius;
+  fit.stats = sol.stats;
+  Covariance in_plane;
+  in_plane.parameters = {"center_x", "center_y", "radius"};
+  in_plane.matrix = sol.covariance;
+  fit.covariance = internal::TwoStageCovariance(plane, in_plane, {"center_u", "center_v"});
   return fit;
 }
 
