@@ -9,6 +9,13 @@ namespace mlp::geometry::internal {
 /// the sums then keep their precision far from the origin); `center` is relative to `origin`.
 /// Returns false for collinear points.
 bool KasaCircle(const Points2& points, const Vec2& origin, Vec2* center, double* radius);
+/// Kasa's circle of 3D points projected on the fly to in-plane coordinates basis * (p - origin);
+/// `center` is in those coordinates.
+bool KasaCircleInPlane(const Points3& points,
+                       const Eigen::Matrix<double, 2, 3>& basis,
+                       const Vec3& origin,
+                       Vec2* center,
+                       double* radius);
 /// Kasa's sphere, as KasaCircle in 3D. Returns false for coplanar points.
 bool KasaSphere(const Points3& points, const Vec3& origin, Vec3* center, double* radius);
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <optional>
 
 #include "algebraic.h"
 #include "common.h"
@@ -43,8 +44,8 @@ class NSphereModel {
         basis_(basis),
         origin3_(origin3) {}
 
-  NormalEquations<kParams> Linearize(const State& s,
-                                     NormalEquations<kParams>* sink = nullptr) const {
+  MLP_DISPATCH NormalEquations<kParams> Linearize(const State& s,
+                                                  NormalEquations<kParams>* sink = nullptr) const {
     internal::Accumulator<kParams> ne(sink);
     double c[N];
     for (int k = 0; k < N; ++k) c[k] = s(k) + origin_(k);
@@ -91,9 +92,9 @@ class NSphereModel {
     chunk.r[i] = dist - radius;
   }
 
-  void LinearizeProjected(const double (&c)[N],
-                          double radius,
-                          internal::Accumulator<kParams>* ne) const {
+  [[gnu::always_inline]] void LinearizeProjected(const double (&c)[N],
+                                                 double radius,
+                                                 internal::Accumulator<kParams>* ne) const {
     const double* p = points_;
     double b[2][3], o[3];
     for (int k = 0; k < 3; ++k) b[0][k] = basis_(0, k), b[1][k] = basis_(1, k), o[k] = origin3_(k);
@@ -119,11 +120,11 @@ class NSphereModel {
   Vec3 origin3_ = Vec3::Zero();
 };
 
+// Kasa's circle/sphere as a state relative to `centroid`; empty when it has no solution.
 template <int N>
-Eigen::Matrix<double, N + 1, 1> KasaStart(const PointsN<N>& points,
-                                          const Eigen::Matrix<double, N, 1>& centroid,
-                                          const char* shape) {
-  Eigen::Matrix<double, N, 1> center;  // relative to the centroid
+std::optional<Eigen::Matrix<double, N + 1, 1>> KasaStart(
+    const PointsN<N>& points, const Eigen::Matrix<double, N, 1>& centroid) {
+  Eigen::Matrix<double, N, 1> center;
   double radius = 0.0;
   bool ok = false;
   if constexpr (N == 2) {
@@ -131,7 +132,7 @@ Eigen::Matrix<double, N + 1, 1> KasaStart(const PointsN<N>& points,
   } else {
     ok = internal::KasaSphere(points, centroid, &center, &radius);
   }
-  if (!ok) internal::ThrowDegenerate(shape, "no algebraic start");
+  if (!ok) return std::nullopt;
   Eigen::Matrix<double, N + 1, 1> state;
   state << center, radius;
   return state;
@@ -173,7 +174,8 @@ struct NSphereSolution {
 // Least-squares circle/sphere in the coordinates of `m` (moments of all points): converged on
 // `coarse` (a subsample, or every point), then finished on every point by `full` when given.
 template <int N>
-NSphereSolution SolveNSphere(const PointsN<N>& coarse,
+NSphereSolution SolveNSphere(const NSphereModel<N>& coarse_model,
+                             std::optional<Eigen::Matrix<double, N + 1, 1>> start,
                              const internal::Moments<N>& m,
                              Eigen::Index count,
                              const NSphereModel<N>* full,
@@ -185,9 +187,9 @@ NSphereSolution SolveNSphere(const PointsN<N>& coarse,
     internal::ThrowDegenerate(shape,
                               N == 2 ? "the points are collinear" : "the points are coplanar");
   }
+  if (!start) internal::ThrowDegenerate(shape, "no algebraic start");
   const double scale = internal::DataScale<N>(m, count);
-  auto state = KasaStart<N>(coarse, m.centroid, shape);
-  NSphereModel<N> coarse_model(coarse, m.centroid, scale);
+  auto state = *start;
   internal::NormalEquations<N + 1> ne;
   auto summary = internal::SolveLm(coarse_model, state, options.max_iterations, &ne);
   if (!summary.converged || !state.allFinite() || !(state(N) > 0.0)) {
@@ -224,8 +226,9 @@ NSphereSolution FitNSphere(const PointsN<N>& points, const FitOptions& options, 
   const PointsN<N>& coarse = internal::SubsampleView<N>(points, internal::kCoarsePoints, &storage);
   const double scale = internal::DataScale<N>(m, points.cols());
   const NSphereModel<N> full(points, m.centroid, scale);
-  return SolveNSphere<N>(coarse, m, points.cols(), coarse.cols() < points.cols() ? &full : nullptr,
-                         options, shape);
+  const NSphereModel<N> coarse_model(coarse, m.centroid, scale);
+  return SolveNSphere<N>(coarse_model, KasaStart<N>(coarse, m.centroid), m, points.cols(),
+                         coarse.cols() < points.cols() ? &full : nullptr, options, shape);
 }
 
 }  // namespace
@@ -269,12 +272,19 @@ FitResult<Circle3> FitCircle3(const Points3& points, const FitOptions& options) 
   m2.scatter = basis * m3.scatter * basis.transpose();
   Points3 storage;
   const Points3& coarse3 = internal::SubsampleView<3>(points, internal::kCoarsePoints, &storage);
-  const Points2 coarse = (basis * coarse3).colwise() - basis * m3.centroid;
   const double scale = internal::DataScale<2>(m2, points.cols());
+  const NSphereModel<2> coarse_model(coarse3, basis, m3.centroid, scale);
   const NSphereModel<2> full(points, basis, m3.centroid, scale);
+  // Kasa's circle of the coarse points, projected on the fly (no projected copy).
+  Vec2 kasa_center;
+  double kasa_radius = 0.0;
+  std::optional<Vec3> start;
+  if (internal::KasaCircleInPlane(coarse3, basis, m3.centroid, &kasa_center, &kasa_radius)) {
+    start = Vec3(kasa_center(0), kasa_center(1), kasa_radius);
+  }
   const auto sol =
-      SolveNSphere<2>(coarse, m2, points.cols(), coarse3.cols() < points.cols() ? &full : nullptr,
-                      options, "circle");
+      SolveNSphere<2>(coarse_model, start, m2, points.cols(),
+                      coarse3.cols() < points.cols() ? &full : nullptr, options, "circle");
   FitResult<Circle3> fit;
   fit.shape.center = m3.centroid + u * sol.center(0) + v * sol.center(1);
   fit.shape.normal = plane.shape.normal;

@@ -105,8 +105,6 @@ void AddSums(const PointSums3& block, PointSums3* total) {
 
 }  // namespace
 
-#define MLP_DISPATCH __attribute__((target_clones("arch=x86-64-v3", "default")))
-
 MLP_DISPATCH void AccumulateRows(const RowChunk<3>& c, int count, RowSums<3>* out) {
   AccumulateRowsImpl<3>(c, count, out);
 }

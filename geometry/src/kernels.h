@@ -7,6 +7,9 @@
 
 #include <cstdint>
 
+// An AVX2+FMA clone and a baseline one of a function, chosen once at load time (ifunc).
+#define MLP_DISPATCH __attribute__((target_clones("arch=x86-64-v3", "default")))
+
 namespace mlp::geometry::internal {
 
 // Jacobian rows are gathered in chunks of this many points, stored by parameter (structure of
