@@ -7,8 +7,14 @@
 
 #include <cstdint>
 
-// An AVX2+FMA clone and a baseline one of a function, chosen once at load time (ifunc).
+// An AVX2+FMA clone and a baseline one of a function, chosen once at load time (ifunc), on
+// x86-64 with GCC; elsewhere (the probe's ARMv8 board, clang) one portable build: the vector
+// types below are GCC/clang vector extensions, NEON on ARM, never x86 intrinsics.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define MLP_DISPATCH __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define MLP_DISPATCH
+#endif
 
 namespace mlp::geometry::internal {
 
