@@ -1,0 +1,109 @@
+#pragma once
+/// @file Typed, checked reads of JSON fields shared by the probe model and scene files: each
+/// throws `Error` (the caller's error type) naming the field, never a bare JSON exception.
+
+#include "mlp/geometry/types.h"
+
+#include <cmath>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace mlp::probe_fw::json_fields {
+
+using nlohmann::json;
+
+template <class Error>
+[[noreturn]] void Fail(const std::string& what) {
+  throw Error(what);
+}
+
+template <class Error>
+double Number(const json& j, const char* key, const std::string& where) {
+  if (!j.contains(key) || !j.at(key).is_number())
+    Fail<Error>(where + "." + key + " must be a number");
+  const double v = j.at(key).get<double>();
+  if (!std::isfinite(v)) Fail<Error>(where + "." + key + " must be finite");
+  return v;
+}
+
+template <class Error>
+double NumberOr(const json& j, const char* key, double fallback, const std::string& where) {
+  return j.contains(key) ? Number<Error>(j, key, where) : fallback;
+}
+
+template <class Error>
+int Integer(const json& j, const char* key, const std::string& where) {
+  if (!j.contains(key) || !j.at(key).is_number_integer()) {
+    Fail<Error>(where + "." + key + " must be an integer");
+  }
+  return j.at(key).get<int>();
+}
+
+template <class Error>
+std::string Text(const json& j, const char* key, const std::string& where) {
+  if (!j.contains(key) || !j.at(key).is_string())
+    Fail<Error>(where + "." + key + " must be a string");
+  return j.at(key).get<std::string>();
+}
+
+template <class Error>
+const json& Object(const json& j, const char* key, const std::string& where) {
+  if (!j.contains(key) || !j.at(key).is_object())
+    Fail<Error>(where + "." + key + " must be an object");
+  return j.at(key);
+}
+
+template <class Error>
+geometry::Vec3 Vector3(const json& j, const char* key, const std::string& where) {
+  const std::string name = where + "." + key;
+  if (!j.contains(key) || !j.at(key).is_array() || j.at(key).size() != 3) {
+    Fail<Error>(name + " must be an array of 3 numbers");
+  }
+  geometry::Vec3 v;
+  for (int k = 0; k < 3; ++k) {
+    if (!j.at(key)[k].is_number()) Fail<Error>(name + " must be an array of 3 numbers");
+    v(k) = j.at(key)[k].get<double>();
+  }
+  if (!v.allFinite()) Fail<Error>(name + " must be finite");
+  return v;
+}
+
+/// A pose: translation [mm] and rotation vector [rad] (axis times angle, as OpenCV's Rodrigues):
+/// no gimbal lock, and what calibration estimates.
+template <class Error>
+geometry::Pose3 Pose(const json& j, const std::string& where) {
+  const geometry::Vec3 t = Vector3<Error>(j, "translation_mm", where);
+  const geometry::Vec3 r = Vector3<Error>(j, "rotation_vector_rad", where);
+  geometry::Pose3 pose = geometry::Pose3::Identity();
+  const double angle = r.norm();
+  if (angle > 0.0) pose.linear() = Eigen::AngleAxisd(angle, r / angle).toRotationMatrix();
+  pose.translation() = t;
+  return pose;
+}
+
+inline nlohmann::ordered_json PoseToJson(const geometry::Pose3& pose) {
+  const Eigen::AngleAxisd aa(pose.linear());
+  const geometry::Vec3 r = aa.axis() * aa.angle();
+  const geometry::Vec3 t = pose.translation();
+  return {{"translation_mm", {t.x(), t.y(), t.z()}},
+          {"rotation_vector_rad", {r.x(), r.y(), r.z()}}};
+}
+
+/// Parses text into a JSON object whose "format" is `format`; throws Error otherwise.
+template <class Error>
+json ParseDocument(const std::string& text, const std::string& format, const std::string& what) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::parse_error& e) {
+    Fail<Error>(what + ": not valid JSON (" + e.what() + ")");
+  }
+  if (!j.is_object()) Fail<Error>(what + ": the document must be a JSON object");
+  if (!j.contains("format") || j.at("format") != format) {
+    Fail<Error>(what + ": format must be \"" + format + "\" (a newer file needs a newer program)");
+  }
+  return j;
+}
+
+}  // namespace mlp::probe_fw::json_fields

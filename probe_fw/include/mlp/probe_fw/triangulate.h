@@ -1,0 +1,33 @@
+#pragma once
+/// @file From stripe centres to points: the camera ray through the (undistorted) stripe centre
+/// meets the light plane of the projector column lit in that frame (the projector as an inverse
+/// camera: DIGEST 004 section 3).
+
+#include "mlp/probe_fw/frame.h"
+#include "mlp/probe_fw/probe_model.h"
+#include "mlp/probe_fw/stripe.h"
+
+#include <vector>
+
+namespace mlp::probe_fw {
+
+struct CloudPoint {
+  Vec3 point_in_probe = Vec3::Zero();  ///< [mm]
+  double quality = 0.0;                ///< 0..1, from the stripe
+  double x_px = 0.0;                   ///< where it was seen (distorted sensor coordinates)
+  int y_px = 0;
+  double column = 0.0;  ///< projector column of its frame
+};
+
+/// The point where the ray through sensor pixel (x_px, y_px) meets the light plane of `column`.
+/// Throws std::domain_error when the ray is (nearly) parallel to the plane.
+Vec3 Triangulate(const ProbeModel& model, double x_px, double y_px, double column);
+
+/// Stripe extraction and triangulation over every laser frame of a sweep.
+std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
+                                         const std::vector<Frame>& laser_frames,
+                                         const RowMask& mask,
+                                         const StripeOptions& options,
+                                         StripeCounts* counts);
+
+}  // namespace mlp::probe_fw

@@ -1,0 +1,76 @@
+#pragma once
+/// @file The virtual probe: renders the frames a real probe would take of a scene, from the same
+/// probe model the firmware uses, and knows the truth behind every pixel.
+///
+/// Physics per pixel (docs/VIRTUAL_PROBE.md): the camera ray through the distorted pixel centre
+/// meets the workpiece (occlusion from the camera); the surface point is lit by the laser unless
+/// the workpiece blocks the projector (shadowing), with Lambertian irradiance cos(incidence) x
+/// reflectance; the laser sheet is Gaussian in projector columns and integrated over the pixel
+/// width along the row; multiplicative speckle; shop light; shot noise (Gaussian approximation of
+/// Poisson) and read noise in electrons; gain to full scale at the full well; quantisation and
+/// saturation at the camera's bit depth. Deterministic for a given seed, frame by frame.
+
+#include "mlp/probe_fw/frame.h"
+#include "mlp/probe_fw/probe_model.h"
+#include "mlp/sim/scene.h"
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace mlp::sim {
+
+struct SweepOptions {
+  probe_fw::Aoi aoi;          ///< the window read out
+  double first_column = 0.0;  ///< projector column of the first laser frame
+  double last_column = 0.0;   ///< inclusive
+  double column_step = 1.0;   ///< > 0
+  std::uint64_t seed = 1;
+  bool noise = true;  ///< false: noiseless frames (no speckle, shot or read noise)
+};
+
+/// What lies behind one pixel centre.
+struct PixelTruth {
+  bool hit = false;  ///< the camera ray meets the workpiece
+  bool lit = false;  ///< ... and the projector sees that point
+  Vec3 point_in_probe = Vec3::Zero();
+  double projector_column = 0.0;
+};
+
+struct RenderedCapture {
+  probe_fw::Frame led;
+  std::vector<probe_fw::Frame> laser;
+  std::vector<PixelTruth> truth;  ///< AOI pixels, row-major
+};
+
+class VirtualProbe {
+ public:
+  VirtualProbe(probe_fw::ProbeModel model, Scene scene);
+
+  const probe_fw::ProbeModel& model() const { return model_; }
+  const Scene& scene() const { return scene_; }
+  Pose3 McsFromProbe(const Capture& capture) const {
+    return capture.mcs_from_flange * scene_.flange_from_probe;
+  }
+
+  /// The LED frame and one laser frame per projector column of the sweep.
+  RenderedCapture Render(const Capture& capture, const SweepOptions& options) const;
+
+  /// Surface point (probe frame) seen through a continuous distorted pixel position, if any.
+  std::optional<Vec3> SurfaceAt(const Capture& capture, const geometry::Vec2& pixel) const;
+  /// True centre of the stripe of projector column `column` on sensor row `row`, between sensor
+  /// columns x_begin and x_end: where the sheet's centre plane crosses the row (bisection to
+  /// 1e-6 px on exact ray casts). Empty when the stripe is not on that stretch of row, or is
+  /// shadowed there.
+  std::optional<double> TrueStripeCentre(
+      const Capture& capture, double column, int row, int x_begin, int x_end) const;
+
+ private:
+  struct Pixel;
+  Pixel Trace(const Pose3& mcs_from_probe, const geometry::Vec2& pixel) const;
+
+  probe_fw::ProbeModel model_;
+  Scene scene_;
+};
+
+}  // namespace mlp::sim

@@ -1,0 +1,90 @@
+#pragma once
+/// @file The virtual probe's world: a workpiece as constructive solid geometry (CSG) of
+/// half-spaces, boxes, spheres, cylinders and cones, each with a Lambertian reflectance; where
+/// the probe is mounted on the flange; and the flange pose of each capture. File format:
+/// docs/SCENE.md. Ray casting follows Roth, "Ray casting for modeling solids" (CGIP 18, 1982):
+/// every solid returns the intervals of a ray inside it, and CSG combines interval lists.
+
+#include "mlp/geometry/types.h"
+
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace mlp::sim {
+
+using geometry::Pose3;
+using geometry::Vec3;
+
+struct Ray {
+  Vec3 origin;
+  Vec3 direction;  ///< unit
+};
+
+/// Where a ray crosses the boundary of a solid: ray parameter [mm], outward unit normal of the
+/// solid there, reflectance of that surface (0..1).
+struct SurfaceHit {
+  double t = 0.0;
+  Vec3 normal = Vec3::Zero();
+  double reflectance = 0.0;
+};
+
+/// One interval of the ray inside a solid (t may be +-infinity for unbounded solids).
+struct Span {
+  SurfaceHit in, out;
+};
+
+class Solid {
+ public:
+  virtual ~Solid() = default;
+  /// Appends the sorted, disjoint spans of `ray` inside the solid.
+  virtual void Spans(const Ray& ray, std::vector<Span>* out) const = 0;
+};
+
+using SolidPtr = std::shared_ptr<const Solid>;
+
+/// Solid side n.(x - point) <= 0 of a plane (its face looks along `normal`).
+SolidPtr MakeHalfspace(const Vec3& point, const Vec3& normal, double reflectance);
+/// Axis-aligned box.
+SolidPtr MakeBox(const Vec3& min_corner, const Vec3& max_corner, double reflectance);
+SolidPtr MakeSphere(const Vec3& center, double radius, double reflectance);
+/// Capped cylinder (radius_top == radius_base) or cone frustum from `base` along `axis`.
+SolidPtr MakeRevolution(const Vec3& base,
+                        const Vec3& axis,
+                        double length,
+                        double radius_base,
+                        double radius_top,
+                        double reflectance);
+SolidPtr MakeUnion(std::vector<SolidPtr> parts);
+SolidPtr MakeIntersection(std::vector<SolidPtr> parts);
+/// `a` minus every solid of `b`.
+SolidPtr MakeDifference(SolidPtr a, std::vector<SolidPtr> b);
+
+struct Capture {
+  std::string id;
+  Pose3 mcs_from_flange = Pose3::Identity();  ///< H, as the NC reports it
+};
+
+struct Scene {
+  SolidPtr workpiece;
+  Pose3 flange_from_probe = Pose3::Identity();  ///< the true mounting M (calibration's target)
+  std::vector<Capture> captures;
+
+  /// First surface the ray meets beyond t_min.
+  std::optional<SurfaceHit> FirstHit(const Ray& ray_in_mcs, double t_min = 1e-6) const;
+  /// True when the segment from `from` to `to` (MCS) passes through the workpiece, ignoring the
+  /// first and last `margin_mm` (the surfaces the segment starts or ends on).
+  bool Blocked(const Vec3& from, const Vec3& to, double margin_mm = 1e-4) const;
+};
+
+class SceneError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+Scene ParseScene(const std::string& json_text);
+Scene LoadScene(const std::string& path);
+
+}  // namespace mlp::sim

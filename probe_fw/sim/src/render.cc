@@ -1,0 +1,230 @@
+#include "mlp/sim/render.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+
+namespace mlp::sim {
+
+using geometry::Vec2;
+using probe_fw::Frame;
+
+// Everything about one pixel that does not depend on the laser column.
+struct VirtualProbe::Pixel {
+  bool hit = false, lit = false;
+  Vec3 point_in_probe = Vec3::Zero();
+  double reflectance = 0.0;
+  double cos_incidence = 0.0;  // surface normal vs direction to the projector
+  double cos_view = 0.0;       // surface normal vs direction to the camera (the LED ring)
+  double projector_column = 0.0;
+};
+
+namespace {
+
+// Shop light falls on the far background too, which reflects little of it back.
+constexpr double kBackgroundFactor = 0.02;
+
+// Standard normal deviates by Box-Muller on mt19937_64: std::normal_distribution's algorithm is
+// not fixed by the standard, and frames must be identical for a seed on every platform.
+class Gaussian {
+ public:
+  explicit Gaussian(std::uint64_t seed) : engine_(seed) {}
+  double operator()() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    constexpr double kScale = 1.0 / 9007199254740992.0;  // 2^-53
+    const double u1 = (static_cast<double>(engine_() >> 11) + 0.5) * kScale;
+    const double u2 = static_cast<double>(engine_() >> 11) * kScale;
+    const double r = std::sqrt(-2.0 * std::log(u1));
+    spare_ = r * std::sin(2.0 * M_PI * u2);
+    has_spare_ = true;
+    return r * std::cos(2.0 * M_PI * u2);
+  }
+
+ private:
+  std::mt19937_64 engine_;
+  double spare_ = 0.0;
+  bool has_spare_ = false;
+};
+
+// SplitMix64 (Steele et al. 2014): independent seeds per frame from one user seed.
+std::uint64_t FrameSeed(std::uint64_t seed, std::uint64_t frame) {
+  std::uint64_t z = seed + 0x9e3779b97f4a7c15ULL * (frame + 1);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+// Mean of exp(-2 (a + b s)^2 / w^2) over s in [-1/2, 1/2]: the laser sheet's Gaussian integrated
+// across the pixel's width along the row, a = column offset at the pixel centre, b = d column /
+// d pixel.
+double PixelAveragedSheet(double a, double b, double w) {
+  if (std::abs(a) > 4.0 * w + std::abs(b)) return 0.0;
+  if (std::abs(b) < 1e-6 * w) return std::exp(-2.0 * a * a / (w * w));
+  const double k = std::sqrt(2.0) / w;
+  return (std::sqrt(M_PI / 8.0) * w / b) *
+         (std::erf(k * (a + 0.5 * b)) - std::erf(k * (a - 0.5 * b)));
+}
+
+void CheckSweep(const probe_fw::ProbeModel& model, const SweepOptions& o) {
+  const auto& c = model.camera;
+  if (o.aoi.width <= 0 || o.aoi.height <= 0 || o.aoi.x0 < 0 || o.aoi.y0 < 0 ||
+      o.aoi.x0 + o.aoi.width > c.width_px || o.aoi.y0 + o.aoi.height > c.height_px) {
+    throw std::invalid_argument("sweep: the AOI must lie inside the sensor");
+  }
+  if (!(o.column_step > 0.0) || !(o.last_column >= o.first_column) || o.first_column < 0.0 ||
+      o.last_column > model.projector.columns - 1) {
+    throw std::invalid_argument(
+        "sweep: columns must satisfy 0 <= first <= last < columns, step > 0");
+  }
+}
+
+}  // namespace
+
+VirtualProbe::VirtualProbe(probe_fw::ProbeModel model, Scene scene)
+    : model_(std::move(model)), scene_(std::move(scene)) {
+  model_.Validate();
+  if (!scene_.workpiece) throw SceneError("scene: no workpiece");
+}
+
+VirtualProbe::Pixel VirtualProbe::Trace(const Pose3& mcs_from_probe, const Vec2& pixel) const {
+  Pixel px;
+  const Vec2 xy = model_.camera.Undistort(pixel);
+  const Vec3 dir_probe = Vec3(xy.x(), xy.y(), 1.0).normalized();
+  const Ray ray{mcs_from_probe.translation(), mcs_from_probe.linear() * dir_probe};
+  const auto hit = scene_.FirstHit(ray);
+  if (!hit) return px;
+  px.hit = true;
+  const Vec3 point_mcs = ray.origin + hit->t * ray.direction;
+  const Vec3 normal_probe = mcs_from_probe.linear().transpose() * hit->normal;
+  px.point_in_probe = hit->t * dir_probe;
+  px.reflectance = hit->reflectance;
+  px.cos_view = std::max(0.0, -normal_probe.dot(dir_probe));
+  px.projector_column = model_.projector.ColumnOf(px.point_in_probe);
+  const Vec3 to_projector = model_.projector.Center() - px.point_in_probe;
+  px.cos_incidence = normal_probe.dot(to_projector.normalized());
+  const Vec3 projector_mcs = mcs_from_probe * model_.projector.Center();
+  px.lit = px.cos_incidence > 0.0 && !scene_.Blocked(point_mcs, projector_mcs);
+  return px;
+}
+
+std::optional<Vec3> VirtualProbe::SurfaceAt(const Capture& capture, const Vec2& pixel) const {
+  const Pixel px = Trace(McsFromProbe(capture), pixel);
+  if (!px.hit) return std::nullopt;
+  return px.point_in_probe;
+}
+
+std::optional<double> VirtualProbe::TrueStripeCentre(
+    const Capture& capture, double column, int row, int x_begin, int x_end) const {
+  const Pose3 pose = McsFromProbe(capture);
+  auto offset = [&](double x, bool* ok) {
+    const Pixel px = Trace(pose, Vec2(x, row));
+    *ok = px.hit && px.lit;
+    return px.projector_column - column;
+  };
+  bool ok_prev = false;
+  double f_prev = offset(x_begin, &ok_prev);
+  for (int x = x_begin + 1; x < x_end; ++x) {
+    bool ok = false;
+    const double f = offset(x, &ok);
+    if (ok && ok_prev && (f_prev <= 0.0) != (f <= 0.0) && std::abs(f - f_prev) < 10.0) {
+      double lo = x - 1, hi = x, f_lo = f_prev;
+      while (hi - lo > 1e-6) {
+        const double mid = 0.5 * (lo + hi);
+        bool ok_mid = false;
+        const double f_mid = offset(mid, &ok_mid);
+        if (!ok_mid) return std::nullopt;
+        if ((f_mid <= 0.0) == (f_lo <= 0.0))
+          lo = mid, f_lo = f_mid;
+        else
+          hi = mid;
+      }
+      return 0.5 * (lo + hi);
+    }
+    f_prev = f, ok_prev = ok;
+  }
+  return std::nullopt;
+}
+
+RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions& o) const {
+  CheckSweep(model_, o);
+  const Pose3 pose = McsFromProbe(capture);
+  const int w = o.aoi.width, h = o.aoi.height;
+  const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
+  std::vector<Pixel> pixels(n);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      pixels[static_cast<size_t>(y) * w + x] = Trace(pose, Vec2(o.aoi.x0 + x, o.aoi.y0 + y));
+    }
+  }
+  // d(projector column)/d(pixel) along each row, for the pixel-width integration of the sheet:
+  // the one-sided difference of smaller magnitude, so a depth step (a neighbour on another
+  // surface) does not widen the stripe.
+  std::vector<double> slope(n, 0.0);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      if (!pixels[i].hit) continue;
+      double best = INFINITY;
+      for (int side : {-1, 1}) {
+        const int xn = x + side;
+        if (xn < 0 || xn >= w || !pixels[i + side].hit) continue;
+        const double s = side * (pixels[i + side].projector_column - pixels[i].projector_column);
+        if (std::abs(s) < std::abs(best)) best = s;
+      }
+      slope[i] = std::isfinite(best) ? best : 0.0;
+    }
+  }
+  const auto& noise = model_.noise;
+  const double gain_dn_per_e = model_.camera.MaxLevel() / noise.full_well_e;
+  auto make_frame = [&](double laser_column, std::uint64_t index, auto signal_e) {
+    Frame f;
+    f.aoi = o.aoi;
+    f.bit_depth = model_.camera.bit_depth;
+    f.laser_column = laser_column;
+    f.pixels.resize(n);
+    Gaussian gauss(FrameSeed(o.seed, index));
+    for (size_t i = 0; i < n; ++i) {
+      double e = signal_e(i, gauss);
+      if (o.noise)
+        e += gauss() * std::sqrt(std::max(e, 0.0) + noise.read_noise_e * noise.read_noise_e);
+      const double dn = std::round(e * gain_dn_per_e);
+      f.pixels[i] =
+          static_cast<std::uint16_t>(std::clamp(dn, 0.0, double(model_.camera.MaxLevel())));
+    }
+    return f;
+  };
+  auto ambient = [&](const Pixel& p) {
+    return noise.ambient_e * (p.hit ? p.reflectance : kBackgroundFactor);
+  };
+  RenderedCapture out;
+  out.led = make_frame(-1.0, 0, [&](size_t i, Gaussian&) {
+    const Pixel& p = pixels[i];
+    return ambient(p) + (p.hit ? noise.led_e * p.reflectance * p.cos_view : 0.0);
+  });
+  const double sheet = model_.laser.sheet_halfwidth_cols;
+  std::uint64_t index = 1;
+  for (double column = o.first_column; column <= o.last_column + 1e-9; column += o.column_step) {
+    out.laser.push_back(make_frame(column, index++, [&](size_t i, Gaussian& gauss) {
+      const Pixel& p = pixels[i];
+      double e = ambient(p);
+      if (!p.lit) return e;
+      const double g = PixelAveragedSheet(p.projector_column - column, slope[i], sheet);
+      if (g <= 0.0) return e;
+      double speckle = 1.0;
+      if (o.noise) speckle = std::max(0.0, 1.0 + noise.speckle_contrast * gauss());
+      return e + noise.laser_peak_e * p.reflectance * p.cos_incidence * g * speckle;
+    }));
+  }
+  out.truth.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    out.truth[i] = {pixels[i].hit, pixels[i].lit, pixels[i].point_in_probe,
+                    pixels[i].projector_column};
+  }
+  return out;
+}
+
+}  // namespace mlp::sim

@@ -1,0 +1,125 @@
+#include "mlp/sim/scene.h"
+
+#include "mlp/probe_fw/json_fields.h"
+
+#include <fstream>
+#include <sstream>
+
+namespace mlp::sim {
+namespace {
+
+using nlohmann::json;
+namespace jf = probe_fw::json_fields;
+
+constexpr double kDefaultReflectance = 0.5;
+
+[[noreturn]] void Fail(const std::string& what) { throw SceneError("scene: " + what); }
+
+double Positive(const json& j, const char* key, const std::string& where) {
+  const double v = jf::Number<SceneError>(j, key, "scene: " + where);
+  if (!(v > 0.0)) Fail(where + "." + key + " must be positive");
+  return v;
+}
+
+Vec3 Vector(const json& j, const char* key, const std::string& where) {
+  return jf::Vector3<SceneError>(j, key, "scene: " + where);
+}
+
+Vec3 Direction(const json& j, const char* key, const std::string& where) {
+  const Vec3 v = Vector(j, key, where);
+  if (!(v.norm() > 1e-12)) Fail(where + "." + key + " must not be the zero vector");
+  return v.normalized();
+}
+
+SolidPtr ParseNode(const json& node, const std::string& where);
+
+std::vector<SolidPtr> ParseList(const json& list, const std::string& where) {
+  if (!list.is_array() || list.empty()) Fail(where + " must be a non-empty array of solids");
+  std::vector<SolidPtr> parts;
+  for (size_t i = 0; i < list.size(); ++i) {
+    parts.push_back(ParseNode(list[i], where + "[" + std::to_string(i) + "]"));
+  }
+  return parts;
+}
+
+SolidPtr ParsePrimitive(const std::string& kind, const json& p, double refl, const std::string& w) {
+  if (kind == "halfspace") {
+    return MakeHalfspace(Vector(p, "point", w), Direction(p, "normal", w), refl);
+  }
+  if (kind == "box") {
+    const Vec3 lo = Vector(p, "min", w), hi = Vector(p, "max", w);
+    if (!(lo.array() < hi.array()).all()) Fail(w + ": min must be below max on every axis");
+    return MakeBox(lo, hi, refl);
+  }
+  if (kind == "sphere") {
+    return MakeSphere(Vector(p, "center", w), Positive(p, "radius", w), refl);
+  }
+  if (kind == "cylinder") {
+    const double r = Positive(p, "radius", w);
+    return MakeRevolution(Vector(p, "base", w), Direction(p, "axis", w), Positive(p, "length", w),
+                          r, r, refl);
+  }
+  if (kind == "cone") {
+    return MakeRevolution(Vector(p, "base", w), Direction(p, "axis", w), Positive(p, "length", w),
+                          Positive(p, "radius_base", w), Positive(p, "radius_top", w), refl);
+  }
+  Fail(w + ": unknown solid \"" + kind + "\"");
+}
+
+SolidPtr ParseNode(const json& node, const std::string& where) {
+  if (!node.is_object()) Fail(where + " must be an object");
+  for (const char* op : {"union", "intersection", "difference"}) {
+    if (!node.contains(op)) continue;
+    auto parts = ParseList(node.at(op), where + "." + op);
+    if (std::string(op) == "union") return MakeUnion(std::move(parts));
+    if (std::string(op) == "intersection") return MakeIntersection(std::move(parts));
+    if (parts.size() < 2) Fail(where + ".difference needs a solid and at least one to subtract");
+    SolidPtr first = parts.front();
+    parts.erase(parts.begin());
+    return MakeDifference(first, std::move(parts));
+  }
+  const double refl =
+      jf::NumberOr<SceneError>(node, "reflectance", kDefaultReflectance, "scene: " + where);
+  if (refl < 0.0 || refl > 1.0) Fail(where + ".reflectance must be in [0, 1]");
+  for (const char* kind : {"halfspace", "box", "sphere", "cylinder", "cone"}) {
+    if (node.contains(kind)) {
+      return ParsePrimitive(kind, node.at(kind), refl, where + "." + kind);
+    }
+  }
+  Fail(where +
+       ": expected one of halfspace, box, sphere, cylinder, cone, union, intersection, "
+       "difference");
+}
+
+}  // namespace
+
+Scene ParseScene(const std::string& json_text) {
+  const json j = jf::ParseDocument<SceneError>(json_text, "mlprobe-scene/1", "scene");
+  Scene scene;
+  scene.workpiece = ParseNode(jf::Object<SceneError>(j, "workpiece", "scene"), "workpiece");
+  scene.flange_from_probe = jf::Pose<SceneError>(
+      jf::Object<SceneError>(j, "flange_from_probe", "scene"), "scene: flange_from_probe");
+  if (!j.contains("captures") || !j.at("captures").is_array() || j.at("captures").empty()) {
+    Fail("captures must be a non-empty array");
+  }
+  for (size_t i = 0; i < j.at("captures").size(); ++i) {
+    const json& c = j.at("captures")[i];
+    const std::string where = "scene: captures[" + std::to_string(i) + "]";
+    Capture capture;
+    capture.id = jf::Text<SceneError>(c, "id", where);
+    capture.mcs_from_flange =
+        jf::Pose<SceneError>(jf::Object<SceneError>(c, "mcs_from_flange", where), where);
+    scene.captures.push_back(capture);
+  }
+  return scene;
+}
+
+Scene LoadScene(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) Fail("cannot open " + path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseScene(text.str());
+}
+
+}  // namespace mlp::sim

@@ -1,0 +1,197 @@
+#include "mlp/probe_fw/probe_model.h"
+
+#include "mlp/probe_fw/json_fields.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+namespace mlp::probe_fw {
+namespace {
+
+using nlohmann::json;
+using nlohmann::ordered_json;
+namespace jf = json_fields;
+
+[[noreturn]] void Fail(const std::string& what) { throw ProbeModelError("probe model: " + what); }
+
+double Number(const json& j, const char* key, const std::string& where) {
+  return jf::Number<ProbeModelError>(j, key, "probe model: " + where);
+}
+int Integer(const json& j, const char* key, const std::string& where) {
+  return jf::Integer<ProbeModelError>(j, key, "probe model: " + where);
+}
+const json& Object(const json& j, const char* key) {
+  return jf::Object<ProbeModelError>(j, key, "probe model");
+}
+
+void Require(bool ok, const std::string& what) {
+  if (!ok) Fail(what);
+}
+
+}  // namespace
+
+Vec2 CameraModel::Project(const Vec3& p) const {
+  const double x = p.x() / p.z(), y = p.y() / p.z();
+  const double r2 = x * x + y * y;
+  const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+  const double xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+  const double yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+  return {fx_px * xd + cx_px, fy_px * yd + cy_px};
+}
+
+Vec2 CameraModel::Undistort(const Vec2& pixel) const {
+  const Vec2 target((pixel.x() - cx_px) / fx_px, (pixel.y() - cy_px) / fy_px);
+  Vec2 q = target;  // distortion of a lens is a small perturbation: the distorted point starts it
+  for (int it = 0; it < 20; ++it) {
+    const double x = q.x(), y = q.y(), r2 = x * x + y * y;
+    const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    const double dradial = k1 + r2 * (2.0 * k2 + 3.0 * r2 * k3);  // d radial / d r2
+    const Vec2 f(x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) - target.x(),
+                 y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y - target.y());
+    Eigen::Matrix2d jac;
+    jac(0, 0) = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x;
+    jac(0, 1) = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
+    jac(1, 0) = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
+    jac(1, 1) = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x;
+    const Vec2 step = jac.partialPivLu().solve(f);
+    q -= step;
+    if (step.norm() < 1e-14) break;
+  }
+  return q;
+}
+
+double ProjectorModel::ColumnOf(const Vec3& point_in_probe) const {
+  const Vec3 q = camera_from_projector.inverse() * point_in_probe;
+  return c_px + f_px * q.x() / q.z();
+}
+
+void ProjectorModel::PlaneOf(double column, Vec3* normal_in_probe, double* offset_mm) const {
+  // In the projector frame the plane holds the y axis and the direction ((u - c) / f, 0, 1).
+  const Vec3 n_proj = Vec3(1.0, 0.0, -(column - c_px) / f_px).normalized();
+  *normal_in_probe = camera_from_projector.linear() * n_proj;
+  *offset_mm = normal_in_probe->dot(camera_from_projector.translation());
+}
+
+void ProbeModel::Validate() const {
+  const auto& c = camera;
+  Require(!serial.empty(), "serial must not be empty");
+  Require(c.width_px >= 16 && c.width_px <= 16384, "camera.width_px must be 16..16384");
+  Require(c.height_px >= 16 && c.height_px <= 16384, "camera.height_px must be 16..16384");
+  Require(c.bit_depth >= 8 && c.bit_depth <= 16, "camera.bit_depth must be 8..16");
+  Require(c.pixel_pitch_mm > 0.0 && c.pixel_pitch_mm < 0.1,
+          "camera.pixel_pitch_mm must be in (0, 0.1)");
+  Require(c.fx_px > 0.0 && c.fy_px > 0.0, "camera.fx_px and fy_px must be positive");
+  Require(std::abs(c.k1) < 10 && std::abs(c.k2) < 100 && std::abs(c.k3) < 1000 &&
+              std::abs(c.p1) < 1 && std::abs(c.p2) < 1,
+          "camera distortion coefficients are out of any lens's range");
+  const auto& p = projector;
+  Require(p.f_px > 0.0, "projector.f_px must be positive");
+  Require(p.columns >= 2 && p.columns <= 1 << 20, "projector.columns must be 2..2^20");
+  Require(p.camera_from_projector.translation().norm() > 1.0,
+          "projector baseline must exceed 1 mm (no triangulation without it)");
+  Require(laser.sheet_halfwidth_cols > 0.0, "laser.sheet_halfwidth_cols must be positive");
+  const auto& n = noise;
+  Require(n.full_well_e > 0.0, "noise.full_well_e must be positive");
+  Require(n.read_noise_e >= 0.0 && n.laser_peak_e >= 0.0 && n.led_e >= 0.0 && n.ambient_e >= 0.0,
+          "noise levels must be non-negative");
+  Require(n.speckle_contrast >= 0.0 && n.speckle_contrast < 1.0,
+          "noise.speckle_contrast must be in [0, 1)");
+}
+
+ProbeModel ParseProbeModel(const std::string& json_text) {
+  const json j =
+      jf::ParseDocument<ProbeModelError>(json_text, "mlprobe-probe-model/1", "probe model");
+  ProbeModel m;
+  m.serial = jf::Text<ProbeModelError>(j, "serial", "probe model");
+  m.calibration_id = jf::Text<ProbeModelError>(j, "calibration_id", "probe model");
+  const json& c = Object(j, "camera");
+  m.camera.width_px = Integer(c, "width_px", "camera");
+  m.camera.height_px = Integer(c, "height_px", "camera");
+  m.camera.bit_depth = Integer(c, "bit_depth", "camera");
+  m.camera.pixel_pitch_mm = Number(c, "pixel_pitch_mm", "camera");
+  m.camera.fx_px = Number(c, "fx_px", "camera");
+  m.camera.fy_px = Number(c, "fy_px", "camera");
+  m.camera.cx_px = Number(c, "cx_px", "camera");
+  m.camera.cy_px = Number(c, "cy_px", "camera");
+  const json& d = Object(c, "distortion");
+  m.camera.k1 = Number(d, "k1", "camera.distortion");
+  m.camera.k2 = Number(d, "k2", "camera.distortion");
+  m.camera.p1 = Number(d, "p1", "camera.distortion");
+  m.camera.p2 = Number(d, "p2", "camera.distortion");
+  m.camera.k3 = Number(d, "k3", "camera.distortion");
+  const json& p = Object(j, "projector");
+  m.projector.f_px = Number(p, "f_px", "projector");
+  m.projector.c_px = Number(p, "c_px", "projector");
+  m.projector.columns = Integer(p, "columns", "projector");
+  m.projector.camera_from_projector = jf::Pose<ProbeModelError>(
+      Object(p, "camera_from_projector"), "probe model: projector.camera_from_projector");
+  const json& l = Object(j, "laser");
+  m.laser.wavelength_nm = Number(l, "wavelength_nm", "laser");
+  m.laser.sheet_halfwidth_cols = Number(l, "sheet_halfwidth_cols", "laser");
+  const json& n = Object(j, "noise");
+  m.noise.full_well_e = Number(n, "full_well_e", "noise");
+  m.noise.read_noise_e = Number(n, "read_noise_e", "noise");
+  m.noise.laser_peak_e = Number(n, "laser_peak_e", "noise");
+  m.noise.led_e = Number(n, "led_e", "noise");
+  m.noise.ambient_e = Number(n, "ambient_e", "noise");
+  m.noise.speckle_contrast = Number(n, "speckle_contrast", "noise");
+  m.noise.stripe_centre_noise_px = Number(n, "stripe_centre_noise_px", "noise");
+  m.Validate();
+  return m;
+}
+
+ProbeModel LoadProbeModel(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) Fail("cannot open " + path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseProbeModel(text.str());
+}
+
+std::string ToJson(const ProbeModel& m) {
+  const auto& c = m.camera;
+  ordered_json j;
+  j["format"] = "mlprobe-probe-model/1";
+  j["serial"] = m.serial;
+  j["calibration_id"] = m.calibration_id;
+  j["camera"] = {
+      {"width_px", c.width_px},
+      {"height_px", c.height_px},
+      {"bit_depth", c.bit_depth},
+      {"pixel_pitch_mm", c.pixel_pitch_mm},
+      {"fx_px", c.fx_px},
+      {"fy_px", c.fy_px},
+      {"cx_px", c.cx_px},
+      {"cy_px", c.cy_px},
+      {"distortion", {{"k1", c.k1}, {"k2", c.k2}, {"p1", c.p1}, {"p2", c.p2}, {"k3", c.k3}}}};
+  j["projector"] = {{"f_px", m.projector.f_px},
+                    {"c_px", m.projector.c_px},
+                    {"columns", m.projector.columns},
+                    {"camera_from_projector", jf::PoseToJson(m.projector.camera_from_projector)}};
+  j["laser"] = {{"wavelength_nm", m.laser.wavelength_nm},
+                {"sheet_halfwidth_cols", m.laser.sheet_halfwidth_cols}};
+  j["noise"] = {{"full_well_e", m.noise.full_well_e},
+                {"read_noise_e", m.noise.read_noise_e},
+                {"laser_peak_e", m.noise.laser_peak_e},
+                {"led_e", m.noise.led_e},
+                {"ambient_e", m.noise.ambient_e},
+                {"speckle_contrast", m.noise.speckle_contrast},
+                {"stripe_centre_noise_px", m.noise.stripe_centre_noise_px}};
+  return j.dump(2) + "\n";
+}
+
+void SaveProbeModel(const ProbeModel& model, const std::string& path) {
+  model.Validate();
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << ToJson(model);
+    out.flush();
+    if (!out) Fail("cannot write " + tmp);
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) Fail("cannot rename " + tmp + " to " + path);
+}
+
+}  // namespace mlp::probe_fw

@@ -1,0 +1,47 @@
+#include "mlp/probe_fw/triangulate.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace mlp::probe_fw {
+
+Vec3 Triangulate(const ProbeModel& model, double x_px, double y_px, double column) {
+  const Vec2 xy = model.camera.Undistort(Vec2(x_px, y_px));
+  const Vec3 ray(xy.x(), xy.y(), 1.0);
+  Vec3 normal;
+  double offset = 0.0;
+  model.projector.PlaneOf(column, &normal, &offset);
+  const double denom = normal.dot(ray);
+  // Below 1e-3 the ray grazes the plane (triangulation angle < 0.06 deg): no depth resolution.
+  if (!(std::abs(denom) > 1e-3 * ray.norm())) {
+    throw std::domain_error("triangulate: camera ray parallel to the light plane");
+  }
+  return (offset / denom) * ray;
+}
+
+std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
+                                         const std::vector<Frame>& laser_frames,
+                                         const RowMask& mask,
+                                         const StripeOptions& options,
+                                         StripeCounts* counts) {
+  std::vector<CloudPoint> cloud;
+  std::vector<StripePoint> stripe;
+  for (const Frame& frame : laser_frames) {
+    if (!frame.IsLaser()) continue;
+    stripe.clear();
+    ExtractStripe(frame, mask, options, &stripe, counts);
+    for (const StripePoint& s : stripe) {
+      CloudPoint p;
+      p.point_in_probe = Triangulate(model, s.x_px, s.y_px, frame.laser_column);
+      if (!(p.point_in_probe.z() > 0.0)) continue;  // behind the camera: not a real surface
+      p.quality = s.quality;
+      p.x_px = s.x_px;
+      p.y_px = s.y_px;
+      p.column = frame.laser_column;
+      cloud.push_back(p);
+    }
+  }
+  return cloud;
+}
+
+}  // namespace mlp::probe_fw

@@ -1,0 +1,113 @@
+// The probe model file: round trip, camera math, and typed errors naming the bad field.
+
+#include "mlp/probe_fw/probe_model.h"
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <gtest/gtest.h>
+
+namespace mlp::probe_fw {
+namespace {
+
+const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+TEST(ProbeModel, ReferenceProbeMatchesDesign) {
+  const ProbeModel m = LoadProbeModel(kReference);
+  EXPECT_EQ(m.camera.width_px, 2048);
+  EXPECT_EQ(m.camera.height_px, 1536);
+  // DESIGN.md: ~26 um per pixel at the 120 mm working distance, baseline ~60 mm.
+  EXPECT_NEAR(120.0 / m.camera.fx_px * 1e3, 25.9, 0.1);
+  EXPECT_NEAR(m.projector.camera_from_projector.translation().norm(), 60.0, 1e-9);
+  // The projector's axis meets the camera's at the working distance (triangulation ~26.6 deg).
+  EXPECT_NEAR(m.projector.ColumnOf(Vec3(0, 0, 120)), m.projector.c_px, 0.05);
+}
+
+TEST(ProbeModel, JsonRoundTripIsExact) {
+  const ProbeModel a = LoadProbeModel(kReference);
+  const ProbeModel b = ParseProbeModel(ToJson(a));
+  EXPECT_EQ(ToJson(a), ToJson(b));
+  EXPECT_EQ(b.camera.k2, a.camera.k2);
+  EXPECT_TRUE(b.projector.camera_from_projector.isApprox(a.projector.camera_from_projector, 1e-15));
+}
+
+TEST(ProbeModel, UndistortInvertsProjectAcrossTheSensor) {
+  const ProbeModel m = LoadProbeModel(kReference);
+  std::mt19937 gen(5);
+  std::uniform_real_distribution<double> u(0.0, 2047.0), v(0.0, 1535.0);
+  for (int i = 0; i < 1000; ++i) {
+    const Vec2 pixel(u(gen), v(gen));
+    const Vec2 xy = m.camera.Undistort(pixel);
+    const Vec2 back = m.camera.Project(Vec3(xy.x(), xy.y(), 1.0) * 117.0);
+    ASSERT_NEAR((back - pixel).norm(), 0.0, 1e-9) << pixel.transpose();  // px
+  }
+}
+
+TEST(ProbeModel, LightPlaneContainsItsColumn) {
+  const ProbeModel m = LoadProbeModel(kReference);
+  for (double column : {0.0, 100.5, 511.5, 1023.0}) {
+    Vec3 n;
+    double d = 0.0;
+    m.projector.PlaneOf(column, &n, &d);
+    // Two points of the plane at different depths project to the same column.
+    const Vec3 a = n.cross(Vec3::UnitY()).normalized();
+    const Vec3 p0 = n * d;
+    for (double s : {100.0, 140.0}) {
+      const Vec3 p = p0 + a * (s - p0.dot(a)) + Vec3::UnitY() * 5.0;
+      EXPECT_NEAR(m.projector.ColumnOf(p), column, 1e-9);
+    }
+  }
+}
+
+void ExpectError(const std::string& text, const std::string& field) {
+  try {
+    ParseProbeModel(text);
+    ADD_FAILURE() << "accepted: " << field;
+  } catch (const ProbeModelError& e) {
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+  }
+}
+
+TEST(ProbeModel, BadFilesNameTheField) {
+  const std::string good = ReadFile(kReference);
+  auto replace = [&](const std::string& from, const std::string& to) {
+    std::string s = good;
+    const auto at = s.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return s.replace(at, from.size(), to);
+  };
+  ExpectError("{", "not valid JSON");
+  ExpectError("[]", "JSON object");
+  ExpectError(replace("mlprobe-probe-model/1", "mlprobe-probe-model/2"), "format");
+  ExpectError(replace("\"fx_px\": 4637.681", "\"fx_px\": -1"), "fx_px");
+  ExpectError(replace("\"bit_depth\": 8", "\"bit_depth\": 7"), "bit_depth");
+  ExpectError(replace("\"bit_depth\": 8", "\"bit_depth\": 8.5"), "bit_depth");
+  ExpectError(replace("\"columns\": 1024", "\"columns\": \"many\""), "columns");
+  ExpectError(replace("[60.0, 0.0, 0.0]", "[0.1, 0.0, 0.0]"), "baseline");
+  ExpectError(replace("\"speckle_contrast\": 0.08", "\"speckle_contrast\": 1.5"), "speckle");
+  ExpectError(replace("\"serial\": \"MLP-REF-0001\"", "\"serial\": \"\""), "serial");
+}
+
+TEST(ProbeModel, SaveWritesAtomicallyAndRefusesInvalid) {
+  const auto dir = std::filesystem::temp_directory_path() / "mlp_probe_model_test";
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "probe.json").string();
+  ProbeModel m = LoadProbeModel(kReference);
+  SaveProbeModel(m, path);
+  EXPECT_EQ(ToJson(LoadProbeModel(path)), ToJson(m));
+  const std::string before = ReadFile(path);
+  m.camera.fx_px = 0.0;
+  EXPECT_THROW(SaveProbeModel(m, path), ProbeModelError);
+  EXPECT_EQ(ReadFile(path), before);  // nothing changed
+  EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace mlp::probe_fw
