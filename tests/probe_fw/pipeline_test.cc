@@ -134,3 +134,101 @@ TEST(Pipeline, RenderingIsDeterministicPerSeed) {
 
 }  // namespace
 }  // namespace mlp::sim
+
+namespace mlp::sim {
+namespace {
+
+// Issue 3: a bore reconstructed and fitted to within 2 um of its true diameter.
+constexpr double kBoreDiameterMm = 0.002;
+
+// A capture looking into the bore at its wall sector at angle theta + 180 deg, with the camera
+// tilted 30 deg from the bore axis (the probe's mounting on a 3-axis machine; the spindle's
+// orientation turns it around the bore). Camera x points towards the projector.
+Capture WallCapture(double theta_rad, double radius_mm, const std::string& id) {
+  const Vec3 radial(std::cos(theta_rad), std::sin(theta_rad), 0.0);
+  const Vec3 wall = -radius_mm * radial + Vec3(0, 0, -12.0);
+  const double tilt = 30.0 * M_PI / 180.0;
+  const Vec3 z_cam = (-std::sin(tilt) * radial - std::cos(tilt) * Vec3::UnitZ()).normalized();
+  const Vec3 x_cam = (std::cos(tilt) * radial - std::sin(tilt) * Vec3::UnitZ()).normalized();
+  Capture c;
+  c.id = id;
+  c.mcs_from_flange.linear() << x_cam, z_cam.cross(x_cam), z_cam;
+  c.mcs_from_flange.translation() = wall - 120.0 * z_cam;
+  return c;
+}
+
+// Projector columns that reach the AOI: those of the surface under its corners and centre.
+void ColumnRange(const VirtualProbe& probe,
+                 const Capture& c,
+                 const probe_fw::Aoi& aoi,
+                 double* first,
+                 double* last) {
+  *first = INFINITY, *last = -INFINITY;
+  for (int dx : {0, aoi.width / 2, aoi.width - 1}) {
+    for (int dy : {0, aoi.height / 2, aoi.height - 1}) {
+      const auto p = probe.SurfaceAt(c, geometry::Vec2(aoi.x0 + dx, aoi.y0 + dy));
+      if (!p) continue;
+      const double col = probe.model().projector.ColumnOf(*p);
+      *first = std::min(*first, col), *last = std::max(*last, col);
+    }
+  }
+  *first = std::max(0.0, std::floor(*first) - 3.0);
+  *last = std::min(probe.model().projector.columns - 1.0, std::ceil(*last) + 3.0);
+}
+
+// Diameter error [mm] of a bore of `radius` (30 mm deep) measured from four wall captures.
+double BoreDiameterError(double radius, size_t* wall_count, double* rms_mm) {
+  Scene scene;
+  scene.workpiece =
+      MakeDifference(MakeBox({-50, -50, -30}, {50, 50, 0}, 0.6),
+                     {MakeRevolution({0, 0, -31}, {0, 0, 1}, 32, radius, radius, 0.6)});
+  for (int k = 0; k < 4; ++k) {
+    scene.captures.push_back(WallCapture(k * M_PI / 2, radius, "wall" + std::to_string(k)));
+  }
+  const VirtualProbe probe(probe_fw::LoadProbeModel(kReference), scene);
+  std::vector<Vec3> wall_points;
+  for (const Capture& c : probe.scene().captures) {
+    SweepOptions o;
+    o.aoi = {874, 668, 300, 200};
+    ColumnRange(probe, c, o.aoi, &o.first_column, &o.last_column);
+    o.column_step = 2.0;
+    o.seed = 7;
+    const RenderedCapture r = probe.Render(c, o);
+    probe_fw::StripeCounts counts;
+    const auto cloud = probe_fw::ReconstructSweep(probe.model(), r.laser,
+                                                  probe_fw::RowMask::Full(o.aoi), {}, &counts);
+    // Segmentation by the nominal (CAD) geometry, as an inspection plan does: a 0.5 mm band
+    // around the nominal wall, away from the rim and the bottom.
+    const Pose3 mcs_from_probe = probe.McsFromProbe(c);
+    for (const CloudPoint& p : cloud) {
+      const Vec3 q = mcs_from_probe * p.point_in_probe;
+      if (std::abs(q.head<2>().norm() - radius) < 0.5 && q.z() < -1.0 && q.z() > -29.0) {
+        wall_points.push_back(q);
+      }
+    }
+  }
+  *wall_count = wall_points.size();
+  geometry::Points3 pts(3, static_cast<Eigen::Index>(wall_points.size()));
+  for (size_t i = 0; i < wall_points.size(); ++i) {
+    pts.col(static_cast<Eigen::Index>(i)) = wall_points[i];
+  }
+  const auto fit = geometry::FitCylinder(pts);
+  *rms_mm = fit.stats.rms;
+  return 2.0 * fit.shape.radius - 2.0 * radius;
+}
+
+TEST(Pipeline, BoreDiametersFromFourWallCaptures) {
+  for (double diameter : {20.0, 40.0, 60.0}) {
+    SCOPED_TRACE(diameter);
+    size_t n = 0;
+    double rms_mm = 0.0;
+    const double error_mm = BoreDiameterError(diameter / 2.0, &n, &rms_mm);
+    std::printf("bore %.0f mm: %zu wall points, diameter error %.3f um, rms %.2f um\n", diameter, n,
+                error_mm * 1e3, rms_mm * 1e3);
+    EXPECT_GT(n, 4000u);
+    EXPECT_LT(std::abs(error_mm), kBoreDiameterMm);
+  }
+}
+
+}  // namespace
+}  // namespace mlp::sim
