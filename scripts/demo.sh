@@ -21,3 +21,12 @@ run plane --method minzone samples/clouds/top_face.xyz
 echo
 echo "== Real sensor cloud (PCL test data, metres): robust plane"
 run plane --method robust --units m ../shared/data/pcl/sac_plane_test.pcd
+echo
+echo "== Virtual probe -> firmware -> fit: the sample block's top face, 120 mm below the probe"
+cap=$(mktemp -d)
+build/bin/mlp-sim render --probe samples/probes/reference_probe.json \
+  --scene samples/scenes/bore_block.json --capture top_face --aoi 824,568,400,400 --out "$cap"
+build/bin/mlp-fw run --probe samples/probes/reference_probe.json --frames "$cap" --roi full \
+  --out "$cap/cloud.ply"
+run plane "$cap/cloud.ply"
+rm -rf "$cap"

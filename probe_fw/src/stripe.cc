@@ -34,9 +34,13 @@ double Centroid(const Span& s, int centre, int half, double bg) {
   return mass > 0.0 ? moment / mass : centre;
 }
 
-enum class Verdict { kPoint, kWeak, kSaturated, kDoublePeak, kTooWide };
+enum class Verdict { kPoint, kWeak, kSaturated, kDoublePeak, kTooWide, kCut };
 
 Verdict Judge(const Span& s, int peak, double bg, int max_level, const StripeOptions& o) {
+  // The window and its background pixels must lie inside the ROI: a stripe cut by the ROI's
+  // edge has a one-sided centre of mass (biased by up to half its width).
+  const int margin = o.window_half_px + 2;
+  if (peak - margin < s.begin || peak + margin >= s.end) return Verdict::kCut;
   const double amplitude = s.row[peak] - bg;
   if (amplitude < o.min_amplitude_dn) return Verdict::kWeak;
   const int reach = 3 * o.window_half_px;
@@ -92,13 +96,17 @@ void ScanSpan(const Span& s,
       case Verdict::kTooWide:
         ++counts->too_wide;
         continue;
+      case Verdict::kCut:
+        ++counts->cut;
+        continue;
       case Verdict::kPoint:
         break;
     }
     // Re-centre the window once on the first estimate: removes the bias of a window that is
     // off-centre by up to half a pixel.
     const double first = Centroid(s, peak, o.window_half_px, bg);
-    const int centre = static_cast<int>(std::lround(first));
+    const int centre = std::clamp(static_cast<int>(std::lround(first)),
+                                  s.begin + o.window_half_px + 2, s.end - o.window_half_px - 3);
     const double bg2 = LocalBackground(s, centre, o.window_half_px);
     const double x_aoi = Centroid(s, centre, o.window_half_px, bg2);
     const double amplitude = s.row[peak] - bg2;

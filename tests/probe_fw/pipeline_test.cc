@@ -157,25 +157,6 @@ Capture WallCapture(double theta_rad, double radius_mm, const std::string& id) {
   return c;
 }
 
-// Projector columns that reach the AOI: those of the surface under its corners and centre.
-void ColumnRange(const VirtualProbe& probe,
-                 const Capture& c,
-                 const probe_fw::Aoi& aoi,
-                 double* first,
-                 double* last) {
-  *first = INFINITY, *last = -INFINITY;
-  for (int dx : {0, aoi.width / 2, aoi.width - 1}) {
-    for (int dy : {0, aoi.height / 2, aoi.height - 1}) {
-      const auto p = probe.SurfaceAt(c, geometry::Vec2(aoi.x0 + dx, aoi.y0 + dy));
-      if (!p) continue;
-      const double col = probe.model().projector.ColumnOf(*p);
-      *first = std::min(*first, col), *last = std::max(*last, col);
-    }
-  }
-  *first = std::max(0.0, std::floor(*first) - 3.0);
-  *last = std::min(probe.model().projector.columns - 1.0, std::ceil(*last) + 3.0);
-}
-
 // Diameter error [mm] of a bore of `radius` (30 mm deep) measured from four wall captures.
 double BoreDiameterError(double radius, size_t* wall_count, double* rms_mm) {
   Scene scene;
@@ -190,7 +171,7 @@ double BoreDiameterError(double radius, size_t* wall_count, double* rms_mm) {
   for (const Capture& c : probe.scene().captures) {
     SweepOptions o;
     o.aoi = {874, 668, 300, 200};
-    ColumnRange(probe, c, o.aoi, &o.first_column, &o.last_column);
+    probe.ColumnsReaching(c, o.aoi, &o.first_column, &o.last_column);
     o.column_step = 2.0;
     o.seed = 7;
     const RenderedCapture r = probe.Render(c, o);

@@ -117,6 +117,24 @@ std::optional<Vec3> VirtualProbe::SurfaceAt(const Capture& capture, const Vec2& 
   return px.point_in_probe;
 }
 
+void VirtualProbe::ColumnsReaching(const Capture& capture,
+                                   const probe_fw::Aoi& aoi,
+                                   double* first,
+                                   double* last) const {
+  *first = INFINITY, *last = -INFINITY;
+  for (int dx : {0, aoi.width / 2, aoi.width - 1}) {
+    for (int dy : {0, aoi.height / 2, aoi.height - 1}) {
+      const auto p = SurfaceAt(capture, Vec2(aoi.x0 + dx, aoi.y0 + dy));
+      if (!p) continue;
+      const double column = model_.projector.ColumnOf(*p);
+      *first = std::min(*first, column), *last = std::max(*last, column);
+    }
+  }
+  if (!std::isfinite(*first)) throw SceneError("scene: the AOI sees no surface of the workpiece");
+  *first = std::clamp(std::floor(*first) - 3.0, 0.0, model_.projector.columns - 1.0);
+  *last = std::clamp(std::ceil(*last) + 3.0, *first, model_.projector.columns - 1.0);
+}
+
 std::optional<double> VirtualProbe::TrueStripeCentre(
     const Capture& capture, double column, int row, int x_begin, int x_end) const {
   const Pose3 pose = McsFromProbe(capture);

@@ -6,7 +6,8 @@
 /// every run of pixels above a threshold is a candidate; its centre is the centre of mass of the
 /// background-subtracted intensities in a window of +-3 sigma around the peak, re-centred once
 /// (removes the window's truncation bias). Candidates that are saturated, double-peaked
-/// (a reflection beside the stripe) or wider than the sheet allows are rejected and counted.
+/// (a reflection beside the stripe), wider than the sheet allows or cut by the ROI's edge are
+/// rejected and counted.
 
 #include "mlp/probe_fw/frame.h"
 
@@ -41,6 +42,7 @@ struct StripePoint {
 
 struct StripeCounts {
   std::uint64_t rows = 0, points = 0, weak = 0, saturated = 0, double_peak = 0, too_wide = 0;
+  std::uint64_t cut = 0;  ///< window not inside the ROI: cut by its edge
 };
 
 /// Appends the stripe centres found in `frame` within `mask` to `out`.

@@ -56,6 +56,13 @@ class VirtualProbe {
   /// The LED frame and one laser frame per projector column of the sweep.
   RenderedCapture Render(const Capture& capture, const SweepOptions& options) const;
 
+  /// Projector columns whose light can reach the AOI: those of the surface under its corners,
+  /// edge midpoints and centre, widened by 3 columns. Throws SceneError when none is seen.
+  void ColumnsReaching(const Capture& capture,
+                       const probe_fw::Aoi& aoi,
+                       double* first,
+                       double* last) const;
+
   /// Surface point (probe frame) seen through a continuous distorted pixel position, if any.
   std::optional<Vec3> SurfaceAt(const Capture& capture, const geometry::Vec2& pixel) const;
   /// True centre of the stripe of projector column `column` on sensor row `row`, between sensor

@@ -1,0 +1,19 @@
+#pragma once
+/// @file The firmware's cloud as a file: binary little-endian PLY with float x y z [mm, probe
+/// frame] and float quality (0..1); probe serial, calibration and capture id in comments. Float
+/// keeps 8 nm at 120 mm, below any probe's resolution, and PCL and `mlp fit` read it.
+
+#include "mlp/probe_fw/frame_io.h"
+#include "mlp/probe_fw/triangulate.h"
+
+#include <string>
+#include <vector>
+
+namespace mlp::probe_fw {
+
+/// Writes atomically (temporary file + rename). Throws FrameIoError.
+void WriteCloudPly(const std::string& path,
+                   const std::vector<CloudPoint>& cloud,
+                   const CaptureMeta& meta);
+
+}  // namespace mlp::probe_fw

@@ -1,0 +1,21 @@
+#pragma once
+/// @file `mlp-fw run`: frames (a capture directory or a V4L2 camera) -> ROI -> stripe centres ->
+/// triangulation -> PLY cloud in the probe frame. docs/CLI.md has the contract.
+
+#include "mlp/probe_fw/frame.h"
+#include "mlp/probe_fw/stripe.h"
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace mlp::probe_fw {
+
+/// ROI_SPEC: "full" (the whole AOI of the frames) or "rect:x0,y0,width,height" (sensor pixels,
+/// clipped to the AOI). Throws cli::UsageError.
+RowMask ParseRoi(const std::string& spec, const Aoi& aoi);
+
+/// Runs `mlp-fw <args>`; returns the exit code (cli::kExit*).
+int RunFwCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+
+}  // namespace mlp::probe_fw

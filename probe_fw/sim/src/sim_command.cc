@@ -1,0 +1,165 @@
+#include "mlp/sim/sim_command.h"
+
+#include "mlp/probe_fw/cli.h"
+#include "mlp/probe_fw/cloud_io.h"
+#include "mlp/probe_fw/frame_io.h"
+#include "mlp/probe_fw/json_fields.h"
+#include "mlp/sim/render.h"
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+
+namespace mlp::sim {
+namespace {
+
+using probe_fw::cli::UsageError;
+
+constexpr const char* kUsage =
+    "usage: mlp-sim render --probe PROBE_FILE --scene SCENE_FILE --out DIR [--seed N]\n"
+    "                      [--capture ID] [--aoi X0,Y0,W,H] [--columns FIRST:LAST:STEP]\n"
+    "                      [--format png|pgm] [--noiseless] [--json]\n"
+    "  --capture   which capture of the scene (default: the first)\n"
+    "  --aoi       sensor window read out (default: 512 x 512 at the centre)\n"
+    "  --columns   laser sweep in projector columns (default: every 2nd column reaching the AOI)\n"
+    "writes DIR/frames.json, DIR/led.*, DIR/laser_NNNN.*, DIR/truth.json, DIR/truth_surface.ply\n"
+    "exit codes: 0 written, 2 bad arguments or input, 1 bug\n";
+
+const Capture& FindCapture(const Scene& scene, const std::string& id) {
+  if (id.empty()) return scene.captures.front();
+  for (const Capture& c : scene.captures) {
+    if (c.id == id) return c;
+  }
+  throw UsageError("the scene has no capture '" + id + "'");
+}
+
+probe_fw::Aoi DefaultAoi(const probe_fw::CameraModel& camera) {
+  const int w = std::min(512, camera.width_px), h = std::min(512, camera.height_px);
+  return {(camera.width_px - w) / 2, (camera.height_px - h) / 2, w, h};
+}
+
+void WriteTruth(const std::string& dir,
+                const VirtualProbe& probe,
+                const Capture& capture,
+                const SweepOptions& o,
+                const RenderedCapture& r) {
+  namespace jf = probe_fw::json_fields;
+  nlohmann::ordered_json j;
+  j["format"] = "mlprobe-truth/1";
+  j["probe_serial"] = probe.model().serial;
+  j["capture_id"] = capture.id;
+  j["seed"] = o.seed;
+  j["noise"] = o.noise;
+  j["mcs_from_flange"] = jf::PoseToJson(capture.mcs_from_flange);
+  j["flange_from_probe"] = jf::PoseToJson(probe.scene().flange_from_probe);
+  j["mcs_from_probe"] = jf::PoseToJson(probe.McsFromProbe(capture));
+  j["aoi"] = {o.aoi.x0, o.aoi.y0, o.aoi.width, o.aoi.height};
+  j["columns"] = {o.first_column, o.last_column, o.column_step};
+  std::vector<probe_fw::CloudPoint> surface;
+  for (size_t i = 0; i < r.truth.size(); ++i) {
+    if (!r.truth[i].hit || !r.truth[i].lit) continue;
+    probe_fw::CloudPoint p;
+    p.point_in_probe = r.truth[i].point_in_probe;
+    p.quality = 1.0;
+    surface.push_back(p);
+  }
+  j["surface_points"] = surface.size();
+  j["surface_file"] = "truth_surface.ply";
+  probe_fw::WriteCloudPly(dir + "/truth_surface.ply", surface,
+                          {probe.model().serial, probe.model().calibration_id, capture.id});
+  std::ofstream out(dir + "/truth.json", std::ios::trunc);
+  out << j.dump(2) << "\n";
+  if (!out) throw probe_fw::FrameIoError("frames: cannot write " + dir + "/truth.json");
+}
+
+int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const probe_fw::cli::Options o(
+      args,
+      {"--probe", "--scene", "--out", "--seed", "--capture", "--aoi", "--columns", "--format"},
+      {"--noiseless", "--json"});
+  const auto start = std::chrono::steady_clock::now();
+  const VirtualProbe probe(probe_fw::LoadProbeModel(o.Required("--probe")),
+                           LoadScene(o.Required("--scene")));
+  const std::string dir = o.Required("--out");
+  const std::string format = o.Get("--format", "png");
+  if (format != "png" && format != "pgm") throw UsageError("--format is png or pgm");
+  const Capture& capture = FindCapture(probe.scene(), o.Get("--capture", ""));
+  SweepOptions sweep;
+  sweep.aoi = o.Has("--aoi") ? probe_fw::cli::ParseAoi(o.Get("--aoi", ""))
+                             : DefaultAoi(probe.model().camera);
+  const double seed = o.Number("--seed", 1.0);
+  if (seed < 0 || seed != std::floor(seed) || seed > 9e15)
+    throw UsageError("--seed is a whole number");
+  sweep.seed = static_cast<std::uint64_t>(seed);
+  sweep.noise = !o.Has("--noiseless");
+  if (o.Has("--columns")) {
+    char c1 = 0, c2 = 0;
+    const std::string text = o.Get("--columns", "");
+    if (std::sscanf(text.c_str(), "%lf%c%lf%c%lf", &sweep.first_column, &c1, &sweep.last_column,
+                    &c2, &sweep.column_step) != 5 ||
+        c1 != ':' || c2 != ':') {
+      throw UsageError("--columns is FIRST:LAST:STEP, got '" + text + "'");
+    }
+  } else {
+    probe.ColumnsReaching(capture, sweep.aoi, &sweep.first_column, &sweep.last_column);
+    sweep.column_step = 2.0;
+  }
+  err << "mlp-sim: rendering capture '" << capture.id << "', AOI " << sweep.aoi.width << " x "
+      << sweep.aoi.height << ", columns " << sweep.first_column << " to " << sweep.last_column
+      << " step " << sweep.column_step << "\n";
+  RenderedCapture r = probe.Render(capture, sweep);
+  std::vector<probe_fw::Frame> frames{r.led};
+  frames.insert(frames.end(), r.laser.begin(), r.laser.end());
+  probe_fw::WriteCaptureDir(dir, {probe.model().serial, probe.model().calibration_id, capture.id},
+                            frames, "." + format);
+  WriteTruth(dir, probe, capture, sweep, r);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (o.Has("--json")) {
+    out << nlohmann::ordered_json{{"out", dir},
+                                  {"capture_id", capture.id},
+                                  {"frames", frames.size()},
+                                  {"aoi",
+                                   {sweep.aoi.x0, sweep.aoi.y0, sweep.aoi.width, sweep.aoi.height}},
+                                  {"seconds", seconds}}
+               .dump(2)
+        << "\n";
+  } else {
+    out << "mlp-sim: " << frames.size() << " frames (1 LED, " << r.laser.size()
+        << " laser) and ground truth -> " << dir << " in " << seconds << " s\n";
+  }
+  return probe_fw::cli::kExitOk;
+}
+
+}  // namespace
+
+int RunSimCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  if (args.empty() || args[0] != "render") {
+    const bool help = !args.empty() && args[0] == "--help";
+    (help ? out : err) << kUsage;
+    return help ? probe_fw::cli::kExitOk : probe_fw::cli::kExitBadInput;
+  }
+  try {
+    return Render({args.begin() + 1, args.end()}, out, err);
+  } catch (const UsageError& e) {
+    err << "mlp-sim: " << e.what() << "\n" << kUsage;
+    return probe_fw::cli::kExitBadInput;
+  } catch (const probe_fw::ProbeModelError& e) {
+    err << "mlp-sim: " << e.what() << "\n";
+    return probe_fw::cli::kExitBadInput;
+  } catch (const SceneError& e) {
+    err << "mlp-sim: " << e.what() << "\n";
+    return probe_fw::cli::kExitBadInput;
+  } catch (const std::invalid_argument& e) {
+    err << "mlp-sim: " << e.what() << "\n";
+    return probe_fw::cli::kExitBadInput;
+  } catch (const probe_fw::FrameIoError& e) {
+    err << "mlp-sim: " << e.what() << "\n";
+    return probe_fw::cli::kExitBadInput;
+  } catch (const std::exception& e) {
+    err << "mlp-sim: internal error: " << e.what() << "\n";
+    return probe_fw::cli::kExitFailure;
+  }
+}
+
+}  // namespace mlp::sim

@@ -1,0 +1,177 @@
+#include "mlp/probe_fw/frame_io.h"
+
+#include "mlp/probe_fw/json_fields.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+namespace mlp::probe_fw {
+namespace {
+
+namespace jf = json_fields;
+using nlohmann::json;
+
+[[noreturn]] void Fail(const std::string& what) { throw FrameIoError("frames: " + what); }
+
+std::string Extension(const std::string& path) {
+  return std::filesystem::path(path).extension().string();
+}
+
+void WritePgm(const Frame& f, const std::string& path) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  const int maxval = (1 << f.bit_depth) - 1;
+  out << "P5\n" << f.aoi.width << " " << f.aoi.height << "\n" << maxval << "\n";
+  if (maxval < 256) {
+    for (std::uint16_t v : f.pixels) out.put(static_cast<char>(v));
+  } else {
+    for (std::uint16_t v : f.pixels)
+      out.put(static_cast<char>(v >> 8)), out.put(static_cast<char>(v & 0xff));
+  }
+  if (!out) Fail("cannot write " + path);
+}
+
+// Skips whitespace and '#' comments between PGM header fields (Netpbm's definition).
+int HeaderInt(std::istream& in, const std::string& path) {
+  int value = -1;
+  while (in >> std::ws && in.peek() == '#') in.ignore(1 << 20, '\n');
+  if (!(in >> value) || value <= 0) Fail(path + ": bad PGM header");
+  return value;
+}
+
+void ReadPgm(const std::string& path, Frame* f) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) Fail("cannot open " + path);
+  std::string magic;
+  in >> magic;
+  if (magic != "P5") Fail(path + ": not a binary PGM (P5)");
+  const int w = HeaderInt(in, path), h = HeaderInt(in, path), maxval = HeaderInt(in, path);
+  if (w > 16384 || h > 16384 || maxval > 65535) Fail(path + ": image too large");
+  in.get();  // the single whitespace after maxval
+  f->aoi.width = w, f->aoi.height = h;
+  f->bit_depth = std::max(8, static_cast<int>(std::ceil(std::log2(maxval + 1.0))));
+  f->pixels.resize(static_cast<size_t>(w) * static_cast<size_t>(h));
+  for (auto& v : f->pixels) {
+    if (maxval < 256) {
+      v = static_cast<std::uint8_t>(in.get());
+    } else {
+      const int hi = in.get(), lo = in.get();
+      v = static_cast<std::uint16_t>((hi << 8) | lo);
+    }
+  }
+  if (!in) Fail(path + ": truncated PGM");
+}
+
+}  // namespace
+
+void WriteImage(const Frame& f, const std::string& path) {
+  if (f.pixels.size() != static_cast<size_t>(f.aoi.width) * static_cast<size_t>(f.aoi.height)) {
+    Fail("frame size does not match its AOI");
+  }
+  const std::string ext = Extension(path);
+  if (ext == ".pgm") return WritePgm(f, path);
+  if (ext != ".png") Fail(path + ": use .pgm or .png");
+  cv::Mat image(f.aoi.height, f.aoi.width, f.bit_depth > 8 ? CV_16UC1 : CV_8UC1);
+  for (int y = 0; y < f.aoi.height; ++y) {
+    for (int x = 0; x < f.aoi.width; ++x) {
+      if (f.bit_depth > 8)
+        image.at<std::uint16_t>(y, x) = f.At(x, y);
+      else
+        image.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(f.At(x, y));
+    }
+  }
+  if (!cv::imwrite(path, image)) Fail("cannot write " + path);
+}
+
+void ReadImage(const std::string& path, Frame* f) {
+  const std::string ext = Extension(path);
+  if (ext == ".pgm") return ReadPgm(path, f);
+  if (ext != ".png") Fail(path + ": use .pgm or .png");
+  const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (image.empty()) Fail("cannot read " + path);
+  if (image.channels() != 1) Fail(path + ": not a grey image");
+  f->aoi.width = image.cols, f->aoi.height = image.rows;
+  f->pixels.resize(static_cast<size_t>(image.cols) * static_cast<size_t>(image.rows));
+  const bool wide = image.depth() == CV_16U;
+  if (!wide && image.depth() != CV_8U) Fail(path + ": 8 or 16 bit grey expected");
+  for (int y = 0; y < image.rows; ++y) {
+    for (int x = 0; x < image.cols; ++x) {
+      f->pixels[static_cast<size_t>(y) * image.cols + x] =
+          wide ? image.at<std::uint16_t>(y, x) : image.at<std::uint8_t>(y, x);
+    }
+  }
+  if (!wide) f->bit_depth = 8;
+}
+
+void WriteCaptureDir(const std::string& dir,
+                     const CaptureMeta& meta,
+                     const std::vector<Frame>& frames,
+                     const std::string& extension) {
+  std::filesystem::create_directories(dir);
+  nlohmann::ordered_json manifest;
+  manifest["format"] = "mlprobe-frames/1";
+  manifest["probe_serial"] = meta.probe_serial;
+  manifest["calibration_id"] = meta.calibration_id;
+  manifest["capture_id"] = meta.capture_id;
+  manifest["frames"] = nlohmann::ordered_json::array();
+  int laser_index = 0;
+  for (const Frame& f : frames) {
+    char name[64];
+    if (f.IsLaser())
+      std::snprintf(name, sizeof name, "laser_%04d%s", laser_index++, extension.c_str());
+    else
+      std::snprintf(name, sizeof name, "led%s", extension.c_str());
+    WriteImage(f, dir + "/" + name);
+    manifest["frames"].push_back({{"file", name},
+                                  {"laser_column", f.laser_column},
+                                  {"aoi", {f.aoi.x0, f.aoi.y0, f.aoi.width, f.aoi.height}},
+                                  {"bit_depth", f.bit_depth}});
+  }
+  const std::string path = dir + "/frames.json", tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << manifest.dump(1) << "\n";
+    if (!out) Fail("cannot write " + tmp);
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+CaptureManifest ReadCaptureManifest(const std::string& dir) {
+  std::ifstream in(dir + "/frames.json");
+  if (!in) Fail("no frames.json in " + dir);
+  std::stringstream text;
+  text << in.rdbuf();
+  const json j = jf::ParseDocument<FrameIoError>(text.str(), "mlprobe-frames/1", "frames.json");
+  CaptureManifest m;
+  m.meta.probe_serial = jf::Text<FrameIoError>(j, "probe_serial", "frames.json");
+  m.meta.calibration_id = jf::Text<FrameIoError>(j, "calibration_id", "frames.json");
+  m.meta.capture_id = jf::Text<FrameIoError>(j, "capture_id", "frames.json");
+  if (!j.contains("frames") || !j.at("frames").is_array())
+    Fail("frames.json: frames must be an array");
+  for (size_t i = 0; i < j.at("frames").size(); ++i) {
+    const json& e = j.at("frames")[i];
+    const std::string where = "frames.json: frames[" + std::to_string(i) + "]";
+    CaptureManifest::Entry entry;
+    entry.file = jf::Text<FrameIoError>(e, "file", where);
+    if (entry.file.find('/') != std::string::npos || entry.file.find("..") != std::string::npos) {
+      Fail(where + ".file must be a plain file name in the capture directory");
+    }
+    entry.laser_column = jf::Number<FrameIoError>(e, "laser_column", where);
+    entry.bit_depth = jf::Integer<FrameIoError>(e, "bit_depth", where);
+    if (!e.contains("aoi") || !e.at("aoi").is_array() || e.at("aoi").size() != 4) {
+      Fail(where + ".aoi must be [x0, y0, width, height]");
+    }
+    const auto& a = e.at("aoi");
+    for (int k = 0; k < 4; ++k) {
+      if (!a[k].is_number_integer()) Fail(where + ".aoi must hold integers");
+    }
+    entry.aoi = {a[0].get<int>(), a[1].get<int>(), a[2].get<int>(), a[3].get<int>()};
+    m.frames.push_back(entry);
+  }
+  return m;
+}
+
+}  // namespace mlp::probe_fw

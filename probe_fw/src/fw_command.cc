@@ -1,0 +1,171 @@
+#include "mlp/probe_fw/fw_command.h"
+
+#include "mlp/probe_fw/cli.h"
+#include "mlp/probe_fw/cloud_io.h"
+#include "mlp/probe_fw/frame_source.h"
+#include "mlp/probe_fw/probe_model.h"
+#include "mlp/probe_fw/triangulate.h"
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+#include <unistd.h>
+
+namespace mlp::probe_fw {
+namespace {
+
+using cli::UsageError;
+
+constexpr const char* kUsage =
+    "usage: mlp-fw run --probe PROBE_FILE --frames DIR --roi ROI_SPEC --out CLOUD.ply [--json]\n"
+    "       mlp-fw run --probe PROBE_FILE --camera /dev/videoN --aoi X0,Y0,W,H\n"
+    "                  --columns FIRST:LAST:STEP --roi ROI_SPEC --out CLOUD.ply [--json]\n"
+    "  ROI_SPEC  full | rect:X0,Y0,W,H (sensor pixels)\n"
+    "  --json    print the summary as JSON\n"
+    "exit codes: 0 cloud written, 2 bad arguments or input, 3 camera missing or failed, 1 bug\n";
+
+std::vector<double> ParseColumns(const std::string& text) {
+  double first = 0, last = 0, step = 0;
+  char c1 = 0, c2 = 0;
+  if (std::sscanf(text.c_str(), "%lf%c%lf%c%lf", &first, &c1, &last, &c2, &step) != 5 ||
+      c1 != ':' || c2 != ':' || !(step > 0.0) || last < first || (last - first) / step > 100000) {
+    throw UsageError("--columns is FIRST:LAST:STEP with STEP > 0, got '" + text + "'");
+  }
+  std::vector<double> columns{-1.0};  // the LED frame comes first
+  for (double c = first; c <= last + 1e-9; c += step) columns.push_back(c);
+  return columns;
+}
+
+std::unique_ptr<FrameSource> OpenSource(const cli::Options& o, const ProbeModel& probe) {
+  if (o.Has("--frames") == o.Has("--camera")) throw UsageError("give either --frames or --camera");
+  if (o.Has("--frames")) return OpenDirectorySource(o.Required("--frames"));
+  return OpenV4l2Source(o.Required("--camera"), cli::ParseAoi(o.Required("--aoi")),
+                        probe.camera.bit_depth, ParseColumns(o.Required("--columns")),
+                        {probe.serial, probe.calibration_id, "camera"});
+}
+
+struct Summary {
+  size_t frames = 0, laser_frames = 0, points = 0, roi_pixels = 0;
+  StripeCounts counts;
+  double seconds = 0.0;
+};
+
+void Print(const Summary& s,
+           const CaptureMeta& meta,
+           const std::string& path,
+           bool as_json,
+           std::ostream& out) {
+  if (as_json) {
+    nlohmann::ordered_json j = {{"cloud", path},
+                                {"points", s.points},
+                                {"frames", s.frames},
+                                {"laser_frames", s.laser_frames},
+                                {"roi_pixels", s.roi_pixels},
+                                {"rejected",
+                                 {{"weak", s.counts.weak},
+                                  {"saturated", s.counts.saturated},
+                                  {"double_peak", s.counts.double_peak},
+                                  {"too_wide", s.counts.too_wide}}},
+                                {"probe_serial", meta.probe_serial},
+                                {"capture_id", meta.capture_id},
+                                {"seconds", s.seconds}};
+    out << j.dump(2) << "\n";
+    return;
+  }
+  out << "mlp-fw: " << s.points << " points from " << s.laser_frames << " laser frames ("
+      << s.roi_pixels << " ROI pixels each) -> " << path << "\n"
+      << "  rejected stripes: " << s.counts.weak << " weak, " << s.counts.saturated
+      << " saturated, " << s.counts.double_peak << " double-peaked, " << s.counts.too_wide
+      << " too wide\n"
+      << "  probe " << meta.probe_serial << ", capture " << meta.capture_id << ", " << s.seconds
+      << " s\n";
+}
+
+int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const cli::Options o(args,
+                       {"--probe", "--frames", "--camera", "--aoi", "--columns", "--roi", "--out"},
+                       {"--json"});
+  const auto start = std::chrono::steady_clock::now();
+  const ProbeModel probe = LoadProbeModel(o.Required("--probe"));
+  const std::string roi = o.Required("--roi"), path = o.Required("--out");
+  auto source = OpenSource(o, probe);
+  const CaptureMeta meta = source->Meta();
+  if (meta.probe_serial != probe.serial) {
+    throw UsageError("the frames are from probe " + meta.probe_serial + ", the model is for " +
+                     probe.serial);
+  }
+  std::vector<Frame> laser;
+  Summary s;
+  const bool progress = isatty(STDERR_FILENO) != 0;  // a log file gets no carriage returns
+  Frame f;
+  while (source->Next(&f)) {
+    ++s.frames;
+    if (f.IsLaser()) laser.push_back(std::move(f));
+    if (progress && s.frames % 50 == 0)
+      err << "mlp-fw: " << s.frames << " frames read\r" << std::flush;
+  }
+  if (laser.empty()) throw UsageError("the capture holds no laser frame");
+  for (const Frame& l : laser) {
+    if (l.aoi.x0 != laser[0].aoi.x0 || l.aoi.y0 != laser[0].aoi.y0 ||
+        l.aoi.width != laser[0].aoi.width || l.aoi.height != laser[0].aoi.height) {
+      throw UsageError("the laser frames of one capture must share one AOI");
+    }
+  }
+  const RowMask mask = ParseRoi(roi, laser[0].aoi);
+  const auto cloud = ReconstructSweep(probe, laser, mask, StripeOptions{}, &s.counts);
+  WriteCloudPly(path, cloud, meta);
+  s.laser_frames = laser.size();
+  s.points = cloud.size();
+  s.roi_pixels = mask.PixelCount();
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  Print(s, meta, path, o.Has("--json"), out);
+  return cli::kExitOk;
+}
+
+}  // namespace
+
+RowMask ParseRoi(const std::string& spec, const Aoi& aoi) {
+  if (spec == "full") return RowMask::Full(aoi);
+  if (spec.rfind("rect:", 0) == 0) {
+    const Aoi r = cli::ParseAoi(spec.substr(5));
+    RowMask m;
+    m.aoi = aoi;
+    m.rows.resize(static_cast<size_t>(aoi.height));
+    const int b = std::max(0, r.x0 - aoi.x0), e = std::min(aoi.width, r.x0 + r.width - aoi.x0);
+    size_t pixels = 0;
+    for (int y = std::max(0, r.y0 - aoi.y0); y < std::min(aoi.height, r.y0 + r.height - aoi.y0);
+         ++y) {
+      if (e > b)
+        m.rows[static_cast<size_t>(y)].push_back({b, e}), pixels += static_cast<size_t>(e - b);
+    }
+    if (pixels == 0) throw UsageError("the ROI " + spec + " does not overlap the frames' AOI");
+    return m;
+  }
+  throw UsageError("ROI_SPEC is full or rect:X0,Y0,W,H, got '" + spec + "'");
+}
+
+int RunFwCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  if (args.empty() || args[0] != "run") {
+    (args.empty() || args[0] == "--help" ? out : err) << kUsage;
+    return !args.empty() && args[0] == "--help" ? cli::kExitOk : cli::kExitBadInput;
+  }
+  try {
+    return Run({args.begin() + 1, args.end()}, out, err);
+  } catch (const UsageError& e) {
+    err << "mlp-fw: " << e.what() << "\n" << kUsage;
+    return cli::kExitBadInput;
+  } catch (const ProbeModelError& e) {
+    err << "mlp-fw: " << e.what() << "\n";
+    return cli::kExitBadInput;
+  } catch (const FrameIoError& e) {
+    err << "mlp-fw: " << e.what() << "\n";
+    return std::string(e.what()).rfind("camera", 0) == 0 ? cli::kExitNoDevice : cli::kExitBadInput;
+  } catch (const std::exception& e) {
+    err << "mlp-fw: internal error: " << e.what() << "\n";
+    return cli::kExitFailure;
+  }
+}
+
+}  // namespace mlp::probe_fw

@@ -1,0 +1,131 @@
+// mlp-sim and mlp-fw as real processes on real files: render a capture, reconstruct it, fit the
+// cloud with `mlp fit`; and the exit codes and messages of bad input.
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ProcessRun {
+  int exit_code;
+  std::string out;  // stdout, then stderr (2>&1)
+};
+
+ProcessRun Exec(const std::string& cmd) {
+  FILE* pipe = popen((cmd + " 2>&1").c_str(), "r");
+  std::string out;
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof(buf), pipe)) out.append(buf, n);
+  const int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+const std::string kProbe = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kScene = std::string(MLP_SOURCE_DIR) + "/samples/scenes/bore_block.json";
+const std::string kSim = MLP_SIM_BINARY, kFw = MLP_FW_BINARY, kMlp = MLP_BINARY;
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("mlp_probe_cli_" + name);
+  fs::remove_all(dir);
+  return dir;
+}
+
+// Renders the sample scene's top-face capture into `dir`; returns mlp-sim's exit code.
+int RenderTopFace(const fs::path& dir, const std::string& options) {
+  return Exec(kSim + " render --probe " + kProbe + " --scene " + kScene + " --out " + dir.string() +
+              " --capture top_face " + options)
+      .exit_code;
+}
+
+// The sample scene's top-face capture looks straight down from 120 mm at the face z = 0.
+TEST(ProbeCli, RenderReconstructAndFitTheTopFace) {
+  const fs::path dir = TempDir("top");
+  const ProcessRun sim =
+      Exec(kSim + " render --probe " + kProbe + " --scene " + kScene + " --out " + dir.string() +
+           " --capture top_face --aoi 924,668,200,200 --seed 3");
+  ASSERT_EQ(sim.exit_code, 0) << sim.out;
+  EXPECT_TRUE(fs::exists(dir / "frames.json"));
+  EXPECT_TRUE(fs::exists(dir / "truth.json"));
+  const std::string cloud = (dir / "cloud.ply").string();
+  const ProcessRun fw = Exec(kFw + " run --probe " + kProbe + " --frames " + dir.string() +
+                             " --roi full --out " + cloud + " --json");
+  ASSERT_EQ(fw.exit_code, 0) << fw.out;
+  const auto summary = nlohmann::json::parse(fw.out.substr(fw.out.find('{')));
+  EXPECT_GT(summary.at("points").get<int>(), 9000);
+  const ProcessRun fit = Exec(kMlp + " fit plane " + cloud);
+  ASSERT_EQ(fit.exit_code, 0) << fit.out;
+  const auto plane = nlohmann::json::parse(fit.out);
+  // In the probe frame the face is z = 120 mm (the flange is 120 mm above it).
+  EXPECT_NEAR(plane.at("point")[2].get<double>(), 120.0, 0.001);
+  EXPECT_NEAR(plane.at("normal")[2].get<double>(), 1.0, 1e-6);
+  EXPECT_LT(plane.at("rms").get<double>(), 0.005);
+  fs::remove_all(dir);
+}
+
+TEST(ProbeCli, ARoiRectangleLimitsTheCloud) {
+  const fs::path dir = TempDir("rect");
+  ASSERT_EQ(RenderTopFace(dir, "--aoi 924,668,200,200 --format pgm"), 0);
+  const ProcessRun fw =
+      Exec(kFw + " run --probe " + kProbe + " --frames " + dir.string() +
+           " --roi rect:924,668,200,50 --out " + (dir / "c.ply").string() + " --json");
+  ASSERT_EQ(fw.exit_code, 0) << fw.out;
+  const auto summary = nlohmann::json::parse(fw.out.substr(fw.out.find('{')));
+  EXPECT_EQ(summary.at("roi_pixels").get<int>(), 200 * 50);
+  EXPECT_GT(summary.at("points").get<int>(), 2000);
+  EXPECT_LE(summary.at("points").get<int>(), 50 * 60);  // one point per ROI row and frame
+  fs::remove_all(dir);
+}
+
+TEST(ProbeCli, BadInputGivesExitTwoAndWritesNothing) {
+  const fs::path dir = TempDir("bad");
+  ASSERT_EQ(RenderTopFace(dir, "--aoi 1000,700,64,64"), 0);
+  const std::string out = " --out " + (dir / "c.ply").string();
+  // A probe model of another serial: frames must not be triangulated with the wrong calibration.
+  std::string other =
+      std::string(std::istreambuf_iterator<char>(std::ifstream(kProbe).rdbuf()), {});
+  other.replace(other.find("MLP-REF-0001"), 12, "MLP-REF-0002");
+  std::ofstream(dir / "other.json") << other;
+  ProcessRun r = Exec(kFw + " run --probe " + (dir / "other.json").string() + " --frames " +
+                      dir.string() + " --roi full" + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.out.find("MLP-REF-0001"), std::string::npos) << r.out;
+  r = Exec(kFw + " run --probe " + kProbe + " --frames " + dir.string() + " --roi circle:3" + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.out.find("ROI_SPEC"), std::string::npos) << r.out;
+  r = Exec(kFw + " run --probe " + kProbe + " --frames /nonexistent --roi full" + out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.out.find("frames.json"), std::string::npos) << r.out;
+  r = Exec(kFw + " run --probe " + kProbe + " --frames " + dir.string() + " --roi rect:0,0,10,10" +
+           out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_FALSE(fs::exists(dir / "c.ply"));
+  r = Exec(kSim + " render --probe " + kProbe + " --scene " + kScene + " --out " +
+           (dir / "x").string() + " --capture nowhere");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.out.find("nowhere"), std::string::npos);
+  r = Exec(kSim + " render --probe " + kProbe + " --scene " + kProbe + " --out " +
+           (dir / "x").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.out.find("format"), std::string::npos) << r.out;
+  fs::remove_all(dir);
+}
+
+TEST(ProbeCli, MissingCameraIsExitThreeWithAClearReason) {
+  const ProcessRun r =
+      Exec(kFw + " run --probe " + kProbe +
+           " --camera /dev/video-mlp-none --aoi 0,0,640,480 --columns 400:500:2 --roi full"
+           " --out /tmp/mlp_never.ply");
+  EXPECT_EQ(r.exit_code, 3) << r.out;
+  EXPECT_NE(r.out.find("/dev/video-mlp-none"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("No such file or directory"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists("/tmp/mlp_never.ply"));
+}
+
+}  // namespace
