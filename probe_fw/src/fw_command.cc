@@ -4,11 +4,13 @@
 #include "mlp/probe_fw/cloud_io.h"
 #include "mlp/probe_fw/frame_source.h"
 #include "mlp/probe_fw/probe_model.h"
+#include "mlp/probe_fw/roi.h"
 #include "mlp/probe_fw/triangulate.h"
 
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 #include <unistd.h>
@@ -22,7 +24,8 @@ constexpr const char* kUsage =
     "usage: mlp-fw run --probe PROBE_FILE --frames DIR --roi ROI_SPEC --out CLOUD.ply [--json]\n"
     "       mlp-fw run --probe PROBE_FILE --camera /dev/videoN --aoi X0,Y0,W,H\n"
     "                  --columns FIRST:LAST:STEP --roi ROI_SPEC --out CLOUD.ply [--json]\n"
-    "  ROI_SPEC  full | rect:X0,Y0,W,H (sensor pixels)\n"
+    "  ROI_SPEC  full | rect:X0,Y0,W,H | hole:X,Y | face:X,Y (sensor pixels; hole and face\n"
+    "            are found on the LED frame from the hint X,Y: docs/CLI.md)\n"
     "  --json    print the summary as JSON\n"
     "exit codes: 0 cloud written, 2 bad arguments or input, 3 camera missing or failed, 1 bug\n";
 
@@ -97,12 +100,16 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
                      probe.serial);
   }
   std::vector<Frame> laser;
+  std::optional<Frame> led;
   Summary s;
   const bool progress = isatty(STDERR_FILENO) != 0;  // a log file gets no carriage returns
   Frame f;
   while (source->Next(&f)) {
     ++s.frames;
-    if (f.IsLaser()) laser.push_back(std::move(f));
+    if (f.IsLaser())
+      laser.push_back(std::move(f));
+    else
+      led = std::move(f);
     if (progress && s.frames % 50 == 0)
       err << "mlp-fw: " << s.frames << " frames read\r" << std::flush;
   }
@@ -113,7 +120,7 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
       throw UsageError("the laser frames of one capture must share one AOI");
     }
   }
-  const RowMask mask = ParseRoi(roi, laser[0].aoi);
+  const RowMask mask = ParseRoi(roi, laser[0].aoi, led ? &*led : nullptr);
   const auto cloud = ReconstructSweep(probe, laser, mask, StripeOptions{}, &s.counts);
   WriteCloudPly(path, cloud, meta);
   s.laser_frames = laser.size();
@@ -124,10 +131,47 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   return cli::kExitOk;
 }
 
+// "X,Y" in sensor pixels.
+Vec2 ParseHint(const std::string& text, const std::string& spec) {
+  double x = 0, y = 0;
+  char comma = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%lf%c%lf%c", &x, &comma, &y, &extra) != 3 || comma != ',') {
+    throw UsageError("the hint of " + spec + " is X,Y in sensor pixels");
+  }
+  return {x, y};
+}
+
+// Hole ROI: from 0.6 of the rim radius (the wall seen inside the rim) to 20 px outside it (the
+// face around the rim).
+constexpr double kHoleInner = 0.6;
+constexpr double kHoleOuterPx = 20.0;
+// Face ROI: eroded so that stripe windows (+-6 px) stay on the face.
+constexpr int kFaceErodePx = 6;
+
 }  // namespace
 
-RowMask ParseRoi(const std::string& spec, const Aoi& aoi) {
+RowMask ParseRoi(const std::string& spec, const Aoi& aoi, const Frame* led) {
   if (spec == "full") return RowMask::Full(aoi);
+  const bool hole = spec.rfind("hole:", 0) == 0, face = spec.rfind("face:", 0) == 0;
+  if (hole || face) {
+    if (led == nullptr) throw UsageError(spec + " needs the LED frame, and the capture has none");
+    if (led->aoi.x0 != aoi.x0 || led->aoi.y0 != aoi.y0 || led->aoi.width != aoi.width ||
+        led->aoi.height != aoi.height) {
+      throw UsageError("the LED frame's AOI differs from the laser frames'");
+    }
+    const Vec2 hint = ParseHint(spec.substr(5), spec);
+    RowMask m;
+    if (hole) {
+      const auto found = FindHole(*led, hint, 10.0, 2.0 * std::max(aoi.width, aoi.height));
+      if (!found) throw UsageError("no hole around " + spec.substr(5) + " in the LED frame");
+      m = AnnulusMask(aoi, found->center_px, kHoleInner * found->radius_px,
+                      found->radius_px + kHoleOuterPx);
+    } else {
+      m = FaceMask(*led, hint, kFaceErodePx);
+    }
+    if (m.PixelCount() == 0) throw UsageError("the ROI " + spec + " holds no pixel of the AOI");
+    return m;
+  }
   if (spec.rfind("rect:", 0) == 0) {
     const Aoi r = cli::ParseAoi(spec.substr(5));
     RowMask m;

@@ -1,6 +1,7 @@
 // mlp-sim and mlp-fw as real processes on real files: render a capture, reconstruct it, fit the
 // cloud with `mlp fit`; and the exit codes and messages of bad input.
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -126,6 +127,30 @@ TEST(ProbeCli, MissingCameraIsExitThreeWithAClearReason) {
   EXPECT_NE(r.out.find("/dev/video-mlp-none"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("No such file or directory"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists("/tmp/mlp_never.ply"));
+}
+
+}  // namespace
+
+namespace {
+
+// The sample scene's 12 mm hole seen from straight above: the hole ROI found on the LED frame
+// limits the cloud to the rim's neighbourhood.
+TEST(ProbeCli, HoleRoiFromTheLedFrame) {
+  const fs::path dir = TempDir("hole");
+  ASSERT_EQ(Exec(kSim + " render --probe " + kProbe + " --scene " + kScene + " --out " +
+                 dir.string() + " --capture small_hole_top --aoi 724,468,600,600")
+                .exit_code,
+            0);
+  const ProcessRun fw =
+      Exec(kFw + " run --probe " + kProbe + " --frames " + dir.string() +
+           " --roi hole:1023.5,767.5 --out " + (dir / "c.ply").string() + " --json");
+  ASSERT_EQ(fw.exit_code, 0) << fw.out;
+  const auto summary = nlohmann::json::parse(fw.out.substr(fw.out.find('{')));
+  // Rim radius ~232 px: annulus from 139 to 252 px.
+  const double annulus = M_PI * (252.0 * 252.0 - 139.0 * 139.0);
+  EXPECT_NEAR(summary.at("roi_pixels").get<double>(), annulus, 0.03 * annulus);
+  EXPECT_GT(summary.at("points").get<int>(), 1000);
+  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -1,0 +1,52 @@
+#pragma once
+/// @file 2D regions of interest on the LED frame (DIGEST 004 section 2): sub-pixel edges, holes
+/// from their edge contour, faces by thresholding. The region becomes a RowMask: only its pixels
+/// are processed in the laser frames.
+
+#include "mlp/geometry/types.h"
+#include "mlp/probe_fw/frame.h"
+#include "mlp/probe_fw/stripe.h"
+
+#include <optional>
+#include <vector>
+
+namespace mlp::probe_fw {
+
+using geometry::Vec2;
+
+/// An edge point in sensor pixels with its grey-level gradient (dark -> bright).
+struct EdgePoint {
+  Vec2 position_px = Vec2::Zero();
+  Vec2 gradient = Vec2::Zero();
+};
+
+/// Canny edges (OpenCV; thresholds on the Sobel gradient in full-scale fractions), each moved
+/// to sub-pixel precision along its gradient by the vertex of a parabola through the gradient
+/// magnitude at -1, 0, +1 px (Devernay, INRIA RR-2724, 1995).
+std::vector<EdgePoint> SubpixelEdges(const Frame& led,
+                                     double low_fraction = 0.05,
+                                     double high_fraction = 0.15);
+
+/// A hole: the circle (sensor pixels) fitted to the edge points around `hint_px` whose gradient
+/// points away from it (dark hole in a bright face), robustly (geometry layer, MSAC + LS).
+/// Empty unless such a circle exists and holds the hint.
+struct HoleRoi {
+  Vec2 center_px = Vec2::Zero();
+  double radius_px = 0.0;
+  int edge_points = 0;
+  double rms_px = 0.0;
+};
+std::optional<HoleRoi> FindHole(const Frame& led,
+                                const Vec2& hint_px,
+                                double min_radius_px,
+                                double max_radius_px);
+
+/// Pixels of the AOI between radii r_in and r_out around `center_px`.
+RowMask AnnulusMask(const Aoi& aoi, const Vec2& center_px, double r_in_px, double r_out_px);
+
+/// The bright face containing `hint_px`: Otsu threshold of the LED frame, the connected region
+/// holding the hint, eroded by `erode_px` (keeps the stripe window off the face's edges).
+/// Empty mask when the hint is not on a bright region.
+RowMask FaceMask(const Frame& led, const Vec2& hint_px, int erode_px);
+
+}  // namespace mlp::probe_fw

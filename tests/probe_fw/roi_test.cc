@@ -1,0 +1,108 @@
+// ROI extraction on LED frames of the virtual probe: a hole's rim circle against the projected
+// true rim, a face mask that keeps off the hole, and the ROI's effect on the cloud.
+
+#include "mlp/probe_fw/roi.h"
+
+#include "mlp/geometry/fit.h"
+#include "mlp/probe_fw/cli.h"
+#include "mlp/probe_fw/fw_command.h"
+#include "mlp/probe_fw/triangulate.h"
+#include "mlp/sim/render.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace mlp::sim {
+namespace {
+
+using geometry::Vec2;
+using probe_fw::Aoi;
+
+// A sharp LED step sampled at pixel centres: each edge point is within +-0.5 px, a circle
+// through ~1500 of them within a few hundredths.
+constexpr double kCentreTolPx = 0.1;
+constexpr double kRadiusTolPx = 0.25;
+constexpr double kHoleRadiusMm = 6.0;
+
+const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+
+// A block with a 12 mm through-hole at (10, -5), the probe 120 mm straight above the hole.
+VirtualProbe HoleProbe() {
+  Scene s;
+  s.workpiece = MakeDifference(
+      MakeBox({-50, -50, -30}, {50, 50, 0}, 0.6),
+      {MakeRevolution({10, -5, -31}, {0, 0, 1}, 32, kHoleRadiusMm, kHoleRadiusMm, 0.6)});
+  Capture c;
+  c.id = "hole";
+  c.mcs_from_flange.linear() = Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix();
+  c.mcs_from_flange.translation() = Vec3(10, -5, 120);
+  s.captures.push_back(c);
+  return VirtualProbe(probe_fw::LoadProbeModel(kReference), s);
+}
+
+// The true rim: its 3D circle projected through the camera model, then fitted in the image.
+geometry::Circle2 ProjectedRim(const VirtualProbe& probe) {
+  const Pose3 probe_from_mcs = probe.McsFromProbe(probe.scene().captures[0]).inverse();
+  geometry::Points2 px(2, 720);
+  for (int k = 0; k < 720; ++k) {
+    const double a = k * M_PI / 360.0;
+    const Vec3 rim(10 + kHoleRadiusMm * std::cos(a), -5 + kHoleRadiusMm * std::sin(a), 0.0);
+    px.col(k) = probe.model().camera.Project(probe_from_mcs * rim);
+  }
+  return geometry::FitCircle2(px).shape;
+}
+
+constexpr Aoi kAoi{624, 368, 800, 800};
+
+TEST(Roi, HoleRimMatchesTheProjectedTrueRim) {
+  const VirtualProbe probe = HoleProbe();
+  SweepOptions o;
+  o.aoi = kAoi;
+  o.first_column = o.last_column = 500;  // the LED frame is what matters here
+  const RenderedCapture r = probe.Render(probe.scene().captures[0], o);
+  const auto hole = probe_fw::FindHole(r.led, {1023.5, 767.5}, 20.0, 600.0);
+  ASSERT_TRUE(hole);
+  const auto truth = ProjectedRim(probe);
+  std::printf("hole: %d edge points, rms %.3f px, centre error %.4f px, radius error %.4f px\n",
+              hole->edge_points, hole->rms_px, (hole->center_px - truth.center).norm(),
+              hole->radius_px - truth.radius);
+  EXPECT_GT(hole->edge_points, 1000);
+  EXPECT_LT((hole->center_px - truth.center).norm(), kCentreTolPx);
+  EXPECT_NEAR(hole->radius_px, truth.radius, kRadiusTolPx);
+  // No hole where there is none: a hint on the plain face far from the rim.
+  EXPECT_FALSE(probe_fw::FindHole(r.led, {700.0, 420.0}, 20.0, 60.0));
+}
+
+TEST(Roi, FaceMaskStaysOffTheHoleAndHoleMaskHugsTheRim) {
+  const VirtualProbe probe = HoleProbe();
+  SweepOptions o;
+  o.aoi = kAoi;
+  o.first_column = o.last_column = 500;
+  const RenderedCapture r = probe.Render(probe.scene().captures[0], o);
+  const auto truth = ProjectedRim(probe);
+  const probe_fw::RowMask face = probe_fw::ParseRoi("face:700,420", kAoi, &r.led);
+  const probe_fw::RowMask hole = probe_fw::ParseRoi("hole:1023.5,767.5", kAoi, &r.led);
+  ASSERT_GT(face.PixelCount(), 300000u);
+  for (int y = 0; y < kAoi.height; ++y) {
+    for (const auto& [b, e] : face.rows[static_cast<size_t>(y)]) {
+      for (int x = b; x < e; ++x) {
+        const double d = (Vec2(kAoi.x0 + x, kAoi.y0 + y) - truth.center).norm();
+        ASSERT_GT(d, truth.radius + 5.0) << "face pixel inside the hole at " << x << "," << y;
+      }
+    }
+    for (const auto& [b, e] : hole.rows[static_cast<size_t>(y)]) {
+      for (int x = b; x < e; ++x) {
+        const double d = (Vec2(kAoi.x0 + x, kAoi.y0 + y) - truth.center).norm();
+        ASSERT_GT(d, 0.6 * truth.radius - 1.0);
+        ASSERT_LT(d, truth.radius + 21.0);
+      }
+    }
+  }
+  EXPECT_THROW(probe_fw::ParseRoi("hole:700,420", kAoi, &r.led), probe_fw::cli::UsageError);
+  EXPECT_THROW(probe_fw::ParseRoi("face:1023,767", kAoi, &r.led), probe_fw::cli::UsageError);
+  EXPECT_THROW(probe_fw::ParseRoi("hole:1023,767", kAoi, nullptr), probe_fw::cli::UsageError);
+}
+
+}  // namespace
+}  // namespace mlp::sim
