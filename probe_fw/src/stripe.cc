@@ -34,6 +34,14 @@ double Centroid(const Span& s, int centre, int half, double bg) {
   return mass > 0.0 ? moment / mass : centre;
 }
 
+constexpr int kSkipBlock = 16;
+
+std::uint16_t BlockMax(const std::uint16_t* p) {
+  std::uint16_t m = 0;
+  for (int k = 0; k < kSkipBlock; ++k) m = std::max(m, p[k]);
+  return m;
+}
+
 enum class Verdict { kPoint, kWeak, kSaturated, kDoublePeak, kTooWide, kCut };
 
 Verdict Judge(const Span& s, int peak, double bg, int max_level, const StripeOptions& o) {
@@ -69,9 +77,16 @@ void ScanSpan(const Span& s,
               StripeCounts* counts) {
   std::uint16_t lowest = 0xffff;
   for (int x = s.begin; x < s.end; ++x) lowest = std::min(lowest, s.row[x]);
-  const double threshold = lowest + o.min_amplitude_dn;
+  const double threshold_dn = lowest + o.min_amplitude_dn;
+  // Integer threshold: a pixel is a candidate when row[x] >= threshold (same test as the real).
+  const int threshold = static_cast<int>(std::ceil(threshold_dn));
   const int max_level = (1 << f.bit_depth) - 1;
   for (int x = s.begin; x < s.end;) {
+    // Most of a row is background: skip it 16 pixels at a time (a vectorised maximum).
+    if (x + kSkipBlock <= s.end && BlockMax(s.row + x) < threshold) {
+      x += kSkipBlock;
+      continue;
+    }
     if (s.row[x] < threshold) {
       ++x;
       continue;

@@ -1,0 +1,154 @@
+// Speed of the firmware on full reference-probe frames (2048 x 1536, 8 bit), one core, in one
+// run with its baselines: a plain read of the same frames (the physical limit) and a naive
+// OpenCV stripe finder (per-row maximum + centroid). Also triangulated points per second and the
+// ROI extraction time per LED frame.
+// Run: build/bin/mlp_probe_bench --benchmark_counters_tabular=true
+
+#include "mlp/probe_fw/roi.h"
+#include "mlp/probe_fw/triangulate.h"
+#include "mlp/sim/render.h"
+
+#include <cmath>
+#include <cstdint>
+
+#include <benchmark/benchmark.h>
+#include <opencv2/core.hpp>
+
+namespace {
+
+using namespace mlp;
+
+const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+
+// Full-sensor frames of a face with a 12 mm hole, 120 mm below the probe: 8 laser frames spread
+// over the sweep and the LED frame, rendered once.
+struct Frames {
+  probe_fw::ProbeModel model;
+  std::vector<probe_fw::Frame> laser;
+  probe_fw::Frame led;
+};
+
+const Frames& Cached() {
+  static const Frames frames = [] {
+    sim::Scene s;
+    s.workpiece =
+        sim::MakeDifference(sim::MakeBox({-60, -60, -30}, {60, 60, 0}, 0.6),
+                            {sim::MakeRevolution({0, 0, -31}, {0, 0, 1}, 32, 6.0, 6.0, 0.6)});
+    sim::Capture c;
+    c.mcs_from_flange.linear() =
+        Eigen::AngleAxisd(M_PI, geometry::Vec3::UnitX()).toRotationMatrix();
+    c.mcs_from_flange.translation() = geometry::Vec3(0, 0, 120);
+    s.captures.push_back(c);
+    const sim::VirtualProbe probe(probe_fw::LoadProbeModel(kReference), s);
+    sim::SweepOptions o;
+    o.aoi = {0, 0, probe.model().camera.width_px, probe.model().camera.height_px};
+    o.first_column = 100;
+    o.last_column = 900;
+    o.column_step = 100;
+    auto r = probe.Render(c, o);
+    return Frames{probe.model(), std::move(r.laser), std::move(r.led)};
+  }();
+  return frames;
+}
+
+void SetRates(benchmark::State& state, size_t pixels_per_frame) {
+  state.counters["frames_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["Mpixels_per_s"] =
+      benchmark::Counter(1e-6 * static_cast<double>(state.iterations() * pixels_per_frame),
+                         benchmark::Counter::kIsRate);
+}
+
+// The physical limit: touch every pixel of a frame once (a vectorised sum).
+void BM_FrameRead(benchmark::State& state) {
+  const auto& f = Cached();
+  size_t k = 0;
+  for (auto _ : state) {
+    const auto& px = f.laser[k++ % f.laser.size()].pixels;
+    std::uint64_t sum = 0;
+    for (std::uint16_t v : px) sum += v;
+    benchmark::DoNotOptimize(sum);
+  }
+  SetRates(state, f.laser[0].pixels.size());
+}
+
+void BM_StripeExtract(benchmark::State& state) {
+  const auto& f = Cached();
+  const auto mask = probe_fw::RowMask::Full(f.laser[0].aoi);
+  std::vector<probe_fw::StripePoint> points;
+  size_t k = 0, found = 0;
+  for (auto _ : state) {
+    points.clear();
+    probe_fw::StripeCounts counts;
+    probe_fw::ExtractStripe(f.laser[k++ % f.laser.size()], mask, {}, &points, &counts);
+    found += points.size();
+  }
+  SetRates(state, f.laser[0].pixels.size());
+  state.counters["points_per_frame"] = static_cast<double>(found) / state.iterations();
+}
+
+// Naive baseline: per row, OpenCV's maximum, then the centre of mass of +-3 px around it.
+void BM_NaiveOpenCvStripe(benchmark::State& state) {
+  const auto& f = Cached();
+  std::vector<cv::Mat> mats;
+  for (const auto& l : f.laser) {
+    mats.emplace_back(l.aoi.height, l.aoi.width, CV_16UC1,
+                      const_cast<std::uint16_t*>(l.pixels.data()));
+  }
+  size_t k = 0;
+  for (auto _ : state) {
+    const cv::Mat& m = mats[k++ % mats.size()];
+    double acc = 0.0;
+    for (int y = 0; y < m.rows; ++y) {
+      double max_value = 0;
+      cv::Point at;
+      cv::minMaxLoc(m.row(y), nullptr, &max_value, nullptr, &at);
+      double mass = 0, moment = 0;
+      for (int x = std::max(0, at.x - 3); x <= std::min(m.cols - 1, at.x + 3); ++x) {
+        mass += m.at<std::uint16_t>(y, x),
+            moment += x * static_cast<double>(m.at<std::uint16_t>(y, x));
+      }
+      acc += mass > 0 ? moment / mass : 0.0;
+    }
+    benchmark::DoNotOptimize(acc);
+  }
+  SetRates(state, f.laser[0].pixels.size());
+}
+
+void BM_Triangulate(benchmark::State& state) {
+  const auto& f = Cached();
+  std::vector<probe_fw::StripePoint> points;
+  probe_fw::StripeCounts counts;
+  probe_fw::ExtractStripe(f.laser[3], probe_fw::RowMask::Full(f.laser[3].aoi), {}, &points,
+                          &counts);
+  size_t k = 0;
+  for (auto _ : state) {
+    const auto& p = points[k++ % points.size()];
+    benchmark::DoNotOptimize(
+        probe_fw::Triangulate(f.model, p.x_px, p.y_px, f.laser[3].laser_column));
+  }
+  state.counters["points_per_s"] =
+      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+void BM_RoiHoleOnLedFrame(benchmark::State& state) {
+  const auto& f = Cached();
+  const double cx = f.model.camera.cx_px, cy = f.model.camera.cy_px;
+  for (auto _ : state) benchmark::DoNotOptimize(probe_fw::FindHole(f.led, {cx, cy}, 20, 800));
+}
+
+void BM_RoiFaceOnLedFrame(benchmark::State& state) {
+  const auto& f = Cached();
+  for (auto _ : state) benchmark::DoNotOptimize(probe_fw::FaceMask(f.led, {100, 100}, 6));
+}
+
+BENCHMARK(BM_FrameRead)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_StripeExtract)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_NaiveOpenCvStripe)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Triangulate)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_RoiHoleOnLedFrame)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RoiFaceOnLedFrame)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
