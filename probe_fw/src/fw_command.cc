@@ -24,8 +24,8 @@ constexpr const char* kUsage =
     "usage: mlp-fw run --probe PROBE_FILE --frames DIR --roi ROI_SPEC --out CLOUD.ply [--json]\n"
     "       mlp-fw run --probe PROBE_FILE --camera /dev/videoN --aoi X0,Y0,W,H\n"
     "                  --columns FIRST:LAST:STEP --roi ROI_SPEC --out CLOUD.ply [--json]\n"
-    "  ROI_SPEC  full | rect:X0,Y0,W,H | hole:X,Y | face:X,Y (sensor pixels; hole and face\n"
-    "            are found on the LED frame from the hint X,Y: docs/CLI.md)\n"
+    "  ROI_SPEC  full | rect:X0,Y0,W,H | hole:X,Y | edge:X,Y | face:X,Y (sensor pixels; hole,\n"
+    "            edge and face are found on the LED frame from the hint X,Y: docs/CLI.md)\n"
     "  --json    print the summary as JSON\n"
     "exit codes: 0 cloud written, 2 bad arguments or input, 3 camera missing or failed, 1 bug\n";
 
@@ -145,6 +145,9 @@ Vec2 ParseHint(const std::string& text, const std::string& spec) {
 // face around the rim).
 constexpr double kHoleInner = 0.6;
 constexpr double kHoleOuterPx = 20.0;
+// Edge ROI: edge points within 60 px of the hint make the line; the ROI is a band of +-20 px.
+constexpr double kEdgeSearchPx = 60.0;
+constexpr double kEdgeBandPx = 20.0;
 // Face ROI: eroded so that stripe windows (+-6 px) stay on the face.
 constexpr int kFaceErodePx = 6;
 
@@ -153,7 +156,8 @@ constexpr int kFaceErodePx = 6;
 RowMask ParseRoi(const std::string& spec, const Aoi& aoi, const Frame* led) {
   if (spec == "full") return RowMask::Full(aoi);
   const bool hole = spec.rfind("hole:", 0) == 0, face = spec.rfind("face:", 0) == 0;
-  if (hole || face) {
+  const bool edge = spec.rfind("edge:", 0) == 0;
+  if (hole || face || edge) {
     if (led == nullptr) throw UsageError(spec + " needs the LED frame, and the capture has none");
     if (led->aoi.x0 != aoi.x0 || led->aoi.y0 != aoi.y0 || led->aoi.width != aoi.width ||
         led->aoi.height != aoi.height) {
@@ -166,6 +170,10 @@ RowMask ParseRoi(const std::string& spec, const Aoi& aoi, const Frame* led) {
       if (!found) throw UsageError("no hole around " + spec.substr(5) + " in the LED frame");
       m = AnnulusMask(aoi, found->center_px, kHoleInner * found->radius_px,
                       found->radius_px + kHoleOuterPx);
+    } else if (edge) {
+      const auto found = FindLineEdge(*led, hint, kEdgeSearchPx);
+      if (!found) throw UsageError("no straight edge near " + spec.substr(5) + " in the LED frame");
+      m = BandMask(aoi, found->point_px, found->direction, kEdgeBandPx);
     } else {
       m = FaceMask(*led, hint, kFaceErodePx);
     }

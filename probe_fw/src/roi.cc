@@ -98,6 +98,47 @@ std::optional<HoleRoi> FindHole(const Frame& led,
   }
 }
 
+std::optional<LineEdgeRoi> FindLineEdge(const Frame& led, const Vec2& hint_px, double radius_px) {
+  std::vector<Vec2> near;
+  for (const EdgePoint& e : SubpixelEdges(led)) {
+    if ((e.position_px - hint_px).norm() <= radius_px) near.push_back(e.position_px);
+  }
+  if (near.size() < 12) return std::nullopt;
+  geometry::Points3 pts(3, static_cast<Eigen::Index>(near.size()));
+  for (size_t i = 0; i < near.size(); ++i) pts.col(static_cast<Eigen::Index>(i)) << near[i], 0.0;
+  try {
+    geometry::RobustOptions options;
+    options.inlier_threshold_mm = 0.5;  // pixels here, as for holes
+    const auto fit = geometry::FitLine3Robust(pts, options);
+    LineEdgeRoi edge;
+    edge.direction = fit.fit.shape.direction.head<2>().normalized();
+    const Vec2 p0 = fit.fit.shape.point.head<2>();
+    edge.point_px = p0 + edge.direction * edge.direction.dot(hint_px - p0);
+    edge.edge_points = fit.fit.stats.n;
+    edge.rms_px = fit.fit.stats.rms;
+    return edge;
+  } catch (const geometry::GeometryError&) {
+    return std::nullopt;
+  }
+}
+
+RowMask BandMask(const Aoi& aoi, const Vec2& point, const Vec2& direction, double half_width) {
+  RowMask m;
+  m.aoi = aoi;
+  m.rows.resize(static_cast<size_t>(aoi.height));
+  const Vec2 normal(-direction.y(), direction.x());
+  for (int y = 0; y < aoi.height; ++y) {
+    int begin = -1;
+    for (int x = 0; x <= aoi.width; ++x) {
+      const bool in =
+          x < aoi.width && std::abs(normal.dot(Vec2(aoi.x0 + x, aoi.y0 + y) - point)) <= half_width;
+      if (in && begin < 0) begin = x;
+      if (!in && begin >= 0) m.rows[static_cast<size_t>(y)].push_back({begin, x}), begin = -1;
+    }
+  }
+  return m;
+}
+
 RowMask AnnulusMask(const Aoi& aoi, const Vec2& c, double r_in, double r_out) {
   RowMask m;
   m.aoi = aoi;

@@ -106,3 +106,47 @@ TEST(Roi, FaceMaskStaysOffTheHoleAndHoleMaskHugsTheRim) {
 
 }  // namespace
 }  // namespace mlp::sim
+
+namespace mlp::sim {
+namespace {
+
+// The part's edge x = 10 against the dark background, seen from 120 mm straight above a point
+// 2 mm inside it; the camera is turned 0.3 rad about its axis so the edge is oblique in the image.
+TEST(Roi, LineEdgeMatchesTheProjectedTrueEdge) {
+  Scene s;
+  s.workpiece = MakeBox({-50, -50, -30}, {10, 50, 0}, 0.6);
+  Capture c;
+  c.mcs_from_flange.linear() =
+      (Eigen::AngleAxisd(M_PI, Vec3::UnitX()) * Eigen::AngleAxisd(0.3, Vec3::UnitZ()))
+          .toRotationMatrix();
+  c.mcs_from_flange.translation() = Vec3(8, 0, 120);
+  s.captures.push_back(c);
+  const VirtualProbe probe(probe_fw::LoadProbeModel(kReference), s);
+  SweepOptions o;
+  o.aoi = {824, 568, 400, 400};
+  o.first_column = o.last_column = 500;
+  const RenderedCapture r = probe.Render(c, o);
+  // The inspection plan's hint: where the nominal edge point (10, 0, 0) should appear.
+  const Pose3 probe_from_mcs = probe.McsFromProbe(c).inverse();
+  const Vec2 hint = probe.model().camera.Project(probe_from_mcs * Vec3(10, 0, 0));
+  const auto edge = probe_fw::FindLineEdge(r.led, hint, 150.0);
+  ASSERT_TRUE(edge);
+  // The true edge through the camera model, near the hint.
+  double worst = 0.0;
+  const Vec2 normal(-edge->direction.y(), edge->direction.x());
+  for (double y = -2.5; y <= 2.5; y += 0.25) {
+    const Vec2 px = probe.model().camera.Project(probe_from_mcs * Vec3(10, y, 0));
+    if ((px - hint).norm() > 150.0) continue;
+    worst = std::max(worst, std::abs(normal.dot(px - edge->point_px)));
+  }
+  std::printf("edge: %d points, rms %.3f px, worst distance to the true edge %.3f px\n",
+              edge->edge_points, edge->rms_px, worst);
+  EXPECT_GT(edge->edge_points, 200);
+  EXPECT_LT(worst, kCentreTolPx);
+  const probe_fw::RowMask band = probe_fw::ParseRoi(
+      "edge:" + std::to_string(hint.x()) + "," + std::to_string(hint.y()), o.aoi, &r.led);
+  EXPECT_NEAR(static_cast<double>(band.PixelCount()), 41.0 * 400.0 / std::cos(0.3), 2000.0);
+}
+
+}  // namespace
+}  // namespace mlp::sim

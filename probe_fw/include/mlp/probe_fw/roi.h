@@ -41,6 +41,19 @@ std::optional<HoleRoi> FindHole(const Frame& led,
                                 double min_radius_px,
                                 double max_radius_px);
 
+/// A straight edge: the line (sensor pixels) fitted robustly to the edge points within
+/// `radius_px` of `hint_px`. Empty when fewer than 12 edge points lie there or they make no line.
+struct LineEdgeRoi {
+  Vec2 point_px = Vec2::Zero();    ///< on the line, nearest to the hint
+  Vec2 direction = Vec2::UnitX();  ///< unit
+  int edge_points = 0;
+  double rms_px = 0.0;
+};
+std::optional<LineEdgeRoi> FindLineEdge(const Frame& led, const Vec2& hint_px, double radius_px);
+
+/// Pixels of the AOI within `half_width_px` of the line.
+RowMask BandMask(const Aoi& aoi, const Vec2& point_px, const Vec2& direction, double half_width_px);
+
 /// Pixels of the AOI between radii r_in and r_out around `center_px`.
 RowMask AnnulusMask(const Aoi& aoi, const Vec2& center_px, double r_in_px, double r_out_px);
 
