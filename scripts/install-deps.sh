@@ -13,6 +13,7 @@ packages=(
   libboost-dev libboost-system-dev nlohmann-json3-dev
   libssl-dev libsqlite3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  g++-aarch64-linux-gnu  # the firmware portability check (scripts/check-arm64.sh)
 )
 missing=()
 for p in "${packages[@]}"; do
