@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Builds the link's libFuzzer target with clang (-fsanitize=fuzzer,address,undefined) and runs
+# it for SECONDS (default 20: what CI runs; run it for hours by hand). The corpus is kept in
+# build-fuzz/corpus between runs. Exit 0 only when no crash, leak or sanitizer report was found.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-20}
+out=build-fuzz
+mkdir -p "$out/corpus"
+clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
+  -Iprobe_fw/link/include probe_fw/link/src/*.cc tests/fuzz/link_frame_fuzz.cc \
+  -lcrypto -lzstd -o "$out/link_frame_fuzz"
+"$out/link_frame_fuzz" -max_total_time="$seconds" -max_len=4096 -rss_limit_mb=1024 \
+  -print_final_stats=1 "$out/corpus" 2>&1 | tail -n 12
