@@ -1,0 +1,418 @@
+// Boost 1.74's awaitable.hpp uses std::exchange without including <utility>.
+#include "mlp/link/transport.h"
+
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <set>
+#include <thread>
+#include <unordered_set>
+#include <utility>
+
+#include <boost/asio.hpp>
+
+namespace mlp::link {
+namespace {
+
+namespace asio = boost::asio;
+using asio::awaitable;
+using asio::use_awaitable;
+using asio::ip::tcp;
+using Clock = std::chrono::steady_clock;
+
+// One TCP connection: the socket, its parser, and the time of the last byte received.
+struct Conn {
+  explicit Conn(tcp::socket s) : socket(std::move(s)), wake(socket.get_executor()) {}
+  tcp::socket socket;
+  asio::steady_timer wake;  // the writer sleeps on it; cancelled to wake it
+  Parser parser;
+  Clock::time_point last_rx = Clock::now();
+  Millis idle{3000};  // the watchdog's limit: the handshake's, then the session's
+  bool alive = true;
+  std::deque<Bytes> outbox;  // serialized frames waiting for the writer
+
+  void Close() {
+    alive = false;
+    boost::system::error_code ignored;
+    socket.shutdown(tcp::socket::shutdown_both, ignored);
+    socket.close(ignored);
+    wake.cancel();
+  }
+  void Send(Bytes wire) {
+    outbox.push_back(std::move(wire));
+    wake.cancel();
+  }
+};
+
+awaitable<Frame> ReadFrame(std::shared_ptr<Conn> c) {
+  Frame f;
+  std::uint8_t buf[16384];
+  while (!c->parser.Next(&f)) {
+    const std::size_t n = co_await c->socket.async_read_some(asio::buffer(buf), use_awaitable);
+    c->last_rx = Clock::now();
+    c->parser.Feed(buf, n);
+  }
+  co_return f;
+}
+
+// Frames and connections are taken by value: a coroutine must not hold references to its
+// caller's objects across a suspension.
+awaitable<void> WriteNow(std::shared_ptr<Conn> c, Frame f) {
+  const Bytes wire = Serialize(f);
+  co_await asio::async_write(c->socket, asio::buffer(wire), use_awaitable);
+}
+
+// Closes the connection when nothing arrives for `idle` (covers a peer that vanished without a
+// FIN, which TCP alone notices only after minutes).
+awaitable<void> Watchdog(std::shared_ptr<Conn> c) {
+  asio::steady_timer t(c->socket.get_executor());
+  while (c->alive) {
+    t.expires_after(Millis(20));
+    boost::system::error_code ec;
+    co_await t.async_wait(asio::redirect_error(use_awaitable, ec));
+    if (Clock::now() - c->last_rx > c->idle) c->Close();
+  }
+}
+
+// Sends queued frames, and a heartbeat whenever the line has been quiet for `heartbeat`. Never
+// throws: a failed write closes the connection.
+awaitable<void> Writer(std::shared_ptr<Conn> c,
+                       std::shared_ptr<Session> session,
+                       Millis heartbeat,
+                       std::function<void()> refill) {
+  Clock::time_point last_tx = Clock::now();
+  while (c->alive) {
+    if (refill) refill();
+    if (!c->outbox.empty()) {
+      const Bytes wire = std::move(c->outbox.front());
+      c->outbox.pop_front();
+      boost::system::error_code ec;
+      co_await asio::async_write(c->socket, asio::buffer(wire),
+                                 asio::redirect_error(use_awaitable, ec));
+      if (ec) break;
+      last_tx = Clock::now();
+      continue;
+    }
+    if (Clock::now() - last_tx >= heartbeat) {
+      c->outbox.push_back(Serialize(session->Seal(MessageType::kHeartbeat, {})));
+      continue;
+    }
+    c->wake.expires_at(last_tx + heartbeat);
+    boost::system::error_code ec;
+    co_await c->wake.async_wait(asio::redirect_error(use_awaitable, ec));
+  }
+  c->Close();
+}
+
+Bytes CaptureIdPayload(const std::string& id) {
+  Bytes b;
+  PutString(&b, id);
+  return b;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- host
+
+struct HostLink::Impl {
+  HostLinkConfig cfg;
+  CloudHandler on_cloud;
+  Log log;
+  asio::io_context io;
+  std::optional<tcp::acceptor> acceptor;
+  std::thread thread;
+  mutable std::mutex stats_mutex;
+  HostLinkStats stats;
+  std::unordered_set<std::string> seen;
+  std::deque<std::string> seen_order;
+  std::size_t active = 0;
+
+  void Count(std::uint64_t HostLinkStats::*field) {
+    std::lock_guard lock(stats_mutex);
+    ++(stats.*field);
+  }
+
+  // True the first time a capture id is seen (bounded memory: the oldest ids are forgotten).
+  bool FirstTime(const std::string& id) {
+    if (!seen.insert(id).second) return false;
+    seen_order.push_back(id);
+    if (seen_order.size() > cfg.remembered_captures)
+      seen.erase(seen_order.front()), seen_order.pop_front();
+    return true;
+  }
+
+  awaitable<void> Accept() {
+    while (true) {
+      tcp::socket socket = co_await acceptor->async_accept(use_awaitable);
+      Count(&HostLinkStats::connections);
+      if (active >= cfg.max_connections) {
+        log("link: refused a connection: " + std::to_string(active) + " probes connected already");
+        continue;  // the socket closes here
+      }
+      asio::co_spawn(io, Serve(std::make_shared<Conn>(std::move(socket))), asio::detached);
+    }
+  }
+
+  awaitable<void> Serve(std::shared_ptr<Conn> c) {
+    ++active;
+    std::string who = "unauthenticated peer";
+    try {
+      boost::system::error_code ec;
+      const auto remote = c->socket.remote_endpoint(ec);
+      if (!ec) who += " " + remote.address().to_string();
+      c->idle = cfg.handshake_timeout;
+      asio::co_spawn(io, Watchdog(c), asio::detached);
+      HostHandshake hs([this](const std::string& serial) -> std::optional<Key> {
+        const auto it = cfg.probes.find(serial);
+        if (it == cfg.probes.end()) return std::nullopt;
+        return it->second;
+      });
+      // One co_await per statement: GCC 12 mishandles temporaries of nested co_await expressions.
+      const Frame hello = co_await ReadFrame(c);
+      Frame challenge = hs.OnHello(hello);
+      co_await WriteNow(c, std::move(challenge));
+      const Frame auth = co_await ReadFrame(c);
+      hs.OnAuth(auth);
+      who = "probe " + hs.serial();
+      Count(&HostLinkStats::authenticated);
+      auto session = std::make_shared<Session>(hs.TakeSession());
+      c->idle = cfg.idle_timeout;
+      std::function<void()> no_refill;
+      asio::co_spawn(io, Writer(c, session, cfg.heartbeat, no_refill), asio::detached);
+      while (c->alive) {
+        const Frame f = co_await ReadFrame(c);
+        session->Open(f);
+        if (f.type == MessageType::kCloud) {
+          const LinkCloud cloud = DecodeCloud(f.payload);
+          if (cloud.probe_serial != hs.serial()) {
+            throw LinkError(LinkFault::kProtocol,
+                            "cloud of probe " + cloud.probe_serial + " on " + who);
+          }
+          if (FirstTime(cloud.capture_id)) {
+            on_cloud(cloud);
+            Count(&HostLinkStats::delivered);
+          } else {
+            Count(&HostLinkStats::duplicates);
+          }
+          c->Send(Serialize(session->Seal(MessageType::kAck, CaptureIdPayload(cloud.capture_id))));
+        } else if (f.type != MessageType::kHeartbeat && f.type != MessageType::kStatus) {
+          throw LinkError(LinkFault::kProtocol,
+                          "unexpected message type " + std::to_string(int(f.type)));
+        }
+      }
+    } catch (const LinkError& e) {
+      Count(&HostLinkStats::rejected);
+      log("link: rejected " + who + ": " + e.what());
+    } catch (const std::exception& e) {
+      log("link: " + who + " disconnected (" + e.what() + ")");
+    }
+    c->Close();
+    --active;
+  }
+};
+
+HostLink::HostLink(HostLinkConfig config, CloudHandler on_cloud, Log log)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->cfg = std::move(config);
+  impl_->on_cloud = std::move(on_cloud);
+  impl_->log = std::move(log);
+}
+
+HostLink::~HostLink() { Stop(); }
+
+void HostLink::Start() {
+  auto& d = *impl_;
+  try {
+    const tcp::endpoint at(asio::ip::make_address(d.cfg.bind_address), d.cfg.port);
+    d.acceptor.emplace(d.io, at);
+  } catch (const std::exception& e) {
+    throw LinkError(LinkFault::kProtocol, "cannot listen on " + d.cfg.bind_address + ":" +
+                                              std::to_string(d.cfg.port) + " (" + e.what() + ")");
+  }
+  asio::co_spawn(d.io, d.Accept(), asio::detached);
+  d.thread = std::thread([&d] { d.io.run(); });
+}
+
+void HostLink::Stop() {
+  if (!impl_ || !impl_->thread.joinable()) return;
+  impl_->io.stop();
+  impl_->thread.join();
+}
+
+std::uint16_t HostLink::Port() const {
+  return impl_->acceptor ? impl_->acceptor->local_endpoint().port() : 0;
+}
+
+HostLinkStats HostLink::Stats() const {
+  std::lock_guard lock(impl_->stats_mutex);
+  return impl_->stats;
+}
+
+// ---------------------------------------------------------------- probe
+
+struct ProbeLink::Impl {
+  struct Pending {
+    std::string capture_id;
+    Bytes payload;
+    std::uint64_t sent_on = 0;  // connection number it was last sent on
+  };
+
+  ProbeLinkConfig cfg;
+  Log log;
+  asio::io_context io;
+  std::thread thread;
+  mutable std::mutex m;
+  mutable std::condition_variable acked;
+  std::deque<Pending> store;
+  std::uint64_t connection = 0;
+  std::atomic<std::uint64_t> reconnects{0};
+  std::shared_ptr<Conn> current;  // io thread only
+
+  // Moves the next pending cloud not yet sent on this connection into the connection's outbox.
+  void Refill(const std::shared_ptr<Conn>& c, Session* session, std::uint64_t number) {
+    if (!c->alive) return;
+    if (!c->outbox.empty()) return;
+    std::lock_guard lock(m);
+    for (Pending& p : store) {
+      if (p.sent_on == number) continue;
+      p.sent_on = number;
+      c->outbox.push_back(Serialize(session->Seal(MessageType::kCloud, p.payload)));
+      return;
+    }
+  }
+
+  void Acknowledge(const Frame& f) {
+    Reader r(f.payload);
+    const std::string id = r.String(256);
+    r.ExpectEnd();
+    std::lock_guard lock(m);
+    for (auto it = store.begin(); it != store.end(); ++it) {
+      if (it->capture_id == id) {
+        store.erase(it);
+        break;
+      }
+    }
+    acked.notify_all();
+  }
+
+  awaitable<void> Connect(std::shared_ptr<Conn> c) {
+    tcp::resolver resolver(io);
+    const auto endpoints =
+        co_await resolver.async_resolve(cfg.host, std::to_string(cfg.port), use_awaitable);
+    asio::steady_timer timer(io, cfg.connect_timeout);
+    timer.async_wait([c](const boost::system::error_code& ec) {
+      if (!ec) c->Close();  // a connect that hangs is given up
+    });
+    co_await asio::async_connect(c->socket, endpoints, use_awaitable);
+    timer.cancel();
+  }
+
+  awaitable<void> ReadLoop(std::shared_ptr<Conn> c, std::shared_ptr<Session> session) {
+    try {
+      while (c->alive) {
+        const Frame f = co_await ReadFrame(c);
+        session->Open(f);
+        if (f.type == MessageType::kAck) Acknowledge(f);
+      }
+    } catch (const std::exception& e) {
+      log(std::string("link: connection lost (") + e.what() + ")");
+    }
+    c->Close();
+  }
+
+  awaitable<void> Run() {
+    Millis backoff = cfg.backoff_min;
+    while (true) {
+      auto c = std::make_shared<Conn>(tcp::socket(io));
+      current = c;
+      try {
+        co_await Connect(c);
+        c->last_rx = Clock::now();
+        c->idle = cfg.idle_timeout;
+        asio::co_spawn(io, Watchdog(c), asio::detached);
+        ProbeHandshake hs(cfg.serial, cfg.key);
+        // Named locals only around co_await inside this try block: GCC 12 destroys temporaries
+        // of a co_await expression twice when an exception leaves it (seen under ASan).
+        Frame hello = hs.Hello();
+        co_await WriteNow(c, std::move(hello));
+        const Frame challenge = co_await ReadFrame(c);
+        Frame auth = hs.OnChallenge(challenge);
+        co_await WriteNow(c, std::move(auth));
+        auto session = std::make_shared<Session>(hs.TakeSession());
+        backoff = cfg.backoff_min;
+        std::uint64_t number = 0;
+        std::size_t pending = 0;
+        {
+          std::lock_guard lock(m);
+          number = ++connection;
+          pending = store.size();
+        }
+        log("link: session " + std::to_string(number) + " authenticated, " +
+            std::to_string(pending) + " clouds to send");
+        asio::co_spawn(io, ReadLoop(c, session), asio::detached);
+        std::function<void()> refill = [this, c, session, number] {
+          Refill(c, session.get(), number);
+        };
+        co_await Writer(c, session, cfg.heartbeat, refill);
+      } catch (const std::exception& e) {
+        log(std::string("link: ") + e.what());
+      }
+      c->Close();
+      ++reconnects;
+      asio::steady_timer pause(io, backoff);
+      co_await pause.async_wait(use_awaitable);
+      backoff = std::min(cfg.backoff_max, 2 * backoff);
+    }
+  }
+};
+
+ProbeLink::ProbeLink(ProbeLinkConfig config, Log log) : impl_(std::make_unique<Impl>()) {
+  impl_->cfg = std::move(config);
+  impl_->log = std::move(log);
+}
+
+ProbeLink::~ProbeLink() { Stop(); }
+
+void ProbeLink::Start() {
+  auto& d = *impl_;
+  asio::co_spawn(d.io, d.Run(), asio::detached);
+  d.thread = std::thread([&d] { d.io.run(); });
+}
+
+void ProbeLink::Stop() {
+  if (!impl_ || !impl_->thread.joinable()) return;
+  impl_->io.stop();
+  impl_->thread.join();
+}
+
+SubmitResult ProbeLink::Submit(const LinkCloud& cloud) {
+  auto& d = *impl_;
+  Bytes payload = EncodeCloud(cloud, d.cfg.compress);
+  {
+    std::lock_guard lock(d.m);
+    for (const auto& p : d.store) {
+      if (p.capture_id == cloud.capture_id) return SubmitResult::kDuplicate;
+    }
+    if (d.store.size() >= d.cfg.buffer_clouds) return SubmitResult::kBufferFull;
+    d.store.push_back({cloud.capture_id, std::move(payload), 0});
+  }
+  asio::post(d.io, [&d] {
+    if (d.current) d.current->wake.cancel();
+  });
+  return SubmitResult::kQueued;
+}
+
+std::size_t ProbeLink::Unacknowledged() const {
+  std::lock_guard lock(impl_->m);
+  return impl_->store.size();
+}
+
+bool ProbeLink::WaitAllAcknowledged(Millis timeout) const {
+  std::unique_lock lock(impl_->m);
+  return impl_->acked.wait_for(lock, timeout, [this] { return impl_->store.empty(); });
+}
+
+std::uint64_t ProbeLink::Reconnects() const { return impl_->reconnects; }
+
+}  // namespace mlp::link
