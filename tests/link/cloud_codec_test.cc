@@ -89,6 +89,9 @@ TEST(CloudCodec, BadCloudsAreRefusedOnEncode) {
   EXPECT_THROW(EncodeCloud(c, false), LinkError);
   c.quality = {};
   EXPECT_THROW(EncodeCloud(c, false), LinkError);
+  c.quality = {0.5f};
+  c.capture_id = std::string(257, 'x');  // the host would refuse it: refused here already
+  EXPECT_THROW(EncodeCloud(c, false), LinkError);
 }
 
 TEST(CloudCodec, HostilePayloadsAreTypedErrors) {

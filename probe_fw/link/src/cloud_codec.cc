@@ -101,6 +101,10 @@ void ReadBody(const Bytes& body, LinkCloud* c, std::size_t n) {
 Bytes EncodeCloud(const LinkCloud& c, bool compress) {
   if (c.xyz.size() != 3 * c.quality.size()) Bad("xyz and quality sizes differ");
   if (c.size() > kMaxCloudPoints) Bad("more than " + std::to_string(kMaxCloudPoints) + " points");
+  for (const std::string* text : {&c.capture_id, &c.probe_serial, &c.calibration_id}) {
+    // The decoder's limit, enforced here too: a cloud the host must refuse is never queued.
+    if (text->size() > kMaxText) Bad("an id longer than " + std::to_string(kMaxText) + " bytes");
+  }
   Bytes out;
   PutString(&out, c.capture_id);
   PutString(&out, c.probe_serial);

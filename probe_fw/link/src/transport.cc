@@ -24,6 +24,12 @@ using Clock = std::chrono::steady_clock;
 // One TCP connection: the socket, its parser, and the time of the last byte received.
 struct Conn {
   explicit Conn(tcp::socket s) : socket(std::move(s)), wake(socket.get_executor()) {}
+  // Frames are written whole: Nagle's algorithm would only hold small ACKs and heartbeats back
+  // (measured: 66 ms instead of 21 ms for 20 clouds on loopback).
+  void NoDelay() {
+    boost::system::error_code ignored;
+    socket.set_option(tcp::no_delay(true), ignored);
+  }
   tcp::socket socket;
   asio::steady_timer wake;  // the writer sleeps on it; cancelled to wake it
   Parser parser;
@@ -150,7 +156,9 @@ struct HostLink::Impl {
         log("link: refused a connection: " + std::to_string(active) + " probes connected already");
         continue;  // the socket closes here
       }
-      asio::co_spawn(io, Serve(std::make_shared<Conn>(std::move(socket))), asio::detached);
+      auto conn = std::make_shared<Conn>(std::move(socket));
+      conn->NoDelay();
+      asio::co_spawn(io, Serve(conn), asio::detached);
     }
   }
 
@@ -328,6 +336,7 @@ struct ProbeLink::Impl {
       current = c;
       try {
         co_await Connect(c);
+        c->NoDelay();
         c->last_rx = Clock::now();
         c->idle = cfg.idle_timeout;
         asio::co_spawn(io, Watchdog(c), asio::detached);
