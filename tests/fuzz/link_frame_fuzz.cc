@@ -1,9 +1,11 @@
 // libFuzzer target: arbitrary bytes from the network into the link's frame parser and every
-// payload decoder behind it. Only typed LinkErrors may come out; anything else (a crash, an
-// ASan/UBSan report, another exception) is a finding. Built and run by scripts/fuzz-link.sh.
+// payload decoder behind it (hello, auth, cloud, capture request, status, error, ack, session).
+// Only typed LinkErrors may come out; anything else (a crash, an ASan/UBSan report, another
+// exception) is a finding. Built and run by scripts/fuzz-link.sh.
 
 #include "mlp/link/auth.h"
 #include "mlp/link/cloud_codec.h"
+#include "mlp/link/messages.h"
 #include "mlp/link/wire.h"
 
 #include <cstddef>
@@ -25,6 +27,18 @@ void Dispatch(HostHandshake& host, Session& session, const Frame& f) {
         break;
       case MessageType::kCloud:
         DecodeCloud(f.payload);
+        break;
+      case MessageType::kCaptureRequest:
+        DecodeCaptureRequest(f.payload);
+        break;
+      case MessageType::kStatus:
+        DecodeStatus(f.payload);
+        break;
+      case MessageType::kError:
+        DecodeError(f.payload);
+        break;
+      case MessageType::kAck:
+        DecodeAck(f.payload);
         break;
       default:
         session.Open(f);

@@ -10,19 +10,20 @@
 #include <thread>
 #include <utility>  // before Asio (Boost 1.74's awaitable.hpp needs std::exchange)
 
+#include "link_test_util.h"
 #include <boost/asio.hpp>
 #include <gtest/gtest.h>
 
 namespace mlp::link {
 namespace {
 
+using namespace testing;
+
 namespace asio = boost::asio;
 using asio::ip::tcp;
 using namespace std::chrono_literals;
 
 constexpr auto kDeliveryTimeout = 60s;
-
-Key KeyOf(std::uint8_t seed) { return Key{Bytes(32, seed)}; }
 
 LinkCloud MakeCloud(const std::string& serial, int index, std::mt19937* gen) {
   std::uniform_real_distribution<double> coord(-50.0, 150.0);
@@ -41,25 +42,13 @@ LinkCloud MakeCloud(const std::string& serial, int index, std::mt19937* gen) {
 }
 
 // Receives clouds on the host and remembers each delivery.
-struct Inbox {
-  std::mutex m;
+struct Inbox : LogBook {
+  // m (LogBook's) guards everything here
   std::map<std::string, LinkCloud> clouds;
   int delivered_twice = 0;
-  std::vector<std::string> log;
   void Take(const LinkCloud& c) {
     std::lock_guard lock(m);
     if (!clouds.emplace(c.capture_id, c).second) ++delivered_twice;
-  }
-  void Log(const std::string& line) {
-    std::lock_guard lock(m);
-    log.push_back(line);
-  }
-  bool Logged(const std::string& needle) {
-    std::lock_guard lock(m);
-    for (const auto& l : log) {
-      if (l.find(needle) != std::string::npos) return true;
-    }
-    return false;
   }
 };
 
@@ -145,26 +134,6 @@ class FaultRelay {
   std::thread thread_;
   std::atomic<int> faults_{0};
 };
-
-HostLinkConfig HostConfig(std::map<std::string, Key> probes) {
-  HostLinkConfig cfg;
-  cfg.probes = std::move(probes);
-  cfg.heartbeat = 100ms;
-  cfg.idle_timeout = 1000ms;
-  return cfg;
-}
-
-ProbeLinkConfig ProbeConfig(const std::string& serial, Key key, std::uint16_t port) {
-  ProbeLinkConfig cfg;
-  cfg.serial = serial;
-  cfg.key = std::move(key);
-  cfg.port = port;
-  cfg.heartbeat = 100ms;
-  cfg.idle_timeout = 1000ms;
-  cfg.backoff_min = 5ms;
-  cfg.backoff_max = 200ms;
-  return cfg;
-}
 
 // Submits, waiting while the store-and-forward buffer is full.
 void SubmitAll(ProbeLink& probe, const std::vector<LinkCloud>& clouds) {

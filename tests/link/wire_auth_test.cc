@@ -8,11 +8,14 @@
 #include <fstream>
 #include <random>
 
+#include "link_test_util.h"
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
 namespace mlp::link {
 namespace {
+
+using testing::FaultOf;
 
 Key TestKey(std::uint8_t seed) { return Key{Bytes(32, seed)}; }
 
@@ -22,16 +25,6 @@ Frame Parse(const Bytes& wire) {
   Frame f;
   if (!p.Next(&f)) throw std::logic_error("incomplete frame");
   return f;
-}
-
-LinkFault FaultOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const LinkError& e) {
-    return e.fault();
-  }
-  ADD_FAILURE() << "accepted";
-  return LinkFault::kProtocol;
 }
 
 struct Pair {

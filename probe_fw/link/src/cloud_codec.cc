@@ -10,7 +10,6 @@ namespace {
 
 constexpr std::uint8_t kRaw = 0, kZstd = 1;
 constexpr int kZstdLevel = 3;  // zstd's default: most of the gain at a fraction of the time
-constexpr std::size_t kMaxText = 256;
 // A delta of two int32 values needs 33 bits, zig-zagged 34: five 7-bit varint bytes.
 constexpr std::size_t kMaxVarint = 5;
 
@@ -103,7 +102,8 @@ Bytes EncodeCloud(const LinkCloud& c, bool compress) {
   if (c.size() > kMaxCloudPoints) Bad("more than " + std::to_string(kMaxCloudPoints) + " points");
   for (const std::string* text : {&c.capture_id, &c.probe_serial, &c.calibration_id}) {
     // The decoder's limit, enforced here too: a cloud the host must refuse is never queued.
-    if (text->size() > kMaxText) Bad("an id longer than " + std::to_string(kMaxText) + " bytes");
+    if (text->size() > kMaxIdBytes)
+      Bad("an id longer than " + std::to_string(kMaxIdBytes) + " bytes");
   }
   Bytes out;
   PutString(&out, c.capture_id);
@@ -136,9 +136,9 @@ Bytes EncodeCloud(const LinkCloud& c, bool compress) {
 LinkCloud DecodeCloud(const Bytes& payload) {
   Reader r(payload);
   LinkCloud c;
-  c.capture_id = r.String(kMaxText);
-  c.probe_serial = r.String(kMaxText);
-  c.calibration_id = r.String(kMaxText);
+  c.capture_id = r.String(kMaxIdBytes);
+  c.probe_serial = r.String(kMaxIdBytes);
+  c.calibration_id = r.String(kMaxIdBytes);
   for (double& h : c.mcs_from_flange) h = r.F64();
   c.first_frame_ns = static_cast<std::int64_t>(r.U64());
   c.last_frame_ns = static_cast<std::int64_t>(r.U64());

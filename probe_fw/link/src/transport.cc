@@ -4,6 +4,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <deque>
+#include <future>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -111,10 +112,8 @@ awaitable<void> Writer(std::shared_ptr<Conn> c,
   c->Close();
 }
 
-Bytes CaptureIdPayload(const std::string& id) {
-  Bytes b;
-  PutString(&b, id);
-  return b;
+void SendSealed(Conn& c, Session& session, MessageType type, Bytes payload) {
+  c.Send(Serialize(session.Seal(type, std::move(payload))));
 }
 
 }  // namespace
@@ -124,8 +123,11 @@ Bytes CaptureIdPayload(const std::string& id) {
 struct HostLink::Impl {
   HostLinkConfig cfg;
   CloudHandler on_cloud;
+  StatusHandler on_status;
+  ErrorHandler on_error;
   Log log;
   asio::io_context io;
+  std::atomic<bool> running{false};
   std::optional<tcp::acceptor> acceptor;
   std::thread thread;
   mutable std::mutex stats_mutex;
@@ -133,6 +135,76 @@ struct HostLink::Impl {
   std::unordered_set<std::string> seen;
   std::deque<std::string> seen_order;
   std::size_t active = 0;
+  // The authenticated connection of each probe (io thread only); `names` and `statuses` mirror
+  // what other threads may ask about.
+  struct Registered {
+    std::shared_ptr<Conn> conn;
+    std::shared_ptr<Session> session;
+  };
+  std::map<std::string, Registered> connected;
+  mutable std::mutex probes_mutex;
+  std::set<std::string> names;
+  std::map<std::string, ProbeStatus> statuses;
+
+  void Register(const std::string& serial, Registered r) {
+    const auto old = connected.find(serial);
+    if (old != connected.end()) {
+      // The probe reconnected before the old connection timed out: the new one is the truth.
+      log("link: probe " + serial + " reconnected, its older connection is closed");
+      old->second.conn->Close();
+    }
+    connected[serial] = std::move(r);
+    std::lock_guard lock(probes_mutex);
+    names.insert(serial);
+  }
+
+  void Unregister(const std::string& serial, const std::shared_ptr<Conn>& c) {
+    const auto it = connected.find(serial);
+    if (it == connected.end() || it->second.conn != c) return;
+    connected.erase(it);
+    std::lock_guard lock(probes_mutex);
+    names.erase(serial);
+  }
+
+  void Dispatch(const Frame& f, const std::string& serial, Conn& c, Session& session) {
+    switch (f.type) {
+      case MessageType::kCloud: {
+        const LinkCloud cloud = DecodeCloud(f.payload);
+        if (cloud.probe_serial != serial)
+          throw LinkError(LinkFault::kProtocol, "cloud of probe " + cloud.probe_serial);
+        if (FirstTime(cloud.capture_id)) {
+          on_cloud(cloud);
+          Count(&HostLinkStats::delivered);
+        } else {
+          Count(&HostLinkStats::duplicates);
+        }
+        SendSealed(c, session, MessageType::kAck, EncodeAck(cloud.capture_id));
+        return;
+      }
+      case MessageType::kStatus: {
+        const ProbeStatus status = DecodeStatus(f.payload);
+        {
+          std::lock_guard lock(probes_mutex);
+          statuses[serial] = status;
+        }
+        if (on_status) on_status(serial, status);
+        return;
+      }
+      case MessageType::kError: {
+        const ProbeError error = DecodeError(f.payload);
+        log("link: probe " + serial + " reports " + ToString(error.code) +
+            (error.capture_id.empty() ? "" : " for capture " + error.capture_id) + ": " +
+            error.message);
+        if (on_error) on_error(serial, error);
+        return;
+      }
+      case MessageType::kHeartbeat:
+        return;
+      default:
+        throw LinkError(LinkFault::kProtocol,
+                        "unexpected message type " + std::to_string(int(f.type)));
+    }
+  }
 
   void Count(std::uint64_t HostLinkStats::*field) {
     std::lock_guard lock(stats_mutex);
@@ -164,7 +236,7 @@ struct HostLink::Impl {
 
   awaitable<void> Serve(std::shared_ptr<Conn> c) {
     ++active;
-    std::string who = "unauthenticated peer";
+    std::string who = "unauthenticated peer", serial;
     try {
       boost::system::error_code ec;
       const auto remote = c->socket.remote_endpoint(ec);
@@ -186,28 +258,14 @@ struct HostLink::Impl {
       Count(&HostLinkStats::authenticated);
       auto session = std::make_shared<Session>(hs.TakeSession());
       c->idle = cfg.idle_timeout;
+      serial = hs.serial();
+      Register(serial, {c, session});
       std::function<void()> no_refill;
       asio::co_spawn(io, Writer(c, session, cfg.heartbeat, no_refill), asio::detached);
       while (c->alive) {
         const Frame f = co_await ReadFrame(c);
         session->Open(f);
-        if (f.type == MessageType::kCloud) {
-          const LinkCloud cloud = DecodeCloud(f.payload);
-          if (cloud.probe_serial != hs.serial()) {
-            throw LinkError(LinkFault::kProtocol,
-                            "cloud of probe " + cloud.probe_serial + " on " + who);
-          }
-          if (FirstTime(cloud.capture_id)) {
-            on_cloud(cloud);
-            Count(&HostLinkStats::delivered);
-          } else {
-            Count(&HostLinkStats::duplicates);
-          }
-          c->Send(Serialize(session->Seal(MessageType::kAck, CaptureIdPayload(cloud.capture_id))));
-        } else if (f.type != MessageType::kHeartbeat && f.type != MessageType::kStatus) {
-          throw LinkError(LinkFault::kProtocol,
-                          "unexpected message type " + std::to_string(int(f.type)));
-        }
+        Dispatch(f, serial, *c, *session);
       }
     } catch (const LinkError& e) {
       Count(&HostLinkStats::rejected);
@@ -216,6 +274,7 @@ struct HostLink::Impl {
       log("link: " + who + " disconnected (" + e.what() + ")");
     }
     c->Close();
+    if (!serial.empty()) Unregister(serial, c);
     --active;
   }
 };
@@ -229,6 +288,39 @@ HostLink::HostLink(HostLinkConfig config, CloudHandler on_cloud, Log log)
 
 HostLink::~HostLink() { Stop(); }
 
+void HostLink::OnStatus(StatusHandler handler) { impl_->on_status = std::move(handler); }
+void HostLink::OnError(ErrorHandler handler) { impl_->on_error = std::move(handler); }
+
+bool HostLink::RequestCapture(const std::string& serial, const CaptureRequest& request) {
+  auto& d = *impl_;
+  Bytes payload = Encode(request);  // throws here, in the caller's thread, if malformed
+  if (!d.running) return false;
+  auto sent = std::make_shared<std::promise<bool>>();
+  std::future<bool> result = sent->get_future();
+  asio::post(d.io, [&d, serial, sent, payload = std::move(payload)]() mutable {
+    const auto it = d.connected.find(serial);
+    if (it == d.connected.end() || !it->second.conn->alive) return sent->set_value(false);
+    SendSealed(*it->second.conn, *it->second.session, MessageType::kCaptureRequest,
+               std::move(payload));
+    sent->set_value(true);
+  });
+  // Bounded: a host stopped meanwhile never runs the handler.
+  constexpr Millis kPostTimeout{2000};
+  return result.wait_for(kPostTimeout) == std::future_status::ready && result.get();
+}
+
+std::optional<ProbeStatus> HostLink::LatestStatus(const std::string& serial) const {
+  std::lock_guard lock(impl_->probes_mutex);
+  const auto it = impl_->statuses.find(serial);
+  if (it == impl_->statuses.end()) return std::nullopt;
+  return it->second;
+}
+
+std::vector<std::string> HostLink::ConnectedProbes() const {
+  std::lock_guard lock(impl_->probes_mutex);
+  return {impl_->names.begin(), impl_->names.end()};
+}
+
 void HostLink::Start() {
   auto& d = *impl_;
   try {
@@ -239,11 +331,13 @@ void HostLink::Start() {
                                               std::to_string(d.cfg.port) + " (" + e.what() + ")");
   }
   asio::co_spawn(d.io, d.Accept(), asio::detached);
+  d.running = true;
   d.thread = std::thread([&d] { d.io.run(); });
 }
 
 void HostLink::Stop() {
   if (!impl_ || !impl_->thread.joinable()) return;
+  impl_->running = false;
   impl_->io.stop();
   impl_->thread.join();
 }
@@ -275,7 +369,72 @@ struct ProbeLink::Impl {
   std::deque<Pending> store;
   std::uint64_t connection = 0;
   std::atomic<std::uint64_t> reconnects{0};
-  std::shared_ptr<Conn> current;  // io thread only
+  std::shared_ptr<Conn> current;             // io thread only
+  std::shared_ptr<Session> current_session;  // io thread only; null before authentication
+  std::deque<CaptureRequest> requests;       // guarded by m
+  std::condition_variable request_cv;
+  std::function<ProbeStatus()> status_source;
+  std::atomic<bool> status_due{true};
+  Clock::time_point last_status{};  // io thread only
+
+  ProbeStatus Status() {
+    ProbeStatus s;
+    if (status_source) s = status_source();
+    std::lock_guard lock(m);
+    s.buffer_used = static_cast<std::uint32_t>(store.size());
+    s.buffer_capacity = static_cast<std::uint32_t>(cfg.buffer_clouds);
+    s.flags = static_cast<std::uint8_t>(s.flags & ~kStatusBufferFull);
+    if (store.size() >= cfg.buffer_clouds) s.flags |= kStatusBufferFull;
+    return s;
+  }
+
+  // STATUS on a new session, every status_period, and when something of note changed.
+  void MaybeSendStatus(Conn& c, Session& session) {
+    const auto now = Clock::now();
+    if (!status_due && now - last_status < cfg.status_period) return;
+    status_due = false;
+    last_status = now;
+    try {
+      SendSealed(c, session, MessageType::kStatus, Encode(Status()));
+    } catch (const LinkError& e) {
+      log(std::string("link: status not sent: ") + e.what());
+    }
+  }
+
+  void SendError(Conn& c, Session& session, const ProbeError& e) {
+    log("link: error to host: " + std::string(ToString(e.code)) + " " + e.capture_id + ": " +
+        e.message);
+    SendSealed(c, session, MessageType::kError, Encode(e));
+  }
+
+  // A capture request is queued for the firmware unless the link must refuse it.
+  void OnRequest(Conn& c, Session& session, const Frame& f) {
+    CaptureRequest r;
+    try {
+      r = DecodeCaptureRequest(f.payload);
+    } catch (const LinkError& e) {
+      return SendError(c, session, {ProbeErrorCode::kBadRequest, "", e.what()});
+    }
+    std::optional<ProbeError> refusal;
+    {
+      std::lock_guard lock(m);
+      if (store.size() >= cfg.buffer_clouds) {
+        refusal = ProbeError{ProbeErrorCode::kBufferFull, r.capture_id,
+                             std::to_string(store.size()) +
+                                 " clouds wait for the host's acknowledgement; capture refused"};
+      } else if (requests.size() >= cfg.request_queue) {
+        refusal = ProbeError{ProbeErrorCode::kBusy, r.capture_id,
+                             std::to_string(requests.size()) + " requests wait already"};
+      } else {
+        requests.push_back(std::move(r));
+        request_cv.notify_all();
+      }
+    }
+    if (refusal) {
+      SendError(c, session, *refusal);
+      status_due = true;
+    }
+  }
 
   // Moves the next pending cloud not yet sent on this connection into the connection's outbox.
   void Refill(const std::shared_ptr<Conn>& c, Session* session, std::uint64_t number) {
@@ -291,10 +450,9 @@ struct ProbeLink::Impl {
   }
 
   void Acknowledge(const Frame& f) {
-    Reader r(f.payload);
-    const std::string id = r.String(256);
-    r.ExpectEnd();
+    const std::string id = DecodeAck(f.payload);
     std::lock_guard lock(m);
+    if (store.size() >= cfg.buffer_clouds) status_due = true;  // no longer full: say so
     for (auto it = store.begin(); it != store.end(); ++it) {
       if (it->capture_id == id) {
         store.erase(it);
@@ -321,7 +479,14 @@ struct ProbeLink::Impl {
       while (c->alive) {
         const Frame f = co_await ReadFrame(c);
         session->Open(f);
-        if (f.type == MessageType::kAck) Acknowledge(f);
+        if (f.type == MessageType::kAck) {
+          Acknowledge(f);
+        } else if (f.type == MessageType::kCaptureRequest) {
+          OnRequest(*c, *session, f);
+        } else if (f.type != MessageType::kHeartbeat) {
+          throw LinkError(LinkFault::kProtocol,
+                          "unexpected message type " + std::to_string(int(f.type)));
+        }
       }
     } catch (const std::exception& e) {
       log(std::string("link: connection lost (") + e.what() + ")");
@@ -359,15 +524,20 @@ struct ProbeLink::Impl {
         }
         log("link: session " + std::to_string(number) + " authenticated, " +
             std::to_string(pending) + " clouds to send");
+        current_session = session;
+        status_due = true;
         asio::co_spawn(io, ReadLoop(c, session), asio::detached);
         std::function<void()> refill = [this, c, session, number] {
+          if (c->alive) MaybeSendStatus(*c, *session);
           Refill(c, session.get(), number);
         };
         co_await Writer(c, session, cfg.heartbeat, refill);
       } catch (const std::exception& e) {
-        log(std::string("link: ") + e.what());
+        log("link: " + cfg.host + ":" + std::to_string(cfg.port) + ": " + e.what() +
+            "; retrying in " + std::to_string(backoff.count()) + " ms");
       }
       c->Close();
+      current_session.reset();
       ++reconnects;
       asio::steady_timer pause(io, backoff);
       co_await pause.async_wait(use_awaitable);
@@ -405,6 +575,7 @@ SubmitResult ProbeLink::Submit(const LinkCloud& cloud) {
     }
     if (d.store.size() >= d.cfg.buffer_clouds) return SubmitResult::kBufferFull;
     d.store.push_back({cloud.capture_id, std::move(payload), 0});
+    if (d.store.size() >= d.cfg.buffer_clouds) d.status_due = true;
   }
   asio::post(d.io, [&d] {
     if (d.current) d.current->wake.cancel();
@@ -420,6 +591,39 @@ std::size_t ProbeLink::Unacknowledged() const {
 bool ProbeLink::WaitAllAcknowledged(Millis timeout) const {
   std::unique_lock lock(impl_->m);
   return impl_->acked.wait_for(lock, timeout, [this] { return impl_->store.empty(); });
+}
+
+std::optional<CaptureRequest> ProbeLink::NextRequest(Millis timeout) {
+  auto& d = *impl_;
+  std::unique_lock lock(d.m);
+  if (!d.request_cv.wait_for(lock, timeout, [&d] { return !d.requests.empty(); }))
+    return std::nullopt;
+  CaptureRequest r = std::move(d.requests.front());
+  d.requests.pop_front();
+  return r;
+}
+
+void ProbeLink::ReportError(ProbeError error) {
+  auto& d = *impl_;
+  // A message from an exception may be long or hold newlines: clipped and flattened, so that
+  // reporting an error never fails.
+  if (error.message.size() > kMaxMessageBytes) error.message.resize(kMaxMessageBytes);
+  for (char& ch : error.message) {
+    if (static_cast<unsigned char>(ch) < 0x20) ch = ' ';
+  }
+  Encode(error);  // throws here, in the caller's thread, for an unknown code or a bad id
+  asio::post(d.io, [&d, error] {
+    if (!d.current || !d.current->alive || !d.current_session) {
+      d.log("link: not connected, error not sent: " + std::string(ToString(error.code)) + " " +
+            error.capture_id + ": " + error.message);
+      return;
+    }
+    d.SendError(*d.current, *d.current_session, error);
+  });
+}
+
+void ProbeLink::SetStatusSource(std::function<ProbeStatus()> source) {
+  impl_->status_source = std::move(source);
 }
 
 std::uint64_t ProbeLink::Reconnects() const { return impl_->reconnects; }

@@ -1,5 +1,6 @@
 #include "mlp/sim/sim_command.h"
 
+#include "mlp/link/wire.h"
 #include "mlp/probe_fw/cli.h"
 #include "mlp/probe_fw/cloud_io.h"
 #include "mlp/probe_fw/frame_io.h"
@@ -23,7 +24,13 @@ constexpr const char* kUsage =
     "  --aoi       sensor window read out (default: 512 x 512 at the centre)\n"
     "  --columns   laser sweep in projector columns (default: every 2nd column reaching the AOI)\n"
     "writes DIR/frames.json, DIR/led.*, DIR/laser_NNNN.*, DIR/truth.json, DIR/truth_surface.ply\n"
-    "exit codes: 0 written, 2 bad arguments or input, 1 bug\n";
+    "exit codes: 0 written, 2 bad arguments or input, 1 bug\n"
+    "\n"
+    "usage: mlp-sim serve --probe PROBE_FILE --scene SCENE_FILE --port N --key KEY_FILE\n"
+    "                     [--host ADDRESS] [--seed N] [--buffer CLOUDS] [--captures N]\n"
+    "  a virtual probe: connects to the host's probe link, answers capture requests at the\n"
+    "  requested pose, AOI and sweep until SIGINT/SIGTERM (or after N captures, acknowledged)\n"
+    "exit codes: 0 stopped, 2 bad arguments or input (key file, probe, scene), 1 bug\n";
 
 const Capture& FindCapture(const Scene& scene, const std::string& id) {
   if (id.empty()) return scene.captures.front();
@@ -134,12 +141,14 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
 }  // namespace
 
 int RunSimCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  if (args.empty() || args[0] != "render") {
+  const bool serve = !args.empty() && args[0] == "serve";
+  if (args.empty() || (args[0] != "render" && !serve)) {
     const bool help = !args.empty() && args[0] == "--help";
     (help ? out : err) << kUsage;
     return help ? probe_fw::cli::kExitOk : probe_fw::cli::kExitBadInput;
   }
   try {
+    if (serve) return RunServeCommand({args.begin() + 1, args.end()}, out);
     return Render({args.begin() + 1, args.end()}, out, err);
   } catch (const UsageError& e) {
     err << "mlp-sim: " << e.what() << "\n" << kUsage;
@@ -148,6 +157,9 @@ int RunSimCommand(const std::vector<std::string>& args, std::ostream& out, std::
     err << "mlp-sim: " << e.what() << "\n";
     return probe_fw::cli::kExitBadInput;
   } catch (const SceneError& e) {
+    err << "mlp-sim: " << e.what() << "\n";
+    return probe_fw::cli::kExitBadInput;
+  } catch (const link::LinkError& e) {  // a key file that is missing, unreadable or shared
     err << "mlp-sim: " << e.what() << "\n";
     return probe_fw::cli::kExitBadInput;
   } catch (const std::invalid_argument& e) {

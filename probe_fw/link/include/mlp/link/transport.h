@@ -12,13 +12,16 @@
 
 #include "mlp/link/auth.h"
 #include "mlp/link/cloud_codec.h"
+#include "mlp/link/messages.h"
 
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace mlp::link {
 
@@ -44,8 +47,21 @@ class HostLink {
  public:
   /// Called on the link's thread, once per capture id.
   using CloudHandler = std::function<void(const LinkCloud& cloud)>;
+  using StatusHandler = std::function<void(const std::string& serial, const ProbeStatus& status)>;
+  using ErrorHandler = std::function<void(const std::string& serial, const ProbeError& error)>;
   HostLink(HostLinkConfig config, CloudHandler on_cloud, Log log);
   ~HostLink();
+  /// Optional, before Start; called on the link's thread. Errors are logged either way.
+  void OnStatus(StatusHandler handler);
+  void OnError(ErrorHandler handler);
+  /// Thread-safe. Sends the request to the probe if it is connected and authenticated: true when
+  /// it was queued for sending, false when the probe is not connected (the job fails or waits).
+  /// Throws LinkError (kMalformedPayload) for a request the probe would refuse anyway.
+  bool RequestCapture(const std::string& serial, const CaptureRequest& request);
+  /// Thread-safe. The probe's last reported status, if it reported one since the host started.
+  std::optional<ProbeStatus> LatestStatus(const std::string& serial) const;
+  /// Thread-safe. Serials with an authenticated connection now, sorted.
+  std::vector<std::string> ConnectedProbes() const;
   /// Binds and starts serving; throws LinkError (kProtocol) when the address cannot be bound.
   void Start();
   void Stop();
@@ -69,6 +85,8 @@ struct ProbeLinkConfig {
   Millis connect_timeout{2000};
   Millis backoff_min{20};
   Millis backoff_max{2000};
+  Millis status_period{2000};     ///< STATUS to the host this often, and on every change of note
+  std::size_t request_queue = 8;  ///< capture requests waiting for the firmware, at most
 };
 
 enum class SubmitResult { kQueued, kBufferFull, kDuplicate };
@@ -82,6 +100,16 @@ class ProbeLink {
   /// Thread-safe. kBufferFull: nothing was queued, the capture must wait or be repeated.
   SubmitResult Submit(const LinkCloud& cloud);
   std::size_t Unacknowledged() const;
+  /// Thread-safe. The next capture request from the host, or nothing after `timeout`. Requests
+  /// that arrive while the buffer is full are refused by the link itself (ERROR buffer_full),
+  /// as are requests beyond `request_queue` (ERROR busy) and malformed ones (ERROR bad_request).
+  std::optional<CaptureRequest> NextRequest(Millis timeout);
+  /// Thread-safe. Tells the host that a request failed; sent if a session is up (the host's job
+  /// times out otherwise), logged either way. A long message is clipped.
+  void ReportError(ProbeError error);
+  /// Battery, temperature and flags for STATUS (the link fills in the buffer fields). Before
+  /// Start; without it STATUS reports the buffer only.
+  void SetStatusSource(std::function<ProbeStatus()> source);
   /// True once every submitted cloud is acknowledged, false on timeout.
   bool WaitAllAcknowledged(Millis timeout) const;
   std::uint64_t Reconnects() const;

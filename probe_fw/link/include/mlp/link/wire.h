@@ -24,6 +24,8 @@ constexpr std::size_t kCrcBytes = 4;
 constexpr std::size_t kTagBytes = 32;
 /// Largest payload accepted: a 2048 x 1536 sensor's worth of points at 16 bytes each is 50 MB.
 constexpr std::uint32_t kMaxPayloadBytes = 64u << 20;
+/// Capture ids, serials and calibration ids, at most.
+constexpr std::size_t kMaxIdBytes = 256;
 
 enum class MessageType : std::uint8_t {
   kHello = 1,      ///< probe -> host: versions, serial, nonce

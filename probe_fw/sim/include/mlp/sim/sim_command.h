@@ -1,5 +1,6 @@
 #pragma once
-/// @file `mlp-sim render`: frames of one capture of a scene, with their ground truth.
+/// @file `mlp-sim render`: frames of one capture of a scene, with their ground truth;
+/// `mlp-sim serve`: a virtual probe on the network answering the host's capture requests.
 
 #include <ostream>
 #include <string>
@@ -9,5 +10,7 @@ namespace mlp::sim {
 
 /// Runs `mlp-sim <args>`; returns the exit code (probe_fw::cli::kExit*).
 int RunSimCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+/// `mlp-sim serve` (args without "serve"); throws what RunSimCommand maps to exit codes.
+int RunServeCommand(const std::vector<std::string>& args, std::ostream& out);
 
 }  // namespace mlp::sim

@@ -1,0 +1,21 @@
+#pragma once
+/// @file The virtual probe behind the firmware's Camera interface: a capture request renders the
+/// scene at the request's pose, AOI and sweep, so a virtual probe answers the host exactly as a
+/// real one would (the frames go through the real firmware and the real link).
+
+#include "mlp/probe_fw/agent.h"
+#include "mlp/sim/render.h"
+
+#include <cstdint>
+#include <memory>
+
+namespace mlp::sim {
+
+/// Noise is seeded from `seed` and the capture id, so a repeated request renders the same
+/// frames. The exposure is not modelled (the renderer's signal level is the nominal one).
+probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe, std::uint64_t seed);
+
+/// H of a request as a pose.
+Pose3 PoseOf(const std::array<double, 16>& row_major);
+
+}  // namespace mlp::sim
