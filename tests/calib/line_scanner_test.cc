@@ -1,0 +1,76 @@
+// The hand-eye on real data: ten profiles of a 25.4 mm ball from an industrial line scanner on a
+// robot (../shared/data/line-scanner-sphere, README there), used as they are: NaN gaps,
+// background and spurious points in every profile. No ground truth: the quality figures are
+// the point RMS and the spread of the ten sphere centres in the robot's base frame.
+
+#include "mlp/calib/capture_io.h"
+#include "mlp/calib/hand_eye.h"
+
+#include "test_data.h"
+#include <gtest/gtest.h>
+
+namespace mlp::calib {
+namespace {
+
+constexpr double kBallRadiusMm = 12.7;
+// Issue 5 quotes about 0.17 mm point RMS for a careful solution. Measured here: 0.242 mm over all
+// ten profiles. The joint least-squares minimum is global (all 1,024 choices of the profiles'
+// sides refined: the same minimum), a free radius (12.4-13.0 mm), a scanner scale error (+-2 %)
+// or dropping grazing points (incidence > 40-70 deg) move it by less than 0.02 mm. What remains
+// is systematic per profile (profiles 7 and 9: +-0.45 mm patterns along the arc, the cut circle
+// too wide or too narrow for any rigid M): robot pose error, which no hand-eye can remove. The
+// seven profiles without heavy spatter (all but 7, 9, 10) give 0.142 mm. The bound below is the
+// measured figure with a margin for floating-point differences, not the issue's 0.17 mm.
+constexpr double kPointRmsMm = 0.245;
+// Single profiles fix each capture's centre across the laser plane only through the cut radius
+// (sqrt(R^2 - rho^2)), which multiplies a 0.1 mm pose error several times: measured 1.22 mm RMS.
+constexpr double kCentreSpreadRmsMm = 1.3;
+
+std::vector<SphereCapture> LineScannerCaptures() {
+  const auto dir = test::SharedDataDir() / "line-scanner-sphere";
+  const auto poses = LoadXyzWprPoses((dir / "robpose.txt").string());
+  EXPECT_EQ(poses.size(), 10u);
+  std::vector<SphereCapture> captures;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    SphereCapture c;
+    c.id = std::to_string(i + 1);
+    c.mcs_from_flange = poses[i];
+    c.points_in_probe =
+        LoadFileStorageProfile((dir / (c.id + "_3C_line.yml")).string(), "scan_line");
+    c.single_profile = true;
+    captures.push_back(std::move(c));
+  }
+  return captures;
+}
+
+TEST(LineScannerSphere, RealProfilesCalibrateToTheRobotsAccuracy) {
+  const auto captures = LineScannerCaptures();
+  HandEyeOptions o;
+  o.sphere_radius_mm = kBallRadiusMm;
+  o.lever_mm = 200.0;  // the scanner's stand-off
+  o.max_std_mm = 1.0;  // a robot cell: a millimetre of doubt is what "undetermined" means here
+  const HandEyeResult r = SolveSphereHandEye(captures, o);
+  std::printf(
+      "point RMS %.4f mm over %d points (%d rejected); centre spread RMS %.4f mm, max "
+      "%.4f mm; centre (%.3f, %.3f, %.3f)\n",
+      r.point_rms_mm, r.points_used, r.points_rejected, r.centre_spread_rms_mm,
+      r.centre_spread_max_mm, r.centre_mcs.x(), r.centre_mcs.y(), r.centre_mcs.z());
+  const Eigen::Vector3d rv = Eigen::AngleAxisd(r.flange_from_probe.linear()).axis() *
+                             Eigen::AngleAxisd(r.flange_from_probe.linear()).angle();
+  std::printf("M: t (%.3f, %.3f, %.3f) mm, rotation vector (%.5f, %.5f, %.5f) rad\n",
+              r.flange_from_probe.translation().x(), r.flange_from_probe.translation().y(),
+              r.flange_from_probe.translation().z(), rv.x(), rv.y(), rv.z());
+  for (const auto& c : r.captures) {
+    std::printf("  profile %s: %d/%d points, RMS %.4f mm, centre (%.3f, %.3f, %.3f)\n",
+                c.id.c_str(), c.inliers, c.points, c.rms_mm, c.centre_mcs.x(), c.centre_mcs.y(),
+                c.centre_mcs.z());
+  }
+  for (const auto& w : r.warnings) std::printf("  warning: %s\n", w.c_str());
+  EXPECT_LE(r.point_rms_mm, kPointRmsMm);
+  EXPECT_LE(r.centre_spread_rms_mm, kCentreSpreadRmsMm);
+  EXPECT_EQ(r.captures.size(), 10u);  // no profile thrown away
+  for (const auto& c : r.captures) EXPECT_GT(c.inliers, 100) << c.id;
+}
+
+}  // namespace
+}  // namespace mlp::calib
