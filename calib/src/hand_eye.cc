@@ -7,6 +7,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "describe.h"
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -14,9 +15,10 @@
 namespace mlp::calib {
 namespace {
 
+using detail::Describe;
 using Kind = HandEyeError::Kind;
 using Mat3 = Eigen::Matrix3d;
-using Vec9 = Eigen::Matrix<double, 9, 1>;
+using detail::Vec9;
 using Mat9 = Eigen::Matrix<double, 9, 9>;
 
 constexpr int kMinCaptures = 3;
@@ -373,32 +375,6 @@ Information Accumulate(const std::vector<Prepared>& prepared,
 }
 
 // ------------------------------------------------------------------ observability
-
-const char* const kAxis[3] = {"X", "Y", "Z"};
-
-// Words for a direction of the scaled parameter space (rotation x lever | t | c).
-std::string Describe(const Vec9& v) {
-  std::vector<std::string> parts;
-  constexpr double kShown = 0.25;
-  for (int k = 0; k < 3; ++k) {
-    if (std::abs(v(k)) > kShown)
-      parts.push_back(std::string("M's rotation about flange ") + kAxis[k]);
-  }
-  for (int k = 0; k < 3; ++k) {
-    if (std::abs(v(3 + k)) > kShown)
-      parts.push_back(std::string("M's offset along flange ") + kAxis[k]);
-  }
-  for (int k = 0; k < 3; ++k) {
-    if (std::abs(v(6 + k)) > kShown)
-      parts.push_back(std::string("the sphere centre's ") + kAxis[k]);
-  }
-  std::string s;
-  for (size_t i = 0; i < parts.size(); ++i) {
-    if (i > 0) s.append(i + 1 == parts.size() ? " and " : ", ");
-    s.append(parts[i]);
-  }
-  return s;
-}
 
 std::vector<std::string> Proposals(const std::vector<Vec9>& directions) {
   bool along_z = false, across = false, rotation = false;

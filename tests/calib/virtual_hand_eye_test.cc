@@ -2,14 +2,14 @@
 // rendered at 12 flange poses of a five-axis head, reconstructed by the real firmware, then
 // calibrated; M and the centre compared with the scene's truth.
 
-#include "hand_eye_fixture.h"
-
 #include "mlp/calib/hand_eye.h"
+#include "mlp/calib/recheck.h"
 #include "mlp/probe_fw/triangulate.h"
 #include "mlp/sim/render.h"
 
 #include <chrono>
 
+#include "hand_eye_fixture.h"
 #include <gtest/gtest.h>
 
 namespace mlp::calib {
@@ -18,7 +18,7 @@ namespace {
 constexpr double kTranslationTolMm = 0.002;  // issue 5, 12 poses at nominal noise
 constexpr double kRotationTolArcsec = 5.0;
 constexpr double kCentreTolMm = 0.002;
-constexpr int kAoiPx = 400;  // the central part of the sphere's image (radius ~470 px)
+constexpr int kAoiPx = 400;        // the central part of the sphere's image (radius ~470 px)
 constexpr double kColumnStep = 4;  // every fourth projector column
 
 const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
@@ -30,21 +30,23 @@ sim::Scene SphereScene(const testing::Truth& truth) {
   s.workpiece = sim::MakeUnion({
       sim::MakeSphere(c, truth.radius_mm, 0.8),
       sim::MakeRevolution(Vec3(c.x(), c.y(), table_z), Vec3::UnitZ(), 50.0, 4.0, 4.0, 0.5),
-      sim::MakeBox(Vec3(c.x() - 150, c.y() - 150, table_z - 20), Vec3(c.x() + 150, c.y() + 150, table_z),
-                   0.4),
+      sim::MakeBox(Vec3(c.x() - 150, c.y() - 150, table_z - 20),
+                   Vec3(c.x() + 150, c.y() + 150, table_z), 0.4),
   });
   s.flange_from_probe = truth.flange_from_probe;
   return s;
 }
 
-SphereCapture Capture(const sim::VirtualProbe& probe, const Pose3& h, int index) {
+SphereCapture Capture(const sim::VirtualProbe& probe,
+                      const Pose3& h,
+                      int index,
+                      const testing::Truth& planned = testing::DefaultTruth()) {
   sim::Capture c;
   c.id = "sphere-" + std::to_string(index);
   c.mcs_from_flange = h;
   const auto& cam = probe.model().camera;
-  // The AOI around where the sphere centre projects.
-  const testing::Truth truth = testing::DefaultTruth();
-  const geometry::Vec2 centre_px = cam.Project(testing::CentreInProbe(truth, h));
+  // The AOI around where the sphere centre projects (by the calibration the machine knows).
+  const geometry::Vec2 centre_px = cam.Project(testing::CentreInProbe(planned, h));
   sim::SweepOptions o;
   o.aoi = {std::clamp(static_cast<int>(centre_px.x()) - kAoiPx / 2, 0, cam.width_px - kAoiPx),
            std::clamp(static_cast<int>(centre_px.y()) - kAoiPx / 2, 0, cam.height_px - kAoiPx),
@@ -86,6 +88,41 @@ TEST(VirtualProbeHandEye, TwelveFiveAxisPosesMeetTheIssueTolerances) {
   EXPECT_LT(e.translation_mm, kTranslationTolMm);
   EXPECT_LT(e.rotation_arcsec, kRotationTolArcsec);
   EXPECT_LT(e.centre_mm, kCentreTolMm);
+}
+
+TEST(VirtualProbeRecheck, ReseatedProbeAndRemountedSphereAreRecovered) {
+  const testing::Truth original = testing::DefaultTruth();
+  testing::Truth now = original;  // the probe re-seated and the sphere re-mounted
+  now.flange_from_probe.linear() =
+      testing::Rot(2.5e-4, Vec3(0.3, -1.0, 0.5)) * now.flange_from_probe.linear();
+  now.flange_from_probe.translation() += Vec3(0.04, -0.06, 0.025);
+  now.centre_mcs += Vec3(-0.12, 0.08, 0.03);
+  const sim::VirtualProbe probe(probe_fw::LoadProbeModel(kReference), SphereScene(now));
+  const auto poses = testing::MakePoses(original, testing::PoseSet::kFiveAxis, 6);
+  std::vector<RecheckCapture> captures;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    const SphereCapture c = Capture(probe, poses[i], static_cast<int>(i), original);
+    captures.push_back({c.id, c.mcs_from_flange, c.points_in_probe});
+  }
+  RecheckOptions o;
+  o.sphere_radius_mm = original.radius_mm;
+  o.original_flange_from_probe = original.flange_from_probe;
+  o.original_centre_mcs = original.centre_mcs;
+  o.sphere_moved = true;
+  const RecheckResult r = Recheck(captures, o);
+  const double offset_err =
+      (r.flange_from_probe.translation() - now.flange_from_probe.translation()).norm();
+  const double rot_err = testing::Arcsec(now.flange_from_probe.inverse() * r.flange_from_probe);
+  const double centre_err = (r.centre_mcs - now.centre_mcs).norm();
+  std::printf(
+      "virtual recheck: offset error %.3f um, rotation error %.2f arcsec, centre error "
+      "%.3f um, residual after %.3f um, apparent radius change %.3f um\n",
+      offset_err * 1e3, rot_err, centre_err * 1e3, r.residual_after_rms_mm * 1e3,
+      r.apparent_radius_change_mm * 1e3);
+  EXPECT_LT(offset_err, kTranslationTolMm);
+  EXPECT_LT(rot_err, kRotationTolArcsec);
+  EXPECT_LT(centre_err, kCentreTolMm);
+  EXPECT_FALSE(r.full_calibration_required) << r.reason;
 }
 
 }  // namespace
