@@ -13,7 +13,7 @@ export cxx out
 compile() {
   "$cxx" -std=c++20 -march=armv8-a -Wall -Wextra -Wpedantic -Werror -Wno-psabi \
     -fopenmp-simd -fno-math-errno -fno-trapping-math \
-    -Igeometry/include -Iprobe_fw/include -isystem /usr/include/eigen3 -isystem /usr/include/opencv4 \
+    -Igeometry/include -Iprobe_fw/include -Iprobe_fw/json/include -isystem /usr/include/eigen3 -isystem /usr/include/opencv4 \
     -O0 -c "$1" -o "$out/$(basename "$1").o"
 }
 export -f compile

@@ -1,0 +1,97 @@
+// Calibration records: a round trip through the store, never overwritten, a recheck refers to
+// the full calibration (never to another recheck), bad files are typed errors.
+
+#include "mlp/calib/record.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include "hand_eye_fixture.h"
+#include <gtest/gtest.h>
+
+namespace mlp::calib {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path FreshDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("mlp_record_test_" + name);
+  fs::remove_all(dir);
+  return dir;
+}
+
+HandEyeResult SomeResult() {
+  const testing::Truth truth = testing::DefaultTruth();
+  HandEyeResult r;
+  r.flange_from_probe = truth.flange_from_probe;
+  r.centre_mcs = truth.centre_mcs;
+  r.point_rms_mm = 0.0019;
+  for (int i = 0; i < 9; ++i) r.covariance(i, i) = 1e-8 * (i + 1);
+  r.covariance(3, 4) = r.covariance(4, 3) = 2e-9;
+  r.warnings = {"weakly determined: nothing"};
+  return r;
+}
+
+std::vector<SphereCapture> SomeCaptures() {
+  const testing::Truth truth = testing::DefaultTruth();
+  return testing::SyntheticCaps(truth, testing::MakePoses(truth, testing::PoseSet::kFiveAxis, 3),
+                                0.002, 0.0, 30, 1);
+}
+
+TEST(CalibrationStore, RecordsRoundTripAndAreKeptInOrder) {
+  const CalibrationStore store(FreshDir("round_trip").string());
+  const auto captures = SomeCaptures();
+  const CalibrationRecord rec = MakeRecord("MLP-REF-0001", SomeResult(), captures, 12.7);
+  const std::string id1 = store.Save(rec);
+  const std::string id2 = store.Save(rec);
+  EXPECT_NE(id1, id2);
+  const CalibrationRecord back = store.Load("MLP-REF-0001", id1);
+  EXPECT_TRUE(back.flange_from_probe.isApprox(rec.flange_from_probe, 1e-15));
+  EXPECT_EQ(back.covariance, rec.covariance);
+  EXPECT_EQ(back.sphere_centre_mcs, rec.sphere_centre_mcs);
+  ASSERT_EQ(back.orientations.size(), 3u);
+  EXPECT_TRUE(back.orientations[1].probe_axis_mcs.isApprox(rec.orientations[1].probe_axis_mcs));
+  EXPECT_EQ(back.notes, rec.notes);
+  const auto all = store.List("MLP-REF-0001");
+  ASSERT_EQ(all.size(), 2u);
+  EXPECT_EQ(all[0].calibration_id, id1);
+  EXPECT_EQ(store.Latest("MLP-REF-0001")->calibration_id, id2);
+  EXPECT_FALSE(store.Latest("OTHER").has_value());
+}
+
+TEST(CalibrationStore, RecheckKeepsTheOriginalAndNeverCompounds) {
+  const CalibrationStore store(FreshDir("recheck").string());
+  const auto captures = SomeCaptures();
+  CalibrationRecord full = MakeRecord("P1", SomeResult(), captures, 12.7);
+  full.calibration_id = store.Save(full);
+  RecheckResult change;
+  change.flange_from_probe = full.flange_from_probe;
+  change.flange_from_probe.translation() += Vec3(0.01, 0, 0);
+  change.offset_in_flange_mm = Vec3(0.01, 0, 0);
+  change.centre_mcs = full.sphere_centre_mcs;
+  std::vector<RecheckCapture> rc{{"r1", captures[0].mcs_from_flange, captures[0].points_in_probe}};
+  CalibrationRecord recheck = MakeRecord(full, change, rc);
+  recheck.calibration_id = store.Save(recheck);
+  EXPECT_EQ(store.Load("P1", recheck.calibration_id).parent_id, full.calibration_id);
+  EXPECT_EQ(store.Latest("P1", RecordKind::kHandEye)->calibration_id, full.calibration_id);
+  EXPECT_EQ(store.Latest("P1")->kind, RecordKind::kRecheck);
+  EXPECT_EQ(store.List("P1").size(), 2u);                      // the original is still there
+  EXPECT_THROW(MakeRecord(recheck, change, rc), RecordError);  // no recheck of a recheck
+}
+
+TEST(CalibrationStore, BadSerialsAndFilesAreTypedErrors) {
+  const fs::path dir = FreshDir("bad");
+  const CalibrationStore store(dir.string());
+  CalibrationRecord rec = MakeRecord("../escape", SomeResult(), SomeCaptures(), 12.7);
+  EXPECT_THROW(store.Save(rec), RecordError);
+  EXPECT_FALSE(fs::exists(dir.parent_path() / "escape"));
+  EXPECT_THROW(store.Load("P1", "nope"), RecordError);
+  fs::create_directories(dir / "P2");
+  std::ofstream(dir / "P2" / "broken.json") << "{\"format\": \"mlprobe-calibration/1\"}";
+  EXPECT_THROW(store.List("P2"), RecordError);
+  EXPECT_THROW(ParseRecord("not json"), RecordError);
+  EXPECT_THROW(ParseRecord("{\"format\": \"mlprobe-calibration/9\"}"), RecordError);
+}
+
+}  // namespace
+}  // namespace mlp::calib
