@@ -2,9 +2,14 @@
 
 #include "mlp/host/fit_command.h"
 
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 namespace {
 
@@ -12,7 +17,22 @@ constexpr const char* kUsage =
     "usage: mlp <command> [args]\n"
     "commands:\n"
     "  fit       fit a shape to a point cloud file (mlp fit --help)\n"
+    "  calibrate sphere hand-eye, quick re-calibration, calibration records\n"
+    "            (mlp calibrate --help; runs mlp-calibrate beside this program)\n"
     "  --version print the version\n";
+
+// Replaces this process with mlp-calibrate from the same folder (it links Ceres and OpenCV,
+// which `mlp` itself does not load).
+int RunCalibrate(char** argv) {
+  std::error_code ec;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  const std::string program =
+      (ec ? std::filesystem::path(argv[0]) : self).parent_path() / "mlp-calibrate";
+  argv[1] = const_cast<char*>("mlp-calibrate");
+  execv(program.c_str(), argv + 1);
+  std::cerr << "mlp: cannot run " << program << ": " << std::strerror(errno) << "\n";
+  return mlp::host::kExitInternal;
+}
 
 }  // namespace
 
@@ -26,6 +46,7 @@ int main(int argc, char** argv) {
     std::cout << "mlp " << MLP_VERSION << "\n";
     return mlp::host::kExitOk;
   }
+  if (args[0] == "calibrate") return RunCalibrate(argv);
   if (args[0] == "fit") {
     return mlp::host::RunFitCommand({args.begin() + 1, args.end()}, std::cout, std::cerr);
   }

@@ -1,0 +1,352 @@
+#include "mlp/host/calibrate_command.h"
+
+#include "mlp/calib/capture_io.h"
+#include "mlp/calib/hand_eye.h"
+#include "mlp/calib/recheck.h"
+#include "mlp/calib/record.h"
+#include "mlp/host/cloud_io.h"
+#include "mlp/host/fit_command.h"
+#include "mlp/probe_fw/json_fields.h"
+
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <ostream>
+#include <sstream>
+
+namespace mlp::host {
+namespace {
+
+namespace jf = probe_fw::json_fields;
+namespace fs = std::filesystem;
+using calib::Pose3;
+using calib::Vec3;
+using json = nlohmann::ordered_json;
+
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+constexpr const char* kManifestFormat = "mlprobe-sphere-captures/1";
+
+constexpr const char* kUsage =
+    "usage: mlp calibrate hand-eye --captures MANIFEST --store DIR [--dry-run] [--json]\n"
+    "       mlp calibrate recheck  --captures MANIFEST --store DIR [--sphere-moved] [--json]\n"
+    "       mlp calibrate list     --store DIR --probe SERIAL [--json]\n"
+    "  hand-eye  sphere hand-eye: M (probe -> flange) and the sphere centre from clouds of the\n"
+    "            reference sphere at known flange poses; stored as a new calibration\n"
+    "  recheck   quick re-calibration after a disturbance, from the probe's latest full\n"
+    "            calibration (never from an earlier recheck); stored as a new record\n"
+    "  list      the calibrations of a probe, oldest first\n"
+    "  MANIFEST  JSON \"mlprobe-sphere-captures/1\" (docs/CALIBRATION.md): probe serial, sphere\n"
+    "            radius, optional known centre coordinates, and per capture a cloud file\n"
+    "            (.xyz/.txt/.pcd/.ply, or an OpenCV .yml profile) with its flange pose\n"
+    "exit codes: 0 done, 2 bad arguments or input, 3 the captures do not determine the\n"
+    "            calibration (what would fix it is printed), 4 recheck: a full calibration is\n"
+    "            required, 1 bug; nothing is stored unless the exit code is 0\n";
+
+struct Args {
+  std::string command, captures, store, probe;
+  bool json = false, dry_run = false, sphere_moved = false;
+};
+
+Args ParseArgs(const std::vector<std::string>& args) {
+  if (args.empty()) throw UsageError("a sub-command is needed");
+  Args a;
+  a.command = args[0];
+  for (size_t i = 1; i < args.size(); ++i) {
+    const std::string& s = args[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= args.size()) throw UsageError(s + " needs a value");
+      return args[++i];
+    };
+    if (s == "--captures")
+      a.captures = value();
+    else if (s == "--store")
+      a.store = value();
+    else if (s == "--probe")
+      a.probe = value();
+    else if (s == "--json")
+      a.json = true;
+    else if (s == "--dry-run")
+      a.dry_run = true;
+    else if (s == "--sphere-moved")
+      a.sphere_moved = true;
+    else
+      throw UsageError("unknown option " + s);
+  }
+  if (a.store.empty()) throw UsageError("--store DIR is required");
+  if (a.command != "list" && a.captures.empty())
+    throw UsageError("--captures MANIFEST is required");
+  if (a.command == "list" && a.probe.empty()) throw UsageError("--probe SERIAL is required");
+  return a;
+}
+
+struct Manifest {
+  std::string probe_serial;
+  double radius_mm = 0.0;
+  std::array<std::optional<double>, 3> known_centre;
+  std::optional<double> max_std_mm, lever_mm;
+  std::vector<calib::SphereCapture> captures;
+};
+
+Pose3 CapturePose(const jf::json& c, const std::string& where) {
+  if (c.contains("mcs_from_flange"))
+    return jf::Pose<UsageError>(jf::Object<UsageError>(c, "mcs_from_flange", where),
+                                where + ".mcs_from_flange");
+  if (c.contains("mcs_from_flange_xyzwpr") && c.at("mcs_from_flange_xyzwpr").is_array() &&
+      c.at("mcs_from_flange_xyzwpr").size() == 6) {
+    double v[6];
+    for (size_t k = 0; k < 6; ++k) {
+      if (!c.at("mcs_from_flange_xyzwpr")[k].is_number())
+        throw UsageError(where + ".mcs_from_flange_xyzwpr must hold 6 numbers");
+      v[k] = c.at("mcs_from_flange_xyzwpr")[k].get<double>();
+    }
+    return calib::PoseFromXyzWpr(v[0], v[1], v[2], v[3], v[4], v[5]);
+  }
+  throw UsageError(where +
+                   " needs mcs_from_flange {translation_mm, rotation_vector_rad} or "
+                   "mcs_from_flange_xyzwpr [x, y, z, w, p, r]");
+}
+
+geometry::Points3 ReadPoints(const fs::path& path, const jf::json& c, const std::string& where) {
+  const std::string ext = path.extension().string();
+  if (ext == ".yml" || ext == ".yaml") {
+    const std::string key = c.contains("cloud_key") ? jf::Text<UsageError>(c, "cloud_key", where)
+                                                    : std::string("scan_line");
+    return calib::LoadFileStorageProfile(path.string(), key);
+  }
+  return ReadCloud(path.string()).points;
+}
+
+Manifest LoadManifest(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw UsageError("cannot open " + path);
+  std::stringstream text;
+  text << in.rdbuf();
+  const jf::json j = jf::ParseDocument<UsageError>(text.str(), kManifestFormat, path);
+  Manifest m;
+  m.probe_serial = jf::Text<UsageError>(j, "probe_serial", "manifest");
+  m.radius_mm = jf::Number<UsageError>(j, "sphere_radius_mm", "manifest");
+  if (j.contains("known_centre_mcs_mm")) {
+    const auto& k = jf::Object<UsageError>(j, "known_centre_mcs_mm", "manifest");
+    const char* axes[3] = {"x", "y", "z"};
+    for (int a = 0; a < 3; ++a) {
+      if (k.contains(axes[a]))
+        m.known_centre[a] = jf::Number<UsageError>(k, axes[a], "manifest.known_centre_mcs_mm");
+    }
+  }
+  // What counts as determined: a machine tool wants 0.05 mm (the default), a robot cell accepts
+  // more; the lever is about the probe's stand-off.
+  if (j.contains("max_std_mm")) m.max_std_mm = jf::Number<UsageError>(j, "max_std_mm", "manifest");
+  if (j.contains("lever_mm")) m.lever_mm = jf::Number<UsageError>(j, "lever_mm", "manifest");
+  if (!j.contains("captures") || !j.at("captures").is_array())
+    throw UsageError("manifest.captures must be an array");
+  const fs::path base = fs::path(path).parent_path();
+  for (size_t i = 0; i < j.at("captures").size(); ++i) {
+    const auto& c = j.at("captures")[i];
+    const std::string where = "manifest.captures[" + std::to_string(i) + "]";
+    calib::SphereCapture cap;
+    cap.id = jf::Text<UsageError>(c, "id", where);
+    cap.mcs_from_flange = CapturePose(c, where);
+    cap.single_profile = c.contains("single_profile") && c.at("single_profile").is_boolean() &&
+                         c.at("single_profile").get<bool>();
+    cap.points_in_probe = ReadPoints(base / jf::Text<UsageError>(c, "cloud", where), c, where);
+    m.captures.push_back(std::move(cap));
+  }
+  return m;
+}
+
+std::string Fixed(double v, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << v;
+  return s.str();
+}
+
+std::string Vec(const Vec3& v, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << "(" << v.x() << ", " << v.y() << ", " << v.z()
+    << ")";
+  return s.str();
+}
+
+json JVec(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+json PoseJson(const Pose3& p) { return jf::PoseToJson(p); }
+
+int HandEye(const Args& a, std::ostream& out, std::ostream& err) {
+  const Manifest m = LoadManifest(a.captures);
+  calib::HandEyeOptions o;
+  o.sphere_radius_mm = m.radius_mm;
+  o.known_centre_mcs = m.known_centre;
+  if (m.max_std_mm) o.max_std_mm = *m.max_std_mm;
+  if (m.lever_mm) o.lever_mm = *m.lever_mm;
+  if (!a.json)
+    err << "mlp calibrate: solving the hand-eye from " << m.captures.size() << " captures\n";
+  const calib::HandEyeResult r = calib::SolveSphereHandEye(m.captures, o);
+  std::string id = "(not stored: --dry-run)";
+  if (!a.dry_run) {
+    id = calib::CalibrationStore(a.store).Save(
+        calib::MakeRecord(m.probe_serial, r, m.captures, m.radius_mm));
+  }
+  const Eigen::AngleAxisd aa(r.flange_from_probe.linear());
+  if (a.json) {
+    json j;
+    j["calibration_id"] = id;
+    j["probe_serial"] = m.probe_serial;
+    j["flange_from_probe"] = PoseJson(r.flange_from_probe);
+    json sd;
+    for (int k = 0; k < 9; ++k)
+      sd[calib::kHandEyeParameters[static_cast<size_t>(k)]] = std::sqrt(r.covariance(k, k));
+    j["std_dev"] = sd;
+    j["sphere_centre_mcs_mm"] = JVec(r.centre_mcs);
+    j["point_rms_mm"] = r.point_rms_mm;
+    j["points_used"] = r.points_used;
+    j["points_rejected"] = r.points_rejected;
+    j["centre_spread_rms_mm"] = r.centre_spread_rms_mm;
+    j["centre_spread_max_mm"] = r.centre_spread_max_mm;
+    json caps = json::array();
+    for (const auto& c : r.captures) {
+      caps.push_back({{"id", c.id},
+                      {"points", c.points},
+                      {"inliers", c.inliers},
+                      {"rms_mm", c.rms_mm},
+                      {"centre_mcs_mm", JVec(c.centre_mcs)}});
+    }
+    j["captures"] = caps;
+    j["warnings"] = r.warnings;
+    out << j.dump(2) << "\n";
+    return kExitOk;
+  }
+  out << "hand-eye calibration " << id << " of probe " << m.probe_serial << "\n"
+      << "  M translation " << Vec(r.flange_from_probe.translation(), 4) << " mm  (1 sigma "
+      << Vec(Vec3(std::sqrt(r.covariance(3, 3)), std::sqrt(r.covariance(4, 4)),
+                  std::sqrt(r.covariance(5, 5))) *
+                 1e3,
+             2)
+      << " um)\n"
+      << "  M rotation " << Vec(aa.axis() * aa.angle(), 6) << " rad (rotation vector)\n"
+      << "  sphere centre " << Vec(r.centre_mcs, 4) << " mm (MCS)\n"
+      << "  point RMS " << Fixed(r.point_rms_mm * 1e3, 2) << " um over " << r.points_used
+      << " points, " << r.points_rejected << " rejected; centre spread RMS "
+      << Fixed(r.centre_spread_rms_mm * 1e3, 2) << " um\n";
+  for (const auto& c : r.captures) {
+    out << "    " << std::left << std::setw(16) << c.id << std::right << std::setw(7) << c.inliers
+        << "/" << std::setw(7) << c.points << " points  RMS " << Fixed(c.rms_mm * 1e3, 2)
+        << " um\n";
+  }
+  for (const auto& w : r.warnings) out << "  warning: " << w << "\n";
+  return kExitOk;
+}
+
+int Recheck(const Args& a, std::ostream& out, std::ostream& err) {
+  const Manifest m = LoadManifest(a.captures);
+  const calib::CalibrationStore store(a.store);
+  const auto original = store.Latest(m.probe_serial, calib::RecordKind::kHandEye);
+  if (!original)
+    throw UsageError("probe " + m.probe_serial + " has no full calibration in " + a.store);
+  calib::RecheckOptions o;
+  o.sphere_radius_mm = m.radius_mm;
+  o.original_flange_from_probe = original->flange_from_probe;
+  o.original_centre_mcs = original->sphere_centre_mcs;
+  o.sphere_moved = a.sphere_moved;
+  std::vector<calib::RecheckCapture> captures;
+  for (const auto& c : m.captures) captures.push_back({c.id, c.mcs_from_flange, c.points_in_probe});
+  const calib::RecheckResult r = calib::Recheck(captures, o);
+  std::string id;
+  if (!r.full_calibration_required) id = store.Save(calib::MakeRecord(*original, r, captures));
+  if (a.json) {
+    json j;
+    j["calibration_id"] = id;
+    j["parent_id"] = original->calibration_id;
+    j["full_calibration_required"] = r.full_calibration_required;
+    j["flange_from_probe"] = PoseJson(r.flange_from_probe);
+    j["reason"] = r.reason;
+    j["offset_in_flange_mm"] = JVec(r.offset_in_flange_mm);
+    j["rotation_in_flange_rad"] = JVec(r.rotation_in_flange_rad);
+    j["centre_shift_mm"] = JVec(r.centre_shift_mm);
+    j["residual_before_mm"] = r.residual_before_mm;
+    j["residual_after_mm"] = r.residual_after_mm;
+    j["apparent_radius_change_mm"] = r.apparent_radius_change_mm;
+    j["not_determined"] = r.not_determined;
+    out << j.dump(2) << "\n";
+  } else {
+    out << "recheck of probe " << m.probe_serial << " against " << original->calibration_id << "\n"
+        << "  offset " << Vec(r.offset_in_flange_mm * 1e3, 2) << " um (flange frame)\n"
+        << "  rotation " << Vec(r.rotation_in_flange_rad * 180 / M_PI * 3600, 2) << " arcsec\n";
+    if (a.sphere_moved) out << "  sphere moved " << Vec(r.centre_shift_mm * 1e3, 2) << " um\n";
+    out << "  centre residual after the correction " << Fixed(r.residual_after_rms_mm * 1e3, 2)
+        << " um RMS; apparent radius change " << Fixed(r.apparent_radius_change_mm * 1e3, 2)
+        << " um\n";
+    for (const auto& s : r.not_determined) out << "  not determined: " << s << "\n";
+    if (!id.empty()) out << "  stored as " << id << "\n";
+  }
+  if (r.full_calibration_required) {
+    err << "mlp calibrate: full calibration required: " << r.reason << " (nothing stored)\n";
+    return kExitFullCalibrationRequired;
+  }
+  return kExitOk;
+}
+
+int List(const Args& a, std::ostream& out) {
+  const auto all = calib::CalibrationStore(a.store).List(a.probe);
+  if (a.json) {
+    json j = json::array();
+    for (const auto& r : all) {
+      j.push_back({{"calibration_id", r.calibration_id},
+                   {"kind", r.kind == calib::RecordKind::kHandEye ? "hand-eye" : "recheck"},
+                   {"created_utc", r.created_utc},
+                   {"parent_id", r.parent_id},
+                   {"point_rms_mm", r.point_rms_mm}});
+    }
+    out << j.dump(2) << "\n";
+    return kExitOk;
+  }
+  if (all.empty()) out << "no calibration of probe " << a.probe << " in " << a.store << "\n";
+  for (const auto& r : all) {
+    out << r.created_utc << "  "
+        << (r.kind == calib::RecordKind::kHandEye ? "hand-eye" : "recheck ") << "  "
+        << r.calibration_id << (r.parent_id.empty() ? "" : "  (corrects " + r.parent_id + ")")
+        << "\n";
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+int RunCalibrateCommand(const std::vector<std::string>& args,
+                        std::ostream& out,
+                        std::ostream& err) {
+  if (!args.empty() && (args[0] == "--help" || args[0] == "-h")) {
+    out << kUsage;
+    return kExitOk;
+  }
+  try {
+    const Args a = ParseArgs(args);
+    if (a.command == "hand-eye") return HandEye(a, out, err);
+    if (a.command == "recheck") return Recheck(a, out, err);
+    if (a.command == "list") return List(a, out);
+    throw UsageError("unknown sub-command '" + a.command + "'");
+  } catch (const UsageError& e) {
+    err << "mlp calibrate: " << e.what() << "\n" << kUsage;
+  } catch (const calib::HandEyeError& e) {
+    err << "mlp calibrate: " << e.what() << "\n";
+    for (const auto& p : e.proposals()) err << "  to fix it: " << p << "\n";
+    if (e.kind() == calib::HandEyeError::Kind::kUnderDetermined) return kExitUnderDetermined;
+    return kExitBadInput;
+  } catch (const CloudIoError& e) {
+    err << "mlp calibrate: " << e.what() << "\n";
+  } catch (const calib::CaptureIoError& e) {
+    err << "mlp calibrate: " << e.what() << "\n";
+  } catch (const calib::RecordError& e) {
+    err << "mlp calibrate: " << e.what() << "\n";
+  } catch (const std::exception& e) {
+    err << "mlp calibrate: internal error: " << e.what() << "\n";
+    return kExitInternal;
+  }
+  return kExitBadInput;
+}
+
+}  // namespace mlp::host
