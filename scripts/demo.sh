@@ -30,3 +30,8 @@ build/bin/mlp-fw run --probe samples/probes/reference_probe.json --frames "$cap"
   --out "$cap/cloud.ply"
 run plane "$cap/cloud.ply"
 rm -rf "$cap"
+echo
+echo "== Sphere hand-eye on real data: ten line-scanner profiles of a 25.4 mm ball on a robot"
+echo "\$ mlp calibrate hand-eye --dry-run --captures samples/calib/line_scanner_ball.json"
+"$mlp" calibrate hand-eye --dry-run --captures samples/calib/line_scanner_ball.json \
+  --store "$(mktemp -d)"
