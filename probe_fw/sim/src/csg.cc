@@ -256,6 +256,61 @@ SolidPtr MakeCompound(Op op, std::vector<SolidPtr> parts) {
 SolidPtr MakeHalfspace(const Vec3& point, const Vec3& normal, double reflectance) {
   return std::make_shared<Halfspace>(point, normal, reflectance);
 }
+// A box in its own frame whose face reflectance follows a chessboard.
+class Chessboard : public Solid {
+ public:
+  Chessboard(
+      const Pose3& mcs_from_board, int cols, int rows, double square, double light, double dark)
+      : board_from_mcs_(mcs_from_board.inverse()),
+        rotation_(mcs_from_board.linear()),
+        box_(Vec3(-square, -square, -kThicknessMm),
+             Vec3((cols + 2) * square, (rows + 2) * square, 0.0),
+             light),
+        cols_(cols),
+        rows_(rows),
+        square_(square),
+        light_(light),
+        dark_(dark) {}
+  void Spans(const Ray& ray, std::vector<Span>* out) const override {
+    const Ray local{board_from_mcs_ * ray.origin, board_from_mcs_.linear() * ray.direction};
+    std::vector<Span> spans;
+    box_.Spans(local, &spans);
+    for (Span& s : spans) {
+      for (SurfaceHit* h : {&s.in, &s.out}) {
+        h->reflectance = Reflectance(local.origin + h->t * local.direction);
+        h->normal = rotation_ * h->normal;
+      }
+      out->push_back(s);
+    }
+  }
+
+ private:
+  static constexpr double kThicknessMm = 5.0;
+  double Reflectance(const Vec3& p) const {
+    const int i = static_cast<int>(std::floor(p.x() / square_));
+    const int j = static_cast<int>(std::floor(p.y() / square_));
+    const bool in_board = i >= 0 && i <= cols_ && j >= 0 && j <= rows_;
+    return in_board && ((i + j) % 2 != 0) ? dark_ : light_;
+  }
+  Pose3 board_from_mcs_;
+  Eigen::Matrix3d rotation_;
+  Box box_;
+  int cols_, rows_;
+  double square_, light_, dark_;
+};
+
+SolidPtr MakeChessboard(const Pose3& mcs_from_board,
+                        int inner_cols,
+                        int inner_rows,
+                        double square_mm,
+                        double light_reflectance,
+                        double dark_reflectance) {
+  if (inner_cols < 2 || inner_rows < 2 || !(square_mm > 0))
+    throw SceneError("chessboard: at least 2 x 2 inner corners and a square > 0 mm");
+  return std::make_shared<Chessboard>(mcs_from_board, inner_cols, inner_rows, square_mm,
+                                      light_reflectance, dark_reflectance);
+}
+
 SolidPtr MakeBox(const Vec3& lo, const Vec3& hi, double reflectance) {
   return std::make_shared<Box>(lo, hi, reflectance);
 }

@@ -90,7 +90,9 @@ VirtualProbe::VirtualProbe(probe_fw::ProbeModel model, Scene scene)
   if (!scene_.workpiece) throw SceneError("scene: no workpiece");
 }
 
-VirtualProbe::Pixel VirtualProbe::Trace(const Pose3& mcs_from_probe, const Vec2& pixel) const {
+VirtualProbe::Pixel VirtualProbe::Trace(const Pose3& mcs_from_probe,
+                                        const Vec2& pixel,
+                                        bool laser) const {
   Pixel px;
   const Vec2 xy = model_.camera.Undistort(pixel);
   const Vec3 dir_probe = Vec3(xy.x(), xy.y(), 1.0).normalized();
@@ -103,12 +105,48 @@ VirtualProbe::Pixel VirtualProbe::Trace(const Pose3& mcs_from_probe, const Vec2&
   px.point_in_probe = hit->t * dir_probe;
   px.reflectance = hit->reflectance;
   px.cos_view = std::max(0.0, -normal_probe.dot(dir_probe));
+  if (!laser) return px;  // LED light comes from the camera: no shadow to test
   px.projector_column = model_.projector.ColumnOf(px.point_in_probe);
   const Vec3 to_projector = model_.projector.Center() - px.point_in_probe;
   px.cos_incidence = normal_probe.dot(to_projector.normalized());
   const Vec3 projector_mcs = mcs_from_probe * model_.projector.Center();
   px.lit = px.cos_incidence > 0.0 && !scene_.Blocked(point_mcs, projector_mcs);
   return px;
+}
+
+// Reflectance x cos(view) per pixel for the LED frame: the pixel centre's, or on an edge (a
+// 4-neighbour has another reflectance or misses the workpiece) the mean over n x n sub-pixel
+// rays. cos(view) varies smoothly and needs no more than the centre.
+std::vector<double> VirtualProbe::LedResponse(const Pose3& pose,
+                                              const SweepOptions& o,
+                                              const std::vector<Pixel>& pixels) const {
+  const int w = o.aoi.width, h = o.aoi.height, ss = std::max(1, o.led_supersampling);
+  const auto value = [](const Pixel& p) { return p.hit ? p.reflectance * p.cos_view : 0.0; };
+  std::vector<double> out(pixels.size());
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      out[i] = value(pixels[i]);
+      if (ss == 1) continue;
+      bool edge = false;
+      for (auto [dx, dy] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+        const int xn = x + dx, yn = y + dy;
+        if (xn < 0 || yn < 0 || xn >= w || yn >= h) continue;
+        const Pixel& q = pixels[static_cast<size_t>(yn) * w + xn];
+        edge |= q.hit != pixels[i].hit || q.reflectance != pixels[i].reflectance;
+      }
+      if (!edge) continue;
+      double sum = 0.0;
+      for (int a = 0; a < ss; ++a) {
+        for (int b = 0; b < ss; ++b) {
+          const Vec2 sub(o.aoi.x0 + x - 0.5 + (a + 0.5) / ss, o.aoi.y0 + y - 0.5 + (b + 0.5) / ss);
+          sum += value(Trace(pose, sub, false));
+        }
+      }
+      out[i] = sum / (ss * ss);
+    }
+  }
+  return out;
 }
 
 std::optional<Vec3> VirtualProbe::SurfaceAt(const Capture& capture, const Vec2& pixel) const {
@@ -175,7 +213,8 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
   std::vector<Pixel> pixels(n);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      pixels[static_cast<size_t>(y) * w + x] = Trace(pose, Vec2(o.aoi.x0 + x, o.aoi.y0 + y));
+      pixels[static_cast<size_t>(y) * w + x] =
+          Trace(pose, Vec2(o.aoi.x0 + x, o.aoi.y0 + y), o.laser_frames);
     }
   }
   // d(projector column)/d(pixel) along each row, for the pixel-width integration of the sheet:
@@ -218,14 +257,14 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
   auto ambient = [&](const Pixel& p) {
     return noise.ambient_e * (p.hit ? p.reflectance : kBackgroundFactor);
   };
+  const std::vector<double> led = LedResponse(pose, o, pixels);
   RenderedCapture out;
-  out.led = make_frame(-1.0, 0, [&](size_t i, Gaussian&) {
-    const Pixel& p = pixels[i];
-    return ambient(p) + (p.hit ? noise.led_e * p.reflectance * p.cos_view : 0.0);
-  });
+  out.led = make_frame(
+      -1.0, 0, [&](size_t i, Gaussian&) { return ambient(pixels[i]) + noise.led_e * led[i]; });
   const double sheet = model_.laser.sheet_halfwidth_cols;
   std::uint64_t index = 1;
-  for (double column = o.first_column; column <= o.last_column + 1e-9; column += o.column_step) {
+  for (double column = o.first_column; o.laser_frames && column <= o.last_column + 1e-9;
+       column += o.column_step) {
     out.laser.push_back(make_frame(column, index++, [&](size_t i, Gaussian& gauss) {
       const Pixel& p = pixels[i];
       double e = ambient(p);

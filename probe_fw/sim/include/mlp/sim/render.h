@@ -27,6 +27,11 @@ struct SweepOptions {
   double column_step = 1.0;   ///< > 0
   std::uint64_t seed = 1;
   bool noise = true;  ///< false: noiseless frames (no speckle, shot or read noise)
+  /// LED frame: pixels on a reflectance or depth edge are averaged over n x n sub-pixel rays
+  /// (a real pixel integrates its whole area; a calibration target's corners need it).
+  int led_supersampling = 1;
+  /// false: the LED frame only (a camera calibration view); no laser frames are rendered.
+  bool laser_frames = true;
 };
 
 /// What lies behind one pixel centre.
@@ -74,7 +79,11 @@ class VirtualProbe {
 
  private:
   struct Pixel;
-  Pixel Trace(const Pose3& mcs_from_probe, const geometry::Vec2& pixel) const;
+  std::vector<double> LedResponse(const Pose3& pose,
+                                  const SweepOptions& o,
+                                  const std::vector<Pixel>& pixels) const;
+  /// `laser` false: what the LED frame needs only (no projector column, no shadow ray).
+  Pixel Trace(const Pose3& mcs_from_probe, const geometry::Vec2& pixel, bool laser = true) const;
 
   probe_fw::ProbeModel model_;
   Scene scene_;

@@ -57,6 +57,16 @@ SolidPtr MakeRevolution(const Vec3& base,
                         double radius_base,
                         double radius_top,
                         double reflectance);
+/// A planar calibration target: a plate 5 mm thick whose face is the board's z = 0 plane,
+/// facing +z, with a chessboard of (inner_cols + 1) x (inner_rows + 1) squares of `square_mm`
+/// starting at the board origin (inner corners at (i, j) * square_mm, i = 1..inner_cols,
+/// j = 1..inner_rows) and a white margin of one square around it.
+SolidPtr MakeChessboard(const Pose3& mcs_from_board,
+                        int inner_cols,
+                        int inner_rows,
+                        double square_mm,
+                        double light_reflectance,
+                        double dark_reflectance);
 SolidPtr MakeUnion(std::vector<SolidPtr> parts);
 SolidPtr MakeIntersection(std::vector<SolidPtr> parts);
 /// `a` minus every solid of `b`.

@@ -1,0 +1,59 @@
+#pragma once
+/// @file Camera and MEMS projector calibrated together (seed 004 step 3: the projector as an
+/// inverse camera). Views of a planar chessboard give, per view, the board's corners in the
+/// camera image (LED frame) and laser stripe points on the board (laser frames at known
+/// projector columns). One least-squares problem (Ceres) holds the camera intrinsics and
+/// distortion, the projector's focal length, centre column and pose relative to the camera, and
+/// every board pose:
+///   corner residual  = projected board corner - detected corner            [px]
+///   stripe residual  = column of the point where the pixel's ray meets the board - column lit
+/// so the projector's planes are fitted to where the laser really fell, and errors of the
+/// camera that the board poses absorb are not paid twice.
+
+#include "mlp/calib/camera_calib.h"
+
+#include <vector>
+
+namespace mlp::calib {
+
+struct ProjectorParams {
+  double f_px = 0.0, c_px = 0.0;
+  geometry::Pose3 camera_from_projector = geometry::Pose3::Identity();
+  /// Continuous column lighting a point given in the camera frame.
+  double ColumnOf(const geometry::Vec3& point_in_camera) const;
+};
+
+/// A stripe centre found in view `view`: sensor pixel and the projector column lit.
+struct StripeObservation {
+  int view = 0;
+  double x_px = 0.0, y_px = 0.0;
+  double column = 0.0;
+};
+
+struct ProbeCalibInput {
+  ChessboardSpec board;
+  /// Per view: the board's inner corners in board order (empty: the board was not found).
+  std::vector<std::vector<geometry::Vec2>> corners;
+  std::vector<StripeObservation> stripes;
+  Intrinsics camera_start;                               ///< e.g. from CalibrateCamera
+  ProjectorParams projector_start;                       ///< e.g. the design values
+  std::vector<geometry::Pose3> camera_from_board_start;  ///< per view
+};
+
+struct ProbeCalibResult {
+  Intrinsics camera;
+  ProjectorParams projector;
+  std::vector<geometry::Pose3> camera_from_board;
+  double corner_rms_px = 0.0, stripe_rms_columns = 0.0;
+  int corners_used = 0, stripes_used = 0, iterations = 0;
+};
+
+/// Throws CameraCalibError when the data cannot determine the model (fewer than 4 views with a
+/// board, no stripes, no convergence).
+ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& input);
+
+/// Inner corners per image in board order (what CalibrateCamera uses).
+std::vector<std::vector<geometry::Vec2>> DetectCorners(const std::vector<GrayImage>& images,
+                                                       const ChessboardSpec& board);
+
+}  // namespace mlp::calib

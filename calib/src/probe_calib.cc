@@ -1,0 +1,184 @@
+#include "mlp/calib/probe_calib.h"
+
+#include <cmath>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+namespace mlp::calib {
+namespace {
+
+using geometry::Pose3;
+using geometry::Vec2;
+using geometry::Vec3;
+
+// Noise assumed for the weights: corner 0.06 px, stripe 0.03 projector column (what the
+// virtual probe's reference noise produces; only their ratio matters to the solution).
+constexpr double kCornerSigmaPx = 0.06;
+constexpr double kStripeSigmaColumns = 0.03;
+constexpr int kUndistortIterations = 20;
+
+// Camera parameters: fx fy cx cy k1 k2 p1 p2 k3.
+template <class T>
+void Distort(const T* k, const T& x, const T& y, T* xd, T* yd) {
+  const T r2 = x * x + y * y;
+  const T radial = T(1) + r2 * (k[4] + r2 * (k[5] + r2 * k[8]));
+  *xd = x * radial + T(2) * k[6] * x * y + k[7] * (r2 + T(2) * x * x);
+  *yd = y * radial + k[6] * (r2 + T(2) * y * y) + T(2) * k[7] * x * y;
+}
+
+// Fixed-point inversion of the distortion (OpenCV's scheme, run to convergence): a lens's
+// distortion is a small perturbation, so 20 steps reach 1e-12 on the reference probe.
+template <class T>
+void Undistort(const T* k, double u, double v, T* x, T* y) {
+  const T xd = (T(u) - k[2]) / k[0], yd = (T(v) - k[3]) / k[1];
+  *x = xd, *y = yd;
+  for (int it = 0; it < kUndistortIterations; ++it) {
+    T dx, dy;
+    Distort(k, *x, *y, &dx, &dy);
+    *x += xd - dx;
+    *y += yd - dy;
+  }
+}
+
+struct CornerResidual {
+  Vec3 corner_in_board;
+  Vec2 observed;
+  template <class T>
+  bool operator()(const T* k, const T* board_r, const T* board_t, T* r) const {
+    const T p[3] = {T(corner_in_board.x()), T(corner_in_board.y()), T(0)};
+    T c[3];
+    ceres::AngleAxisRotatePoint(board_r, p, c);
+    for (int i = 0; i < 3; ++i) c[i] += board_t[i];
+    T xd, yd;
+    Distort(k, c[0] / c[2], c[1] / c[2], &xd, &yd);
+    r[0] = (k[0] * xd + k[2] - T(observed.x())) / T(kCornerSigmaPx);
+    r[1] = (k[1] * yd + k[3] - T(observed.y())) / T(kCornerSigmaPx);
+    return true;
+  }
+};
+
+// Projector: f, c | rotation vector and translation of camera_from_projector.
+struct StripeResidual {
+  StripeObservation s;
+  template <class T>
+  bool operator()(const T* k,
+                  const T* board_r,
+                  const T* board_t,
+                  const T* proj,
+                  const T* proj_r,
+                  const T* proj_t,
+                  T* r) const {
+    T x, y;
+    Undistort(k, s.x_px, s.y_px, &x, &y);
+    // The board plane in the camera frame: normal R e_z through t.
+    const T ez[3] = {T(0), T(0), T(1)};
+    T n[3];
+    ceres::AngleAxisRotatePoint(board_r, ez, n);
+    const T along = n[0] * x + n[1] * y + n[2];
+    const T dist = n[0] * board_t[0] + n[1] * board_t[1] + n[2] * board_t[2];
+    const T scale = dist / along;
+    const T X[3] = {scale * x - proj_t[0], scale * y - proj_t[1], scale - proj_t[2]};
+    const T minus_r[3] = {-proj_r[0], -proj_r[1], -proj_r[2]};
+    T q[3];
+    ceres::AngleAxisRotatePoint(minus_r, X, q);  // projector_from_camera
+    r[0] = (proj[1] + proj[0] * q[0] / q[2] - T(s.column)) / T(kStripeSigmaColumns);
+    return true;
+  }
+};
+
+void ToAngleAxis(const Pose3& p, double* r, double* t) {
+  const Eigen::AngleAxisd aa(p.linear());
+  const Vec3 v = aa.axis() * aa.angle();
+  for (int i = 0; i < 3; ++i) r[i] = v(i), t[i] = p.translation()(i);
+}
+
+Pose3 FromAngleAxis(const double* r, const double* t) {
+  const Vec3 v(r[0], r[1], r[2]);
+  Pose3 p = Pose3::Identity();
+  if (v.norm() > 0) p.linear() = Eigen::AngleAxisd(v.norm(), v.normalized()).toRotationMatrix();
+  p.translation() = Vec3(t[0], t[1], t[2]);
+  return p;
+}
+
+}  // namespace
+
+double ProjectorParams::ColumnOf(const Vec3& p) const {
+  const Vec3 q = camera_from_projector.inverse() * p;
+  return c_px + f_px * q.x() / q.z();
+}
+
+ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
+  const size_t views = in.corners.size();
+  if (in.camera_from_board_start.size() != views)
+    throw CameraCalibError("one start pose per view is needed");
+  const Intrinsics& c0 = in.camera_start;
+  double k[9] = {c0.fx_px, c0.fy_px, c0.cx_px, c0.cy_px, c0.k1, c0.k2, c0.p1, c0.p2, c0.k3};
+  double proj[2] = {in.projector_start.f_px, in.projector_start.c_px};
+  double proj_r[3], proj_t[3];
+  ToAngleAxis(in.projector_start.camera_from_projector, proj_r, proj_t);
+  std::vector<std::array<double, 6>> boards(views);
+  for (size_t v = 0; v < views; ++v)
+    ToAngleAxis(in.camera_from_board_start[v], boards[v].data(), boards[v].data() + 3);
+
+  ceres::Problem problem;
+  ProbeCalibResult result;
+  int used_views = 0;
+  for (size_t v = 0; v < views; ++v) {
+    if (in.corners[v].empty()) continue;
+    ++used_views;
+    size_t idx = 0;
+    for (int j = 1; j <= in.board.inner_rows; ++j) {
+      for (int i = 1; i <= in.board.inner_cols; ++i, ++idx) {
+        const Vec3 corner(i * in.board.square_mm, j * in.board.square_mm, 0.0);
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 9, 3, 3>(
+                                     new CornerResidual{corner, in.corners[v][idx]}),
+                                 nullptr, k, boards[v].data(), boards[v].data() + 3);
+        ++result.corners_used;
+      }
+    }
+  }
+  if (used_views < 4) throw CameraCalibError("the board was found in fewer than 4 views");
+  for (const StripeObservation& s : in.stripes) {
+    if (s.view < 0 || static_cast<size_t>(s.view) >= views || in.corners[s.view].empty()) continue;
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<StripeResidual, 1, 9, 3, 3, 2, 3, 3>(new StripeResidual{s}),
+        nullptr, k, boards[s.view].data(), boards[s.view].data() + 3, proj, proj_r, proj_t);
+    ++result.stripes_used;
+  }
+  if (result.stripes_used == 0) throw CameraCalibError("no stripe point on a found board");
+  ceres::Solver::Options o;
+  o.linear_solver_type = ceres::SPARSE_SCHUR;
+  o.max_num_iterations = 200;
+  o.function_tolerance = 1e-15;
+  o.parameter_tolerance = 1e-15;
+  o.gradient_tolerance = 1e-15;
+  ceres::Solver::Summary summary;
+  ceres::Solve(o, &problem, &summary);
+  if (summary.termination_type == ceres::FAILURE)
+    throw CameraCalibError("the adjustment failed: " + summary.message);
+  result.iterations = static_cast<int>(summary.iterations.size());
+  auto& c = result.camera;
+  c.fx_px = k[0], c.fy_px = k[1], c.cx_px = k[2], c.cy_px = k[3];
+  c.k1 = k[4], c.k2 = k[5], c.p1 = k[6], c.p2 = k[7], c.k3 = k[8];
+  result.projector.f_px = proj[0];
+  result.projector.c_px = proj[1];
+  result.projector.camera_from_projector = FromAngleAxis(proj_r, proj_t);
+  for (size_t v = 0; v < views; ++v)
+    result.camera_from_board.push_back(FromAngleAxis(boards[v].data(), boards[v].data() + 3));
+  // RMS in the residuals' own units.
+  double corner_ss = 0, stripe_ss = 0;
+  std::vector<double> residuals;
+  ceres::Problem::EvaluateOptions eo;
+  problem.Evaluate(eo, nullptr, &residuals, nullptr, nullptr);
+  const size_t nc = 2 * static_cast<size_t>(result.corners_used);
+  for (size_t i = 0; i < residuals.size(); ++i) {
+    const double r = residuals[i];
+    (i < nc ? corner_ss : stripe_ss) += r * r;
+  }
+  result.corner_rms_px = std::sqrt(corner_ss / nc) * kCornerSigmaPx;
+  result.stripe_rms_columns = std::sqrt(stripe_ss / result.stripes_used) * kStripeSigmaColumns;
+  return result;
+}
+
+}  // namespace mlp::calib
