@@ -13,9 +13,9 @@ export cxx out
 compile() {
   "$cxx" -std=c++20 -march=armv8-a -Wall -Wextra -Wpedantic -Werror -Wno-psabi \
     -fopenmp-simd -fno-math-errno -fno-trapping-math \
-    -Igeometry/include -Iprobe_fw/include -Iprobe_fw/json/include -isystem /usr/include/eigen3 -isystem /usr/include/opencv4 \
+    -Igeometry/include -Iprobe_fw/include -Iprobe_fw/format/include -isystem /usr/include/eigen3 -isystem /usr/include/opencv4 \
     -O0 -c "$1" -o "$out/$(basename "$1").o"
 }
 export -f compile
-ls geometry/src/*.cc probe_fw/src/*.cc | xargs -P "$(nproc)" -I{} bash -c 'compile {}'
+ls geometry/src/*.cc probe_fw/format/src/*.cc probe_fw/src/*.cc | xargs -P "$(nproc)" -I{} bash -c 'compile {}'
 echo "check-arm64: $(ls "$out" | wc -l) files compiled for armv8-a"

@@ -108,6 +108,22 @@ double ProjectorParams::ColumnOf(const Vec3& p) const {
   return c_px + f_px * q.x() / q.z();
 }
 
+probe_fw::ProbeModel CalibratedProbeModel(const probe_fw::ProbeModel& design,
+                                          const ProbeCalibResult& r,
+                                          const std::string& calibration_id) {
+  probe_fw::ProbeModel m = design;
+  m.calibration_id = calibration_id;
+  const Intrinsics& c = r.camera;
+  m.camera.fx_px = c.fx_px, m.camera.fy_px = c.fy_px, m.camera.cx_px = c.cx_px;
+  m.camera.cy_px = c.cy_px, m.camera.k1 = c.k1, m.camera.k2 = c.k2, m.camera.p1 = c.p1;
+  m.camera.p2 = c.p2, m.camera.k3 = c.k3;
+  m.projector.f_px = r.projector.f_px;
+  m.projector.c_px = r.projector.c_px;
+  m.projector.camera_from_projector = r.projector.camera_from_projector;
+  m.Validate();
+  return m;
+}
+
 ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
   const size_t views = in.corners.size();
   if (in.camera_from_board_start.size() != views)

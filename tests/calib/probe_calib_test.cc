@@ -123,15 +123,11 @@ TEST(ProbeCalibration, CameraAndProjectorFromChessboardViews) {
     in.camera_from_board_start[static_cast<size_t>(cam.views_used[k])] = cam.camera_from_board[k];
   const ProbeCalibResult r = AdjustCameraAndProjector(in);
 
-  probe_fw::ProbeModel calibrated = design;
-  const Intrinsics& ci = r.camera;
-  calibrated.camera.fx_px = ci.fx_px, calibrated.camera.fy_px = ci.fy_px;
-  calibrated.camera.cx_px = ci.cx_px, calibrated.camera.cy_px = ci.cy_px;
-  calibrated.camera.k1 = ci.k1, calibrated.camera.k2 = ci.k2, calibrated.camera.k3 = ci.k3;
-  calibrated.camera.p1 = ci.p1, calibrated.camera.p2 = ci.p2;
-  calibrated.projector.f_px = r.projector.f_px;
-  calibrated.projector.c_px = r.projector.c_px;
-  calibrated.projector.camera_from_projector = r.projector.camera_from_projector;
+  // What the firmware will read: written as a probe model file and read back.
+  const std::string path = ::testing::TempDir() + "/calibrated_probe.json";
+  probe_fw::SaveProbeModel(CalibratedProbeModel(design, r, "test-calibration-1"), path);
+  const probe_fw::ProbeModel calibrated = probe_fw::LoadProbeModel(path);
+  EXPECT_EQ(calibrated.calibration_id, "test-calibration-1");
 
   // Triangulation over the working volume: true surface points seen by the true probe.
   double sum2 = 0, worst = 0, design_sum2 = 0;

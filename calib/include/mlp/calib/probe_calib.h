@@ -11,6 +11,7 @@
 /// camera that the board poses absorb are not paid twice.
 
 #include "mlp/calib/camera_calib.h"
+#include "mlp/probe_fw/probe_model.h"
 
 #include <vector>
 
@@ -51,6 +52,13 @@ struct ProbeCalibResult {
 /// Throws CameraCalibError when the data cannot determine the model (fewer than 4 views with a
 /// board, no stripes, no convergence).
 ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& input);
+
+/// The probe model the firmware reads: `design` (sensor size, bit depth, projector columns,
+/// laser and noise) with the calibrated camera and projector and `calibration_id`. Throws
+/// probe_fw::ProbeModelError when the result is out of the format's ranges.
+probe_fw::ProbeModel CalibratedProbeModel(const probe_fw::ProbeModel& design,
+                                          const ProbeCalibResult& result,
+                                          const std::string& calibration_id);
 
 /// Inner corners per image in board order (what CalibrateCamera uses).
 std::vector<std::vector<geometry::Vec2>> DetectCorners(const std::vector<GrayImage>& images,
