@@ -120,6 +120,8 @@ probe_fw::ProbeModel CalibratedProbeModel(const probe_fw::ProbeModel& design,
   m.projector.f_px = r.projector.f_px;
   m.projector.c_px = r.projector.c_px;
   m.projector.camera_from_projector = r.projector.camera_from_projector;
+  m.calibration_stats = {true,           r.views_used,    r.corners_used,
+                         r.stripes_used, r.corner_rms_px, r.stripe_rms_columns};
   m.Validate();
   return m;
 }
@@ -155,6 +157,7 @@ ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
     }
   }
   if (used_views < 4) throw CameraCalibError("the board was found in fewer than 4 views");
+  result.views_used = used_views;
   for (const StripeObservation& s : in.stripes) {
     if (s.view < 0 || static_cast<size_t>(s.view) >= views || in.corners[s.view].empty()) continue;
     problem.AddResidualBlock(

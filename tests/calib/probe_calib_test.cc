@@ -128,6 +128,10 @@ TEST(ProbeCalibration, CameraAndProjectorFromChessboardViews) {
   probe_fw::SaveProbeModel(CalibratedProbeModel(design, r, "test-calibration-1"), path);
   const probe_fw::ProbeModel calibrated = probe_fw::LoadProbeModel(path);
   EXPECT_EQ(calibrated.calibration_id, "test-calibration-1");
+  ASSERT_TRUE(calibrated.calibration_stats.present);
+  EXPECT_EQ(calibrated.calibration_stats.views, kViews);
+  EXPECT_EQ(calibrated.calibration_stats.stripe_points, r.stripes_used);
+  EXPECT_EQ(calibrated.calibration_stats.corner_rms_px, r.corner_rms_px);
 
   // Triangulation over the working volume: true surface points seen by the true probe.
   double sum2 = 0, worst = 0, design_sum2 = 0;

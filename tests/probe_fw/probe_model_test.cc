@@ -35,6 +35,16 @@ TEST(ProbeModel, JsonRoundTripIsExact) {
   EXPECT_EQ(ToJson(a), ToJson(b));
   EXPECT_EQ(b.camera.k2, a.camera.k2);
   EXPECT_TRUE(b.projector.camera_from_projector.isApprox(a.projector.camera_from_projector, 1e-15));
+  EXPECT_FALSE(b.calibration_stats.present);  // the design file has none
+  ProbeModel c = a;
+  c.calibration_stats = {true, 16, 864, 12021, 0.042, 0.018};
+  const ProbeModel d = ParseProbeModel(ToJson(c));
+  EXPECT_TRUE(d.calibration_stats.present);
+  EXPECT_EQ(d.calibration_stats.stripe_points, 12021);
+  EXPECT_EQ(d.calibration_stats.corner_rms_px, 0.042);
+  EXPECT_EQ(ToJson(c), ToJson(d));
+  c.calibration_stats.corner_rms_px = -1.0;
+  EXPECT_THROW(c.Validate(), ProbeModelError);
 }
 
 TEST(ProbeModel, UndistortInvertsProjectAcrossTheSensor) {

@@ -75,6 +75,10 @@ void ProjectorModel::PlaneOf(double column, Vec3* normal_in_probe, double* offse
 }
 
 void ProbeModel::Validate() const {
+  const auto& cs = calibration_stats;
+  Require(!cs.present || (cs.views >= 0 && cs.corners >= 0 && cs.stripe_points >= 0 &&
+                          cs.corner_rms_px >= 0.0 && cs.stripe_rms_columns >= 0.0),
+          "calibration_stats must not be negative");
   const auto& c = camera;
   Require(!serial.empty(), "serial must not be empty");
   Require(c.width_px >= 16 && c.width_px <= 16384, "camera.width_px must be 16..16384");
@@ -138,6 +142,16 @@ ProbeModel ParseProbeModel(const std::string& json_text) {
   m.noise.ambient_e = Number(n, "ambient_e", "noise");
   m.noise.speckle_contrast = Number(n, "speckle_contrast", "noise");
   m.noise.stripe_centre_noise_px = Number(n, "stripe_centre_noise_px", "noise");
+  if (j.contains("calibration_stats")) {
+    const json& cs = Object(j, "calibration_stats");
+    auto& s = m.calibration_stats;
+    s.present = true;
+    s.views = Integer(cs, "views", "calibration_stats");
+    s.corners = Integer(cs, "corners", "calibration_stats");
+    s.stripe_points = Integer(cs, "stripe_points", "calibration_stats");
+    s.corner_rms_px = Number(cs, "corner_rms_px", "calibration_stats");
+    s.stripe_rms_columns = Number(cs, "stripe_rms_columns", "calibration_stats");
+  }
   m.Validate();
   return m;
 }
@@ -179,6 +193,14 @@ std::string ToJson(const ProbeModel& m) {
                 {"ambient_e", m.noise.ambient_e},
                 {"speckle_contrast", m.noise.speckle_contrast},
                 {"stripe_centre_noise_px", m.noise.stripe_centre_noise_px}};
+  if (m.calibration_stats.present) {
+    const auto& cs = m.calibration_stats;
+    j["calibration_stats"] = {{"views", cs.views},
+                              {"corners", cs.corners},
+                              {"stripe_points", cs.stripe_points},
+                              {"corner_rms_px", cs.corner_rms_px},
+                              {"stripe_rms_columns", cs.stripe_rms_columns}};
+  }
   return j.dump(2) + "\n";
 }
 

@@ -46,7 +46,7 @@ struct ProbeCalibResult {
   ProjectorParams projector;
   std::vector<geometry::Pose3> camera_from_board;
   double corner_rms_px = 0.0, stripe_rms_columns = 0.0;
-  int corners_used = 0, stripes_used = 0, iterations = 0;
+  int views_used = 0, corners_used = 0, stripes_used = 0, iterations = 0;
 };
 
 /// Throws CameraCalibError when the data cannot determine the model (fewer than 4 views with a
@@ -54,7 +54,8 @@ struct ProbeCalibResult {
 ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& input);
 
 /// The probe model the firmware reads: `design` (sensor size, bit depth, projector columns,
-/// laser and noise) with the calibrated camera and projector and `calibration_id`. Throws
+/// laser and noise) with the calibrated camera and projector, `calibration_id` and the fit's
+/// statistics. Throws
 /// probe_fw::ProbeModelError when the result is out of the format's ranges.
 probe_fw::ProbeModel CalibratedProbeModel(const probe_fw::ProbeModel& design,
                                           const ProbeCalibResult& result,

@@ -70,9 +70,19 @@ struct NoiseModel {
       0.0;  ///< expected 1-sigma stripe-centre noise (spec, informative)
 };
 
+/// How well the camera/projector calibration fitted its data (present in calibrated files; the
+/// firmware does not need it, a person checking the probe does).
+struct CalibrationStats {
+  bool present = false;
+  int views = 0, corners = 0, stripe_points = 0;
+  double corner_rms_px = 0.0;       ///< chessboard corners, reprojection
+  double stripe_rms_columns = 0.0;  ///< stripe points vs their light planes, projector columns
+};
+
 struct ProbeModel {
   std::string serial;
   std::string calibration_id;
+  CalibrationStats calibration_stats;
   CameraModel camera;
   ProjectorModel projector;
   LaserModel laser;
