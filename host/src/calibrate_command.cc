@@ -4,8 +4,8 @@
 #include "mlp/calib/hand_eye.h"
 #include "mlp/calib/recheck.h"
 #include "mlp/calib/record.h"
+#include "mlp/host/cli.h"
 #include "mlp/host/cloud_io.h"
-#include "mlp/host/fit_command.h"
 #include "mlp/probe_fw/json_fields.h"
 
 #include <filesystem>
@@ -23,11 +23,6 @@ namespace fs = std::filesystem;
 using calib::Pose3;
 using calib::Vec3;
 using json = nlohmann::ordered_json;
-
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 constexpr const char* kManifestFormat = "mlprobe-sphere-captures/1";
 

@@ -20,11 +20,6 @@ using geometry::Points3;
 using geometry::Vec3;
 using Json = nlohmann::ordered_json;
 
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
 struct FitRequest {
   std::string shape;
   std::string method = "ls";

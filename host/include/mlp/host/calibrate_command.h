@@ -10,7 +10,7 @@
 
 namespace mlp::host {
 
-/// Exit codes beyond kExitOk / kExitInternal / kExitBadInput (fit_command.h).
+/// Exit codes beyond kExitOk / kExitInternal / kExitBadInput (cli.h).
 enum CalibrateExit : int {
   kExitUnderDetermined = 3,  ///< the captures do not determine the calibration; nothing stored
   kExitFullCalibrationRequired = 4,  ///< recheck: the change is too large for a quick fix
