@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The README's main job: install, build, and run the fits on the sample clouds (ground truth in
-# samples/clouds/README.md). Later issues extend it to the full demo on the virtual probe.
+# samples/clouds/README.md), the virtual probe through the firmware, camera/projector and
+# hand-eye calibration. Later issues extend it to the full job on the virtual probe.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -30,6 +31,14 @@ build/bin/mlp-fw run --probe samples/probes/reference_probe.json --frames "$cap"
   --out "$cap/cloud.ply"
 run plane "$cap/cloud.ply"
 rm -rf "$cap"
+echo
+echo "== Camera + projector calibration: 16 chessboard views from the virtual probe (~45 s)"
+views=$(mktemp -d)
+bash samples/calib/render_board_views.sh samples/probes/reference_probe.json "$views"
+echo "\$ mlp calibrate projector --views views.json --design reference_probe.json --out calibrated.json"
+"$mlp" calibrate projector --views "$views/views.json" --design samples/probes/reference_probe.json \
+  --out "$views/calibrated.json"
+rm -rf "$views"
 echo
 echo "== Sphere hand-eye on real data: ten line-scanner profiles of a 25.4 mm ball on a robot"
 echo "\$ mlp calibrate hand-eye --dry-run --captures samples/calib/line_scanner_ball.json"

@@ -1,5 +1,6 @@
 #include "mlp/calib/probe_calib.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <ceres/ceres.h>
@@ -17,6 +18,11 @@ using geometry::Vec3;
 constexpr double kCornerSigmaPx = 0.06;
 constexpr double kStripeSigmaColumns = 0.03;
 constexpr int kUndistortIterations = 20;
+// Stripe points on uniform light: +-8 px along the row (twice the centroid window) within 85 %
+// of the brightest, which is at least a quarter of full scale (a light square, not a dark one).
+constexpr int kUniformHalfPx = 8;
+constexpr double kUniformRatio = 0.85;
+constexpr std::size_t kMaxStripePoints = 15000;
 
 // Camera parameters: fx fy cx cy k1 k2 p1 p2 k3.
 template <class T>
@@ -126,6 +132,62 @@ probe_fw::ProbeModel CalibratedProbeModel(const probe_fw::ProbeModel& design,
   return m;
 }
 
+bool OnUniformLight(const GrayImage& led, double x_px, int y_px) {
+  const int x = static_cast<int>(std::lround(x_px));
+  if (x - kUniformHalfPx < 0 || x + kUniformHalfPx >= led.width || y_px < 0 || y_px >= led.height)
+    return false;
+  int lo = 1 << 16, hi = 0;
+  for (int dx = -kUniformHalfPx; dx <= kUniformHalfPx; ++dx) {
+    const int v = led.pixels[static_cast<std::size_t>(y_px) * static_cast<std::size_t>(led.width) +
+                             static_cast<std::size_t>(x + dx)];
+    lo = std::min(lo, v), hi = std::max(hi, v);
+  }
+  return hi > ((1 << led.bit_depth) - 1) / 4 && lo >= kUniformRatio * hi;
+}
+
+ProbeCalibReport CalibrateProbe(const std::vector<GrayImage>& leds,
+                                const std::vector<StripeObservation>& stripes,
+                                const ChessboardSpec& board,
+                                const probe_fw::ProbeModel& design,
+                                const std::function<void(const std::string&)>& progress) {
+  const auto say = [&](const std::string& line) {
+    if (progress) progress(line);
+  };
+  ProbeCalibReport report;
+  say("camera start: OpenCV calibrateCamera on " + std::to_string(leds.size()) + " LED frames");
+  report.camera_start = CalibrateCamera(leds, board);
+  std::vector<StripeObservation> usable;
+  for (const StripeObservation& s : stripes) {
+    if (s.view < 0 || static_cast<std::size_t>(s.view) >= leds.size())
+      throw CameraCalibError("a stripe point names view " + std::to_string(s.view) + " of " +
+                             std::to_string(leds.size()));
+    if (OnUniformLight(leds[static_cast<std::size_t>(s.view)], s.x_px,
+                       static_cast<int>(std::lround(s.y_px))))
+      usable.push_back(s);
+  }
+  report.stripes_found = stripes.size();
+  report.stripes_on_light = usable.size();
+  report.stripe_stride =
+      static_cast<int>((usable.size() + kMaxStripePoints - 1) / kMaxStripePoints);
+  ProbeCalibInput in;
+  in.board = board;
+  in.corners = DetectCorners(leds, board);
+  for (std::size_t k = 0; k < usable.size(); k += std::max(1, report.stripe_stride))
+    in.stripes.push_back(usable[k]);
+  in.camera_start = report.camera_start.intrinsics;
+  in.projector_start = {design.projector.f_px, design.projector.c_px,
+                        design.projector.camera_from_projector};
+  in.camera_from_board_start.assign(leds.size(), Pose3::Identity());
+  const auto& cam = report.camera_start;
+  for (std::size_t k = 0; k < cam.views_used.size(); ++k)
+    in.camera_from_board_start[static_cast<std::size_t>(cam.views_used[k])] =
+        cam.camera_from_board[k];
+  say("joint adjustment: camera, projector and " + std::to_string(cam.views_used.size()) +
+      " board poses from " + std::to_string(in.stripes.size()) + " stripe points");
+  report.result = AdjustCameraAndProjector(in);
+  return report;
+}
+
 ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
   const size_t views = in.corners.size();
   if (in.camera_from_board_start.size() != views)
@@ -166,6 +228,11 @@ ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
     ++result.stripes_used;
   }
   if (result.stripes_used == 0) throw CameraCalibError("no stripe point on a found board");
+  // Every light plane contains the projector's y axis (the direction along the stripe), so
+  // moving the projector along it changes no plane: a gauge freedom the solver would wander in
+  // (it drifted 111 mm on the reference probe). Its camera-frame y (~ that axis: the projector
+  // is turned about y) is held at the start value.
+  problem.SetManifold(proj_t, new ceres::SubsetManifold(3, {1}));
   ceres::Solver::Options o;
   o.linear_solver_type = ceres::SPARSE_SCHUR;
   o.max_num_iterations = 200;

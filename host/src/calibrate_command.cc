@@ -1,5 +1,6 @@
 #include "mlp/host/calibrate_command.h"
 
+#include "mlp/calib/camera_calib.h"
 #include "mlp/calib/capture_io.h"
 #include "mlp/calib/hand_eye.h"
 #include "mlp/calib/recheck.h"
@@ -7,6 +8,7 @@
 #include "mlp/host/cli.h"
 #include "mlp/host/cloud_io.h"
 #include "mlp/probe_fw/json_fields.h"
+#include "mlp/probe_fw/probe_model.h"
 
 #include <filesystem>
 #include <fstream>
@@ -14,6 +16,9 @@
 #include <map>
 #include <ostream>
 #include <sstream>
+
+#include "calibrate_optics.h"
+#include "format_numbers.h"
 
 namespace mlp::host {
 namespace {
@@ -27,17 +32,26 @@ using json = nlohmann::ordered_json;
 constexpr const char* kManifestFormat = "mlprobe-sphere-captures/1";
 
 constexpr const char* kUsage =
-    "usage: mlp calibrate hand-eye --captures MANIFEST --store DIR [--dry-run] [--json]\n"
+    "usage: mlp calibrate camera    --views MANIFEST [--out CAMERA.json] [--json]\n"
+    "       mlp calibrate projector --views MANIFEST --design PROBE_FILE --out PROBE_FILE\n"
+    "                               [--id CALIBRATION_ID] [--json]\n"
+    "       mlp calibrate hand-eye --captures MANIFEST --store DIR [--dry-run] [--json]\n"
     "       mlp calibrate recheck  --captures MANIFEST --store DIR [--sphere-moved] [--json]\n"
     "       mlp calibrate list     --store DIR --probe SERIAL [--json]\n"
+    "  camera    camera intrinsics and distortion from LED frames of a chessboard\n"
+    "  projector camera and MEMS projector adjusted together from the same views' LED frames\n"
+    "            and stripe files (mlp-fw stripes); writes the probe model file the firmware\n"
+    "            reads (a new file: an existing one is never overwritten)\n"
     "  hand-eye  sphere hand-eye: M (probe -> flange) and the sphere centre from clouds of the\n"
     "            reference sphere at known flange poses; stored as a new calibration\n"
     "  recheck   quick re-calibration after a disturbance, from the probe's latest full\n"
     "            calibration (never from an earlier recheck); stored as a new record\n"
     "  list      the calibrations of a probe, oldest first\n"
-    "  MANIFEST  JSON \"mlprobe-sphere-captures/1\" (docs/CALIBRATION.md): probe serial, sphere\n"
-    "            radius, optional known centre coordinates, and per capture a cloud file\n"
+    "  --views MANIFEST     JSON \"mlprobe-board-views/1\": the board and the capture folders\n"
+    "  --captures MANIFEST  JSON \"mlprobe-sphere-captures/1\": probe serial, sphere radius,\n"
+    "            optional known centre coordinates, and per capture a cloud file\n"
     "            (.xyz/.txt/.pcd/.ply, or an OpenCV .yml profile) with its flange pose\n"
+    "  (formats: docs/CALIBRATION.md)\n"
     "exit codes: 0 done, 2 bad arguments or input, 3 the captures do not determine the\n"
     "            calibration (what would fix it is printed), 4 recheck: a full calibration is\n"
     "            required, 1 bug; nothing is stored unless the exit code is 0\n";
@@ -152,19 +166,6 @@ Manifest LoadManifest(const std::string& path) {
     m.captures.push_back(std::move(cap));
   }
   return m;
-}
-
-std::string Fixed(double v, int digits) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(digits) << v;
-  return s.str();
-}
-
-std::string Vec(const Vec3& v, int digits) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(digits) << "(" << v.x() << ", " << v.y() << ", " << v.z()
-    << ")";
-  return s.str();
 }
 
 json JVec(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
@@ -319,6 +320,8 @@ int RunCalibrateCommand(const std::vector<std::string>& args,
     return kExitOk;
   }
   try {
+    if (!args.empty() && (args[0] == "camera" || args[0] == "projector"))
+      return RunCameraProjectorCommand(args, out, err);
     const Args a = ParseArgs(args);
     if (a.command == "hand-eye") return HandEye(a, out, err);
     if (a.command == "recheck") return Recheck(a, out, err);
@@ -336,6 +339,10 @@ int RunCalibrateCommand(const std::vector<std::string>& args,
   } catch (const calib::CaptureIoError& e) {
     err << "mlp calibrate: " << e.what() << "\n";
   } catch (const calib::RecordError& e) {
+    err << "mlp calibrate: " << e.what() << "\n";
+  } catch (const calib::CameraCalibError& e) {
+    err << "mlp calibrate: " << e.what() << "\n";
+  } catch (const probe_fw::ProbeModelError& e) {
     err << "mlp calibrate: " << e.what() << "\n";
   } catch (const std::exception& e) {
     err << "mlp calibrate: internal error: " << e.what() << "\n";

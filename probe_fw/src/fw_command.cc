@@ -5,6 +5,8 @@
 #include "mlp/probe_fw/frame_source.h"
 #include "mlp/probe_fw/probe_model.h"
 #include "mlp/probe_fw/roi.h"
+#include "mlp/probe_fw/stripe.h"
+#include "mlp/probe_fw/stripe_file.h"
 #include "mlp/probe_fw/triangulate.h"
 
 #include <chrono>
@@ -24,8 +26,11 @@ constexpr const char* kUsage =
     "usage: mlp-fw run --probe PROBE_FILE --frames DIR --roi ROI_SPEC --out CLOUD.ply [--json]\n"
     "       mlp-fw run --probe PROBE_FILE --camera /dev/videoN --aoi X0,Y0,W,H\n"
     "                  --columns FIRST:LAST:STEP --roi ROI_SPEC --out CLOUD.ply [--json]\n"
+    "       mlp-fw stripes --frames DIR --out STRIPES.json [--roi ROI_SPEC] [--json]\n"
     "  ROI_SPEC  full | rect:X0,Y0,W,H | hole:X,Y | edge:X,Y | face:X,Y (sensor pixels; hole,\n"
     "            edge and face are found on the LED frame from the hint X,Y: docs/CLI.md)\n"
+    "  stripes   calibration mode: the stripe centres with the projector column lit, not\n"
+    "            triangulated (needs no probe model; default ROI full)\n"
     "  --json    print the summary as JSON\n"
     "exit codes: 0 cloud written, 2 bad arguments or input, 3 camera missing or failed, 1 bug\n";
 
@@ -55,13 +60,15 @@ struct Summary {
   double seconds = 0.0;
 };
 
+// `output` names what was written: "cloud" (points) or "stripes" (stripe observations).
 void Print(const Summary& s,
            const CaptureMeta& meta,
+           const std::string& output,
            const std::string& path,
            bool as_json,
            std::ostream& out) {
   if (as_json) {
-    nlohmann::ordered_json j = {{"cloud", path},
+    nlohmann::ordered_json j = {{output, path},
                                 {"points", s.points},
                                 {"frames", s.frames},
                                 {"laser_frames", s.laser_frames},
@@ -77,13 +84,44 @@ void Print(const Summary& s,
     out << j.dump(2) << "\n";
     return;
   }
-  out << "mlp-fw: " << s.points << " points from " << s.laser_frames << " laser frames ("
-      << s.roi_pixels << " ROI pixels each) -> " << path << "\n"
+  out << "mlp-fw: " << s.points << (output == "cloud" ? " points" : " stripe points") << " from "
+      << s.laser_frames << " laser frames (" << s.roi_pixels << " ROI pixels each) -> " << path
+      << "\n"
       << "  rejected stripes: " << s.counts.weak << " weak, " << s.counts.saturated
       << " saturated, " << s.counts.double_peak << " double-peaked, " << s.counts.too_wide
       << " too wide\n"
       << "  probe " << meta.probe_serial << ", capture " << meta.capture_id << ", " << s.seconds
       << " s\n";
+}
+
+struct CaptureFrames {
+  std::optional<Frame> led;
+  std::vector<Frame> laser;
+};
+
+// Every frame of the capture; refuses a capture without laser frames or with laser frames of
+// different AOIs (one ROI mask serves them all).
+CaptureFrames ReadAll(FrameSource& source, Summary* s, std::ostream& err) {
+  CaptureFrames c;
+  const bool progress = isatty(STDERR_FILENO) != 0;  // a log file gets no carriage returns
+  Frame f;
+  while (source.Next(&f)) {
+    ++s->frames;
+    if (f.IsLaser())
+      c.laser.push_back(std::move(f));
+    else
+      c.led = std::move(f);
+    if (progress && s->frames % 50 == 0)
+      err << "mlp-fw: " << s->frames << " frames read\r" << std::flush;
+  }
+  if (c.laser.empty()) throw UsageError("the capture holds no laser frame");
+  for (const Frame& l : c.laser) {
+    if (l.aoi.x0 != c.laser[0].aoi.x0 || l.aoi.y0 != c.laser[0].aoi.y0 ||
+        l.aoi.width != c.laser[0].aoi.width || l.aoi.height != c.laser[0].aoi.height) {
+      throw UsageError("the laser frames of one capture must share one AOI");
+    }
+  }
+  return c;
 }
 
 int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -99,35 +137,49 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
     throw UsageError("the frames are from probe " + meta.probe_serial + ", the model is for " +
                      probe.serial);
   }
-  std::vector<Frame> laser;
-  std::optional<Frame> led;
   Summary s;
-  const bool progress = isatty(STDERR_FILENO) != 0;  // a log file gets no carriage returns
-  Frame f;
-  while (source->Next(&f)) {
-    ++s.frames;
-    if (f.IsLaser())
-      laser.push_back(std::move(f));
-    else
-      led = std::move(f);
-    if (progress && s.frames % 50 == 0)
-      err << "mlp-fw: " << s.frames << " frames read\r" << std::flush;
-  }
-  if (laser.empty()) throw UsageError("the capture holds no laser frame");
-  for (const Frame& l : laser) {
-    if (l.aoi.x0 != laser[0].aoi.x0 || l.aoi.y0 != laser[0].aoi.y0 ||
-        l.aoi.width != laser[0].aoi.width || l.aoi.height != laser[0].aoi.height) {
-      throw UsageError("the laser frames of one capture must share one AOI");
-    }
-  }
-  const RowMask mask = ParseRoi(roi, laser[0].aoi, led ? &*led : nullptr);
-  const auto cloud = ReconstructSweep(probe, laser, mask, StripeOptions{}, &s.counts);
+  const CaptureFrames frames = ReadAll(*source, &s, err);
+  const RowMask mask = ParseRoi(roi, frames.laser[0].aoi, frames.led ? &*frames.led : nullptr);
+  const auto cloud = ReconstructSweep(probe, frames.laser, mask, StripeOptions{}, &s.counts);
   WriteCloudPly(path, cloud, meta);
-  s.laser_frames = laser.size();
+  s.laser_frames = frames.laser.size();
   s.points = cloud.size();
   s.roi_pixels = mask.PixelCount();
   s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  Print(s, meta, path, o.Has("--json"), out);
+  Print(s, meta, "cloud", path, o.Has("--json"), out);
+  return cli::kExitOk;
+}
+
+// Calibration mode: stripe centres with their projector column, no triangulation (the projector
+// is what is being calibrated).
+int Stripes(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const cli::Options o(args, {"--frames", "--roi", "--out"}, {"--json"});
+  const auto start = std::chrono::steady_clock::now();
+  const std::string path = o.Required("--out");
+  const auto source = OpenDirectorySource(o.Required("--frames"));
+  const CaptureMeta meta = source->Meta();
+  Summary s;
+  const CaptureFrames frames = ReadAll(*source, &s, err);
+  const RowMask mask =
+      ParseRoi(o.Get("--roi", "full"), frames.laser[0].aoi, frames.led ? &*frames.led : nullptr);
+  StripeFile file{meta.probe_serial, meta.capture_id, {}};
+  std::vector<StripePoint> found;
+  for (const Frame& l : frames.laser) {
+    found.clear();
+    ExtractStripe(l, mask, StripeOptions{}, &found, &s.counts);
+    for (const StripePoint& p : found)
+      file.points.push_back({p.x_px, p.y_px, l.laser_column, p.quality});
+  }
+  try {
+    SaveStripeFile(file, path);
+  } catch (const StripeFileError& e) {
+    throw UsageError(e.what());
+  }
+  s.laser_frames = frames.laser.size();
+  s.points = file.points.size();
+  s.roi_pixels = mask.PixelCount();
+  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  Print(s, meta, "stripes", path, o.Has("--json"), out);
   return cli::kExitOk;
 }
 
@@ -199,12 +251,13 @@ RowMask ParseRoi(const std::string& spec, const Aoi& aoi, const Frame* led) {
 }
 
 int RunFwCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  if (args.empty() || args[0] != "run") {
+  if (args.empty() || (args[0] != "run" && args[0] != "stripes")) {
     (args.empty() || args[0] == "--help" ? out : err) << kUsage;
     return !args.empty() && args[0] == "--help" ? cli::kExitOk : cli::kExitBadInput;
   }
   try {
-    return Run({args.begin() + 1, args.end()}, out, err);
+    const std::vector<std::string> rest(args.begin() + 1, args.end());
+    return args[0] == "run" ? Run(rest, out, err) : Stripes(rest, out, err);
   } catch (const UsageError& e) {
     err << "mlp-fw: " << e.what() << "\n" << kUsage;
     return cli::kExitBadInput;

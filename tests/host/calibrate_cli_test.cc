@@ -6,10 +6,10 @@
 #include <fstream>
 
 #include "calib/hand_eye_fixture.h"
+#include "process_run.h"
 #include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
-#include <sys/wait.h>
 
 namespace mlp::calib {
 namespace {
@@ -20,23 +20,10 @@ using json = nlohmann::json;
 constexpr double kTranslationTolMm = 0.002;
 constexpr double kLineScannerPointRmsMm = 0.245;  // measured 0.242, see line_scanner_test.cc
 
-struct CliRun {
-  int exit_code;
-  std::string out, err;
-};
+using test::ProcessRun;
 
-CliRun Mlp(const std::string& args, const fs::path& dir) {
-  const fs::path err_file = dir / "stderr.txt";
-  const std::string cmd =
-      std::string(MLP_BINARY) + " calibrate " + args + " 2>" + err_file.string();
-  FILE* pipe = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof(buf), pipe)) out.append(buf, n);
-  const int status = pclose(pipe);
-  std::ifstream e(err_file);
-  std::string err((std::istreambuf_iterator<char>(e)), std::istreambuf_iterator<char>());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err};
+ProcessRun Mlp(const std::string& args, const fs::path&) {
+  return test::RunProcess(std::string(MLP_BINARY) + " calibrate " + args);
 }
 
 fs::path FreshDir(const std::string& name) {
@@ -80,7 +67,7 @@ TEST(CalibrateCli, HandEyeThenRecheckAreStoredAndRefusalsStoreNothing) {
   const testing::Truth truth = testing::DefaultTruth();
   const auto caps = testing::SyntheticCaps(
       truth, testing::MakePoses(truth, testing::PoseSet::kFiveAxis, 12), 0.002, 0.02, 800, 11);
-  const CliRun he = Mlp(
+  const ProcessRun he = Mlp(
       "hand-eye --json --store " + store + " --captures " + WriteManifest(dir, "he", caps).string(),
       dir);
   ASSERT_EQ(he.exit_code, 0) << he.err;
@@ -96,9 +83,9 @@ TEST(CalibrateCli, HandEyeThenRecheckAreStoredAndRefusalsStoreNothing) {
   now.flange_from_probe.translation() += Vec3(0.03, 0.0, -0.01);
   const auto recheck_caps = testing::SyntheticCaps(
       now, testing::MakePoses(truth, testing::PoseSet::kThreeAxisWithM19, 4), 0.002, 0.0, 1500, 12);
-  const CliRun rc = Mlp("recheck --json --store " + store + " --captures " +
-                            WriteManifest(dir, "rc", recheck_caps).string(),
-                        dir);
+  const ProcessRun rc = Mlp("recheck --json --store " + store + " --captures " +
+                                WriteManifest(dir, "rc", recheck_caps).string(),
+                            dir);
   ASSERT_EQ(rc.exit_code, 0) << rc.err;
   const json r = json::parse(rc.out);
   EXPECT_EQ(r["parent_id"], first_id);
@@ -120,9 +107,9 @@ TEST(CalibrateCli, HandEyeThenRecheckAreStoredAndRefusalsStoreNothing) {
   crashed.flange_from_probe.translation() += Vec3(0.8, 0.0, 0.0);
   const auto crash_caps = testing::SyntheticCaps(
       crashed, testing::MakePoses(truth, testing::PoseSet::kFiveAxis, 3), 0.002, 0.0, 800, 13);
-  const CliRun crash = Mlp("recheck --store " + store + " --captures " +
-                               WriteManifest(dir, "crash", crash_caps).string(),
-                           dir);
+  const ProcessRun crash = Mlp("recheck --store " + store + " --captures " +
+                                   WriteManifest(dir, "crash", crash_caps).string(),
+                               dir);
   EXPECT_EQ(crash.exit_code, 4);
   EXPECT_NE(crash.err.find("full calibration required"), std::string::npos) << crash.err;
 
@@ -130,7 +117,7 @@ TEST(CalibrateCli, HandEyeThenRecheckAreStoredAndRefusalsStoreNothing) {
   const auto flat = testing::SyntheticCaps(
       truth, testing::MakePoses(truth, testing::PoseSet::kTranslationsOnly, 6), 0.002, 0.0, 400,
       14);
-  const CliRun refused =
+  const ProcessRun refused =
       Mlp("hand-eye --store " + store + " --captures " + WriteManifest(dir, "flat", flat).string(),
           dir);
   EXPECT_EQ(refused.exit_code, 3);
@@ -144,7 +131,7 @@ TEST(CalibrateCli, HandEyeThenRecheckAreStoredAndRefusalsStoreNothing) {
                 .exit_code,
             2);
 
-  const CliRun list = Mlp("list --json --store " + store + " --probe MLP-TEST-1", dir);
+  const ProcessRun list = Mlp("list --json --store " + store + " --probe MLP-TEST-1", dir);
   ASSERT_EQ(list.exit_code, 0);
   const json all = json::parse(list.out);
   ASSERT_EQ(all.size(), 2u);  // the hand-eye and the recheck; the refusals stored nothing
@@ -162,9 +149,9 @@ TEST(CalibrateCli, RealLineScannerSampleManifest) {
     c["cloud"] = (test::SharedDataDir() / "line-scanner-sphere" / name).string();
   }
   std::ofstream(dir / "ball.json") << m.dump(2);
-  const CliRun run = Mlp("hand-eye --json --dry-run --store " + (dir / "store").string() +
-                             " --captures " + (dir / "ball.json").string(),
-                         dir);
+  const ProcessRun run = Mlp("hand-eye --json --dry-run --store " + (dir / "store").string() +
+                                 " --captures " + (dir / "ball.json").string(),
+                             dir);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const json j = json::parse(run.out);
   EXPECT_LE(j["point_rms_mm"].get<double>(), kLineScannerPointRmsMm);

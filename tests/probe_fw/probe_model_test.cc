@@ -2,6 +2,8 @@
 
 #include "mlp/probe_fw/probe_model.h"
 
+#include "mlp/probe_fw/stripe_file.h"
+
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -117,6 +119,42 @@ TEST(ProbeModel, SaveWritesAtomicallyAndRefusesInvalid) {
   EXPECT_EQ(ReadFile(path), before);  // nothing changed
   EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
   std::filesystem::remove_all(dir);
+}
+
+TEST(StripeFile, RoundTripKeepsWhatCalibrationNeeds) {
+  const std::string path = ::testing::TempDir() + "/stripes.json";
+  StripeFile f{"MLP-T-1", "view01", {{1023.45678, 700, 612.875, 0.5}, {10.0, 0, 0.0, 1.0}}};
+  SaveStripeFile(f, path);
+  const StripeFile g = LoadStripeFile(path);
+  EXPECT_EQ(g.probe_serial, "MLP-T-1");
+  EXPECT_EQ(g.capture_id, "view01");
+  ASSERT_EQ(g.points.size(), 2u);
+  EXPECT_NEAR(g.points[0].x_px, 1023.45678, 1e-4);  // stored to 1e-4 px
+  EXPECT_EQ(g.points[0].y_px, 700);
+  EXPECT_EQ(g.points[0].column, 612.875);
+}
+
+TEST(StripeFile, BadFilesNameTheEntry) {
+  const std::string path = ::testing::TempDir() + "/bad_stripes.json";
+  const auto expect_error = [&](const std::string& text, const std::string& needle) {
+    std::ofstream(path) << text;
+    try {
+      LoadStripeFile(path);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const StripeFileError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  const std::string head =
+      R"({"format": "mlprobe-stripes/1", "probe_serial": "P", "capture_id": "c", "points": )";
+  expect_error(head + "[[1, 2, 3]]}", "points[0]");
+  expect_error(head + "[[1, 2.5, 3, 0.5]]}", "integer");
+  expect_error(head + "[[1, 2, -3, 0.5]]}", "negative");
+  expect_error(head + "[[1, 2, 3, 1.5]]}", "quality");
+  expect_error(head + "[[1e300, 2, 3, 0.5]]}", "finite");
+  expect_error(head + "7}", "array");
+  expect_error(R"({"format": "mlprobe-stripes/2"})", "format");
+  EXPECT_THROW(LoadStripeFile(path + ".missing"), StripeFileError);
 }
 
 }  // namespace

@@ -112,6 +112,16 @@ TEST(Scene, BadScenesAreTypedErrors) {
   ExpectSceneError(
       head + R"({"cylinder": {"base": [0,0,0], "axis": [0,0,0], "radius": 1, "length": 1}}})",
       "zero vector");
+  const std::string board =
+      R"({"chessboard": {"pose": {"translation_mm": [0,0,0], "rotation_vector_rad": [0,0,0]}, )";
+  ExpectSceneError(head + board + R"("inner_cols": 1, "inner_rows": 6, "square_mm": 2}}})",
+                   "2..100");
+  ExpectSceneError(head + board + R"("inner_cols": 9, "inner_rows": 6, "square_mm": 0}}})",
+                   "positive");
+  ExpectSceneError(
+      head + board +
+          R"("inner_cols": 9, "inner_rows": 6, "square_mm": 2, "dark_reflectance": 0.9}, "reflectance": 0.5}})",
+      "dark_reflectance");
   ExpectSceneError(R"({"format": "mlprobe-scene/9"})", "format");
 }
 

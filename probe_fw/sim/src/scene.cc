@@ -63,6 +63,16 @@ SolidPtr ParsePrimitive(const std::string& kind, const json& p, double refl, con
     return MakeRevolution(Vector(p, "base", w), Direction(p, "axis", w), Positive(p, "length", w),
                           Positive(p, "radius_base", w), Positive(p, "radius_top", w), refl);
   }
+  if (kind == "chessboard") {
+    const int cols = jf::Integer<SceneError>(p, "inner_cols", "scene: " + w);
+    const int rows = jf::Integer<SceneError>(p, "inner_rows", "scene: " + w);
+    if (cols < 2 || rows < 2 || cols > 100 || rows > 100)
+      Fail(w + ": inner_cols and inner_rows must be in 2..100");
+    const double dark = jf::NumberOr<SceneError>(p, "dark_reflectance", 0.08, "scene: " + w);
+    if (dark < 0.0 || dark > refl) Fail(w + ".dark_reflectance must be in [0, reflectance]");
+    return MakeChessboard(jf::Pose<SceneError>(jf::Object<SceneError>(p, "pose", w), w + ".pose"),
+                          cols, rows, Positive(p, "square_mm", w), refl, dark);
+  }
   Fail(w + ": unknown solid \"" + kind + "\"");
 }
 
@@ -81,14 +91,14 @@ SolidPtr ParseNode(const json& node, const std::string& where) {
   const double refl =
       jf::NumberOr<SceneError>(node, "reflectance", kDefaultReflectance, "scene: " + where);
   if (refl < 0.0 || refl > 1.0) Fail(where + ".reflectance must be in [0, 1]");
-  for (const char* kind : {"halfspace", "box", "sphere", "cylinder", "cone"}) {
+  for (const char* kind : {"halfspace", "box", "sphere", "cylinder", "cone", "chessboard"}) {
     if (node.contains(kind)) {
       return ParsePrimitive(kind, node.at(kind), refl, where + "." + kind);
     }
   }
   Fail(where +
-       ": expected one of halfspace, box, sphere, cylinder, cone, union, intersection, "
-       "difference");
+       ": expected one of halfspace, box, sphere, cylinder, cone, chessboard, union, "
+       "intersection, difference");
 }
 
 }  // namespace

@@ -18,11 +18,14 @@ using probe_fw::cli::UsageError;
 
 constexpr const char* kUsage =
     "usage: mlp-sim render --probe PROBE_FILE --scene SCENE_FILE --out DIR [--seed N]\n"
-    "                      [--capture ID] [--aoi X0,Y0,W,H] [--columns FIRST:LAST:STEP]\n"
+    "                      [--capture ID] [--aoi X0,Y0,W,H|full] [--columns FIRST:LAST:STEP]\n"
     "                      [--format png|pgm] [--noiseless] [--json]\n"
+    "                      [--column-count N] [--led-supersampling N]\n"
     "  --capture   which capture of the scene (default: the first)\n"
-    "  --aoi       sensor window read out (default: 512 x 512 at the centre)\n"
+    "  --aoi       sensor window read out, or full (default: 512 x 512 at the centre)\n"
     "  --columns   laser sweep in projector columns (default: every 2nd column reaching the AOI)\n"
+    "  --column-count  N columns evenly over those reaching the AOI (calibration views)\n"
+    "  --led-supersampling  N x N rays per LED pixel on edges (calibration targets' corners)\n"
     "writes DIR/frames.json, DIR/led.*, DIR/laser_NNNN.*, DIR/truth.json, DIR/truth_surface.ply\n"
     "exit codes: 0 written, 2 bad arguments or input, 1 bug\n"
     "\n"
@@ -80,10 +83,10 @@ void WriteTruth(const std::string& dir,
 }
 
 int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const probe_fw::cli::Options o(
-      args,
-      {"--probe", "--scene", "--out", "--seed", "--capture", "--aoi", "--columns", "--format"},
-      {"--noiseless", "--json"});
+  const probe_fw::cli::Options o(args,
+                                 {"--probe", "--scene", "--out", "--seed", "--capture", "--aoi",
+                                  "--columns", "--column-count", "--led-supersampling", "--format"},
+                                 {"--noiseless", "--json"});
   const auto start = std::chrono::steady_clock::now();
   const VirtualProbe probe(probe_fw::LoadProbeModel(o.Required("--probe")),
                            LoadScene(o.Required("--scene")));
@@ -92,13 +95,22 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
   if (format != "png" && format != "pgm") throw UsageError("--format is png or pgm");
   const Capture& capture = FindCapture(probe.scene(), o.Get("--capture", ""));
   SweepOptions sweep;
-  sweep.aoi = o.Has("--aoi") ? probe_fw::cli::ParseAoi(o.Get("--aoi", ""))
-                             : DefaultAoi(probe.model().camera);
+  const std::string aoi = o.Get("--aoi", "");
+  sweep.aoi = aoi == "full" ? probe_fw::Aoi{0, 0, probe.model().camera.width_px,
+                                            probe.model().camera.height_px}
+              : aoi.empty() ? DefaultAoi(probe.model().camera)
+                            : probe_fw::cli::ParseAoi(aoi);
   const double seed = o.Number("--seed", 1.0);
   if (seed < 0 || seed != std::floor(seed) || seed > 9e15)
     throw UsageError("--seed is a whole number");
   sweep.seed = static_cast<std::uint64_t>(seed);
   sweep.noise = !o.Has("--noiseless");
+  const double supersampling = o.Number("--led-supersampling", 1.0);
+  if (supersampling != std::floor(supersampling) || supersampling < 1 || supersampling > 16)
+    throw UsageError("--led-supersampling is a whole number from 1 to 16");
+  sweep.led_supersampling = static_cast<int>(supersampling);
+  if (o.Has("--columns") && o.Has("--column-count"))
+    throw UsageError("give --columns or --column-count, not both");
   if (o.Has("--columns")) {
     char c1 = 0, c2 = 0;
     const std::string text = o.Get("--columns", "");
@@ -110,6 +122,12 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
   } else {
     probe.ColumnsReaching(capture, sweep.aoi, &sweep.first_column, &sweep.last_column);
     sweep.column_step = 2.0;
+    if (o.Has("--column-count")) {
+      const double n = o.Number("--column-count", 0.0);
+      if (n != std::floor(n) || n < 2 || n > 10000)
+        throw UsageError("--column-count is a whole number from 2 to 10000");
+      sweep.column_step = (sweep.last_column - sweep.first_column) / (n - 1);
+    }
   }
   err << "mlp-sim: rendering capture '" << capture.id << "', AOI " << sweep.aoi.width << " x "
       << sweep.aoi.height << ", columns " << sweep.first_column << " to " << sweep.last_column

@@ -13,6 +13,9 @@
 #include "mlp/calib/camera_calib.h"
 #include "mlp/probe_fw/probe_model.h"
 
+#include <cstddef>
+#include <functional>
+#include <string>
 #include <vector>
 
 namespace mlp::calib {
@@ -60,6 +63,29 @@ ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& input);
 probe_fw::ProbeModel CalibratedProbeModel(const probe_fw::ProbeModel& design,
                                           const ProbeCalibResult& result,
                                           const std::string& calibration_id);
+
+/// Whether a stripe point at sensor pixel (x_px, y_px) can be used: the LED frame is light and
+/// uniform over +-8 px along its row. A checker edge inside the stripe's centroid window shifts
+/// the centre towards the light square (reflectance changes by 10x there).
+bool OnUniformLight(const GrayImage& led, double x_px, int y_px);
+
+struct ProbeCalibReport {
+  CameraCalibration camera_start;  ///< OpenCV's camera-only calibration, the start
+  ProbeCalibResult result;         ///< the joint adjustment
+  std::size_t stripes_found = 0, stripes_on_light = 0;
+  int stripe_stride = 1;  ///< every n-th usable stripe point entered the adjustment
+};
+
+/// The whole camera/projector calibration: camera start from OpenCV (Zhang), projector start
+/// from the design, stripe points on uniform light (thinned to at most 15,000: ~1,000 per view
+/// determine the projector's 8 parameters far beyond their noise), one joint adjustment.
+/// `stripes[k].view` indexes `leds`. `progress` (may be empty) gets a line per stage.
+/// Throws CameraCalibError.
+ProbeCalibReport CalibrateProbe(const std::vector<GrayImage>& leds,
+                                const std::vector<StripeObservation>& stripes,
+                                const ChessboardSpec& board,
+                                const probe_fw::ProbeModel& design,
+                                const std::function<void(const std::string&)>& progress = {});
 
 /// Inner corners per image in board order (what CalibrateCamera uses).
 std::vector<std::vector<geometry::Vec2>> DetectCorners(const std::vector<GrayImage>& images,
