@@ -1,0 +1,31 @@
+#pragma once
+/// @file Offset changes as a controller receives them: tool offset registers (length / radius,
+/// geometry / wear) and work offsets (G54..G59 and the extended ones), each with the value
+/// before and after, in mm and degrees. What the adapters write and the history stores.
+
+#include <optional>
+#include <string>
+
+namespace mlp::nc {
+
+enum class ToolRegister { kLengthGeometry, kLengthWear, kRadiusGeometry, kRadiusWear };
+
+/// "length geometry", "radius wear", ...
+std::string ToString(ToolRegister r);
+
+struct ToolOffsetChange {
+  int tool = 0;  ///< offset number (H/D number; LinuxCNC: the tool number)
+  ToolRegister reg = ToolRegister::kLengthGeometry;
+  double before_mm = 0.0, after_mm = 0.0;  ///< the register's value; radius registers hold radii
+};
+
+/// Work offset index: 1..6 = G54..G59; 7 and up = the extended offsets, number index - 6
+/// (G54.1 P1 on Fanuc and LinuxCNC's G59.3 is not one of them: LinuxCNC has 9 offsets, G54..G59.3).
+struct WorkOffsetChange {
+  int index = 1;
+  double before_mm[3] = {0, 0, 0}, after_mm[3] = {0, 0, 0};  ///< X Y Z
+  /// Rotation about Z [deg], where the controller keeps one with the offset (LinuxCNC: R).
+  std::optional<double> rotation_before_deg, rotation_after_deg;
+};
+
+}  // namespace mlp::nc
