@@ -11,7 +11,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git clang-format
   libeigen3-dev libceres-dev libpcl-dev libflann-dev libopencv-dev
   libboost-dev libboost-system-dev nlohmann-json3-dev
-  libssl-dev libsqlite3-dev
+  libssl-dev libsqlite3-dev libsqlitecpp-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   g++-aarch64-linux-gnu  # the firmware portability check (scripts/check-arm64.sh)
   clang libclang-rt-14-dev  # the libFuzzer targets (scripts/fuzz-link.sh)

@@ -1,0 +1,104 @@
+#pragma once
+/// @file Every job the host runs, in one SQLite file (the embedded default; SQLiteCpp over
+/// sqlite3): the request, captures (cloud files by path and SHA-256), fit results with
+/// residuals, decisions, offsets written with their values before and after, the calibration
+/// used, timings, and how the job ended. Append-only from the jobs' side: a job row is created
+/// when it starts and closed once; nothing is deleted. Each call is one transaction.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace mlp::history {
+
+class HistoryError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// How a job ended; "running" until FinishJob.
+enum class JobStatus { kRunning, kInTolerance, kOutOfTolerance, kRefused, kFailed };
+std::string ToString(JobStatus s);
+JobStatus JobStatusFrom(const std::string& text);  ///< throws HistoryError
+
+struct JobStart {
+  std::string machine, kind, probe_serial, calibration_id;
+  nlohmann::json request;  ///< as received
+};
+
+struct CaptureRow {
+  std::string capture_id;
+  nlohmann::json pose;  ///< mcs_from_flange as given / read from the controller
+  std::string cloud_path, cloud_sha256;
+  std::int64_t points = 0;
+};
+
+struct ResultRow {
+  std::string feature;
+  nlohmann::json fit;       ///< shape, residual RMS / max, points used
+  nlohmann::json decision;  ///< verdict, error, offset change, reason
+};
+
+struct OffsetWriteRow {
+  std::string adapter;  ///< "linuxcnc-tool-table", "fanuc-snippet", ...
+  std::string target;   ///< "tool 12 radius wear", "G54"
+  nlohmann::json before, after;
+};
+
+struct JobSummary {
+  std::int64_t id = 0;
+  std::string machine, kind, probe_serial, calibration_id, started_utc, finished_utc;
+  JobStatus status = JobStatus::kRunning;
+};
+
+struct JobFilter {
+  std::optional<std::string> machine, kind, since_utc;  ///< since: ISO 8601, inclusive
+  int limit = 1000;
+};
+
+class History {
+ public:
+  /// Opens or creates the file (schema version 1; a newer schema is refused, an older one
+  /// migrated). Throws HistoryError naming the file.
+  explicit History(const std::string& path);
+  ~History();
+  History(const History&) = delete;
+  History& operator=(const History&) = delete;
+
+  std::int64_t StartJob(const JobStart& start);
+  void AddCapture(std::int64_t job, const CaptureRow& row);
+  void AddResult(std::int64_t job, const ResultRow& row);
+  void AddOffsetWrite(std::int64_t job, const OffsetWriteRow& row);
+  /// Closes a running job; throws HistoryError if it is not running (closed once only).
+  void FinishJob(std::int64_t job,
+                 JobStatus status,
+                 const nlohmann::json& reply,
+                 const nlohmann::json& timings_ms);
+  /// Jobs still "running" (a host that stopped mid-job leaves them): closed as failed with
+  /// `reason` on start-up; returns their ids.
+  std::vector<std::int64_t> CloseInterruptedJobs(const std::string& reason);
+
+  std::vector<JobSummary> ListJobs(const JobFilter& filter) const;
+  /// The whole job: its row, captures, results, offset writes. Throws for an unknown id.
+  nlohmann::json ExportJob(std::int64_t job) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The SHA-256 of a file, lower-case hex (OpenSSL). Throws HistoryError.
+std::string Sha256OfFile(const std::string& path);
+
+/// Now, UTC, ISO 8601 with milliseconds: "2026-11-21T23:57:01.123Z".
+std::string UtcNow();
+
+/// Jobs as CSV (RFC 4180 quoting), one line per job with a header line.
+std::string JobsCsv(const std::vector<JobSummary>& jobs);
+
+}  // namespace mlp::history

@@ -1,0 +1,360 @@
+#include "mlp/history/history.h"
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <sstream>
+
+#include <SQLiteCpp/SQLiteCpp.h>
+#include <openssl/evp.h>
+
+namespace mlp::history {
+namespace {
+
+using json = nlohmann::json;
+constexpr int kSchemaVersion = 1;
+// Another process (mlp history reading while the host writes) holds the lock briefly.
+constexpr int kBusyTimeoutMs = 5000;
+
+constexpr const char* kSchema = R"sql(
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS jobs (
+  id INTEGER PRIMARY KEY,
+  machine TEXT NOT NULL, kind TEXT NOT NULL, probe_serial TEXT NOT NULL,
+  calibration_id TEXT NOT NULL, request TEXT NOT NULL, status TEXT NOT NULL,
+  reply TEXT, timings_ms TEXT, started_utc TEXT NOT NULL, finished_utc TEXT);
+CREATE INDEX IF NOT EXISTS jobs_started ON jobs (started_utc);
+CREATE TABLE IF NOT EXISTS captures (
+  id INTEGER PRIMARY KEY, job_id INTEGER NOT NULL REFERENCES jobs (id),
+  capture_id TEXT NOT NULL, pose TEXT NOT NULL, cloud_path TEXT NOT NULL,
+  cloud_sha256 TEXT NOT NULL, points INTEGER NOT NULL);
+CREATE TABLE IF NOT EXISTS results (
+  id INTEGER PRIMARY KEY, job_id INTEGER NOT NULL REFERENCES jobs (id),
+  feature TEXT NOT NULL, fit TEXT NOT NULL, decision TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS offset_writes (
+  id INTEGER PRIMARY KEY, job_id INTEGER NOT NULL REFERENCES jobs (id),
+  adapter TEXT NOT NULL, target TEXT NOT NULL, before TEXT NOT NULL, after TEXT NOT NULL,
+  written_utc TEXT NOT NULL);
+)sql";
+
+[[noreturn]] void Fail(const std::string& what) { throw HistoryError(what); }
+
+json ParseStored(const std::string& text) { return text.empty() ? json() : json::parse(text); }
+
+}  // namespace
+
+std::string ToString(JobStatus s) {
+  switch (s) {
+    case JobStatus::kRunning:
+      return "running";
+    case JobStatus::kInTolerance:
+      return "in_tolerance";
+    case JobStatus::kOutOfTolerance:
+      return "out_of_tolerance";
+    case JobStatus::kRefused:
+      return "refused";
+    case JobStatus::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+JobStatus JobStatusFrom(const std::string& text) {
+  for (JobStatus s : {JobStatus::kRunning, JobStatus::kInTolerance, JobStatus::kOutOfTolerance,
+                      JobStatus::kRefused, JobStatus::kFailed}) {
+    if (ToString(s) == text) return s;
+  }
+  Fail("unknown job status '" + text + "'");
+}
+
+std::string UtcNow() {
+  const auto now = std::chrono::system_clock::now();
+  const std::time_t t = std::chrono::system_clock::to_time_t(now);
+  const auto ms =
+      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
+  std::tm utc{};
+  gmtime_r(&t, &utc);
+  char buf[40];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &utc);
+  char out[48];
+  std::snprintf(out, sizeof out, "%s.%03dZ", buf, static_cast<int>(ms));
+  return out;
+}
+
+struct History::Impl {
+  std::string path;
+  SQLite::Database db;
+  explicit Impl(const std::string& p)
+      : path(p), db(p, SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE, kBusyTimeoutMs) {}
+
+  // One row for a running job, in one transaction: `bind` fills parameters 2.. (1 is the job).
+  template <class Bind>
+  void InsertForRunningJob(std::int64_t job, const char* sql, Bind bind) {
+    try {
+      SQLite::Transaction t(db);
+      RequireRunning(job);
+      SQLite::Statement q(db, sql);
+      q.bind(1, job);
+      bind(q);
+      q.exec();
+      t.commit();
+    } catch (const SQLite::Exception& e) {
+      Fail("history " + path + ": " + e.what());
+    }
+  }
+
+  void RequireRunning(std::int64_t job) {
+    SQLite::Statement q(db, "SELECT status FROM jobs WHERE id = ?");
+    q.bind(1, job);
+    if (!q.executeStep()) Fail("history: no job " + std::to_string(job));
+    if (q.getColumn(0).getString() != ToString(JobStatus::kRunning))
+      Fail("history: job " + std::to_string(job) + " is already closed");
+  }
+};
+
+History::History(const std::string& path) {
+  try {
+    impl_ = std::make_unique<Impl>(path);
+    impl_->db.exec("PRAGMA journal_mode = WAL");  // readers do not block the host's writes
+    impl_->db.exec("PRAGMA foreign_keys = ON");
+    SQLite::Transaction t(impl_->db);
+    impl_->db.exec(kSchema);
+    SQLite::Statement q(impl_->db, "SELECT value FROM meta WHERE key = 'schema_version'");
+    if (q.executeStep()) {
+      const int v = std::stoi(q.getColumn(0).getString());
+      if (v > kSchemaVersion)
+        Fail("history " + path + ": schema version " + std::to_string(v) +
+             " is newer than this program's " + std::to_string(kSchemaVersion));
+    } else {
+      impl_->db.exec("INSERT INTO meta VALUES ('schema_version', '" +
+                     std::to_string(kSchemaVersion) + "')");
+    }
+    t.commit();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + path + ": " + e.what());
+  }
+}
+
+History::~History() = default;
+
+std::int64_t History::StartJob(const JobStart& s) {
+  try {
+    SQLite::Statement q(impl_->db,
+                        "INSERT INTO jobs (machine, kind, probe_serial, calibration_id, request, "
+                        "status, started_utc) VALUES (?, ?, ?, ?, ?, ?, ?)");
+    q.bind(1, s.machine);
+    q.bind(2, s.kind);
+    q.bind(3, s.probe_serial);
+    q.bind(4, s.calibration_id);
+    q.bind(5, s.request.dump());
+    q.bind(6, ToString(JobStatus::kRunning));
+    q.bind(7, UtcNow());
+    q.exec();
+    return impl_->db.getLastInsertRowid();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+}
+
+void History::AddCapture(std::int64_t job, const CaptureRow& r) {
+  impl_->InsertForRunningJob(job,
+                             "INSERT INTO captures (job_id, capture_id, pose, cloud_path, "
+                             "cloud_sha256, points) VALUES (?, ?, ?, ?, ?, ?)",
+                             [&](SQLite::Statement& q) {
+                               q.bind(2, r.capture_id);
+                               q.bind(3, r.pose.dump());
+                               q.bind(4, r.cloud_path);
+                               q.bind(5, r.cloud_sha256);
+                               q.bind(6, r.points);
+                             });
+}
+
+void History::AddResult(std::int64_t job, const ResultRow& r) {
+  impl_->InsertForRunningJob(
+      job, "INSERT INTO results (job_id, feature, fit, decision) VALUES (?, ?, ?, ?)",
+      [&](SQLite::Statement& q) {
+        q.bind(2, r.feature);
+        q.bind(3, r.fit.dump());
+        q.bind(4, r.decision.dump());
+      });
+}
+
+void History::AddOffsetWrite(std::int64_t job, const OffsetWriteRow& r) {
+  impl_->InsertForRunningJob(job,
+                             "INSERT INTO offset_writes (job_id, adapter, target, before, after, "
+                             "written_utc) VALUES (?, ?, ?, ?, ?, ?)",
+                             [&](SQLite::Statement& q) {
+                               q.bind(2, r.adapter);
+                               q.bind(3, r.target);
+                               q.bind(4, r.before.dump());
+                               q.bind(5, r.after.dump());
+                               q.bind(6, UtcNow());
+                             });
+}
+
+void History::FinishJob(std::int64_t job,
+                        JobStatus status,
+                        const json& reply,
+                        const json& timings_ms) {
+  if (status == JobStatus::kRunning) Fail("history: a job is finished with a final status");
+  try {
+    SQLite::Transaction t(impl_->db);
+    impl_->RequireRunning(job);
+    SQLite::Statement q(impl_->db,
+                        "UPDATE jobs SET status = ?, reply = ?, timings_ms = ?, finished_utc = ? "
+                        "WHERE id = ?");
+    q.bind(1, ToString(status));
+    q.bind(2, reply.dump());
+    q.bind(3, timings_ms.dump());
+    q.bind(4, UtcNow());
+    q.bind(5, job);
+    q.exec();
+    t.commit();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+}
+
+std::vector<std::int64_t> History::CloseInterruptedJobs(const std::string& reason) {
+  std::vector<std::int64_t> ids;
+  try {
+    SQLite::Transaction t(impl_->db);
+    SQLite::Statement q(impl_->db, "SELECT id FROM jobs WHERE status = 'running'");
+    while (q.executeStep()) ids.push_back(q.getColumn(0).getInt64());
+    SQLite::Statement u(impl_->db,
+                        "UPDATE jobs SET status = 'failed', reply = ?, finished_utc = ? "
+                        "WHERE status = 'running'");
+    u.bind(1, json{{"error", reason}}.dump());
+    u.bind(2, UtcNow());
+    u.exec();
+    t.commit();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+  return ids;
+}
+
+std::vector<JobSummary> History::ListJobs(const JobFilter& f) const {
+  std::vector<JobSummary> out;
+  try {
+    SQLite::Statement q(
+        impl_->db,
+        "SELECT id, machine, kind, probe_serial, calibration_id, status, started_utc, "
+        "COALESCE(finished_utc, '') FROM jobs WHERE (?1 IS NULL OR machine = ?1) AND "
+        "(?2 IS NULL OR kind = ?2) AND (?3 IS NULL OR started_utc >= ?3) ORDER BY id LIMIT ?4");
+    if (f.machine) q.bind(1, *f.machine);
+    if (f.kind) q.bind(2, *f.kind);
+    if (f.since_utc) q.bind(3, *f.since_utc);
+    q.bind(4, f.limit);
+    while (q.executeStep()) {
+      JobSummary s;
+      s.id = q.getColumn(0).getInt64();
+      s.machine = q.getColumn(1).getString();
+      s.kind = q.getColumn(2).getString();
+      s.probe_serial = q.getColumn(3).getString();
+      s.calibration_id = q.getColumn(4).getString();
+      s.status = JobStatusFrom(q.getColumn(5).getString());
+      s.started_utc = q.getColumn(6).getString();
+      s.finished_utc = q.getColumn(7).getString();
+      out.push_back(s);
+    }
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+  return out;
+}
+
+json History::ExportJob(std::int64_t job) const {
+  try {
+    SQLite::Statement q(impl_->db,
+                        "SELECT machine, kind, probe_serial, calibration_id, request, status, "
+                        "COALESCE(reply, ''), COALESCE(timings_ms, ''), started_utc, "
+                        "COALESCE(finished_utc, '') FROM jobs WHERE id = ?");
+    q.bind(1, job);
+    if (!q.executeStep()) Fail("history: no job " + std::to_string(job));
+    json j = {{"id", job},
+              {"machine", q.getColumn(0).getString()},
+              {"kind", q.getColumn(1).getString()},
+              {"probe_serial", q.getColumn(2).getString()},
+              {"calibration_id", q.getColumn(3).getString()},
+              {"request", ParseStored(q.getColumn(4).getString())},
+              {"status", q.getColumn(5).getString()},
+              {"reply", ParseStored(q.getColumn(6).getString())},
+              {"timings_ms", ParseStored(q.getColumn(7).getString())},
+              {"started_utc", q.getColumn(8).getString()},
+              {"finished_utc", q.getColumn(9).getString()}};
+    j["captures"] = json::array();
+    SQLite::Statement c(impl_->db,
+                        "SELECT capture_id, pose, cloud_path, cloud_sha256, points FROM captures "
+                        "WHERE job_id = ? ORDER BY id");
+    c.bind(1, job);
+    while (c.executeStep())
+      j["captures"].push_back({{"capture_id", c.getColumn(0).getString()},
+                               {"pose", ParseStored(c.getColumn(1).getString())},
+                               {"cloud_path", c.getColumn(2).getString()},
+                               {"cloud_sha256", c.getColumn(3).getString()},
+                               {"points", c.getColumn(4).getInt64()}});
+    j["results"] = json::array();
+    SQLite::Statement r(impl_->db,
+                        "SELECT feature, fit, decision FROM results WHERE job_id = ? ORDER BY id");
+    r.bind(1, job);
+    while (r.executeStep())
+      j["results"].push_back({{"feature", r.getColumn(0).getString()},
+                              {"fit", ParseStored(r.getColumn(1).getString())},
+                              {"decision", ParseStored(r.getColumn(2).getString())}});
+    j["offset_writes"] = json::array();
+    SQLite::Statement w(impl_->db,
+                        "SELECT adapter, target, before, after, written_utc FROM offset_writes "
+                        "WHERE job_id = ? ORDER BY id");
+    w.bind(1, job);
+    while (w.executeStep())
+      j["offset_writes"].push_back({{"adapter", w.getColumn(0).getString()},
+                                    {"target", w.getColumn(1).getString()},
+                                    {"before", ParseStored(w.getColumn(2).getString())},
+                                    {"after", ParseStored(w.getColumn(3).getString())},
+                                    {"written_utc", w.getColumn(4).getString()}});
+    return j;
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+}
+
+std::string Sha256OfFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) Fail("cannot read " + path + " to hash it");
+  EVP_MD_CTX* ctx = EVP_MD_CTX_new();
+  EVP_DigestInit_ex(ctx, EVP_sha256(), nullptr);
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0)
+    EVP_DigestUpdate(ctx, buf, static_cast<size_t>(in.gcount()));
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int n = 0;
+  EVP_DigestFinal_ex(ctx, md, &n);
+  EVP_MD_CTX_free(ctx);
+  std::string hex;
+  char two[3];
+  for (unsigned int i = 0; i < n; ++i) {
+    std::snprintf(two, sizeof two, "%02x", md[i]);
+    hex += two;
+  }
+  return hex;
+}
+
+std::string JobsCsv(const std::vector<JobSummary>& jobs) {
+  const auto quote = [](const std::string& s) {
+    if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+    std::string q = "\"";
+    for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return q + "\"";
+  };
+  std::ostringstream out;
+  out << "id,machine,kind,probe_serial,calibration_id,status,started_utc,finished_utc\r\n";
+  for (const auto& j : jobs)
+    out << j.id << "," << quote(j.machine) << "," << quote(j.kind) << "," << quote(j.probe_serial)
+        << "," << quote(j.calibration_id) << "," << ToString(j.status) << "," << j.started_utc
+        << "," << j.finished_utc << "\r\n";
+  return out.str();
+}
+
+}  // namespace mlp::history

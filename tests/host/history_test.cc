@@ -1,0 +1,139 @@
+// The job history on a real SQLite file: a job's whole record, listing and export, refusals,
+// jobs left running by a host that stopped, and a file from a newer program.
+
+#include "mlp/history/history.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include <SQLiteCpp/SQLiteCpp.h>
+#include <gtest/gtest.h>
+
+namespace mlp::history {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+fs::path FreshDb(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / "mlp_history_test";
+  fs::create_directories(dir);
+  const fs::path p = dir / (name + ".sqlite");
+  for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(p.string() + suffix);
+  return p;
+}
+
+JobStart Bore(const std::string& machine) {
+  return {machine, "measure", "MLP-1", "MLP-1-he-7", json{{"feature", "bore"}, {"nominal", 60}}};
+}
+
+TEST(History, AJobsWholeRecordSurvivesReopening) {
+  const fs::path db = FreshDb("record");
+  std::int64_t id = 0;
+  {
+    History h(db.string());
+    id = h.StartJob(Bore("vmc-1"));
+    h.AddCapture(id, {"c1", json{{"translation_mm", {1, 2, 3}}}, "/data/c1.ply", "ab12", 50000});
+    h.AddResult(id, {"bore B1", json{{"diameter_mm", 59.994}, {"rms_mm", 0.0012}},
+                     json{{"verdict", "out of tolerance"}, {"offset_change_mm", -0.003}}});
+    h.AddOffsetWrite(id, {"linuxcnc-tool-table", "tool 12 radius", json(5.0), json(4.997)});
+    h.FinishJob(id, JobStatus::kOutOfTolerance, json{{"exit", 5}}, json{{"host", 12.5}});
+  }
+  const History h(db.string());
+  const json j = h.ExportJob(id);
+  EXPECT_EQ(j.at("status"), "out_of_tolerance");
+  EXPECT_EQ(j.at("request").at("nominal"), 60);
+  EXPECT_EQ(j.at("captures").at(0).at("points"), 50000);
+  EXPECT_EQ(j.at("results").at(0).at("fit").at("diameter_mm"), 59.994);
+  EXPECT_EQ(j.at("offset_writes").at(0).at("before"), 5.0);
+  EXPECT_EQ(j.at("offset_writes").at(0).at("after"), 4.997);
+  EXPECT_EQ(j.at("timings_ms").at("host"), 12.5);
+  EXPECT_FALSE(j.at("finished_utc").get<std::string>().empty());
+  EXPECT_THROW(h.ExportJob(id + 1), HistoryError);
+}
+
+TEST(History, ClosedJobsTakeNoMoreRows) {
+  const fs::path db = FreshDb("closed");
+  History h(db.string());
+  const auto id = h.StartJob(Bore("vmc-1"));
+  h.FinishJob(id, JobStatus::kInTolerance, json::object(), json::object());
+  EXPECT_THROW(h.FinishJob(id, JobStatus::kFailed, json::object(), json::object()), HistoryError);
+  EXPECT_THROW(h.AddOffsetWrite(id, {"a", "G54", json(0), json(1)}), HistoryError);
+  EXPECT_THROW(h.AddCapture(id + 7, {"c", json::object(), "p", "h", 1}), HistoryError);
+  const auto id2 = h.StartJob(Bore("vmc-1"));
+  EXPECT_THROW(h.FinishJob(id2, JobStatus::kRunning, json::object(), json::object()), HistoryError);
+  EXPECT_EQ(h.ExportJob(id).at("offset_writes").size(), 0u);
+}
+
+TEST(History, ListsFiltersAndExportsCsv) {
+  const fs::path db = FreshDb("list");
+  History h(db.string());
+  const auto a = h.StartJob(Bore("vmc-1"));
+  const auto b = h.StartJob({"vmc-2", "align", "MLP-1", "MLP-1-he-7", json::object()});
+  const auto c = h.StartJob({"vmc,\"3\"", "measure", "MLP-2", "", json::object()});
+  h.FinishJob(a, JobStatus::kInTolerance, json::object(), json::object());
+  h.FinishJob(b, JobStatus::kRefused, json::object(), json::object());
+  EXPECT_EQ(h.ListJobs({}).size(), 3u);
+  JobFilter f;
+  f.machine = "vmc-2";
+  ASSERT_EQ(h.ListJobs(f).size(), 1u);
+  EXPECT_EQ(h.ListJobs(f)[0].status, JobStatus::kRefused);
+  f = {};
+  f.kind = "measure";
+  EXPECT_EQ(h.ListJobs(f).size(), 2u);
+  f = {};
+  f.since_utc = "2999-01-01T00:00:00.000Z";
+  EXPECT_TRUE(h.ListJobs(f).empty());
+  const std::string csv = JobsCsv(h.ListJobs({}));
+  EXPECT_EQ(csv.substr(0, csv.find("\r\n")),
+            "id,machine,kind,probe_serial,calibration_id,status,started_utc,finished_utc");
+  EXPECT_NE(csv.find(std::to_string(c) + ",\"vmc,\"\"3\"\"\",measure,MLP-2,,running,"),
+            std::string::npos)
+      << csv;
+}
+
+TEST(History, JobsLeftRunningAreClosedOnStartUp) {
+  const fs::path db = FreshDb("interrupted");
+  std::int64_t id = 0;
+  {
+    History h(db.string());
+    id = h.StartJob(Bore("vmc-1"));
+  }  // the host stopped mid-job
+  History h(db.string());
+  EXPECT_EQ(h.CloseInterruptedJobs("host restarted mid-job"), std::vector<std::int64_t>{id});
+  const json j = h.ExportJob(id);
+  EXPECT_EQ(j.at("status"), "failed");
+  EXPECT_EQ(j.at("reply").at("error"), "host restarted mid-job");
+  EXPECT_TRUE(h.CloseInterruptedJobs("again").empty());
+}
+
+TEST(History, RefusesAFileFromANewerProgramOrNotADatabase) {
+  const fs::path db = FreshDb("newer");
+  { History h(db.string()); }
+  {
+    SQLite::Database raw(db.string(), SQLite::OPEN_READWRITE);
+    raw.exec("UPDATE meta SET value = '2' WHERE key = 'schema_version'");
+  }
+  try {
+    History h(db.string());
+    ADD_FAILURE() << "opened a newer schema";
+  } catch (const HistoryError& e) {
+    EXPECT_NE(std::string(e.what()).find("newer"), std::string::npos) << e.what();
+  }
+  const fs::path junk = FreshDb("junk");
+  std::ofstream(junk) << "this is not a database, just text long enough to be read as a header";
+  EXPECT_THROW(History h(junk.string()), HistoryError);
+  EXPECT_THROW(History h("/nonexistent/folder/h.sqlite"), HistoryError);
+}
+
+TEST(History, HashesCloudFiles) {
+  const fs::path p = fs::temp_directory_path() / "mlp_history_abc.txt";
+  std::ofstream(p) << "abc";
+  EXPECT_EQ(Sha256OfFile(p.string()),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");  // FIPS 180-2
+  EXPECT_THROW(Sha256OfFile((p.string() + ".missing")), HistoryError);
+  EXPECT_EQ(UtcNow().size(), 24u);  // 2026-11-21T23:57:01.123Z
+}
+
+}  // namespace
+}  // namespace mlp::history
