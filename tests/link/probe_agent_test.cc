@@ -18,6 +18,7 @@
 #include <utility>  // before Asio (Boost 1.74's awaitable.hpp needs std::exchange)
 
 #include "link_test_util.h"
+#include "virtual_probe_node.h"
 #include <boost/asio.hpp>
 #include <gtest/gtest.h>
 #include <malloc.h>
@@ -31,39 +32,11 @@ namespace asio = boost::asio;
 using asio::ip::tcp;
 using namespace std::chrono_literals;
 
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
 constexpr auto kWait = 60s;
 constexpr Millis kIdle = 2000ms;  // rendering runs beside the links: longer than 1 s // any single
                                   // expected event, at most
 constexpr double kTopFaceRmsMm = 0.005;  // firmware points on a flat face, z in the MCS
 constexpr double kTopFaceMaxMm = 0.020;
-
-// A box whose top face is z = 0 in the MCS, seen by the reference probe looking down.
-std::shared_ptr<const sim::VirtualProbe> BoxProbe(const std::string& serial) {
-  sim::Scene s;
-  s.workpiece = sim::MakeBox({-50, -50, -30}, {50, 50, 0}, 0.6);
-  probe_fw::ProbeModel model = probe_fw::LoadProbeModel(kReference);
-  model.serial = serial;
-  return std::make_shared<const sim::VirtualProbe>(model, s);
-}
-
-CaptureRequest TopRequest(const sim::VirtualProbe& probe,
-                          const std::string& id,
-                          double dx_mm,
-                          int aoi_px = 160) {
-  CaptureRequest r;
-  r.capture_id = id;
-  r.aoi_width = r.aoi_height = static_cast<std::uint16_t>(aoi_px);
-  r.aoi_x0 = static_cast<std::uint16_t>((probe.model().camera.width_px - aoi_px) / 2);
-  r.aoi_y0 = static_cast<std::uint16_t>((probe.model().camera.height_px - aoi_px) / 2);
-  // Looking down: the flange turned half a turn about X, 120 mm above the face.
-  r.mcs_from_flange = {1, 0, 0, 1 + dx_mm, 0, -1, 0, 2, 0, 0, -1, 120, 0, 0, 0, 1};
-  sim::Capture c;
-  c.mcs_from_flange = sim::PoseOf(r.mcs_from_flange);
-  probe.ColumnsReaching(c, {r.aoi_x0, r.aoi_y0, aoi_px, aoi_px}, &r.first_column, &r.last_column);
-  r.column_step = 2.0;
-  return r;
-}
 
 // z of every point in the MCS: the top face is z = 0.
 void ExpectOnTopFace(const sim::VirtualProbe& probe, const LinkCloud& cloud) {
@@ -105,38 +78,6 @@ struct HostInbox : LogBook {
     cv.notify_all();
   }
 };
-
-// A virtual probe on the link: its link, its firmware loop and the thread running it.
-struct VirtualProbeNode {
-  VirtualProbeNode(std::shared_ptr<const sim::VirtualProbe> p, ProbeLinkConfig cfg)
-      : probe(std::move(p)),
-        link(cfg, [](const std::string&) {}),
-        agent(probe->model(), &link, sim::MakeVirtualCamera(probe, 3), [](const std::string&) {}) {
-    link.SetStatusSource([] { return ProbeStatus{87, 36.5, 0, 0, 0}; });
-    link.Start();
-    thread = std::thread([this] { agent.Serve(stop); });
-  }
-  ~VirtualProbeNode() {
-    stop = true;
-    thread.join();
-    link.Stop();
-  }
-  std::shared_ptr<const sim::VirtualProbe> probe;
-  ProbeLink link;
-  probe_fw::ProbeAgent agent;
-  std::atomic<bool> stop{false};
-  std::thread thread;
-};
-
-bool WaitConnected(const HostLink& host, const std::string& serial) {
-  for (auto until = std::chrono::steady_clock::now() + kWait;
-       std::chrono::steady_clock::now() < until; std::this_thread::sleep_for(5ms)) {
-    for (const auto& s : host.ConnectedProbes()) {
-      if (s == serial) return true;
-    }
-  }
-  return false;
-}
 
 TEST(ProbeAgent, VirtualProbeAnswersCaptureRequestsAndBadRequestsGetTypedErrors) {
   HostInbox in;
