@@ -1,0 +1,64 @@
+#pragma once
+/// @file mlp-hostd's configuration (`mlprobe-hostd/1`, docs/HOSTD.md; example in
+/// samples/hostd/hostd.json): data folder, the probe link's address, the local job socket, the
+/// known probes and their key files, and per machine its probe, controller adapter, safety
+/// limits and job timeout. Relative paths are relative to the configuration file's folder.
+
+#include "mlp/jobs/decision.h"
+#include "mlp/nc/nc_output.h"
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace mlp::service {
+
+/// Names the file and the field.
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct ProbeEntry {
+  std::string serial, key_file;
+};
+
+struct ControllerConfig {
+  enum class Kind { kLinuxCnc, kFanucStyle, kFiles };
+  Kind kind = Kind::kFiles;
+  std::string tool_table;  ///< LinuxCNC: the .tbl file (values before a change are read here)
+  std::string result_dir;  ///< where results go: NC subroutine / snippet, JSON and CSV
+  nc::NcMap map;           ///< Fanuc-style controls
+};
+
+struct MachineConfig {
+  std::string name, probe_serial;
+  ControllerConfig controller;
+  jobs::PlausibilityLimits limits;
+  double job_timeout_s = 120.0;
+};
+
+struct HostdConfig {
+  std::string path;      ///< the file read
+  std::string data_dir;  ///< history.sqlite, clouds/, reports/, calibrations/
+  std::string link_address = "127.0.0.1";
+  std::uint16_t link_port = 7420;
+  std::string job_socket;
+  double capture_timeout_s = 30.0;
+  std::vector<ProbeEntry> probes;
+  std::vector<MachineConfig> machines;
+
+  std::string HistoryFile() const { return data_dir + "/history.sqlite"; }
+  std::string CalibrationDir() const { return data_dir + "/calibrations"; }
+  std::string CloudDir() const { return data_dir + "/clouds"; }
+  std::string ReportDir() const { return data_dir + "/reports"; }
+  const MachineConfig* Machine(const std::string& name) const;
+};
+
+/// Throws ConfigError naming the file and field. Key files are read (and their owner-only mode
+/// checked) when the service starts, not here.
+HostdConfig LoadHostdConfig(const std::string& path);
+HostdConfig ParseHostdConfig(const std::string& json_text, const std::string& path);
+
+}  // namespace mlp::service

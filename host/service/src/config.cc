@@ -1,0 +1,146 @@
+#include "mlp/service/config.h"
+
+#include "mlp/probe_fw/json_fields.h"
+
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace mlp::service {
+namespace {
+
+namespace fs = std::filesystem;
+namespace jf = probe_fw::json_fields;
+using json = nlohmann::json;
+constexpr const char* kFormat = "mlprobe-hostd/1";
+
+struct Reader {
+  std::string file;
+  fs::path base;
+
+  std::string Where(const std::string& field) const { return file + ": " + field; }
+  [[noreturn]] void Fail(const std::string& field, const std::string& what) const {
+    throw ConfigError(Where(field) + " " + what);
+  }
+  std::string Path(const json& j, const char* key, const std::string& where) const {
+    const std::string p = jf::Text<ConfigError>(j, key, Where(where));
+    if (p.empty()) Fail(where + "." + key, "must not be empty");
+    return fs::path(p).is_absolute() ? p : (base / p).lexically_normal().string();
+  }
+  double Positive(const json& j, const char* key, double fallback, const std::string& w) const {
+    const double v = jf::NumberOr<ConfigError>(j, key, fallback, Where(w));
+    if (!(v > 0)) Fail(w + "." + key, "must be > 0");
+    return v;
+  }
+};
+
+jobs::PlausibilityLimits ParseLimits(const Reader& r, const json& m, const std::string& w) {
+  jobs::PlausibilityLimits l;
+  if (!m.contains("limits")) return l;
+  const json& j = jf::Object<ConfigError>(m, "limits", r.Where(w));
+  const std::string lw = w + ".limits";
+  l.min_points = static_cast<int>(r.Positive(j, "min_points", l.min_points, lw));
+  l.min_arc_span_deg = jf::NumberOr<ConfigError>(j, "min_arc_span_deg", l.min_arc_span_deg, lw);
+  l.min_area_mm2 = jf::NumberOr<ConfigError>(j, "min_area_mm2", l.min_area_mm2, lw);
+  l.max_rms_mm = r.Positive(j, "max_rms_mm", l.max_rms_mm, lw);
+  l.max_calibration_age_h = r.Positive(j, "max_calibration_age_h", l.max_calibration_age_h, lw);
+  l.max_offset_change_mm = r.Positive(j, "max_offset_change_mm", l.max_offset_change_mm, lw);
+  return l;
+}
+
+ControllerConfig ParseController(const Reader& r, const json& m, const std::string& w) {
+  const json& j = jf::Object<ConfigError>(m, "controller", r.Where(w));
+  const std::string cw = w + ".controller";
+  const std::string kind = jf::Text<ConfigError>(j, "kind", r.Where(cw));
+  ControllerConfig c;
+  c.result_dir = r.Path(j, "result_dir", cw);
+  if (kind == "linuxcnc") {
+    c.kind = ControllerConfig::Kind::kLinuxCnc;
+    c.tool_table = r.Path(j, "tool_table", cw);
+  } else if (kind == "fanuc" || kind == "haas" || kind == "syntec") {
+    c.kind = ControllerConfig::Kind::kFanucStyle;
+    c.map = kind == "fanuc" ? nc::FanucMap() : kind == "haas" ? nc::HaasMap() : nc::SyntecMap();
+    c.map.use_variables = j.contains("use_variables") && j.at("use_variables").is_boolean() &&
+                          j.at("use_variables").get<bool>();
+    // Per-machine overrides of the preset's variable map (docs/HOSTD.md).
+    for (auto [key, field] : {std::pair{"length_geometry_var", &nc::NcMap::length_geometry_var},
+                              {"length_wear_var", &nc::NcMap::length_wear_var},
+                              {"radius_geometry_var", &nc::NcMap::radius_geometry_var},
+                              {"radius_wear_var", &nc::NcMap::radius_wear_var},
+                              {"max_offset", &nc::NcMap::max_offset},
+                              {"work_var", &nc::NcMap::work_var},
+                              {"extended_work_var", &nc::NcMap::extended_work_var},
+                              {"rotation_var", &nc::NcMap::rotation_var}}) {
+      if (j.contains(key)) c.map.*field = jf::Integer<ConfigError>(j, key, r.Where(cw));
+    }
+    if (j.contains("radius_as_diameter"))
+      c.map.radius_as_diameter =
+          j.at("radius_as_diameter").is_boolean() && j.at("radius_as_diameter").get<bool>();
+  } else if (kind == "files") {
+    c.kind = ControllerConfig::Kind::kFiles;
+  } else {
+    r.Fail(cw + ".kind", "must be linuxcnc, fanuc, haas, syntec or files, not \"" + kind + "\"");
+  }
+  return c;
+}
+
+}  // namespace
+
+const MachineConfig* HostdConfig::Machine(const std::string& name) const {
+  for (const auto& m : machines)
+    if (m.name == name) return &m;
+  return nullptr;
+}
+
+HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
+  const Reader r{path, fs::path(path).parent_path()};
+  const json j = jf::ParseDocument<ConfigError>(text, kFormat, path);
+  HostdConfig c;
+  c.path = path;
+  c.data_dir = r.Path(j, "data_dir", "config");
+  c.job_socket = r.Path(j, "job_socket", "config");
+  c.capture_timeout_s = r.Positive(j, "capture_timeout_s", c.capture_timeout_s, "config");
+  const json& link = jf::Object<ConfigError>(j, "probe_link", r.Where("config"));
+  c.link_address = jf::Text<ConfigError>(link, "address", r.Where("probe_link"));
+  const int port = jf::Integer<ConfigError>(link, "port", r.Where("probe_link"));
+  if (port < 1 || port > 65535) r.Fail("probe_link.port", "must be 1..65535");
+  c.link_port = static_cast<std::uint16_t>(port);
+  std::set<std::string> serials, names;
+  if (!j.contains("probes") || !j.at("probes").is_array() || j.at("probes").empty())
+    r.Fail("probes", "must list at least one probe");
+  for (size_t i = 0; i < j.at("probes").size(); ++i) {
+    const std::string w = "probes[" + std::to_string(i) + "]";
+    const json& p = j.at("probes")[i];
+    ProbeEntry e{jf::Text<ConfigError>(p, "serial", r.Where(w)), r.Path(p, "key_file", w)};
+    if (!serials.insert(e.serial).second) r.Fail(w + ".serial", "is listed twice");
+    c.probes.push_back(e);
+  }
+  if (!j.contains("machines") || !j.at("machines").is_array() || j.at("machines").empty())
+    r.Fail("machines", "must list at least one machine");
+  for (size_t i = 0; i < j.at("machines").size(); ++i) {
+    const std::string w = "machines[" + std::to_string(i) + "]";
+    const json& m = j.at("machines")[i];
+    MachineConfig mc;
+    mc.name = jf::Text<ConfigError>(m, "name", r.Where(w));
+    if (!names.insert(mc.name).second) r.Fail(w + ".name", "is listed twice");
+    mc.probe_serial = jf::Text<ConfigError>(m, "probe", r.Where(w));
+    if (!serials.count(mc.probe_serial))
+      r.Fail(w + ".probe", "\"" + mc.probe_serial + "\" is not one of the probes");
+    mc.controller = ParseController(r, m, w);
+    mc.limits = ParseLimits(r, m, w);
+    mc.job_timeout_s = r.Positive(m, "job_timeout_s", mc.job_timeout_s, w);
+    c.machines.push_back(mc);
+  }
+  return c;
+}
+
+HostdConfig LoadHostdConfig(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError("cannot read the configuration " + path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseHostdConfig(text.str(), path);
+}
+
+}  // namespace mlp::service

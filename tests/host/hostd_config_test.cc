@@ -1,0 +1,82 @@
+// mlp-hostd's configuration: the sample file as shipped, and typed errors naming the field.
+
+#include "mlp/service/config.h"
+
+#include <gtest/gtest.h>
+
+namespace mlp::service {
+namespace {
+
+const std::string kSample = std::string(MLP_SOURCE_DIR) + "/samples/hostd/hostd.json";
+
+TEST(HostdConfig, TheSampleReads) {
+  const HostdConfig c = LoadHostdConfig(kSample);
+  EXPECT_EQ(c.data_dir, "/var/lib/mlprobe");
+  EXPECT_EQ(c.link_port, 7420);
+  ASSERT_EQ(c.machines.size(), 2u);
+  const MachineConfig* vmc = c.Machine("vmc-1");
+  ASSERT_NE(vmc, nullptr);
+  EXPECT_EQ(vmc->controller.kind, ControllerConfig::Kind::kLinuxCnc);
+  EXPECT_EQ(vmc->limits.max_offset_change_mm, 0.2);
+  const MachineConfig* hmc = c.Machine("hmc-2");
+  ASSERT_NE(hmc, nullptr);
+  EXPECT_EQ(hmc->controller.kind, ControllerConfig::Kind::kFanucStyle);
+  EXPECT_TRUE(hmc->controller.map.use_variables);
+  EXPECT_EQ(hmc->controller.map.rotation_var, 500);
+  EXPECT_EQ(hmc->controller.map.radius_wear_var, 12001);  // the Fanuc preset
+  EXPECT_EQ(hmc->limits.min_points, 200);                 // defaults where not given
+  EXPECT_EQ(c.Machine("nope"), nullptr);
+  EXPECT_EQ(c.HistoryFile(), "/var/lib/mlprobe/history.sqlite");
+}
+
+TEST(HostdConfig, RelativePathsFollowTheFile) {
+  const HostdConfig c = ParseHostdConfig(
+      R"({"format": "mlprobe-hostd/1", "data_dir": "data", "job_socket": "run/jobs.sock",
+          "probe_link": {"address": "127.0.0.1", "port": 7000},
+          "probes": [{"serial": "P", "key_file": "keys/p.key"}],
+          "machines": [{"name": "m", "probe": "P",
+                        "controller": {"kind": "files", "result_dir": "../out"}}]})",
+      "/etc/mlprobe/hostd.json");
+  EXPECT_EQ(c.data_dir, "/etc/mlprobe/data");
+  EXPECT_EQ(c.probes[0].key_file, "/etc/mlprobe/keys/p.key");
+  EXPECT_EQ(c.machines[0].controller.result_dir, "/etc/out");
+}
+
+void ExpectError(const std::string& text, const std::string& needle) {
+  try {
+    ParseHostdConfig(text, "/etc/h.json");
+    ADD_FAILURE() << "accepted: " << needle;
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+  }
+}
+
+TEST(HostdConfig, ErrorsNameTheField) {
+  const std::string head =
+      R"({"format": "mlprobe-hostd/1", "data_dir": "/d", "job_socket": "/s",
+          "probe_link": {"address": "127.0.0.1", "port": 7000},
+          "probes": [{"serial": "P", "key_file": "/k"}], )";
+  const std::string machine =
+      R"({"name": "m", "probe": "P", "controller": {"kind": "files", "result_dir": "/o"}})";
+  ExpectError(head + R"("machines": []})", "machines must list at least one");
+  ExpectError(head + R"("machines": [)" + machine + "," + machine + "]}", "machines[1].name");
+  ExpectError(head +
+                  R"("machines": [{"name": "m", "probe": "Q", "controller": {"kind": "files",
+                  "result_dir": "/o"}}]})",
+              "\"Q\" is not one of the probes");
+  ExpectError(head +
+                  R"("machines": [{"name": "m", "probe": "P", "controller": {"kind": "heidenhain",
+                  "result_dir": "/o"}}]})",
+              "machines[0].controller.kind");
+  ExpectError(head +
+                  R"("machines": [{"name": "m", "probe": "P", "controller": {"kind": "files",
+                  "result_dir": "/o"}, "limits": {"max_offset_change_mm": -1}}]})",
+              "max_offset_change_mm");
+  ExpectError(R"({"format": "mlprobe-hostd/1", "data_dir": "/d", "job_socket": "/s",
+                  "probe_link": {"address": "x", "port": 70000}})",
+              "probe_link.port");
+  ExpectError(R"({"format": "mlprobe-hostd/2"})", "format");
+}
+
+}  // namespace
+}  // namespace mlp::service
