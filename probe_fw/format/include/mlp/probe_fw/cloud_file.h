@@ -1,0 +1,32 @@
+#pragma once
+/// @file A cloud as a file: binary little-endian PLY with float x y z [mm, probe frame] and float
+/// quality (0..1); probe serial, calibration id, capture id and (when known) the flange pose H in
+/// comments. Float keeps 8 nm at 120 mm, below any probe's resolution, and PCL and `mlp fit` read
+/// it. Written by the firmware (`mlp-fw run`) and by the host, which keeps every cloud a job used.
+
+#include <array>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace mlp::probe_fw {
+
+class CloudFileError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct CloudFileMeta {
+  std::string probe_serial, calibration_id, capture_id;
+  std::optional<std::array<double, 16>> mcs_from_flange;  ///< H, row-major 4 x 4
+};
+
+/// `xyz`: 3 numbers per point; `quality`: one per point. Writes atomically (temporary file +
+/// rename). Throws CloudFileError (sizes differ, cannot write).
+void WriteCloudPly(const std::string& path,
+                   const std::vector<double>& xyz,
+                   const std::vector<float>& quality,
+                   const CloudFileMeta& meta);
+
+}  // namespace mlp::probe_fw
