@@ -4,6 +4,8 @@
 
 #include "mlp/service/job_server.h"
 
+#include "mlp/service/job_client.h"
+
 #include <chrono>
 #include <filesystem>
 #include <future>

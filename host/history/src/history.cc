@@ -48,6 +48,8 @@ std::string ToString(JobStatus s) {
   switch (s) {
     case JobStatus::kRunning:
       return "running";
+    case JobStatus::kDone:
+      return "done";
     case JobStatus::kInTolerance:
       return "in_tolerance";
     case JobStatus::kOutOfTolerance:
@@ -61,8 +63,8 @@ std::string ToString(JobStatus s) {
 }
 
 JobStatus JobStatusFrom(const std::string& text) {
-  for (JobStatus s : {JobStatus::kRunning, JobStatus::kInTolerance, JobStatus::kOutOfTolerance,
-                      JobStatus::kRefused, JobStatus::kFailed}) {
+  for (JobStatus s : {JobStatus::kRunning, JobStatus::kDone, JobStatus::kInTolerance,
+                      JobStatus::kOutOfTolerance, JobStatus::kRefused, JobStatus::kFailed}) {
     if (ToString(s) == text) return s;
   }
   Fail("unknown job status '" + text + "'");

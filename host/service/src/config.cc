@@ -94,7 +94,7 @@ const MachineConfig* HostdConfig::Machine(const std::string& name) const {
 }
 
 HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
-  const Reader r{path, fs::path(path).parent_path()};
+  const Reader r{path, fs::absolute(path).parent_path()};
   const json j = jf::ParseDocument<ConfigError>(text, kFormat, path);
   HostdConfig c;
   c.path = path;

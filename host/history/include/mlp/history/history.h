@@ -21,8 +21,8 @@ class HistoryError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// How a job ended; "running" until FinishJob.
-enum class JobStatus { kRunning, kInTolerance, kOutOfTolerance, kRefused, kFailed };
+/// How a job ended; "running" until FinishJob. kDone: a job without a verdict (a capture).
+enum class JobStatus { kRunning, kDone, kInTolerance, kOutOfTolerance, kRefused, kFailed };
 std::string ToString(JobStatus s);
 JobStatus JobStatusFrom(const std::string& text);  ///< throws HistoryError
 

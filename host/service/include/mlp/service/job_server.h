@@ -34,11 +34,4 @@ class JobServer {
   std::unique_ptr<Impl> impl_;
 };
 
-/// The client: sends `request`, waits at most `timeout_ms` for the reply. Throws
-/// std::runtime_error when the host is not running (no socket, refused), on timeout or on a
-/// reply that is not JSON.
-nlohmann::json SendRequest(const std::string& socket_path,
-                           const nlohmann::json& request,
-                           int timeout_ms);
-
 }  // namespace mlp::service

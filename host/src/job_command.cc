@@ -1,0 +1,131 @@
+#include "mlp/host/job_command.h"
+
+#include "mlp/host/cli.h"
+#include "mlp/service/job_client.h"
+
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+namespace mlp::host {
+namespace {
+
+using json = nlohmann::json;
+constexpr const char* kDefaultSocket = "/run/mlprobe/jobs.sock";
+constexpr int kStatusTimeoutMs = 5000;
+constexpr double kDefaultRequestTimeoutS = 600;
+
+struct Options {
+  std::string socket, file;
+  double timeout_s = kDefaultRequestTimeoutS;
+  bool json = false;
+};
+
+Options Parse(const std::vector<std::string>& args, bool takes_file) {
+  Options o;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
+      return args[++i];
+    };
+    if (args[i] == "--socket")
+      o.socket = value();
+    else if (args[i] == "--json")
+      o.json = true;
+    else if (args[i] == "--timeout") {
+      const std::string v = value();
+      char* end = nullptr;
+      o.timeout_s = std::strtod(v.c_str(), &end);
+      if (end == v.c_str() || *end != '\0' || !(o.timeout_s > 0) || o.timeout_s > 86400)
+        throw UsageError("--timeout is seconds, > 0");
+    } else if (takes_file && o.file.empty() && (args[i] == "-" || args[i][0] != '-'))
+      o.file = args[i];
+    else
+      throw UsageError("unknown argument " + args[i]);
+  }
+  if (o.socket.empty()) {
+    const char* env = std::getenv("MLP_SOCKET");
+    o.socket = env && *env ? env : kDefaultSocket;
+  }
+  if (takes_file && o.file.empty()) throw UsageError("a request file (or - for stdin) is needed");
+  return o;
+}
+
+void PrintStatus(const json& s, std::ostream& out) {
+  out << "mlp-hostd up " << std::fixed << std::setprecision(0) << s.value("uptime_s", 0.0)
+      << " s, probe link port " << s.value("probe_link_port", 0) << "\n";
+  for (const auto& p : s.value("probes", json::array())) {
+    out << "  probe " << p.value("serial", "?") << ": "
+        << (p.value("connected", false) ? "connected" : "not connected");
+    if (p.contains("battery_percent"))
+      out << ", battery " << p.at("battery_percent").get<int>() << " %, " << std::setprecision(1)
+          << p.value("temperature_c", 0.0) << " C, buffer " << p.value("buffer_used", 0) << "/"
+          << p.value("buffer_capacity", 0);
+    out << "\n";
+  }
+  for (const auto& m : s.value("machines", json::array())) {
+    const std::string running = m.value("running", "");
+    out << "  machine " << m.value("name", "?") << " (probe " << m.value("probe", "?")
+        << "): " << (running.empty() ? "idle" : "running " + running) << "\n";
+  }
+}
+
+template <class F>
+int Guarded(const char* usage, std::ostream& err, F f) {
+  try {
+    return f();
+  } catch (const UsageError& e) {
+    err << "mlp: " << e.what() << "\n" << usage;
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    err << "mlp: " << e.what() << "\n";
+    return kExitJobFailed;
+  }
+}
+
+}  // namespace
+
+int RunStatusCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  return Guarded("usage: mlp status [--socket PATH] [--json]\n", err, [&]() -> int {
+    const Options o = Parse(args, false);
+    const json s = service::SendRequest(o.socket, {{"op", "status"}}, kStatusTimeoutMs);
+    if (o.json)
+      out << s.dump(2) << "\n";
+    else
+      PrintStatus(s, out);
+    return kExitOk;
+  });
+}
+
+int RunRequestCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  return Guarded("usage: mlp request [--socket PATH] [--timeout S] FILE|-\n", err, [&]() -> int {
+    const Options o = Parse(args, true);
+    std::stringstream text;
+    if (o.file == "-") {
+      text << std::cin.rdbuf();
+    } else {
+      std::ifstream in(o.file);
+      if (!in) throw UsageError("cannot read " + o.file);
+      text << in.rdbuf();
+    }
+    json request;
+    try {
+      request = json::parse(text.str());
+    } catch (const json::parse_error& e) {
+      throw UsageError(o.file + " is not JSON: " + e.what());
+    }
+    const json reply =
+        service::SendRequest(o.socket, request, static_cast<int>(o.timeout_s * 1000));
+    out << reply.dump(2) << "\n";
+    if (reply.value("ok", false)) return kExitOk;
+    const std::string status = reply.value("status", "");
+    err << "mlp: " << reply.value("error", std::string("the job failed")) << "\n";
+    if (status == "out_of_tolerance") return kExitOutOfTolerance;
+    if (status == "refused") return kExitRefused;
+    return kExitJobFailed;
+  });
+}
+
+}  // namespace mlp::host

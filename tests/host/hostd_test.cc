@@ -1,0 +1,190 @@
+// mlp-hostd as it runs at a machine, all real processes on real sockets and files: the service,
+// a virtual probe on the probe link (`mlp-sim serve`), and the macro's client `mlp`. Status,
+// a capture stored with its hash and recorded in the history, refusals with their reasons and
+// exit codes, a probe that went away, and a graceful stop on SIGTERM.
+
+#include "mlp/history/history.h"
+
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "process_run.h"
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace mlp {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using namespace std::chrono_literals;
+using test::RunProcess;
+
+const std::string kMlp = MLP_BINARY, kHostd = MLP_HOSTD_BINARY, kSim = MLP_SIM_BINARY;
+const std::string kProbe = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kScene = std::string(MLP_SOURCE_DIR) + "/samples/scenes/bore_block.json";
+constexpr int kLinkPort = 17431;  // only the capture test binds it
+
+// A child process with its stderr in a file; SIGTERM and wait on destruction.
+class Child {
+ public:
+  Child(const std::vector<std::string>& argv, const fs::path& log) {
+    pid_ = fork();
+    if (pid_ == 0) {
+      std::freopen(log.c_str(), "w", stderr);
+      std::vector<char*> a;
+      for (const auto& s : argv) a.push_back(const_cast<char*>(s.c_str()));
+      a.push_back(nullptr);
+      execv(a[0], a.data());
+      _exit(127);
+    }
+  }
+  ~Child() { Stop(); }
+  int Stop() {
+    if (pid_ <= 0) return exit_code_;
+    kill(pid_, SIGTERM);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = -1;
+    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return exit_code_;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int exit_code_ = -1;
+};
+
+// One folder per test: ctest may run the tests of this file at once.
+struct Site {
+  fs::path dir;
+  std::string socket;
+  explicit Site(const std::string& name)
+      : dir(fs::temp_directory_path() / ("mlp_hostd_test_" + name)),
+        socket((dir / "run" / "jobs.sock").string()) {
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    std::ofstream(dir / "probe.key") << std::string(64, 'a') << "\n";
+    fs::permissions(dir / "probe.key", fs::perms::owner_read | fs::perms::owner_write);
+    std::ofstream(dir / "hostd.json")
+        << json{{"format", "mlprobe-hostd/1"},
+                {"data_dir", "data"},
+                {"job_socket", "run/jobs.sock"},
+                {"probe_link", {{"address", "127.0.0.1"}, {"port", kLinkPort}}},
+                {"capture_timeout_s", 60},
+                {"probes", {{{"serial", "MLP-REF-0001"}, {"key_file", "probe.key"}}}},
+                {"machines",
+                 {{{"name", "vmc-1"},
+                   {"probe", "MLP-REF-0001"},
+                   {"controller", {{"kind", "files"}, {"result_dir", "out"}}}}}}};
+  }
+  test::ProcessRun Mlp(const std::string& args) const {
+    return RunProcess(kMlp + " " + args + " --socket " + socket);
+  }
+  std::string Request(const std::string& name, const json& j) const {
+    const fs::path p = dir / (name + ".json");
+    std::ofstream(p) << j.dump();
+    return p.string();
+  }
+  bool WaitFor(const std::function<bool()>& ok) const {
+    for (int i = 0; i < 500; ++i, std::this_thread::sleep_for(20ms))
+      if (ok()) return true;
+    return false;
+  }
+};
+
+json TopFaceCapture() {
+  return {{"op", "capture"},
+          {"machine", "vmc-1"},
+          {"capture_id", "top"},
+          {"mcs_from_flange",
+           {{"translation_mm", {30, 30, 120}}, {"rotation_vector_rad", {M_PI, 0, 0}}}},
+          {"roi", "full"},
+          {"aoi", {924, 668, 200, 200}},
+          {"columns", {480, 560, 2}}};
+}
+
+TEST(Hostd, CapturesThroughTheServiceAndRefusesWithReasons) {
+  Site site("capture");
+  Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+  ASSERT_TRUE(site.WaitFor([&] { return fs::exists(site.socket); }));
+  // Up, but the probe is still in the magazine.
+  auto status = site.Mlp("status --json");
+  ASSERT_EQ(status.exit_code, 0) << status.err;
+  EXPECT_EQ(json::parse(status.out).at("probes").at(0).at("connected"), false);
+  const std::string capture = site.Request("capture", TopFaceCapture());
+  auto offline = site.Mlp("request " + capture);
+  EXPECT_EQ(offline.exit_code, 7);
+  EXPECT_NE(offline.err.find("not connected"), std::string::npos) << offline.err;
+
+  Child probe({kSim, "serve", "--probe", kProbe, "--scene", kScene, "--port",
+               std::to_string(kLinkPort), "--key", (site.dir / "probe.key").string()},
+              site.dir / "sim.log");
+  ASSERT_TRUE(site.WaitFor([&] {
+    const auto s = site.Mlp("status --json");
+    return s.exit_code == 0 && json::parse(s.out).at("probes").at(0).at("connected") == true;
+  }));
+  const auto human = site.Mlp("status");
+  EXPECT_NE(human.out.find("probe MLP-REF-0001: connected"), std::string::npos) << human.out;
+
+  const auto ok = site.Mlp("request " + capture);
+  ASSERT_EQ(ok.exit_code, 0) << ok.out << ok.err;
+  const json reply = json::parse(ok.out);
+  EXPECT_EQ(reply.at("points"), 8000);  // 200 rows x 40 laser frames on the flat top face
+  const std::string cloud = reply.at("cloud_path");
+  ASSERT_TRUE(fs::exists(cloud));
+  EXPECT_EQ(history::Sha256OfFile(cloud), reply.at("cloud_sha256"));
+
+  // Bad requests: named reasons, exit codes, nothing captured.
+  json bad = TopFaceCapture();
+  bad["machine"] = "vmc-9";
+  auto r = site.Mlp("request " + site.Request("bad1", bad));
+  EXPECT_EQ(r.exit_code, 7);
+  EXPECT_NE(r.err.find("no machine \"vmc-9\""), std::string::npos) << r.err;
+  bad = TopFaceCapture();
+  bad["aoi"] = {1, 2, 3};
+  r = site.Mlp("request " + site.Request("bad2", bad));
+  EXPECT_EQ(r.exit_code, 7);
+  EXPECT_NE(r.err.find("request.aoi"), std::string::npos) << r.err;
+  bad = TopFaceCapture();
+  bad["roi"] = "hole:1024,768";  // the probe finds no hole on the flat face
+  r = site.Mlp("request " + site.Request("bad3", bad));
+  EXPECT_EQ(r.exit_code, 7);
+  EXPECT_NE(r.err.find("bad_request"), std::string::npos) << r.err;
+  EXPECT_EQ(site.Mlp("request").exit_code, 2);
+
+  EXPECT_EQ(hostd.Stop(), 0);  // SIGTERM: graceful
+  EXPECT_FALSE(fs::exists(site.socket));
+  EXPECT_EQ(site.Mlp("status").exit_code, 7);  // host down: the macro is told so
+
+  // Every job is in the history, as it ended.
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  const auto jobs = h.ListJobs({});
+  ASSERT_EQ(jobs.size(), 4u);  // offline, ok, bad aoi, bad roi (an unknown machine is no job)
+  EXPECT_EQ(jobs[0].status, history::JobStatus::kFailed);
+  EXPECT_EQ(jobs[1].status, history::JobStatus::kDone);
+  EXPECT_EQ(h.ExportJob(jobs[1].id).at("captures").at(0).at("cloud_sha256"),
+            reply.at("cloud_sha256"));
+  EXPECT_EQ(jobs[3].status, history::JobStatus::kFailed);
+}
+
+TEST(Hostd, RefusesToStartWithABadConfigurationOrKey) {
+  Site site("refuse");
+  fs::permissions(site.dir / "probe.key", fs::perms::owner_read | fs::perms::group_read);
+  auto r = RunProcess(kHostd + " --config " + (site.dir / "hostd.json").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("readable by group or others"), std::string::npos) << r.err;
+  std::ofstream(site.dir / "broken.json") << "{";
+  r = RunProcess(kHostd + " --config " + (site.dir / "broken.json").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("not valid JSON"), std::string::npos) << r.err;
+  EXPECT_EQ(RunProcess(kHostd).exit_code, 2);
+}
+
+}  // namespace
+}  // namespace mlp
