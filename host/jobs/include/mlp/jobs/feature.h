@@ -1,0 +1,45 @@
+#pragma once
+/// @file Features measured from clouds in the machine frame (seed 004 step 5): the points are
+/// segmented by the nominal (CAD) geometry, as an inspection plan does, then fitted by least
+/// squares; functional sizes where a mating part cares (ISO 14405-1: the largest pin a bore
+/// takes).
+
+#include "mlp/geometry/types.h"
+
+#include <stdexcept>
+
+namespace mlp::jobs {
+
+/// A measurement that cannot be made from the points given (too few on the feature, an arc too
+/// short for a functional size): the reason names what is missing.
+class FeatureError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct BoreNominal {
+  geometry::Vec3 top_centre_mcs = geometry::Vec3::Zero();  ///< axis point in the top face
+  geometry::Vec3 axis_mcs = geometry::Vec3::UnitZ();       ///< unit, out of the bore
+  double diameter_mm = 0.0, depth_mm = 0.0;
+  /// Points within this radial distance of the nominal wall belong to it.
+  double band_mm = 0.5;
+  /// Away from the rim and the bottom (their edges are not the wall).
+  double edge_margin_mm = 1.0;
+};
+
+struct BoreMeasurement {
+  geometry::Vec3 top_centre_mcs = geometry::Vec3::Zero();  ///< fitted axis at the nominal top
+  geometry::Vec3 axis_mcs = geometry::Vec3::UnitZ();
+  double diameter_mm = 0.0;      ///< least-squares cylinder
+  /// Maximum inscribed circle of the wall points (functional); 0 when they do not enclose a
+  /// centre (an arc of 180 deg or less).
+  double diameter_mic_mm = 0.0;
+  double rms_mm = 0.0, max_abs_mm = 0.0;
+  int points = 0;
+  double arc_span_deg = 0.0;  ///< 360 minus the largest angular gap between wall points
+};
+
+/// Throws FeatureError (fewer than 50 wall points) or geometry::GeometryError (degenerate).
+BoreMeasurement MeasureBore(const geometry::Points3& points_mcs, const BoreNominal& nominal);
+
+}  // namespace mlp::jobs

@@ -1,0 +1,79 @@
+// Features from points in the machine frame: a bore segmented by its nominal and fitted, with
+// its functional size, against known truth (synthetic points with noise, the rim face, chips).
+
+#include "mlp/jobs/feature.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+namespace mlp::jobs {
+namespace {
+
+using geometry::Vec3;
+
+constexpr double kNoiseMm = 0.002;
+constexpr double kDiameterTolMm = 0.0005;  // 4,000 points at 2 um noise: a fraction of a um
+constexpr double kCentreTolMm = 0.001;
+
+// A bore of `diameter` around (cx, cy), top face z = 0, seen over `span_deg` of its wall, plus
+// points of the top face around the rim and chips inside.
+geometry::Points3 BorePoints(double diameter, double cx, double cy, double span_deg, int seed) {
+  std::mt19937 rng(static_cast<unsigned>(seed));
+  std::normal_distribution<double> noise(0, kNoiseMm);
+  std::uniform_real_distribution<double> angle(0, span_deg * M_PI / 180), depth(-28, -1.5),
+      unit(0, 1);
+  std::vector<Vec3> p;
+  for (int i = 0; i < 4000; ++i) {
+    const double a = angle(rng), r = diameter / 2 + noise(rng);
+    p.emplace_back(cx + r * std::cos(a), cy + r * std::sin(a), depth(rng));
+  }
+  for (int i = 0; i < 2000; ++i) {  // the top face around the rim
+    const double a = angle(rng), r = diameter / 2 + 0.3 + 5 * unit(rng);
+    p.emplace_back(cx + r * std::cos(a), cy + r * std::sin(a), noise(rng));
+  }
+  for (int i = 0; i < 40; ++i) {  // chips stuck to the wall: 0.2-0.4 mm proud
+    const double a = angle(rng), r = diameter / 2 - 0.2 - 0.2 * unit(rng);
+    p.emplace_back(cx + r * std::cos(a), cy + r * std::sin(a), depth(rng));
+  }
+  geometry::Points3 m(3, static_cast<Eigen::Index>(p.size()));
+  for (size_t i = 0; i < p.size(); ++i) m.col(static_cast<Eigen::Index>(i)) = p[i];
+  return m;
+}
+
+TEST(Bore, SizePositionAndFunctionalSize) {
+  BoreNominal n;
+  n.diameter_mm = 60.0, n.depth_mm = 30.0;
+  n.band_mm = 0.15;  // chips 0.2 mm proud fall outside the band
+  const BoreMeasurement m = MeasureBore(BorePoints(59.994, 0.012, -0.007, 360, 1), n);
+  EXPECT_NEAR(m.diameter_mm, 59.994, kDiameterTolMm);
+  EXPECT_NEAR(m.top_centre_mcs.x(), 0.012, kCentreTolMm);
+  EXPECT_NEAR(m.top_centre_mcs.y(), -0.007, kCentreTolMm);
+  EXPECT_NEAR(m.axis_mcs.z(), 1.0, 1e-6);
+  EXPECT_EQ(m.points, 4000);  // the face and the chips left out
+  EXPECT_GT(m.arc_span_deg, 359.0);
+  EXPECT_NEAR(m.rms_mm, kNoiseMm, 0.2 * kNoiseMm);
+  // The largest pin is smaller than the least-squares size by about the noise's reach.
+  EXPECT_LT(m.diameter_mic_mm, m.diameter_mm);
+  EXPECT_GT(m.diameter_mic_mm, m.diameter_mm - 8 * kNoiseMm);
+}
+
+TEST(Bore, ShortArcsAndMissingWallsAreSaid) {
+  BoreNominal n;
+  n.diameter_mm = 60.0, n.depth_mm = 30.0;
+  const BoreMeasurement arc = MeasureBore(BorePoints(60.0, 0, 0, 150, 2), n);
+  EXPECT_NEAR(arc.arc_span_deg, 150.0, 1.0);
+  EXPECT_EQ(arc.diameter_mic_mm, 0.0);  // no functional size from under half a circle
+  n.top_centre_mcs = Vec3(80, 0, 0);    // the wrong bore
+  try {
+    MeasureBore(BorePoints(60.0, 0, 0, 360, 3), n);
+    ADD_FAILURE() << "measured a bore that is not there";
+  } catch (const FeatureError& e) {
+    EXPECT_NE(std::string(e.what()).find("points on the nominal wall"), std::string::npos);
+  }
+  n = {};
+  EXPECT_THROW(MeasureBore(BorePoints(60.0, 0, 0, 360, 4), n), FeatureError);  // no nominal
+}
+
+}  // namespace
+}  // namespace mlp::jobs
