@@ -2,6 +2,7 @@
 
 #include "mlp/probe_fw/probe_model.h"
 
+#include "mlp/probe_fw/cloud_file.h"
 #include "mlp/probe_fw/stripe_file.h"
 
 #include <filesystem>
@@ -155,6 +156,27 @@ TEST(StripeFile, BadFilesNameTheEntry) {
   expect_error(head + "7}", "array");
   expect_error(R"({"format": "mlprobe-stripes/2"})", "format");
   EXPECT_THROW(LoadStripeFile(path + ".missing"), StripeFileError);
+}
+
+TEST(CloudFile, RoundTripWithThePose) {
+  const std::string path = ::testing::TempDir() + "/cloud.ply";
+  const std::array<double, 16> h = {1, 0, 0,  30.125,        0, -1, 0, 30,
+                                    0, 0, -1, 120.000000001, 0, 0,  0, 1};
+  WriteCloudPly(path, {1.5, -2.25, 120.0, 0, 0, 99.5}, {0.5f, 1.0f}, {"P-1", "cal-7", "c1", h});
+  const CloudFile f = ReadCloudPly(path);
+  EXPECT_EQ(f.meta.probe_serial, "P-1");
+  EXPECT_EQ(f.meta.calibration_id, "cal-7");
+  EXPECT_EQ(f.meta.capture_id, "c1");
+  ASSERT_TRUE(f.meta.mcs_from_flange);
+  EXPECT_EQ(*f.meta.mcs_from_flange, h);  // exact: 17 digits
+  EXPECT_EQ(f.xyz, (std::vector<double>{1.5, -2.25, 120.0, 0, 0, 99.5}));
+  EXPECT_EQ(f.quality, (std::vector<float>{0.5f, 1.0f}));
+  EXPECT_THROW(WriteCloudPly(path, {1, 2}, {1.0f}, {}), CloudFileError);  // sizes differ
+  // A truncated file is refused, not read short.
+  std::filesystem::resize_file(path, std::filesystem::file_size(path) - 3);
+  EXPECT_THROW(ReadCloudPly(path), CloudFileError);
+  std::ofstream(path) << "ply\nformat ascii 1.0\nend_header\n";
+  EXPECT_THROW(ReadCloudPly(path), CloudFileError);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 namespace mlp::probe_fw {
 namespace {
@@ -63,6 +64,73 @@ void WriteCloudPly(const std::string& path,
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) throw CloudFileError("cloud: cannot rename " + tmp + " to " + path + ": " + ec.message());
+}
+
+CloudFile ReadCloudPly(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw CloudFileError("cloud: cannot read " + path);
+  const auto fail = [&](const std::string& what) -> CloudFileError {
+    return CloudFileError("cloud " + path + ": " + what);
+  };
+  std::string line;
+  if (!std::getline(in, line) || line != "ply") throw fail("not a PLY file");
+  if (!std::getline(in, line) || line != "format binary_little_endian 1.0")
+    throw fail("not binary little-endian");
+  CloudFile f;
+  long long vertices = -1;
+  std::vector<std::string> properties;
+  while (std::getline(in, line) && line != "end_header") {
+    std::istringstream words(line);
+    std::string key;
+    words >> key;
+    if (key == "comment") {
+      std::string name;
+      words >> name;
+      std::string rest;
+      std::getline(words, rest);
+      if (!rest.empty() && rest[0] == ' ') rest.erase(0, 1);
+      if (name == "probe_serial") f.meta.probe_serial = rest;
+      if (name == "calibration_id") f.meta.calibration_id = rest;
+      if (name == "capture_id") f.meta.capture_id = rest;
+      if (name == "mcs_from_flange") {
+        std::array<double, 16> h{};
+        std::istringstream numbers(rest);
+        for (double& v : h)
+          if (!(numbers >> v)) throw fail("mcs_from_flange must hold 16 numbers");
+        f.meta.mcs_from_flange = h;
+      }
+    } else if (key == "element") {
+      std::string name;
+      words >> name >> vertices;
+      if (name != "vertex" || vertices < 0) throw fail("unexpected element " + line);
+    } else if (key == "property") {
+      std::string type, name;
+      words >> type >> name;
+      if (type != "float") throw fail("property " + name + " is not float");
+      properties.push_back(name);
+    }
+  }
+  if (line != "end_header") throw fail("the header does not end");
+  if (properties != std::vector<std::string>{"x", "y", "z", "quality"})
+    throw fail("properties must be x y z quality");
+  // Bounded before allocating: the file must hold what the header says.
+  const auto body_start = in.tellg();
+  in.seekg(0, std::ios::end);
+  const auto body = static_cast<long long>(in.tellg() - body_start);
+  in.seekg(body_start);
+  if (vertices < 0 || body != vertices * 16)
+    throw fail("holds " + std::to_string(body) + " bytes for " + std::to_string(vertices) +
+               " points");
+  f.xyz.resize(static_cast<size_t>(3 * vertices));
+  f.quality.resize(static_cast<size_t>(vertices));
+  float v[4];
+  for (long long i = 0; i < vertices; ++i) {
+    in.read(reinterpret_cast<char*>(v), sizeof v);
+    for (int k = 0; k < 3; ++k) f.xyz[static_cast<size_t>(3 * i + k)] = v[k];
+    f.quality[static_cast<size_t>(i)] = v[3];
+  }
+  if (!in) throw fail("cannot read the points");
+  return f;
 }
 
 }  // namespace mlp::probe_fw

@@ -29,4 +29,14 @@ void WriteCloudPly(const std::string& path,
                    const std::vector<float>& quality,
                    const CloudFileMeta& meta);
 
+struct CloudFile {
+  CloudFileMeta meta;
+  std::vector<double> xyz;
+  std::vector<float> quality;
+};
+
+/// Reads a file WriteCloudPly wrote (its exact header; other PLY files go through the host's
+/// general reader). Throws CloudFileError naming what does not match.
+CloudFile ReadCloudPly(const std::string& path);
+
 }  // namespace mlp::probe_fw
