@@ -184,6 +184,20 @@ TEST(NcOutput, HaasMapsVariablesDifferentlyAndTakesDiameters) {
   EXPECT_NE(syntec.find("G10 L13 P12 R-0.0062"), std::string::npos) << syntec;
 }
 
+TEST(NcOutput, IncrementsWhenTheValueBeforeIsInTheControl) {
+  NcResult r;
+  r.tools.push_back({12, ToolRegister::kRadiusWear, 0.0, -0.0031, true});
+  NcMap fanuc = FanucMap();
+  EXPECT_EQ(FanucStyleSnippet(fanuc, r), "G90\nG91 G10 L13 P12 R-0.0031\nG90\n");
+  fanuc.use_variables = true;
+  EXPECT_EQ(FanucStyleSnippet(fanuc, r), "G90\n#12012 = #12012 - 0.0031\n");
+  NcMap haas = HaasMap();
+  haas.use_variables = true;
+  EXPECT_EQ(FanucStyleSnippet(haas, r), "G90\n#2612 = #2612 - 0.0062\n");
+  r.tools[0].reg = ToolRegister::kRadiusGeometry;
+  EXPECT_THROW(LinuxCncSubroutine("mlp_result", r), NcOutputError);
+}
+
 TEST(NcOutput, RefusesWhatTheMachineCannotTake) {
   NcMap fanuc = FanucMap();
   fanuc.use_variables = true;

@@ -115,6 +115,8 @@ std::string LinuxCncSubroutine(const std::string& name, const NcResult& r) {
   s << "o<" << name << "> sub\n" << Comment(r.header);
   for (const ToolOffsetChange& t : r.tools) {
     CheckTool(t, 99999);
+    if (t.incremental)
+      Fail("LinuxCNC takes the new value: read the tool table for tool " + std::to_string(t.tool));
     if (IsWear(t.reg))
       Fail("LinuxCNC has no wear registers: tool " + std::to_string(t.tool) + " " +
            ToString(t.reg) + " (apply the change to the geometry)");
@@ -144,20 +146,29 @@ std::string FanucStyleSnippet(const NcMap& map, const NcResult& r) {
   s << Comment(r.header) << "G90\n";
   for (const ToolOffsetChange& t : r.tools) {
     CheckTool(t, map.use_variables ? map.max_offset : 9999);
-    const double value = !IsLength(t.reg) && map.radius_as_diameter ? 2 * t.after_mm : t.after_mm;
+    const double scale = !IsLength(t.reg) && map.radius_as_diameter ? 2.0 : 1.0;
+    const double value = scale * (t.incremental ? t.after_mm - t.before_mm : t.after_mm);
     if (map.use_variables) {
       const int base = t.reg == ToolRegister::kLengthGeometry   ? map.length_geometry_var
                        : t.reg == ToolRegister::kLengthWear     ? map.length_wear_var
                        : t.reg == ToolRegister::kRadiusGeometry ? map.radius_geometry_var
                                                                 : map.radius_wear_var;
       if (base <= 0) Fail("the variable map has no " + ToString(t.reg) + " variables");
-      s << "#" << base + t.tool - 1 << " = " << Num(value) << "\n";
+      const int var = base + t.tool - 1;
+      if (t.incremental)
+        s << "#" << var << " = #" << var << (value < 0 ? " - " : " + ") << Num(std::abs(value))
+          << "\n";
+      else
+        s << "#" << var << " = " << Num(value) << "\n";
     } else {
       const int l = t.reg == ToolRegister::kLengthGeometry   ? 10
                     : t.reg == ToolRegister::kLengthWear     ? 11
                     : t.reg == ToolRegister::kRadiusGeometry ? 12
                                                              : 13;
-      s << "G10 L" << l << " P" << t.tool << " R" << Num(value) << "\n";
+      if (t.incremental)  // G91: R is added to the register; back to G90 at once
+        s << "G91 G10 L" << l << " P" << t.tool << " R" << Num(value) << "\nG90\n";
+      else
+        s << "G10 L" << l << " P" << t.tool << " R" << Num(value) << "\n";
     }
   }
   for (const WorkOffsetChange& w : r.work) {

@@ -17,6 +17,9 @@ struct ToolOffsetChange {
   int tool = 0;  ///< offset number (H/D number; LinuxCNC: the tool number)
   ToolRegister reg = ToolRegister::kLengthGeometry;
   double before_mm = 0.0, after_mm = 0.0;  ///< the register's value; radius registers hold radii
+  /// The value before is not known here (it lives in the control): the change after - before
+  /// is written as an increment (G91 G10, or #var = #var + change).
+  bool incremental = false;
 };
 
 /// Work offset index: 1..6 = G54..G59; 7 and up = the extended offsets, number index - 6
