@@ -3,7 +3,10 @@
 // a capture stored with its hash and recorded in the history, refusals with their reasons and
 // exit codes, a probe that went away, and a graceful stop on SIGTERM.
 
+#include "mlp/calib/record.h"
 #include "mlp/history/history.h"
+#include "mlp/sim/render.h"
+#include "mlp/sim/scene.h"
 
 #include <chrono>
 #include <csignal>
@@ -28,7 +31,10 @@ using test::RunProcess;
 const std::string kMlp = MLP_BINARY, kHostd = MLP_HOSTD_BINARY, kSim = MLP_SIM_BINARY;
 const std::string kProbe = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
 const std::string kScene = std::string(MLP_SOURCE_DIR) + "/samples/scenes/bore_block.json";
-constexpr int kLinkPort = 17431;  // only the capture test binds it
+constexpr int kLinkPort = 17431;              // the capture test's probe link
+constexpr int kMeasurePort = 17432;           // the measure test's
+constexpr double kBoreDiameterTolMm = 0.002;  // issue 6: bore diameter within 2 um
+constexpr double kBoreCentreTolMm = 0.005;
 
 // A child process with its stderr in a file; SIGTERM and wait on destruction.
 class Child {
@@ -60,11 +66,16 @@ class Child {
   int exit_code_ = -1;
 };
 
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
 // One folder per test: ctest may run the tests of this file at once.
 struct Site {
   fs::path dir;
   std::string socket;
-  explicit Site(const std::string& name)
+  explicit Site(const std::string& name, int port = kLinkPort)
       : dir(fs::temp_directory_path() / ("mlp_hostd_test_" + name)),
         socket((dir / "run" / "jobs.sock").string()) {
     fs::remove_all(dir);
@@ -75,13 +86,22 @@ struct Site {
         << json{{"format", "mlprobe-hostd/1"},
                 {"data_dir", "data"},
                 {"job_socket", "run/jobs.sock"},
-                {"probe_link", {{"address", "127.0.0.1"}, {"port", kLinkPort}}},
+                {"probe_link", {{"address", "127.0.0.1"}, {"port", port}}},
                 {"capture_timeout_s", 60},
                 {"probes", {{{"serial", "MLP-REF-0001"}, {"key_file", "probe.key"}}}},
-                {"machines",
-                 {{{"name", "vmc-1"},
-                   {"probe", "MLP-REF-0001"},
-                   {"controller", {{"kind", "files"}, {"result_dir", "out"}}}}}}};
+                {"machines", json::array()}};
+    json files_machine = {{"name", "vmc-1"},
+                          {"probe", "MLP-REF-0001"},
+                          {"controller", {{"kind", "files"}, {"result_dir", "out"}}}};
+    json linuxcnc_machine = {
+        {"name", "lcnc-1"},
+        {"probe", "MLP-REF-0001"},
+        {"controller", {{"kind", "linuxcnc"}, {"tool_table", "tool.tbl"}, {"result_dir", "lcnc"}}}};
+    json config = json::parse(ReadText(dir / "hostd.json"));
+    config["machines"] = {files_machine, linuxcnc_machine};
+    std::ofstream(dir / "hostd.json") << config.dump(1);
+    std::ofstream(dir / "tool.tbl") << "T12 P12 Z101.2 D9.998 ;finishing end mill\n"
+                                    << "T99 P99 Z0 D0 ;mlprobe\n";
   }
   test::ProcessRun Mlp(const std::string& args) const {
     return RunProcess(kMlp + " " + args + " --socket " + socket);
@@ -184,6 +204,108 @@ TEST(Hostd, RefusesToStartWithABadConfigurationOrKey) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("not valid JSON"), std::string::npos) << r.err;
   EXPECT_EQ(RunProcess(kHostd).exit_code, 2);
+}
+
+// The sample block's D40 through-bore (30 mm deep) seen by four captures tilted 30 deg into it
+// (the scene's bore_wall_* captures); the probe's calibration M is the scene's mounting.
+TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
+  Site site("measure", kMeasurePort);
+  {
+    calib::CalibrationRecord cal;
+    cal.probe_serial = "MLP-REF-0001";
+    cal.kind = calib::RecordKind::kHandEye;
+    cal.flange_from_probe = sim::LoadScene(kScene).flange_from_probe;
+    calib::CalibrationStore((site.dir / "data" / "calibrations").string()).Save(cal);
+  }
+  Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+  Child probe({kSim, "serve", "--probe", kProbe, "--scene", kScene, "--port",
+               std::to_string(kMeasurePort), "--key", (site.dir / "probe.key").string()},
+              site.dir / "sim.log");
+  ASSERT_TRUE(site.WaitFor([&] {
+    const auto s = site.Mlp("status --json");
+    return s.exit_code == 0 && json::parse(s.out).at("probes").at(0).at("connected") == true;
+  })) << site.Mlp("status").out;
+  const sim::VirtualProbe vp(probe_fw::LoadProbeModel(kProbe), sim::LoadScene(kScene));
+  std::vector<std::int64_t> captures;
+  for (const sim::Capture& c : vp.scene().captures) {
+    if (c.id.rfind("bore_wall", 0) != 0) continue;
+    const probe_fw::Aoi aoi{874, 668, 300, 200};
+    double first = 0, last = 0;
+    vp.ColumnsReaching(c, aoi, &first, &last);
+    const auto t = c.mcs_from_flange.translation();
+    const Eigen::AngleAxisd r(c.mcs_from_flange.linear());
+    const geometry::Vec3 rv = r.axis() * r.angle();
+    const auto run = site.Mlp(
+        "request " + site.Request(c.id, {{"op", "capture"},
+                                         {"machine", "lcnc-1"},
+                                         {"capture_id", c.id},
+                                         {"mcs_from_flange",
+                                          {{"translation_mm", {t.x(), t.y(), t.z()}},
+                                           {"rotation_vector_rad", {rv.x(), rv.y(), rv.z()}}}},
+                                         {"aoi", {aoi.x0, aoi.y0, aoi.width, aoi.height}},
+                                         {"columns", {first, last, 2.0}}}));
+    ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+    captures.push_back(json::parse(run.out).at("job_id"));
+  }
+  ASSERT_EQ(captures.size(), 4u);
+  // Nominal 40.010 +-0.02: the bore (truly 40.000) is in tolerance, 10 um small; the finishing
+  // tool's radius wear moves by half of that.
+  json measure = {
+      {"op", "measure"},
+      {"machine", "lcnc-1"},
+      {"feature", "bore"},
+      {"captures", captures},
+      {"nominal", {{"top_centre_mm", {0, 0, 0}}, {"diameter_mm", 40.010}, {"depth_mm", 30}}},
+      {"tolerance", {{"upper_mm", 0.02}, {"lower_mm", 0.02}}},
+      {"update",
+       {{"offset", 12},
+        {"register", "radius_wear"},
+        {"null_band_mm", 0.002},
+        {"upper_limit_mm", 0.5}}}};
+  const auto run = site.Mlp("request " + site.Request("measure", measure));
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const json reply = json::parse(run.out);
+  std::printf(
+      "bore: diameter error %.2f um (MIC %.2f um), centre (%.2f, %.2f) um, %d points over "
+      "%.0f deg, RMS %.2f um\n",
+      (reply.at("diameter_mm").get<double>() - 40.0) * 1e3,
+      (reply.at("diameter_mic_mm").get<double>() - 40.0) * 1e3,
+      reply.at("centre_mm")[0].get<double>() * 1e3, reply.at("centre_mm")[1].get<double>() * 1e3,
+      reply.at("points").get<int>(), reply.at("arc_span_deg").get<double>(),
+      reply.at("rms_mm").get<double>() * 1e3);
+  EXPECT_NEAR(reply.at("diameter_mm").get<double>(), 40.0, kBoreDiameterTolMm);
+  EXPECT_NEAR(reply.at("centre_mm")[0].get<double>(), 0.0, kBoreCentreTolMm);
+  EXPECT_NEAR(reply.at("centre_mm")[1].get<double>(), 0.0, kBoreCentreTolMm);
+  EXPECT_EQ(reply.at("status"), "in_tolerance");
+  const double change = reply.at("offset_change_mm");
+  EXPECT_NEAR(change, (reply.at("diameter_mm").get<double>() - 40.010) / 2, 1e-12);
+  // LinuxCNC: the subroutine the macro calls sets the tool table's radius (D / 2 = 4.999).
+  const json& update = reply.at("update");
+  EXPECT_EQ(update.at("before_mm"), 4.999);
+  EXPECT_NEAR(update.at("after_mm").get<double>(), 4.999 + change, 1e-12);
+  std::ifstream sub(site.dir / "lcnc" / "mlp_result.ngc");
+  const std::string text((std::istreambuf_iterator<char>(sub)), std::istreambuf_iterator<char>());
+  char g10[64];
+  std::snprintf(g10, sizeof g10, "G10 L1 P12 R%.4f\n", 4.999 + change);
+  EXPECT_NE(text.find(g10), std::string::npos) << text;
+  EXPECT_NE(text.find("#<_mlp_status> = 0.0000"), std::string::npos) << text;
+  // Refused: a change beyond the machine's limit writes nothing (the limit is 0.2 mm).
+  measure["nominal"]["diameter_mm"] = 40.5;
+  measure["tolerance"] = {{"upper_mm", 1.0}, {"lower_mm", 1.0}};
+  fs::remove(site.dir / "lcnc" / "mlp_result.ngc");
+  const auto refused = site.Mlp("request " + site.Request("refused", measure));
+  EXPECT_EQ(refused.exit_code, 6) << refused.out;
+  EXPECT_NE(refused.err.find("exceeds the machine's limit"), std::string::npos) << refused.err;
+  EXPECT_FALSE(fs::exists(site.dir / "lcnc" / "mlp_result.ngc"));
+  // A cloud changed on disk is not used.
+  measure["nominal"]["diameter_mm"] = 40.010;
+  measure["tolerance"] = {{"upper_mm", 0.02}, {"lower_mm", 0.02}};
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  const std::string cloud = h.ExportJob(captures[0]).at("captures").at(0).at("cloud_path");
+  std::ofstream(cloud, std::ios::app) << "x";
+  const auto tampered = site.Mlp("request " + site.Request("tampered", measure));
+  EXPECT_EQ(tampered.exit_code, 7);
+  EXPECT_NE(tampered.err.find("changed since it was captured"), std::string::npos) << tampered.err;
 }
 
 }  // namespace

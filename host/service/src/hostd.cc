@@ -12,6 +12,8 @@
 #include <map>
 #include <mutex>
 
+#include "measure_job.h"
+
 namespace mlp::service {
 namespace {
 
@@ -98,6 +100,7 @@ struct Hostd::Impl {
       log("history: job " + std::to_string(id) + " was left running by the last run: failed");
     server.Handle("status", [this](const json&) { return Status(); });
     server.Handle("capture", [this](const json& r) { return RunOnMachine(r, &Impl::Capture); });
+    server.Handle("measure", [this](const json& r) { return RunOnMachine(r, &Impl::Measure); });
   }
 
   json Status() {
@@ -159,6 +162,11 @@ struct Hostd::Impl {
       }
     } idle{*this, name};
     return (this->*job)(*m, request);
+  }
+
+  json Measure(const MachineConfig& m, const json& request) {
+    JobContext ctx{config, m, history, log};
+    return RunMeasureJob(ctx, request);
   }
 
   json Capture(const MachineConfig& m, const json& request) {
