@@ -1,6 +1,7 @@
 // mlp: the command-line client. Thin: parses the sub-command and calls the host library.
 
 #include "mlp/host/fit_command.h"
+#include "mlp/host/history_command.h"
 #include "mlp/host/job_command.h"
 
 #include <cerrno>
@@ -22,6 +23,7 @@ constexpr const char* kUsage =
     "            (mlp calibrate --help; runs mlp-calibrate beside this program)\n"
     "  status    the host service's health: probes, machines (mlp-hostd must run)\n"
     "  request   send a job request (JSON) to mlp-hostd and print its reply\n"
+    "  history   list or export the job history (mlp history --help)\n"
     "  --version print the version\n";
 
 // Replaces this process with mlp-calibrate from the same folder (it links Ceres and OpenCV,
@@ -56,6 +58,7 @@ int main(int argc, char** argv) {
   const std::vector<std::string> rest(args.begin() + 1, args.end());
   if (args[0] == "status") return mlp::host::RunStatusCommand(rest, std::cout, std::cerr);
   if (args[0] == "request") return mlp::host::RunRequestCommand(rest, std::cout, std::cerr);
+  if (args[0] == "history") return mlp::host::RunHistoryCommand(rest, std::cout, std::cerr);
   std::cerr << "mlp: unknown command '" << args[0] << "'\n" << kUsage;
   return mlp::host::kExitBadInput;
 }

@@ -3,6 +3,8 @@
 
 #include "mlp/history/history.h"
 
+#include "mlp/history/file_hash.h"
+
 #include <filesystem>
 #include <fstream>
 

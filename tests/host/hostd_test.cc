@@ -4,6 +4,7 @@
 // exit codes, a probe that went away, and a graceful stop on SIGTERM.
 
 #include "mlp/calib/record.h"
+#include "mlp/history/file_hash.h"
 #include "mlp/history/history.h"
 #include "mlp/sim/render.h"
 #include "mlp/sim/scene.h"
@@ -191,6 +192,19 @@ TEST(Hostd, CapturesThroughTheServiceAndRefusesWithReasons) {
   EXPECT_EQ(h.ExportJob(jobs[1].id).at("captures").at(0).at("cloud_sha256"),
             reply.at("cloud_sha256"));
   EXPECT_EQ(jobs[3].status, history::JobStatus::kFailed);
+  // What a quality engineer exports.
+  const std::string db = (site.dir / "data" / "history.sqlite").string();
+  const auto csv = RunProcess(kMlp + " history --format csv --db " + db);
+  ASSERT_EQ(csv.exit_code, 0) << csv.err;
+  EXPECT_EQ(std::count(csv.out.begin(), csv.out.end(), '\n'), 5);  // header + 4 jobs
+  EXPECT_NE(csv.out.find(",vmc-1,capture,MLP-REF-0001,,done,"), std::string::npos) << csv.out;
+  const auto one =
+      RunProcess(kMlp + " history --db " + db + " --job " + std::to_string(jobs[1].id));
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  EXPECT_EQ(json::parse(one.out).at("captures").at(0).at("points"), 8000);
+  EXPECT_EQ(RunProcess(kMlp + " history --db " + db + " --job 99").exit_code, 2);
+  EXPECT_EQ(RunProcess(kMlp + " history --db /nonexistent.sqlite").exit_code, 2);
+  EXPECT_FALSE(fs::exists("/nonexistent.sqlite"));
 }
 
 TEST(Hostd, RefusesToStartWithABadConfigurationOrKey) {

@@ -7,7 +7,6 @@
 #include <sstream>
 
 #include <SQLiteCpp/SQLiteCpp.h>
-#include <openssl/evp.h>
 
 namespace mlp::history {
 namespace {
@@ -320,27 +319,6 @@ json History::ExportJob(std::int64_t job) const {
   } catch (const SQLite::Exception& e) {
     Fail("history " + impl_->path + ": " + e.what());
   }
-}
-
-std::string Sha256OfFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) Fail("cannot read " + path + " to hash it");
-  EVP_MD_CTX* ctx = EVP_MD_CTX_new();
-  EVP_DigestInit_ex(ctx, EVP_sha256(), nullptr);
-  char buf[1 << 16];
-  while (in.read(buf, sizeof buf) || in.gcount() > 0)
-    EVP_DigestUpdate(ctx, buf, static_cast<size_t>(in.gcount()));
-  unsigned char md[EVP_MAX_MD_SIZE];
-  unsigned int n = 0;
-  EVP_DigestFinal_ex(ctx, md, &n);
-  EVP_MD_CTX_free(ctx);
-  std::string hex;
-  char two[3];
-  for (unsigned int i = 0; i < n; ++i) {
-    std::snprintf(two, sizeof two, "%02x", md[i]);
-    hex += two;
-  }
-  return hex;
 }
 
 std::string JobsCsv(const std::vector<JobSummary>& jobs) {

@@ -1,5 +1,6 @@
 #include "mlp/service/hostd.h"
 
+#include "mlp/history/file_hash.h"
 #include "mlp/history/history.h"
 #include "mlp/link/transport.h"
 #include "mlp/probe_fw/cloud_file.h"

@@ -1,6 +1,7 @@
 #include "measure_job.h"
 
 #include "mlp/calib/record.h"
+#include "mlp/history/file_hash.h"
 #include "mlp/jobs/decision.h"
 #include "mlp/jobs/feature.h"
 #include "mlp/probe_fw/cloud_file.h"

@@ -92,9 +92,6 @@ class History {
   std::unique_ptr<Impl> impl_;
 };
 
-/// The SHA-256 of a file, lower-case hex (OpenSSL). Throws HistoryError.
-std::string Sha256OfFile(const std::string& path);
-
 /// Now, UTC, ISO 8601 with milliseconds: "2026-11-21T23:57:01.123Z".
 std::string UtcNow();
 
