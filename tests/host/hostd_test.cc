@@ -3,23 +3,10 @@
 // a capture stored with its hash and recorded in the history, refusals with their reasons and
 // exit codes, a probe that went away, and a graceful stop on SIGTERM.
 
-#include "mlp/calib/record.h"
 #include "mlp/history/file_hash.h"
 #include "mlp/history/history.h"
-#include "mlp/sim/render.h"
-#include "mlp/sim/scene.h"
 
-#include <chrono>
-#include <csignal>
-#include <filesystem>
-#include <fstream>
-#include <thread>
-
-#include "process_run.h"
-#include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-#include <sys/wait.h>
-#include <unistd.h>
+#include "hostd_site.h"
 
 namespace mlp {
 namespace {
@@ -29,95 +16,17 @@ using json = nlohmann::json;
 using namespace std::chrono_literals;
 using test::RunProcess;
 
-const std::string kMlp = MLP_BINARY, kHostd = MLP_HOSTD_BINARY, kSim = MLP_SIM_BINARY;
-const std::string kProbe = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
-const std::string kScene = std::string(MLP_SOURCE_DIR) + "/samples/scenes/bore_block.json";
-constexpr int kLinkPort = 17431;              // the capture test's probe link
-constexpr int kMeasurePort = 17432;           // the measure test's
+using test::Child;
+using test::kHostd;
+using test::kLinkPort;
+using test::kMlp;
+using test::kProbe;
+using test::kScene;
+using test::kSim;
+using test::Site;
+constexpr int kMeasurePort = 17432;           // the measure test's probe link
 constexpr double kBoreDiameterTolMm = 0.002;  // issue 6: bore diameter within 2 um
 constexpr double kBoreCentreTolMm = 0.005;
-
-// A child process with its stderr in a file; SIGTERM and wait on destruction.
-class Child {
- public:
-  Child(const std::vector<std::string>& argv, const fs::path& log) {
-    pid_ = fork();
-    if (pid_ == 0) {
-      std::freopen(log.c_str(), "w", stderr);
-      std::vector<char*> a;
-      for (const auto& s : argv) a.push_back(const_cast<char*>(s.c_str()));
-      a.push_back(nullptr);
-      execv(a[0], a.data());
-      _exit(127);
-    }
-  }
-  ~Child() { Stop(); }
-  int Stop() {
-    if (pid_ <= 0) return exit_code_;
-    kill(pid_, SIGTERM);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    pid_ = -1;
-    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    return exit_code_;
-  }
-
- private:
-  pid_t pid_ = -1;
-  int exit_code_ = -1;
-};
-
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-// One folder per test: ctest may run the tests of this file at once.
-struct Site {
-  fs::path dir;
-  std::string socket;
-  explicit Site(const std::string& name, int port = kLinkPort)
-      : dir(fs::temp_directory_path() / ("mlp_hostd_test_" + name)),
-        socket((dir / "run" / "jobs.sock").string()) {
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    std::ofstream(dir / "probe.key") << std::string(64, 'a') << "\n";
-    fs::permissions(dir / "probe.key", fs::perms::owner_read | fs::perms::owner_write);
-    std::ofstream(dir / "hostd.json")
-        << json{{"format", "mlprobe-hostd/1"},
-                {"data_dir", "data"},
-                {"job_socket", "run/jobs.sock"},
-                {"probe_link", {{"address", "127.0.0.1"}, {"port", port}}},
-                {"capture_timeout_s", 60},
-                {"probes", {{{"serial", "MLP-REF-0001"}, {"key_file", "probe.key"}}}},
-                {"machines", json::array()}};
-    json files_machine = {{"name", "vmc-1"},
-                          {"probe", "MLP-REF-0001"},
-                          {"controller", {{"kind", "files"}, {"result_dir", "out"}}}};
-    json linuxcnc_machine = {
-        {"name", "lcnc-1"},
-        {"probe", "MLP-REF-0001"},
-        {"controller", {{"kind", "linuxcnc"}, {"tool_table", "tool.tbl"}, {"result_dir", "lcnc"}}}};
-    json config = json::parse(ReadText(dir / "hostd.json"));
-    config["machines"] = {files_machine, linuxcnc_machine};
-    std::ofstream(dir / "hostd.json") << config.dump(1);
-    std::ofstream(dir / "tool.tbl") << "T12 P12 Z101.2 D9.998 ;finishing end mill\n"
-                                    << "T99 P99 Z0 D0 ;mlprobe\n";
-  }
-  test::ProcessRun Mlp(const std::string& args) const {
-    return RunProcess(kMlp + " " + args + " --socket " + socket);
-  }
-  std::string Request(const std::string& name, const json& j) const {
-    const fs::path p = dir / (name + ".json");
-    std::ofstream(p) << j.dump();
-    return p.string();
-  }
-  bool WaitFor(const std::function<bool()>& ok) const {
-    for (int i = 0; i < 500; ++i, std::this_thread::sleep_for(20ms))
-      if (ok()) return true;
-    return false;
-  }
-};
 
 json TopFaceCapture() {
   return {{"op", "capture"},
@@ -224,43 +133,13 @@ TEST(Hostd, RefusesToStartWithABadConfigurationOrKey) {
 // (the scene's bore_wall_* captures); the probe's calibration M is the scene's mounting.
 TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
   Site site("measure", kMeasurePort);
-  {
-    calib::CalibrationRecord cal;
-    cal.probe_serial = "MLP-REF-0001";
-    cal.kind = calib::RecordKind::kHandEye;
-    cal.flange_from_probe = sim::LoadScene(kScene).flange_from_probe;
-    calib::CalibrationStore((site.dir / "data" / "calibrations").string()).Save(cal);
-  }
+  test::SaveSceneCalibration(site);
   Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
   Child probe({kSim, "serve", "--probe", kProbe, "--scene", kScene, "--port",
                std::to_string(kMeasurePort), "--key", (site.dir / "probe.key").string()},
               site.dir / "sim.log");
-  ASSERT_TRUE(site.WaitFor([&] {
-    const auto s = site.Mlp("status --json");
-    return s.exit_code == 0 && json::parse(s.out).at("probes").at(0).at("connected") == true;
-  })) << site.Mlp("status").out;
-  const sim::VirtualProbe vp(probe_fw::LoadProbeModel(kProbe), sim::LoadScene(kScene));
-  std::vector<std::int64_t> captures;
-  for (const sim::Capture& c : vp.scene().captures) {
-    if (c.id.rfind("bore_wall", 0) != 0) continue;
-    const probe_fw::Aoi aoi{874, 668, 300, 200};
-    double first = 0, last = 0;
-    vp.ColumnsReaching(c, aoi, &first, &last);
-    const auto t = c.mcs_from_flange.translation();
-    const Eigen::AngleAxisd r(c.mcs_from_flange.linear());
-    const geometry::Vec3 rv = r.axis() * r.angle();
-    const auto run = site.Mlp(
-        "request " + site.Request(c.id, {{"op", "capture"},
-                                         {"machine", "lcnc-1"},
-                                         {"capture_id", c.id},
-                                         {"mcs_from_flange",
-                                          {{"translation_mm", {t.x(), t.y(), t.z()}},
-                                           {"rotation_vector_rad", {rv.x(), rv.y(), rv.z()}}}},
-                                         {"aoi", {aoi.x0, aoi.y0, aoi.width, aoi.height}},
-                                         {"columns", {first, last, 2.0}}}));
-    ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
-    captures.push_back(json::parse(run.out).at("job_id"));
-  }
+  ASSERT_TRUE(test::ProbeConnected(site)) << site.Mlp("status").out;
+  const std::vector<std::int64_t> captures = test::CaptureBoreWalls(site, "lcnc-1");
   ASSERT_EQ(captures.size(), 4u);
   // Nominal 40.010 +-0.02: the bore (truly 40.000) is in tolerance, 10 um small; the finishing
   // tool's radius wear moves by half of that.
