@@ -14,6 +14,7 @@ packages=(
   libssl-dev libsqlite3-dev libsqlitecpp-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   g++-aarch64-linux-gnu  # the firmware portability check (scripts/check-arm64.sh)
+  linuxcnc-uspace  # the real controller for the LinuxCNC adapter tests and demo
   clang libclang-rt-14-dev  # the libFuzzer targets (scripts/fuzz-link.sh)
 )
 missing=()

@@ -1,0 +1,158 @@
+// The real LinuxCNC (Debian linuxcnc-uspace, headless sim config in samples/linuxcnc/) running
+// an NC program that calls a probing job through a user M-code: the job runs on mlp-hostd with
+// the virtual probe's captures, its result subroutine reaches the running program, and the
+// program's following moves use the new offset. An out-of-tolerance result aborts the program
+// with a readable message and changes nothing. Checked through LinuxCNC's stat channel.
+
+#include "mlp/history/history.h"
+
+#include "hostd_site.h"
+
+namespace mlp {
+namespace {
+
+using test::Child;
+using test::json;
+using test::RunProcess;
+using test::Site;
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+const std::string kConfig = std::string(MLP_SOURCE_DIR) + "/samples/linuxcnc/mlprobe-sim";
+const std::string kDriver = std::string(MLP_SOURCE_DIR) + "/tests/linuxcnc/lcnc.py";
+constexpr int kPort = 17433;             // this test's probe link
+constexpr double kExactMm = 1e-6;        // LinuxCNC keeps doubles; our G10 lines carry 0.1 um
+constexpr double kRoundingMm = 0.00005;  // half the 0.1 um step of the G10 values
+
+// A headless LinuxCNC on a copy of the sample config (its tool table and var file are restored
+// for every run): started with the environment LINUXCNC.md lists, stopped through its display.
+class LinuxCnc {
+ public:
+  LinuxCnc(const fs::path& config, const std::string& socket) : config_(config) {
+    fs::create_directories(config / "home");
+    fs::create_directories(config / "rtapi");
+    fs::permissions(config / "rtapi", fs::perms::all | fs::perms::sticky_bit);
+    env_ = "HOME=" + (config / "home").string() +
+           " RTAPI_UID=1000 RTAPI_FIFO_PATH=" + (config / "rtapi" / "fifo").string() +
+           " MLP=" + test::kMlp + " MLP_SOCKET=" + socket;
+    std::system(("cd " + config.string() + " && env " + env_ +
+                 " setsid linuxcnc -r mlprobe-sim.ini > linuxcnc.log 2>&1 &")
+                    .c_str());
+    for (int i = 0; i < 200 && !fs::exists(config / "home" / ".tool.mmap"); ++i)
+      std::this_thread::sleep_for(50ms);
+  }
+  ~LinuxCnc() {
+    std::ofstream(config_ / "display.stop") << "";
+    // LinuxCNC cleans up once its display exits: wait so the next test can start one.
+    for (int i = 0; i < 200 && RunProcess("pgrep -x milltask").exit_code == 0; ++i)
+      std::this_thread::sleep_for(50ms);
+  }
+  bool Up() const { return fs::exists(config_ / "home" / ".tool.mmap"); }
+  json Run(const std::string& program) const {
+    const fs::path p = config_ / "program.ngc";
+    std::ofstream(p) << program;
+    const auto r =
+        RunProcess("env " + env_ + " /usr/bin/python3 " + kDriver + " run " + p.string() + " 120");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return r.exit_code == 0 ? json::parse(r.out) : json::object();
+  }
+
+ private:
+  fs::path config_;
+  std::string env_;
+};
+
+json MeasureJob(const std::vector<std::int64_t>& captures, double nominal) {
+  return {{"op", "measure"},
+          {"machine", "lcnc-1"},
+          {"feature", "bore"},
+          {"captures", captures},
+          {"nominal", {{"top_centre_mm", {0, 0, 0}}, {"diameter_mm", nominal}, {"depth_mm", 30}}},
+          {"tolerance", {{"upper_mm", 0.02}, {"lower_mm", 0.02}}},
+          {"update",
+           {{"offset", 12},
+            {"register", "radius_wear"},
+            {"null_band_mm", 0.002},
+            {"upper_limit_mm", 0.5}}}};
+}
+
+// The NC program a shop writes: measure the bore, take the result, cut with tool 12 under
+// cutter compensation. With G41 along +X the tool's centre runs one radius to the left (+Y).
+const std::string kProgram =
+    "G21 G90 G54 G40 G49\n"
+    "M101 P1 (measure the bore before the finishing pass)\n"
+    "M66 E0 L0 (the M-code ran: read on from here)\n"
+    "o<mlp_result> call\n"
+    "(MSG, bore status #<_mlp_status> diameter #<_mlp_diameter>)\n"
+    "T12 M6\n"
+    "G43 H12\n"
+    "G0 X-20 Y-20 Z10\n"
+    "G41 G1 X0 Y0 F2000\n"
+    "G1 X20 Y0\n"
+    "M2\n";
+
+TEST(LinuxCnc, AProbingJobSetsTheToolOffsetTheNextCutUses) {
+  ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0)
+      << "linuxcnc-uspace is not installed: bash scripts/install-deps.sh";
+  Site site("linuxcnc", kPort);
+  const fs::path config = site.dir / "mlprobe-sim";
+  fs::copy(kConfig, config, fs::copy_options::recursive);
+  json hostd_config = json::parse(test::ReadText(site.dir / "hostd.json"));
+  for (auto& m : hostd_config.at("machines"))
+    if (m.at("name") == "lcnc-1")
+      m["controller"] = {{"kind", "linuxcnc"},
+                         {"tool_table", (config / "tool.tbl").string()},
+                         {"result_dir", (config / "subs").string()}};
+  std::ofstream(site.dir / "hostd.json") << hostd_config.dump(1);
+  test::SaveSceneCalibration(site);
+  Child hostd({test::kHostd, "--config", (site.dir / "hostd.json").string()},
+              site.dir / "hostd.log");
+  Child probe({test::kSim, "serve", "--probe", test::kProbe, "--scene", test::kScene, "--port",
+               std::to_string(kPort), "--key", (site.dir / "probe.key").string()},
+              site.dir / "sim.log");
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const auto captures = test::CaptureBoreWalls(site, "lcnc-1");
+  ASSERT_EQ(captures.size(), 4u);
+  fs::create_directories(config / "jobs");
+  std::ofstream(config / "jobs" / "1.json") << MeasureJob(captures, 40.010).dump();  // in tol.
+  std::ofstream(config / "jobs" / "2.json") << MeasureJob(captures, 40.050).dump();  // out
+
+  LinuxCnc cnc(config, site.socket);
+  ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
+  const json before = json::parse(RunProcess("env HOME=" + (config / "home").string() +
+                                             " /usr/bin/python3 " + kDriver + " state")
+                                      .out);
+  EXPECT_NEAR(before.at("tools").at("12").at("diameter").get<double>(), 9.998, kExactMm);
+
+  const json after = cnc.Run(kProgram);
+  ASSERT_TRUE(after.value("ended", false)) << after.dump();
+  // What the service decided, from its history: the job's reply.
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  const auto jobs = h.ListJobs({});
+  const json reply = h.ExportJob(jobs.back().id).at("reply");
+  ASSERT_EQ(reply.at("status"), "in_tolerance") << reply.dump();
+  const double radius = reply.at("update").at("after_mm");
+  EXPECT_NEAR(radius, 4.999 + reply.at("offset_change_mm").get<double>(), 1e-12);
+  std::printf("LinuxCNC: tool 12 diameter %.4f -> %.4f mm (bore %.4f mm); G41 path at Y %.4f\n",
+              9.998, after.at("tools").at("12").at("diameter").get<double>(),
+              reply.at("diameter_mm").get<double>(), after.at("position")[1].get<double>());
+  EXPECT_NEAR(after.at("tools").at("12").at("diameter").get<double>(), 2 * radius, 2 * kRoundingMm);
+  EXPECT_NEAR(after.at("tool_offset")[2].get<double>(), 101.2, kExactMm);  // G43 H12
+  // The cut used the new radius: the compensated path runs one radius left of Y = 0.
+  EXPECT_NEAR(after.at("position")[1].get<double>(), radius, kRoundingMm);
+  EXPECT_NEAR(after.at("position")[0].get<double>(), 20.0, kRoundingMm);
+  EXPECT_NEAR(after.at("position")[2].get<double>(), 10.0 + 101.2, kExactMm);
+
+  // Out of tolerance: the program stops at the M-code with the reason; nothing changes.
+  std::string abort_program = kProgram;
+  abort_program.replace(abort_program.find("M101 P1"), 7, "M101 P2");
+  const json aborted = cnc.Run(abort_program);
+  const std::string errors = aborted.at("errors").dump();
+  EXPECT_NE(errors.find("out of tolerance"), std::string::npos) << errors;
+  EXPECT_NEAR(aborted.at("tools").at("12").at("diameter").get<double>(),
+              after.at("tools").at("12").at("diameter").get<double>(), kExactMm);
+  EXPECT_EQ(aborted.at("position"), after.at("position"));  // no move ran
+}
+
+}  // namespace
+}  // namespace mlp
