@@ -161,4 +161,21 @@ inline std::vector<std::int64_t> CaptureBoreWalls(const Site& site, const std::s
   return captures;
 }
 
+// Measure the sample bore on lcnc-1 against `nominal_mm` +-0.02, updating tool 12's radius wear
+// (null band 2 um, upper tolerance limit 0.5 mm).
+inline json BoreMeasureJob(const std::vector<std::int64_t>& captures, double nominal_mm) {
+  return {
+      {"op", "measure"},
+      {"machine", "lcnc-1"},
+      {"feature", "bore"},
+      {"captures", captures},
+      {"nominal", {{"top_centre_mm", {0, 0, 0}}, {"diameter_mm", nominal_mm}, {"depth_mm", 30}}},
+      {"tolerance", {{"upper_mm", 0.02}, {"lower_mm", 0.02}}},
+      {"update",
+       {{"offset", 12},
+        {"register", "radius_wear"},
+        {"null_band_mm", 0.002},
+        {"upper_limit_mm", 0.5}}}};
+}
+
 }  // namespace mlp::test

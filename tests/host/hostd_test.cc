@@ -143,18 +143,7 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
   ASSERT_EQ(captures.size(), 4u);
   // Nominal 40.010 +-0.02: the bore (truly 40.000) is in tolerance, 10 um small; the finishing
   // tool's radius wear moves by half of that.
-  json measure = {
-      {"op", "measure"},
-      {"machine", "lcnc-1"},
-      {"feature", "bore"},
-      {"captures", captures},
-      {"nominal", {{"top_centre_mm", {0, 0, 0}}, {"diameter_mm", 40.010}, {"depth_mm", 30}}},
-      {"tolerance", {{"upper_mm", 0.02}, {"lower_mm", 0.02}}},
-      {"update",
-       {{"offset", 12},
-        {"register", "radius_wear"},
-        {"null_band_mm", 0.002},
-        {"upper_limit_mm", 0.5}}}};
+  json measure = test::BoreMeasureJob(captures, 40.010);
   const auto run = site.Mlp("request " + site.Request("measure", measure));
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
   const json reply = json::parse(run.out);

@@ -62,20 +62,6 @@ class LinuxCnc {
   std::string env_;
 };
 
-json MeasureJob(const std::vector<std::int64_t>& captures, double nominal) {
-  return {{"op", "measure"},
-          {"machine", "lcnc-1"},
-          {"feature", "bore"},
-          {"captures", captures},
-          {"nominal", {{"top_centre_mm", {0, 0, 0}}, {"diameter_mm", nominal}, {"depth_mm", 30}}},
-          {"tolerance", {{"upper_mm", 0.02}, {"lower_mm", 0.02}}},
-          {"update",
-           {{"offset", 12},
-            {"register", "radius_wear"},
-            {"null_band_mm", 0.002},
-            {"upper_limit_mm", 0.5}}}};
-}
-
 // The NC program a shop writes: measure the bore, take the result, cut with tool 12 under
 // cutter compensation. With G41 along +X the tool's centre runs one radius to the left (+Y).
 const std::string kProgram =
@@ -114,8 +100,10 @@ TEST(LinuxCnc, AProbingJobSetsTheToolOffsetTheNextCutUses) {
   const auto captures = test::CaptureBoreWalls(site, "lcnc-1");
   ASSERT_EQ(captures.size(), 4u);
   fs::create_directories(config / "jobs");
-  std::ofstream(config / "jobs" / "1.json") << MeasureJob(captures, 40.010).dump();  // in tol.
-  std::ofstream(config / "jobs" / "2.json") << MeasureJob(captures, 40.050).dump();  // out
+  std::ofstream(config / "jobs" / "1.json")
+      << test::BoreMeasureJob(captures, 40.010).dump();  // in tol.
+  std::ofstream(config / "jobs" / "2.json")
+      << test::BoreMeasureJob(captures, 40.050).dump();  // out
 
   LinuxCnc cnc(config, site.socket);
   ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
