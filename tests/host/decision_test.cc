@@ -105,6 +105,17 @@ TEST(Plausibility, EveryReasonIsListed) {
   EXPECT_NE(p[2].find("RMS 50.0 um"), std::string::npos);
   EXPECT_NE(p[3].find("1000.0 h old"), std::string::npos);
   EXPECT_NE(p[4].find("-500.0 um"), std::string::npos);
+  e.offset_changes_mm.clear();
+  e.points = 5000;
+  e.arc_span_deg = 350;
+  e.rms_mm = 0.002;
+  e.calibration_age_h = 2;
+  e.work_shift_mm = 7.5;
+  e.tilt_deg = 0.8;
+  const auto align = PlausibilityProblems(e, l);
+  ASSERT_EQ(align.size(), 2u);
+  EXPECT_NE(align[0].find("7.500 mm from where it was expected"), std::string::npos) << align[0];
+  EXPECT_NE(align[1].find("tilted 0.800 deg"), std::string::npos) << align[1];
   e = {};
   e.points = 5000;
   e.job_probe = "MLP-2";

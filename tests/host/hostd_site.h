@@ -32,6 +32,8 @@ inline const std::string kMlp = MLP_BINARY, kHostd = MLP_HOSTD_BINARY, kSim = ML
 inline const std::string kProbe =
     std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
 inline const std::string kScene = std::string(MLP_SOURCE_DIR) + "/samples/scenes/bore_block.json";
+inline const std::string kDemoPlate =
+    std::string(MLP_SOURCE_DIR) + "/samples/scenes/demo_plate.json";
 constexpr int kLinkPort = 17431;  // each test that runs a probe link has its own port
 
 // A child process with its stderr in a file; SIGTERM and wait on destruction.
@@ -133,13 +135,17 @@ inline bool ProbeConnected(const Site& site) {
   });
 }
 
-// The sample block's D40 through-bore (30 mm deep) seen by four captures tilted 30 deg into it
-// (the scene's bore_wall_* captures) on `machine`: their capture job ids.
-inline std::vector<std::int64_t> CaptureBoreWalls(const Site& site, const std::string& machine) {
-  const sim::VirtualProbe vp(probe_fw::LoadProbeModel(kProbe), sim::LoadScene(kScene));
+// Every capture of `scene` whose id starts with `prefix`, taken through the service on
+// `machine` (AOI 300 x 200 px at the sensor's centre, every second column reaching it): the
+// capture job ids in the scene's order.
+inline std::vector<std::int64_t> CaptureSceneViews(const Site& site,
+                                                   const std::string& machine,
+                                                   const std::string& scene,
+                                                   const std::string& prefix) {
+  const sim::VirtualProbe vp(probe_fw::LoadProbeModel(kProbe), sim::LoadScene(scene));
   std::vector<std::int64_t> captures;
   for (const sim::Capture& c : vp.scene().captures) {
-    if (c.id.rfind("bore_wall", 0) != 0) continue;
+    if (c.id.rfind(prefix, 0) != 0) continue;
     const probe_fw::Aoi aoi{874, 668, 300, 200};
     double first = 0, last = 0;
     vp.ColumnsReaching(c, aoi, &first, &last);
@@ -159,6 +165,12 @@ inline std::vector<std::int64_t> CaptureBoreWalls(const Site& site, const std::s
     if (run.exit_code == 0) captures.push_back(json::parse(run.out).at("job_id"));
   }
   return captures;
+}
+
+// The sample block's D40 through-bore (30 mm deep) seen by four captures tilted 30 deg into it
+// (the scene's bore_wall_* captures) on `machine`: their capture job ids.
+inline std::vector<std::int64_t> CaptureBoreWalls(const Site& site, const std::string& machine) {
+  return CaptureSceneViews(site, machine, kScene, "bore_wall");
 }
 
 // Measure the sample bore on lcnc-1 against `nominal_mm` +-0.02, updating tool 12's radius wear

@@ -27,6 +27,9 @@ using test::Site;
 constexpr int kMeasurePort = 17432;           // the measure test's probe link
 constexpr double kBoreDiameterTolMm = 0.002;  // issue 6: bore diameter within 2 um
 constexpr double kBoreCentreTolMm = 0.005;
+constexpr int kAlignPort = 17434;            // the alignment test's probe link
+constexpr double kOriginTolUm = 5.0;         // issue 6: alignment origin within 5 um
+constexpr double kRotationTolArcsec = 10.0;  // and rotation within 10 arcsec
 
 json TopFaceCapture() {
   return {{"op", "capture"},
@@ -188,6 +191,72 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
   const auto tampered = site.Mlp("request " + site.Request("tampered", measure));
   EXPECT_EQ(tampered.exit_code, 7);
   EXPECT_NE(tampered.err.find("changed since it was captured"), std::string::npos) << tampered.err;
+}
+
+// Seed 004's alignment on the demo plate (samples/scenes/demo_plate.json): top face A, holes B
+// and C -> G54 with its rotation about Z, against the scene's truth.
+TEST(Hostd, AlignsThePlateToPlaneCircleCircle) {
+  Site site("align", kAlignPort);
+  test::SaveSceneCalibration(site);
+  Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+  Child probe({kSim, "serve", "--probe", kProbe, "--scene", test::kDemoPlate, "--port",
+               std::to_string(kAlignPort), "--key", (site.dir / "probe.key").string()},
+              site.dir / "sim.log");
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const auto face = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "face_");
+  const auto b = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "b_wall");
+  const auto c = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "c_wall");
+  ASSERT_EQ(face.size(), 3u);
+  ASSERT_EQ(b.size(), 4u);
+  ASSERT_EQ(c.size(), 4u);
+  const json truth = json::parse(test::ReadText(test::kDemoPlate)).at("truth");
+  const json origin = truth.at("work_origin_mcs_mm");
+  const double angle = truth.at("work_rotation_z_deg").get<double>() * M_PI / 180;
+  // The nominal positions the macro knows: from the drawing and the part's expected placement
+  // (here the truth rounded to a millimetre and without the rotation, as a setter would clamp).
+  const json o = {250, 120, -310};
+  const json align = {
+      {"op", "align"},
+      {"machine", "lcnc-1"},
+      {"method", "plane-circle-circle"},
+      {"work_offset", 1},
+      {"expected_origin_mm", o},
+      {"plane_a", {{"captures", face}, {"nominal", {{"point_mm", o}, {"normal", {0, 0, 1}}}}}},
+      {"circle_b",
+       {{"captures", b},
+        {"nominal", {{"top_centre_mm", o}, {"diameter_mm", 20}, {"depth_mm", 20}}}}},
+      {"circle_c",
+       {{"captures", c},
+        {"nominal",
+         {{"top_centre_mm", {250, 180, -310}}, {"diameter_mm", 20}, {"depth_mm", 20}}}}}};
+  const auto run = site.Mlp("request " + site.Request("align", align));
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const json reply = json::parse(run.out);
+  double error_um[3];
+  for (int k = 0; k < 3; ++k)
+    error_um[k] = (reply.at("origin_mm")[k].get<double>() - origin[k].get<double>()) * 1e3;
+  const double rotation_error_arcsec =
+      (reply.at("rotation_z_deg").get<double>() * M_PI / 180 - angle) * 180 / M_PI * 3600;
+  std::printf(
+      "alignment: origin error (%.2f, %.2f, %.2f) um, rotation error %.2f arcsec, "
+      "tilt %.5f deg; holes %d and %d wall points\n",
+      error_um[0], error_um[1], error_um[2], rotation_error_arcsec,
+      reply.at("tilt_deg").get<double>(), reply.at("circle_b").at("points").get<int>(),
+      reply.at("circle_c").at("points").get<int>());
+  for (double e : error_um) EXPECT_LT(std::abs(e), kOriginTolUm);
+  EXPECT_LT(std::abs(rotation_error_arcsec), kRotationTolArcsec);
+  // The subroutine sets G54 with its rotation.
+  const std::string sub = test::ReadText(site.dir / "lcnc" / "mlp_result.ngc");
+  EXPECT_NE(sub.find("G10 L2 P1 X"), std::string::npos) << sub;
+  EXPECT_NE(sub.find(" R0.35"), std::string::npos) << sub;
+  // A part clamped far from where the macro expects it: refused, nothing written.
+  json far = align;
+  far["expected_origin_mm"] = {260, 120, -310};
+  fs::remove(site.dir / "lcnc" / "mlp_result.ngc");
+  const auto refused = site.Mlp("request " + site.Request("far", far));
+  EXPECT_EQ(refused.exit_code, 6) << refused.out;
+  EXPECT_NE(refused.err.find("from where it was expected"), std::string::npos) << refused.err;
+  EXPECT_FALSE(fs::exists(site.dir / "lcnc" / "mlp_result.ngc"));
 }
 
 }  // namespace

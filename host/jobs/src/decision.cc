@@ -106,6 +106,18 @@ std::vector<std::string> PlausibilityProblems(const FitEvidence& e, const Plausi
       add("an offset change of " + Um(c) + " exceeds the machine's limit " +
           Um(l.max_offset_change_mm));
   }
+  if (e.work_shift_mm && !(*e.work_shift_mm <= l.max_work_shift_mm)) {
+    s.str("");
+    s << "the work origin is " << std::fixed << std::setprecision(3) << *e.work_shift_mm
+      << " mm from where it was expected, the limit is " << l.max_work_shift_mm << " mm";
+    add(s.str());
+  }
+  if (e.tilt_deg && !(*e.tilt_deg <= l.max_tilt_deg)) {
+    s.str("");
+    s << "the part is tilted " << std::fixed << std::setprecision(3) << *e.tilt_deg
+      << " deg, more than the " << l.max_tilt_deg << " deg a rotation about Z can leave";
+    add(s.str());
+  }
   return out;
 }
 

@@ -46,6 +46,8 @@ jobs::PlausibilityLimits ParseLimits(const Reader& r, const json& m, const std::
   l.max_rms_mm = r.Positive(j, "max_rms_mm", l.max_rms_mm, lw);
   l.max_calibration_age_h = r.Positive(j, "max_calibration_age_h", l.max_calibration_age_h, lw);
   l.max_offset_change_mm = r.Positive(j, "max_offset_change_mm", l.max_offset_change_mm, lw);
+  l.max_work_shift_mm = r.Positive(j, "max_work_shift_mm", l.max_work_shift_mm, lw);
+  l.max_tilt_deg = r.Positive(j, "max_tilt_deg", l.max_tilt_deg, lw);
   return l;
 }
 

@@ -13,7 +13,7 @@
 #include <map>
 #include <mutex>
 
-#include "measure_job.h"
+#include "job_common.h"
 
 namespace mlp::service {
 namespace {
@@ -21,16 +21,11 @@ namespace {
 namespace fs = std::filesystem;
 namespace jf = probe_fw::json_fields;
 using json = nlohmann::json;
-using Clock = std::chrono::steady_clock;
 
 class RequestError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
-
-double Ms(Clock::time_point since) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
-}
 
 std::array<double, 16> RowMajor(const geometry::Pose3& p) {
   std::array<double, 16> m{};
@@ -102,6 +97,7 @@ struct Hostd::Impl {
     server.Handle("status", [this](const json&) { return Status(); });
     server.Handle("capture", [this](const json& r) { return RunOnMachine(r, &Impl::Capture); });
     server.Handle("measure", [this](const json& r) { return RunOnMachine(r, &Impl::Measure); });
+    server.Handle("align", [this](const json& r) { return RunOnMachine(r, &Impl::Align); });
   }
 
   json Status() {
@@ -168,6 +164,11 @@ struct Hostd::Impl {
   json Measure(const MachineConfig& m, const json& request) {
     JobContext ctx{config, m, history, log};
     return RunMeasureJob(ctx, request);
+  }
+
+  json Align(const MachineConfig& m, const json& request) {
+    JobContext ctx{config, m, history, log};
+    return RunAlignJob(ctx, request);
   }
 
   json Capture(const MachineConfig& m, const json& request) {

@@ -1,15 +1,10 @@
-#include "measure_job.h"
-
 #include "mlp/calib/record.h"
-#include "mlp/history/file_hash.h"
 #include "mlp/jobs/decision.h"
 #include "mlp/jobs/feature.h"
-#include "mlp/probe_fw/cloud_file.h"
 #include "mlp/probe_fw/json_fields.h"
 #include "mlp/service/adapters.h"
 
-#include <chrono>
-#include <ctime>
+#include "job_common.h"
 
 namespace mlp::service {
 namespace {
@@ -17,23 +12,6 @@ namespace {
 namespace jf = probe_fw::json_fields;
 using json = nlohmann::json;
 using geometry::Vec3;
-using Clock = std::chrono::steady_clock;
-
-class JobInputError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-double Ms(Clock::time_point since) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - since).count();
-}
-
-// Hours since an ISO 8601 UTC time "YYYY-MM-DDTHH:MM:SS.mmmZ".
-double AgeHours(const std::string& utc) {
-  std::tm t{};
-  if (!strptime(utc.c_str(), "%Y-%m-%dT%H:%M:%S", &t)) return 1e9;  // unreadable: too old
-  return std::difftime(std::time(nullptr), timegm(&t)) / 3600.0;
-}
 
 nc::ToolRegister RegisterOf(const std::string& s) {
   if (s == "length_geometry") return nc::ToolRegister::kLengthGeometry;
@@ -47,15 +25,7 @@ nc::ToolRegister RegisterOf(const std::string& s) {
 }
 
 jobs::BoreNominal ParseBore(const json& r) {
-  const json& n = jf::Object<JobInputError>(r, "nominal", "request");
-  jobs::BoreNominal b;
-  b.top_centre_mcs = jf::Vector3<JobInputError>(n, "top_centre_mm", "request.nominal");
-  b.axis_mcs =
-      n.contains("axis") ? jf::Vector3<JobInputError>(n, "axis", "request.nominal") : Vec3::UnitZ();
-  b.diameter_mm = jf::Number<JobInputError>(n, "diameter_mm", "request.nominal");
-  b.depth_mm = jf::Number<JobInputError>(n, "depth_mm", "request.nominal");
-  b.band_mm = jf::NumberOr<JobInputError>(n, "band_mm", b.band_mm, "request.nominal");
-  return b;
+  return ParseBoreNominal(jf::Object<JobInputError>(r, "nominal", "request"), "request.nominal");
 }
 
 jobs::Feedback ParseUpdate(const json& r, double change_per_error) {
@@ -73,74 +43,21 @@ jobs::Feedback ParseUpdate(const json& r, double change_per_error) {
   return f;
 }
 
-struct Evidence {
-  geometry::Points3 points_mcs;
-  std::string probe_serial;
-};
-
-// The stored captures of earlier capture jobs, checked against their recorded SHA-256, mapped
-// into the machine frame with H (from the file) and M (the calibration).
-Evidence LoadCaptures(JobContext& ctx,
-                      const json& r,
-                      const geometry::Pose3& flange_from_probe,
-                      std::int64_t job) {
-  if (!r.contains("captures") || !r.at("captures").is_array() || r.at("captures").empty())
-    throw JobInputError("request.captures must list the capture jobs to use");
-  std::vector<Vec3> pts;
-  Evidence e;
-  for (const auto& c : r.at("captures")) {
-    if (!c.is_number_integer()) throw JobInputError("request.captures holds capture job ids");
-    const json stored = ctx.history.ExportJob(c.get<std::int64_t>());
-    if (stored.at("kind") != "capture" || stored.at("status") != "done" ||
-        stored.at("machine") != ctx.machine.name || stored.at("captures").empty())
-      throw JobInputError("job " + std::to_string(c.get<std::int64_t>()) +
-                          " is not a finished capture on " + ctx.machine.name);
-    const json& row = stored.at("captures").at(0);
-    const std::string path = row.at("cloud_path");
-    if (history::Sha256OfFile(path) != row.at("cloud_sha256"))
-      throw JobInputError("the cloud " + path + " changed since it was captured (SHA-256)");
-    const probe_fw::CloudFile f = probe_fw::ReadCloudPly(path);
-    if (!f.meta.mcs_from_flange) throw JobInputError(path + " holds no flange pose");
-    e.probe_serial = f.meta.probe_serial;
-    geometry::Pose3 h = geometry::Pose3::Identity();
-    for (int i = 0; i < 3; ++i)
-      for (int k = 0; k < 4; ++k) h.matrix()(i, k) = (*f.meta.mcs_from_flange)[4 * i + k];
-    const geometry::Pose3 mcs_from_probe = h * flange_from_probe;
-    for (size_t i = 0; i < f.quality.size(); ++i)
-      pts.push_back(mcs_from_probe * Vec3(f.xyz[3 * i], f.xyz[3 * i + 1], f.xyz[3 * i + 2]));
-    ctx.history.AddCapture(job, {row.at("capture_id"), row.at("pose"), path, row.at("cloud_sha256"),
-                                 row.at("points")});
-  }
-  e.points_mcs.resize(3, static_cast<Eigen::Index>(pts.size()));
-  for (size_t i = 0; i < pts.size(); ++i) e.points_mcs.col(static_cast<Eigen::Index>(i)) = pts[i];
-  return e;
-}
-
 }  // namespace
 
 json RunMeasureJob(JobContext& ctx, const json& r) {
-  const auto t0 = Clock::now();
   const MachineConfig& m = ctx.machine;
-  const calib::CalibrationStore store(ctx.config.CalibrationDir());
-  const auto cal = store.Latest(m.probe_serial);
-  const std::int64_t job =
-      ctx.history.StartJob({m.name, "measure", m.probe_serial, cal ? cal->calibration_id : "", r});
-  json reply = {{"job_id", job}, {"machine", m.name}};
-  const auto finish = [&](history::JobStatus s, bool ok) {
-    reply["ok"] = ok;
-    reply["status"] = history::ToString(s);
-    ctx.history.FinishJob(job, s, reply, {{"total", Ms(t0)}});
-    return reply;
-  };
+  JobRun run(ctx, "measure", r);
+  json& reply = run.reply;
+  const std::int64_t job = run.job;
   try {
     const std::string feature = jf::Text<JobInputError>(r, "feature", "request");
     if (feature != "bore") throw JobInputError("feature \"" + feature + "\" is not measured yet");
-    if (!cal)
-      throw JobInputError("probe " + m.probe_serial +
-                          " has no calibration: run "
-                          "`mlp calibrate hand-eye` first");
+    const calib::CalibrationRecord* cal = &run.Calibration();
     const jobs::BoreNominal nominal = ParseBore(r);
-    const Evidence ev = LoadCaptures(ctx, r, cal->flange_from_probe, job);
+    if (!r.contains("captures"))
+      throw JobInputError("request.captures must list the capture jobs to use");
+    const Evidence ev = LoadCaptures(ctx, r.at("captures"), cal->flange_from_probe, job);
     const jobs::BoreMeasurement bore = jobs::MeasureBore(ev.points_mcs, nominal);
     const bool mic = r.value("size", std::string("ls")) == "mic";
     const double size = mic ? bore.diameter_mic_mm : bore.diameter_mm;
@@ -184,7 +101,7 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
     if (!problems.empty()) {
       reply["problems"] = problems;
       reply["error"] = "nothing written: " + problems.front();
-      return finish(history::JobStatus::kRefused, false);
+      return run.Finish(history::JobStatus::kRefused, false);
     }
     nc::NcResult out;
     out.header =
@@ -214,13 +131,12 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
                 "offset " + std::to_string(t.tool) + " " + nc::ToString(t.reg),
                 t.incremental ? json() : json(t.before_mm),
                 t.incremental ? json{{"change_mm", t.after_mm - t.before_mm}} : json(t.after_mm)});
-    return finish(d.verdict == jobs::Verdict::kInTolerance ? history::JobStatus::kInTolerance
-                                                           : history::JobStatus::kOutOfTolerance,
-                  true);
+    return run.Finish(d.verdict == jobs::Verdict::kInTolerance
+                          ? history::JobStatus::kInTolerance
+                          : history::JobStatus::kOutOfTolerance,
+                      true);
   } catch (const std::exception& e) {
-    reply["error"] = e.what();
-    ctx.log("job " + std::to_string(job) + " (measure on " + m.name + ") failed: " + e.what());
-    return finish(history::JobStatus::kFailed, false);
+    return run.Fail(e);
   }
 }
 

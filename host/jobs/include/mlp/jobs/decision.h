@@ -65,6 +65,8 @@ struct PlausibilityLimits {
   double max_rms_mm = 0.010;
   double max_calibration_age_h = 24.0 * 30;
   double max_offset_change_mm = 0.2;  ///< machine safety: no single write moves more
+  double max_work_shift_mm = 5.0;     ///< alignment: found origin vs the expected one
+  double max_tilt_deg = 0.5;  ///< alignment on a machine that turns work offsets about Z only
 };
 
 struct FitEvidence {
@@ -74,6 +76,8 @@ struct FitEvidence {
   std::string calibration_probe, job_probe;
   double calibration_age_h = 0.0;
   std::vector<double> offset_changes_mm;  ///< every change the job would write
+  std::optional<double> work_shift_mm;    ///< alignment: |origin found - origin expected|
+  std::optional<double> tilt_deg;         ///< alignment: work Z against machine Z
 };
 
 /// Empty: fine; otherwise every reason the job must not write (all of them, not the first).

@@ -1,0 +1,78 @@
+#pragma once
+// What the host's jobs share (internal to mlp_service): the job context, request parsing of
+// common parts, and the stored captures mapped into the machine frame.
+
+#include "mlp/calib/record.h"
+#include "mlp/geometry/types.h"
+#include "mlp/history/history.h"
+#include "mlp/jobs/feature.h"
+#include "mlp/service/config.h"
+#include "mlp/service/job_server.h"
+
+#include <chrono>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace mlp::service {
+
+struct JobContext {
+  const HostdConfig& config;
+  const MachineConfig& machine;
+  history::History& history;
+  Log log;
+};
+
+/// A request that cannot be carried out as written: the message names the field.
+class JobInputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+using Clock = std::chrono::steady_clock;
+double Ms(Clock::time_point since);
+/// Hours since an ISO 8601 UTC time; unreadable times count as very old.
+double AgeHours(const std::string& utc);
+
+/// One job's life in the history: started with the probe's latest calibration on
+/// construction, closed once by Finish or Fail with the reply.
+struct JobRun {
+  JobRun(JobContext& ctx, const std::string& kind, const nlohmann::json& request);
+  /// Throws JobInputError when the probe has no calibration.
+  const calib::CalibrationRecord& Calibration() const;
+  nlohmann::json Finish(history::JobStatus status, bool ok);
+  /// Logs the reason and closes the job as failed.
+  nlohmann::json Fail(const std::exception& e);
+
+  JobContext& ctx;
+  std::string kind;
+  Clock::time_point started = Clock::now();
+  std::optional<calib::CalibrationRecord> calibration;
+  std::int64_t job = 0;
+  nlohmann::json reply;
+};
+
+/// {"top_centre_mm", "axis" (default +Z), "diameter_mm", "depth_mm", "band_mm"}.
+jobs::BoreNominal ParseBoreNominal(const nlohmann::json& n, const std::string& where);
+
+struct Evidence {
+  geometry::Points3 points_mcs;
+  std::string probe_serial;
+};
+
+/// The clouds of earlier capture jobs (`capture_jobs`: ids) on this machine, each checked
+/// against the SHA-256 the history holds, mapped into the machine frame with its H and the
+/// calibration's M, and recorded as this job's captures. Throws JobInputError.
+Evidence LoadCaptures(JobContext& ctx,
+                      const nlohmann::json& capture_jobs,
+                      const geometry::Pose3& flange_from_probe,
+                      std::int64_t job);
+
+/// `{"op": "measure", ...}` and `{"op": "align", ...}` (docs/HOSTD.md). Always answer; the
+/// status says how the job ended. Nothing reaches the controller unless every check passed.
+nlohmann::json RunMeasureJob(JobContext& ctx, const nlohmann::json& request);
+nlohmann::json RunAlignJob(JobContext& ctx, const nlohmann::json& request);
+
+}  // namespace mlp::service
