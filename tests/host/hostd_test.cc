@@ -174,6 +174,10 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
   std::snprintf(g10, sizeof g10, "G10 L1 P12 R%.4f\n", 4.999 + change);
   EXPECT_NE(text.find(g10), std::string::npos) << text;
   EXPECT_NE(text.find("#<_mlp_status> = 0.0000"), std::string::npos) << text;
+  // The picture for the operator.
+  const std::string svg = test::ReadText(reply.at("report").get<std::string>());
+  EXPECT_NE(svg.find(">in tolerance<"), std::string::npos);
+  EXPECT_NE(svg.find("least squares D 40.0000 mm"), std::string::npos);
   // Refused: a change beyond the machine's limit writes nothing (the limit is 0.2 mm).
   measure["nominal"]["diameter_mm"] = 40.5;
   measure["tolerance"] = {{"upper_mm", 1.0}, {"lower_mm", 1.0}};

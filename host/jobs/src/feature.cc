@@ -14,10 +14,33 @@ namespace {
 using geometry::Vec3;
 constexpr int kMinWallPoints = 50;
 
-// Any two unit vectors perpendicular to `axis` and to each other.
+// Two unit vectors perpendicular to `axis` and to each other: machine X projected first (so a
+// vertical bore's angles count from +X like a drawing's), any perpendicular when X is the axis.
 void Basis(const Vec3& axis, Vec3* u, Vec3* v) {
-  *u = axis.unitOrthogonal();
+  const Vec3 x = Vec3::UnitX() - axis.dot(Vec3::UnitX()) * axis;
+  *u = x.norm() > 0.1 ? Vec3(x.normalized()) : Vec3(axis.unitOrthogonal());
   *v = axis.cross(*u);
+}
+
+// Mean radial deviation from the cylinder per 1-degree bin.
+std::vector<double> Profile(const geometry::Points3& pts,
+                            const Vec3& centre,
+                            const Vec3& axis,
+                            double radius) {
+  Vec3 u, v;
+  Basis(axis, &u, &v);
+  std::vector<double> sum(360, 0.0), count(360, 0.0);
+  for (Eigen::Index i = 0; i < pts.cols(); ++i) {
+    const Vec3 d = pts.col(i) - centre;
+    const Vec3 radial = d - d.dot(axis) * axis;
+    double deg = std::atan2(radial.dot(v), radial.dot(u)) * 180.0 / M_PI;
+    if (deg < 0) deg += 360.0;
+    const int bin = std::min(359, static_cast<int>(deg));
+    sum[static_cast<size_t>(bin)] += radial.norm() - radius;
+    count[static_cast<size_t>(bin)] += 1.0;
+  }
+  for (size_t b = 0; b < 360; ++b) sum[b] = count[b] > 0 ? sum[b] / count[b] : std::nan("");
+  return sum;
 }
 
 // 360 deg minus the largest gap between the points' angles around the axis.
@@ -76,6 +99,7 @@ BoreMeasurement MeasureBore(const geometry::Points3& points, const BoreNominal& 
   m.max_abs_mm = std::max(-fit.stats.min_residual, fit.stats.max_residual);
   m.points = static_cast<int>(wall.size());
   m.arc_span_deg = ArcSpanDeg(pts, m.top_centre_mcs, m.axis_mcs);
+  m.deviation_by_degree_mm = Profile(pts, m.top_centre_mcs, m.axis_mcs, fit.shape.radius);
   // Functional size: the wall points projected along the fitted axis onto one plane.
   geometry::Points3 flat = pts;
   for (Eigen::Index i = 0; i < flat.cols(); ++i) {

@@ -1,8 +1,12 @@
 #include "mlp/calib/record.h"
 #include "mlp/jobs/decision.h"
 #include "mlp/jobs/feature.h"
+#include "mlp/jobs/report.h"
+#include "mlp/nc/tool_table.h"
 #include "mlp/probe_fw/json_fields.h"
 #include "mlp/service/adapters.h"
+
+#include <filesystem>
 
 #include "job_common.h"
 
@@ -41,6 +45,33 @@ jobs::Feedback ParseUpdate(const json& r, double change_per_error) {
   f.upper_limit_mm = jf::NumberOr<JobInputError>(u, "upper_limit_mm", f.upper_limit_mm, w);
   f.experience_mm = jf::NumberOr<JobInputError>(u, "experience_mm", f.experience_mm, w);
   return f;
+}
+
+// The picture for the operator: data_dir/reports/<machine>-job<N>.svg.
+std::string WriteReport(JobContext& ctx,
+                        std::int64_t job,
+                        const jobs::BoreMeasurement& bore,
+                        const jobs::SizeSpec& spec,
+                        double size,
+                        const jobs::SizeDecision& d,
+                        const json& reply) {
+  jobs::BoreReport rep;
+  rep.title = "job " + std::to_string(job) + " - bore - " + ctx.machine.name;
+  rep.nominal_mm = spec.nominal_mm;
+  rep.upper_tol_mm = spec.upper_tol_mm;
+  rep.lower_tol_mm = spec.lower_tol_mm;
+  rep.bore = bore;
+  rep.size_mm = size;
+  rep.error_mm = d.error_mm;
+  rep.verdict = jobs::ToString(d.verdict);
+  rep.decision = d.reason;
+  rep.time_utc = reply.value("time_utc", "");
+  const std::filesystem::path dir(ctx.config.ReportDir());
+  std::filesystem::create_directories(dir);
+  const std::string path =
+      (dir / (ctx.machine.name + "-job" + std::to_string(job) + ".svg")).string();
+  nc::WriteFileAtomically(path, jobs::BoreReportSvg(rep));
+  return path;
 }
 
 }  // namespace
@@ -122,6 +153,7 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
                          {"change_mm", d.offset_change_mm}};
       if (!note.empty()) reply["update"]["note"] = note;
     }
+    reply["report"] = WriteReport(ctx, job, bore, spec, size, d, reply);
     const bool alarm = d.verdict == jobs::Verdict::kUpperLimitExceeded;
     if (alarm) reply["alarm"] = d.reason;
     reply["files"] = WriteResult(m.controller, m.name, job, out, reply);

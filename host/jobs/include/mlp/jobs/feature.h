@@ -7,6 +7,7 @@
 #include "mlp/geometry/types.h"
 
 #include <stdexcept>
+#include <vector>
 
 namespace mlp::jobs {
 
@@ -30,13 +31,17 @@ struct BoreNominal {
 struct BoreMeasurement {
   geometry::Vec3 top_centre_mcs = geometry::Vec3::Zero();  ///< fitted axis at the nominal top
   geometry::Vec3 axis_mcs = geometry::Vec3::UnitZ();
-  double diameter_mm = 0.0;      ///< least-squares cylinder
+  double diameter_mm = 0.0;  ///< least-squares cylinder
   /// Maximum inscribed circle of the wall points (functional); 0 when they do not enclose a
   /// centre (an arc of 180 deg or less).
   double diameter_mic_mm = 0.0;
   double rms_mm = 0.0, max_abs_mm = 0.0;
   int points = 0;
   double arc_span_deg = 0.0;  ///< 360 minus the largest angular gap between wall points
+  /// Radial deviation from the fitted cylinder [mm] per degree of angle around the axis (mean of
+  /// the points in each 1-degree bin; NaN where none): the roundness profile a report draws.
+  /// Angles from the axis' first perpendicular (machine +X for a vertical bore).
+  std::vector<double> deviation_by_degree_mm;
 };
 
 /// Throws FeatureError (fewer than 50 wall points) or geometry::GeometryError (degenerate).
