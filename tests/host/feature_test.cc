@@ -75,5 +75,32 @@ TEST(Bore, ShortArcsAndMissingWallsAreSaid) {
   EXPECT_THROW(MeasureBore(BorePoints(60.0, 0, 0, 360, 4), n), FeatureError);  // no nominal
 }
 
+TEST(Plane, FaceThroughChipsAndBurrs) {
+  std::mt19937 rng(9);
+  std::normal_distribution<double> noise(0, kNoiseMm);
+  std::uniform_real_distribution<double> u(-20, 20);
+  const Vec3 normal = Vec3(0.001, -0.002, 1).normalized();  // a face 0.13 deg off level
+  std::vector<Vec3> p;
+  for (int i = 0; i < 5000; ++i) {
+    const Vec3 q(u(rng), u(rng), 0);
+    p.push_back(q - (q.dot(normal) - 5.0 * normal.z()) / normal.z() * Vec3::UnitZ() +
+                noise(rng) * normal);
+  }
+  for (int i = 0; i < 50; ++i) p.emplace_back(u(rng), u(rng), 5.0 + 0.05);  // chips, 50 um
+  for (int i = 0; i < 500; ++i) p.emplace_back(u(rng), u(rng), 2.0);        // a lower step
+  geometry::Points3 m(3, static_cast<Eigen::Index>(p.size()));
+  for (size_t i = 0; i < p.size(); ++i) m.col(static_cast<Eigen::Index>(i)) = p[i];
+  PlaneNominal n;
+  n.point_mcs = Vec3(0, 0, 5), n.normal_mcs = Vec3::UnitZ();
+  const PlaneMeasurement f = MeasurePlane(m, n);
+  EXPECT_NEAR(f.plane.normal.dot(normal), 1.0, 1e-9);
+  EXPECT_NEAR((f.plane.point - Vec3(0, 0, 5)).dot(normal), 0.0, 0.0002);
+  EXPECT_NEAR(f.rms_mm, kNoiseMm, 0.2 * kNoiseMm);
+  EXPECT_GE(f.trimmed, 50);     // the chips
+  EXPECT_LE(f.points, 5000);    // the step is outside the band
+  n.point_mcs = Vec3(0, 0, 8);  // no face there
+  EXPECT_THROW(MeasurePlane(m, n), FeatureError);
+}
+
 }  // namespace
 }  // namespace mlp::jobs

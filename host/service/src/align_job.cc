@@ -1,6 +1,5 @@
 #include "mlp/calib/record.h"
 #include "mlp/geometry/datum.h"
-#include "mlp/geometry/robust.h"
 #include "mlp/jobs/decision.h"
 #include "mlp/probe_fw/json_fields.h"
 #include "mlp/service/adapters.h"
@@ -17,48 +16,24 @@ using json = nlohmann::json;
 using geometry::Plane;
 using geometry::Vec3;
 
-constexpr double kPlaneBandMm = 0.2;  // points this close to the nominal plane belong to it
-constexpr int kMinPlanePoints = 50;
-
-struct PlaneFeature {
-  Plane plane;
-  double rms_mm = 0.0;
-  int points = 0;
-};
-
-// A face from the captures: points within a band of the nominal plane (and within `within_mm`
-// of its nominal point, when given), then a robust plane fit (a chip or a burr is an outlier).
-PlaneFeature MeasurePlane(JobContext& ctx,
-                          const json& f,
-                          const std::string& w,
-                          const geometry::Pose3& m,
-                          std::int64_t job,
-                          std::string* probe) {
+// A face from the captures, segmented by its nominal (jobs::MeasurePlane).
+jobs::PlaneMeasurement MeasureFace(JobContext& ctx,
+                                   const json& f,
+                                   const std::string& w,
+                                   const geometry::Pose3& m,
+                                   std::int64_t job,
+                                   std::string* probe) {
   const json& n = jf::Object<JobInputError>(f, "nominal", w);
-  const Vec3 p0 = jf::Vector3<JobInputError>(n, "point_mm", w + ".nominal");
-  const Vec3 n0 = jf::Vector3<JobInputError>(n, "normal", w + ".nominal").normalized();
-  const double band = jf::NumberOr<JobInputError>(n, "band_mm", kPlaneBandMm, w + ".nominal");
-  const double within = jf::NumberOr<JobInputError>(n, "within_mm", 1e9, w + ".nominal");
+  jobs::PlaneNominal nominal;
+  nominal.point_mcs = jf::Vector3<JobInputError>(n, "point_mm", w + ".nominal");
+  nominal.normal_mcs = jf::Vector3<JobInputError>(n, "normal", w + ".nominal");
+  nominal.band_mm = jf::NumberOr<JobInputError>(n, "band_mm", nominal.band_mm, w + ".nominal");
+  nominal.within_mm =
+      jf::NumberOr<JobInputError>(n, "within_mm", nominal.within_mm, w + ".nominal");
   if (!f.contains("captures")) throw JobInputError(w + ".captures must list capture jobs");
   const Evidence ev = LoadCaptures(ctx, f.at("captures"), m, job);
   *probe = ev.probe_serial;
-  std::vector<Eigen::Index> keep;
-  for (Eigen::Index i = 0; i < ev.points_mcs.cols(); ++i) {
-    const Vec3 d = ev.points_mcs.col(i) - p0;
-    const double h = d.dot(n0);
-    if (std::abs(h) < band && (d - h * n0).norm() < within) keep.push_back(i);
-  }
-  if (static_cast<int>(keep.size()) < kMinPlanePoints)
-    throw JobInputError(w + ": " + std::to_string(keep.size()) +
-                        " points near the nominal plane, at least " +
-                        std::to_string(kMinPlanePoints) + " needed");
-  geometry::Points3 pts(3, static_cast<Eigen::Index>(keep.size()));
-  for (size_t k = 0; k < keep.size(); ++k)
-    pts.col(static_cast<Eigen::Index>(k)) = ev.points_mcs.col(keep[k]);
-  const auto fit = geometry::FitPlaneRobust(pts);
-  PlaneFeature out{fit.fit.shape, fit.fit.stats.rms, static_cast<int>(fit.inliers.size())};
-  if (out.plane.normal.dot(n0) < 0) out.plane.normal = -out.plane.normal;
-  return out;
+  return jobs::MeasurePlane(ev.points_mcs, nominal);
 }
 
 // Where a bore's fitted axis meets the plane.
@@ -95,8 +70,9 @@ json RunAlignJob(JobContext& ctx, const json& r) {
     const std::string method = jf::Text<JobInputError>(r, "method", "request");
     const int index = jf::Integer<JobInputError>(r, "work_offset", "request");
     std::string probe;
-    const PlaneFeature a = MeasurePlane(ctx, jf::Object<JobInputError>(r, "plane_a", "request"),
-                                        "request.plane_a", cal->flange_from_probe, job, &probe);
+    const jobs::PlaneMeasurement a =
+        MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_a", "request"), "request.plane_a",
+                    cal->flange_from_probe, job, &probe);
     jobs::FitEvidence fe;
     fe.points = a.points;
     fe.rms_mm = a.rms_mm;
@@ -126,10 +102,12 @@ json RunAlignJob(JobContext& ctx, const json& r) {
       fe.arc_span_deg = min_span;
       mcs_from_work = geometry::DatumPlaneCircleCircle(a.plane, centres[0], centres[1]);
     } else if (method == "plane-plane-plane") {
-      const PlaneFeature b = MeasurePlane(ctx, jf::Object<JobInputError>(r, "plane_b", "request"),
-                                          "request.plane_b", cal->flange_from_probe, job, &probe);
-      const PlaneFeature c = MeasurePlane(ctx, jf::Object<JobInputError>(r, "plane_c", "request"),
-                                          "request.plane_c", cal->flange_from_probe, job, &probe);
+      const jobs::PlaneMeasurement b =
+          MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_b", "request"), "request.plane_b",
+                      cal->flange_from_probe, job, &probe);
+      const jobs::PlaneMeasurement c =
+          MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_c", "request"), "request.plane_c",
+                      cal->flange_from_probe, job, &probe);
       fe.rms_mm = std::max({a.rms_mm, b.rms_mm, c.rms_mm});
       fe.points = std::min({a.points, b.points, c.points});
       // 3-2-1: A's normal is Z, the edge where B meets A sets X, C fixes the origin along it.

@@ -6,6 +6,7 @@
 
 #include "mlp/geometry/types.h"
 
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -46,5 +47,25 @@ struct BoreMeasurement {
 
 /// Throws FeatureError (fewer than 50 wall points) or geometry::GeometryError (degenerate).
 BoreMeasurement MeasureBore(const geometry::Points3& points_mcs, const BoreNominal& nominal);
+
+struct PlaneNominal {
+  geometry::Vec3 point_mcs = geometry::Vec3::Zero();
+  geometry::Vec3 normal_mcs = geometry::Vec3::UnitZ();
+  double band_mm = 0.2;    ///< points this close to the nominal plane belong to it
+  double within_mm = 1e9;  ///< and this close to its nominal point (along the plane)
+};
+
+struct PlaneMeasurement {
+  geometry::Plane plane;  ///< normal on the nominal's side
+  double rms_mm = 0.0;
+  int points = 0;   ///< used in the final fit
+  int trimmed = 0;  ///< dropped as outliers (chips, burrs, edges)
+};
+
+/// A face: the points in the nominal's band, least squares, then iterated trimming of points
+/// beyond 3 RMS (a chip or a burr is not the face) until none is dropped. Linear in the points
+/// (15,000 points: well under a millisecond; an MSAC consensus search took 170 ms and is not
+/// needed once the nominal has segmented the face). Throws FeatureError (fewer than 50 points).
+PlaneMeasurement MeasurePlane(const geometry::Points3& points_mcs, const PlaneNominal& nominal);
 
 }  // namespace mlp::jobs
