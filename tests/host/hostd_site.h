@@ -136,17 +136,17 @@ inline bool ProbeConnected(const Site& site) {
 }
 
 // Every capture of `scene` whose id starts with `prefix`, taken through the service on
-// `machine` (AOI 300 x 200 px at the sensor's centre, every second column reaching it): the
-// capture job ids in the scene's order.
+// `machine` (default AOI 300 x 200 px at the sensor's centre; every second column reaching
+// it): the capture job ids in the scene's order.
 inline std::vector<std::int64_t> CaptureSceneViews(const Site& site,
                                                    const std::string& machine,
                                                    const std::string& scene,
-                                                   const std::string& prefix) {
+                                                   const std::string& prefix,
+                                                   probe_fw::Aoi aoi = {874, 668, 300, 200}) {
   const sim::VirtualProbe vp(probe_fw::LoadProbeModel(kProbe), sim::LoadScene(scene));
   std::vector<std::int64_t> captures;
   for (const sim::Capture& c : vp.scene().captures) {
     if (c.id.rfind(prefix, 0) != 0) continue;
-    const probe_fw::Aoi aoi{874, 668, 300, 200};
     double first = 0, last = 0;
     vp.ColumnsReaching(c, aoi, &first, &last);
     const auto t = c.mcs_from_flange.translation();

@@ -27,9 +27,12 @@ using test::Site;
 constexpr int kMeasurePort = 17432;           // the measure test's probe link
 constexpr double kBoreDiameterTolMm = 0.002;  // issue 6: bore diameter within 2 um
 constexpr double kBoreCentreTolMm = 0.005;
-constexpr int kAlignPort = 17434;            // the alignment test's probe link
-constexpr double kOriginTolUm = 5.0;         // issue 6: alignment origin within 5 um
-constexpr double kRotationTolArcsec = 10.0;  // and rotation within 10 arcsec
+constexpr int kAlignPort = 17434;                   // the alignment test's probe link
+constexpr double kOriginTolUm = 5.0;                // issue 6: alignment origin within 5 um
+constexpr double kRotationTolArcsec = 10.0;         // and rotation within 10 arcsec
+constexpr int kCalibratePort = 17435;               // the hand-eye test's probe link
+constexpr double kHandEyeTranslationTolMm = 0.002;  // issue 5: M within 2 um
+constexpr double kHandEyeRotationTolArcsec = 5.0;   // and 5 arcsec
 
 json TopFaceCapture() {
   return {{"op", "capture"},
@@ -261,6 +264,101 @@ TEST(Hostd, AlignsThePlateToPlaneCircleCircle) {
   EXPECT_EQ(refused.exit_code, 6) << refused.out;
   EXPECT_NE(refused.err.find("from where it was expected"), std::string::npos) << refused.err;
   EXPECT_FALSE(fs::exists(site.dir / "lcnc" / "mlp_result.ngc"));
+}
+
+// A sphere scene for the hand-eye: the reference sphere (R 12.7) on the table, the probe mounted
+// with a known M, captures from directions on a cone around the sphere with the spindle
+// oriented differently each time (translations alone would not determine M and c).
+constexpr int kSphereViews = 8;
+json SphereScene(const geometry::Pose3& flange_from_probe, const geometry::Vec3& centre) {
+  json captures = json::array();
+  for (int k = 0; k < kSphereViews; ++k) {
+    const double tilt = (10.0 + 25.0 * (k % 3) / 2.0) * M_PI / 180,
+                 az = k * 2 * M_PI / kSphereViews;
+    const geometry::Vec3 view(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az),
+                              -std::cos(tilt));  // camera z: towards the sphere
+    geometry::Pose3 mcs_from_probe = geometry::Pose3::Identity();
+    const geometry::Vec3 x = view.unitOrthogonal();
+    const double roll = 0.7 * k;  // spindle orientation (M19)
+    const geometry::Vec3 xr = std::cos(roll) * x + std::sin(roll) * view.cross(x);
+    mcs_from_probe.linear() << xr, view.cross(xr), view;
+    // The sphere at different places in the view and distances: were it always on the optical
+    // axis at one range, M's tilt would trade against its offset along the axis.
+    const geometry::Vec3 in_view(4.0 * std::cos(1.9 * k), 3.0 * std::sin(2.3 * k),
+                                 118.0 + 8.0 * std::sin(1.3 * k));
+    mcs_from_probe.translation() = centre - mcs_from_probe.linear() * in_view;
+    const geometry::Pose3 h = mcs_from_probe * flange_from_probe.inverse();
+    const Eigen::AngleAxisd r(h.linear());
+    const geometry::Vec3 rv = r.axis() * r.angle(), t = h.translation();
+    captures.push_back({{"id", "sphere_" + std::to_string(k)},
+                        {"mcs_from_flange",
+                         {{"translation_mm", {t.x(), t.y(), t.z()}},
+                          {"rotation_vector_rad", {rv.x(), rv.y(), rv.z()}}}}});
+  }
+  const Eigen::AngleAxisd m(flange_from_probe.linear());
+  const geometry::Vec3 mv = m.axis() * m.angle(), mt = flange_from_probe.translation();
+  return {{"format", "mlprobe-scene/1"},
+          {"flange_from_probe",
+           {{"translation_mm", {mt.x(), mt.y(), mt.z()}},
+            {"rotation_vector_rad", {mv.x(), mv.y(), mv.z()}}}},
+          {"workpiece",
+           {{"sphere", {{"center", {centre.x(), centre.y(), centre.z()}}, {"radius", 12.7}}},
+            {"reflectance", 0.6}}},
+          {"captures", captures}};
+}
+
+TEST(Hostd, CalibratesTheProbeAndRechecksIt) {
+  Site site("calibrate", kCalibratePort);
+  geometry::Pose3 m = geometry::Pose3::Identity();
+  m.linear() =
+      Eigen::AngleAxisd(1.5 * M_PI / 180, geometry::Vec3(1, 1, 0).normalized()).toRotationMatrix();
+  m.translation() = geometry::Vec3(4.0, -2.5, 35.0);
+  const std::string scene = (site.dir / "sphere.json").string();
+  std::ofstream(scene) << SphereScene(m, geometry::Vec3(200, 100, -250)).dump(1);
+  Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+  Child probe({kSim, "serve", "--probe", kProbe, "--scene", scene, "--port",
+               std::to_string(kCalibratePort), "--key", (site.dir / "probe.key").string()},
+              site.dir / "sim.log");
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const auto captures =
+      test::CaptureSceneViews(site, "vmc-1", scene, "sphere_", {824, 618, 400, 300});
+  ASSERT_EQ(captures.size(), static_cast<size_t>(kSphereViews));
+  const json request = {{"op", "calibrate"},
+                        {"machine", "vmc-1"},
+                        {"captures", captures},
+                        {"sphere_radius_mm", 12.7}};
+  const auto run = site.Mlp("request " + site.Request("calibrate", request));
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const json reply = json::parse(run.out);
+  const auto& t = reply.at("flange_from_probe").at("translation_mm");
+  const geometry::Vec3 found(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
+  const auto& rv = reply.at("flange_from_probe").at("rotation_vector_rad");
+  const geometry::Vec3 v(rv[0].get<double>(), rv[1].get<double>(), rv[2].get<double>());
+  const Eigen::AngleAxisd d(Eigen::AngleAxisd(v.norm(), v.normalized()).toRotationMatrix() *
+                            m.linear().transpose());
+  std::printf(
+      "hand-eye through the service: M translation error %.3f um, rotation error %.2f "
+      "arcsec, point RMS %.2f um\n",
+      (found - m.translation()).norm() * 1e3, d.angle() * 180 / M_PI * 3600,
+      reply.at("point_rms_mm").get<double>() * 1e3);
+  EXPECT_LT((found - m.translation()).norm(), kHandEyeTranslationTolMm);
+  EXPECT_LT(d.angle() * 180 / M_PI * 3600, kHandEyeRotationTolArcsec);
+  ASSERT_TRUE(fs::exists(site.dir / "data" / "calibrations" / "MLP-REF-0001"));
+  // A recheck with the same probe: nothing moved; a new record corrects the original.
+  json recheck = request;
+  recheck["op"] = "recheck";
+  recheck["captures"] = {captures[0], captures[3], captures[6]};
+  const auto again = site.Mlp("request " + site.Request("recheck", recheck));
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  const json r2 = json::parse(again.out);
+  EXPECT_EQ(r2.at("parent_id"), reply.at("calibration_id"));
+  EXPECT_LT(r2.at("residual_after_rms_mm").get<double>(), 0.002);
+  // Translations only: under-determined, the job says which poses would fix it.
+  json flat = request;
+  flat["captures"] = {captures[0]};
+  const auto under = site.Mlp("request " + site.Request("under", flat));
+  EXPECT_EQ(under.exit_code, 7);
+  EXPECT_FALSE(under.err.empty());
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <mutex>
 
@@ -95,9 +96,24 @@ struct Hostd::Impl {
     for (auto id : history.CloseInterruptedJobs("the host stopped while the job ran"))
       log("history: job " + std::to_string(id) + " was left running by the last run: failed");
     server.Handle("status", [this](const json&) { return Status(); });
-    server.Handle("capture", [this](const json& r) { return RunOnMachine(r, &Impl::Capture); });
-    server.Handle("measure", [this](const json& r) { return RunOnMachine(r, &Impl::Measure); });
-    server.Handle("align", [this](const json& r) { return RunOnMachine(r, &Impl::Align); });
+    server.Handle("capture", [this](const json& r) {
+      return RunOnMachine(
+          r, [this](const MachineConfig& m, const json& req) { return Capture(m, req); });
+    });
+    // Jobs on stored captures: the same context, one machine at a time.
+    const std::pair<const char*, json (*)(JobContext&, const json&)> jobs[] = {
+        {"measure", &RunMeasureJob},
+        {"align", &RunAlignJob},
+        {"calibrate", &RunCalibrateJob},
+        {"recheck", &RunRecheckJob}};
+    for (const auto& [op, run] : jobs) {
+      server.Handle(op, [this, run = run](const json& r) {
+        return RunOnMachine(r, [&](const MachineConfig& m, const json& req) {
+          JobContext ctx{config, m, history, log};
+          return run(ctx, req);
+        });
+      });
+    }
   }
 
   json Status() {
@@ -133,7 +149,7 @@ struct Hostd::Impl {
             {"history", config.HistoryFile()}};
   }
 
-  using Job = json (Impl::*)(const MachineConfig&, const json&);
+  using Job = std::function<json(const MachineConfig&, const json&)>;
 
   // One job per machine: wait for the machine up to its job timeout, then refuse as busy.
   json RunOnMachine(const json& request, Job job) {
@@ -158,17 +174,7 @@ struct Hostd::Impl {
         s.busy.erase(name);
       }
     } idle{*this, name};
-    return (this->*job)(*m, request);
-  }
-
-  json Measure(const MachineConfig& m, const json& request) {
-    JobContext ctx{config, m, history, log};
-    return RunMeasureJob(ctx, request);
-  }
-
-  json Align(const MachineConfig& m, const json& request) {
-    JobContext ctx{config, m, history, log};
-    return RunAlignJob(ctx, request);
+    return job(*m, request);
   }
 
   json Capture(const MachineConfig& m, const json& request) {

@@ -1,5 +1,6 @@
 #include "job_common.h"
 
+#include "mlp/geometry/datum.h"
 #include "mlp/history/file_hash.h"
 #include "mlp/probe_fw/cloud_file.h"
 #include "mlp/probe_fw/json_fields.h"
@@ -63,14 +64,12 @@ jobs::BoreNominal ParseBoreNominal(const json& n, const std::string& w) {
   return b;
 }
 
-Evidence LoadCaptures(JobContext& ctx,
-                      const json& capture_jobs,
-                      const geometry::Pose3& flange_from_probe,
-                      std::int64_t job) {
+std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
+                                              const json& capture_jobs,
+                                              std::int64_t job) {
   if (!capture_jobs.is_array() || capture_jobs.empty())
     throw JobInputError("captures must list the capture jobs to use");
-  std::vector<Vec3> pts;
-  Evidence e;
+  std::vector<StoredCapture> out;
   for (const auto& c : capture_jobs) {
     if (!c.is_number_integer()) throw JobInputError("request.captures holds capture job ids");
     const json stored = ctx.history.ExportJob(c.get<std::int64_t>());
@@ -84,18 +83,37 @@ Evidence LoadCaptures(JobContext& ctx,
       throw JobInputError("the cloud " + path + " changed since it was captured (SHA-256)");
     const probe_fw::CloudFile f = probe_fw::ReadCloudPly(path);
     if (!f.meta.mcs_from_flange) throw JobInputError(path + " holds no flange pose");
-    e.probe_serial = f.meta.probe_serial;
-    geometry::Pose3 h = geometry::Pose3::Identity();
+    StoredCapture s;
+    s.id = row.at("capture_id");
+    s.probe_serial = f.meta.probe_serial;
     for (int i = 0; i < 3; ++i)
-      for (int k = 0; k < 4; ++k) h.matrix()(i, k) = (*f.meta.mcs_from_flange)[4 * i + k];
-    const geometry::Pose3 mcs_from_probe = h * flange_from_probe;
-    for (size_t i = 0; i < f.quality.size(); ++i)
-      pts.push_back(mcs_from_probe * Vec3(f.xyz[3 * i], f.xyz[3 * i + 1], f.xyz[3 * i + 2]));
+      for (int k = 0; k < 4; ++k)
+        s.mcs_from_flange.matrix()(i, k) = (*f.meta.mcs_from_flange)[4 * i + k];
+    s.points_in_probe = Eigen::Map<const Eigen::Matrix3Xd>(
+        f.xyz.data(), 3, static_cast<Eigen::Index>(f.quality.size()));
     ctx.history.AddCapture(job, {row.at("capture_id"), row.at("pose"), path, row.at("cloud_sha256"),
                                  row.at("points")});
+    out.push_back(std::move(s));
   }
-  e.points_mcs.resize(3, static_cast<Eigen::Index>(pts.size()));
-  for (size_t i = 0; i < pts.size(); ++i) e.points_mcs.col(static_cast<Eigen::Index>(i)) = pts[i];
+  return out;
+}
+
+Evidence LoadCaptures(JobContext& ctx,
+                      const json& capture_jobs,
+                      const geometry::Pose3& flange_from_probe,
+                      std::int64_t job) {
+  Evidence e;
+  std::vector<geometry::Points3> parts;
+  Eigen::Index n = 0;
+  for (StoredCapture& s : LoadStoredCaptures(ctx, capture_jobs, job)) {
+    e.probe_serial = s.probe_serial;
+    n += s.points_in_probe.cols();
+    parts.push_back(
+        geometry::TransformPoints(s.mcs_from_flange * flange_from_probe, s.points_in_probe));
+  }
+  e.points_mcs.resize(3, n);
+  Eigen::Index at = 0;
+  for (const auto& p : parts) e.points_mcs.middleCols(at, p.cols()) = p, at += p.cols();
   return e;
 }
 

@@ -13,6 +13,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -62,6 +63,20 @@ struct Evidence {
   std::string probe_serial;
 };
 
+/// A stored capture: its cloud in the probe frame and the flange pose H it was taken at.
+struct StoredCapture {
+  std::string id, probe_serial;
+  geometry::Pose3 mcs_from_flange = geometry::Pose3::Identity();
+  geometry::Points3 points_in_probe;
+};
+
+/// The clouds of earlier capture jobs (`capture_jobs`: ids) on this machine, each checked
+/// against the SHA-256 the history holds, recorded as this job's captures. Throws
+/// JobInputError.
+std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
+                                              const nlohmann::json& capture_jobs,
+                                              std::int64_t job);
+
 /// The clouds of earlier capture jobs (`capture_jobs`: ids) on this machine, each checked
 /// against the SHA-256 the history holds, mapped into the machine frame with its H and the
 /// calibration's M, and recorded as this job's captures. Throws JobInputError.
@@ -74,5 +89,8 @@ Evidence LoadCaptures(JobContext& ctx,
 /// status says how the job ended. Nothing reaches the controller unless every check passed.
 nlohmann::json RunMeasureJob(JobContext& ctx, const nlohmann::json& request);
 nlohmann::json RunAlignJob(JobContext& ctx, const nlohmann::json& request);
+/// `{"op": "calibrate", ...}` (sphere hand-eye) and `{"op": "recheck", ...}` (seed 002).
+nlohmann::json RunCalibrateJob(JobContext& ctx, const nlohmann::json& request);
+nlohmann::json RunRecheckJob(JobContext& ctx, const nlohmann::json& request);
 
 }  // namespace mlp::service

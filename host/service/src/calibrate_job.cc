@@ -1,0 +1,106 @@
+#include "mlp/calib/hand_eye.h"
+#include "mlp/calib/recheck.h"
+#include "mlp/probe_fw/json_fields.h"
+
+#include "job_common.h"
+
+namespace mlp::service {
+namespace {
+
+namespace jf = probe_fw::json_fields;
+using json = nlohmann::json;
+using geometry::Vec3;
+
+json Vec(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+double Radius(const json& r) {
+  const double radius = jf::Number<JobInputError>(r, "sphere_radius_mm", "request");
+  if (!(radius > 0)) throw JobInputError("request.sphere_radius_mm must be > 0");
+  return radius;
+}
+
+}  // namespace
+
+json RunCalibrateJob(JobContext& ctx, const json& r) {
+  JobRun run(ctx, "calibrate", r);
+  try {
+    calib::HandEyeOptions o;
+    o.sphere_radius_mm = Radius(r);
+    o.max_std_mm = jf::NumberOr<JobInputError>(r, "max_std_mm", o.max_std_mm, "request");
+    if (r.contains("known_centre_mm")) {
+      const json& k = r.at("known_centre_mm");  // [x|null, y|null, z|null]
+      if (!k.is_array() || k.size() != 3)
+        throw JobInputError("request.known_centre_mm is [x, y, z] with null where unknown");
+      for (size_t i = 0; i < 3; ++i)
+        if (k[i].is_number()) o.known_centre_mcs[i] = k[i].get<double>();
+    }
+    if (!r.contains("captures")) throw JobInputError("request.captures must list capture jobs");
+    std::vector<calib::SphereCapture> captures;
+    for (auto& s : LoadStoredCaptures(ctx, r.at("captures"), run.job))
+      captures.push_back({s.id, s.mcs_from_flange, std::move(s.points_in_probe), false});
+    const calib::HandEyeResult h = calib::SolveSphereHandEye(captures, o);
+    const std::string id =
+        calib::CalibrationStore(ctx.config.CalibrationDir())
+            .Save(calib::MakeRecord(ctx.machine.probe_serial, h, captures, o.sphere_radius_mm));
+    const Eigen::AngleAxisd aa(h.flange_from_probe.linear());
+    json sd;
+    for (int k = 0; k < 9; ++k)
+      sd[calib::kHandEyeParameters[static_cast<size_t>(k)]] = std::sqrt(h.covariance(k, k));
+    run.reply.update({{"calibration_id", id},
+                      {"flange_from_probe",
+                       {{"translation_mm", Vec(h.flange_from_probe.translation())},
+                        {"rotation_vector_rad", Vec(aa.axis() * aa.angle())}}},
+                      {"std_dev", sd},
+                      {"sphere_centre_mcs_mm", Vec(h.centre_mcs)},
+                      {"point_rms_mm", h.point_rms_mm},
+                      {"points_used", h.points_used},
+                      {"centre_spread_rms_mm", h.centre_spread_rms_mm},
+                      {"warnings", h.warnings}});
+    ctx.history.AddResult(run.job, {"hand-eye", run.reply, json::object()});
+    return run.Finish(history::JobStatus::kDone, true);
+  } catch (const calib::HandEyeError& e) {
+    run.reply["proposals"] = e.proposals();  // the poses that would determine it
+    return run.Fail(e);
+  } catch (const std::exception& e) {
+    return run.Fail(e);
+  }
+}
+
+json RunRecheckJob(JobContext& ctx, const json& r) {
+  JobRun run(ctx, "recheck", r);
+  try {
+    const calib::CalibrationStore store(ctx.config.CalibrationDir());
+    const auto original = store.Latest(ctx.machine.probe_serial, calib::RecordKind::kHandEye);
+    if (!original)
+      throw JobInputError("probe " + ctx.machine.probe_serial +
+                          " has no full calibration to recheck against");
+    calib::RecheckOptions o;
+    o.sphere_radius_mm = Radius(r);
+    o.original_flange_from_probe = original->flange_from_probe;
+    o.original_centre_mcs = original->sphere_centre_mcs;
+    o.sphere_moved = r.value("sphere_moved", false);
+    if (!r.contains("captures")) throw JobInputError("request.captures must list capture jobs");
+    std::vector<calib::RecheckCapture> captures;
+    for (auto& s : LoadStoredCaptures(ctx, r.at("captures"), run.job))
+      captures.push_back({s.id, s.mcs_from_flange, std::move(s.points_in_probe)});
+    const calib::RecheckResult c = calib::Recheck(captures, o);
+    run.reply.update({{"parent_id", original->calibration_id},
+                      {"offset_in_flange_mm", Vec(c.offset_in_flange_mm)},
+                      {"rotation_in_flange_rad", Vec(c.rotation_in_flange_rad)},
+                      {"centre_shift_mm", Vec(c.centre_shift_mm)},
+                      {"residual_after_rms_mm", c.residual_after_rms_mm},
+                      {"apparent_radius_change_mm", c.apparent_radius_change_mm},
+                      {"not_determined", c.not_determined}});
+    ctx.history.AddResult(run.job, {"recheck", run.reply, json::object()});
+    if (c.full_calibration_required) {
+      run.reply["error"] = "full calibration required: " + c.reason;
+      return run.Finish(history::JobStatus::kRefused, false);
+    }
+    run.reply["calibration_id"] = store.Save(calib::MakeRecord(*original, c, captures));
+    return run.Finish(history::JobStatus::kDone, true);
+  } catch (const std::exception& e) {
+    return run.Fail(e);
+  }
+}
+
+}  // namespace mlp::service
