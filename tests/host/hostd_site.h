@@ -119,11 +119,11 @@ struct Site {
 };
 
 // The probe's calibration as the scene mounts it (a hand-eye record in the site's store).
-inline void SaveSceneCalibration(const Site& site) {
+inline void SaveSceneCalibration(const Site& site, const std::string& scene = kScene) {
   calib::CalibrationRecord cal;
   cal.probe_serial = "MLP-REF-0001";
   cal.kind = calib::RecordKind::kHandEye;
-  cal.flange_from_probe = sim::LoadScene(kScene).flange_from_probe;
+  cal.flange_from_probe = sim::LoadScene(scene).flange_from_probe;
   calib::CalibrationStore((site.dir / "data" / "calibrations").string()).Save(cal);
 }
 

@@ -204,7 +204,7 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
 // and C -> G54 with its rotation about Z, against the scene's truth.
 TEST(Hostd, AlignsThePlateToPlaneCircleCircle) {
   Site site("align", kAlignPort);
-  test::SaveSceneCalibration(site);
+  test::SaveSceneCalibration(site, test::kDemoPlate);
   Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
   Child probe({kSim, "serve", "--probe", kProbe, "--scene", test::kDemoPlate, "--port",
                std::to_string(kAlignPort), "--key", (site.dir / "probe.key").string()},
