@@ -21,19 +21,19 @@ constexpr const char* kUsage =
     "  fit       fit a shape to a point cloud file (mlp fit --help)\n"
     "  calibrate sphere hand-eye, quick re-calibration, calibration records\n"
     "            (mlp calibrate --help; runs mlp-calibrate beside this program)\n"
+    "  demo      the whole job on the virtual machine (runs mlp-demo beside this program)\n"
     "  status    the host service's health: probes, machines (mlp-hostd must run)\n"
     "  request   send a job request (JSON) to mlp-hostd and print its reply\n"
     "  history   list or export the job history (mlp history --help)\n"
     "  --version print the version\n";
 
-// Replaces this process with mlp-calibrate from the same folder (it links Ceres and OpenCV,
-// which `mlp` itself does not load).
-int RunCalibrate(char** argv) {
+// Replaces this process with `name` from the same folder (mlp-calibrate links Ceres and OpenCV,
+// mlp-demo the simulator: `mlp` itself loads neither).
+int RunSibling(char** argv, const char* name) {
   std::error_code ec;
   const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
-  const std::string program =
-      (ec ? std::filesystem::path(argv[0]) : self).parent_path() / "mlp-calibrate";
-  argv[1] = const_cast<char*>("mlp-calibrate");
+  const std::string program = (ec ? std::filesystem::path(argv[0]) : self).parent_path() / name;
+  argv[1] = const_cast<char*>(name);
   execv(program.c_str(), argv + 1);
   std::cerr << "mlp: cannot run " << program << ": " << std::strerror(errno) << "\n";
   return mlp::host::kExitInternal;
@@ -51,7 +51,8 @@ int main(int argc, char** argv) {
     std::cout << "mlp " << MLP_VERSION << "\n";
     return mlp::host::kExitOk;
   }
-  if (args[0] == "calibrate") return RunCalibrate(argv);
+  if (args[0] == "calibrate") return RunSibling(argv, "mlp-calibrate");
+  if (args[0] == "demo") return RunSibling(argv, "mlp-demo");
   if (args[0] == "fit") {
     return mlp::host::RunFitCommand({args.begin() + 1, args.end()}, std::cout, std::cerr);
   }

@@ -69,6 +69,15 @@ std::vector<std::string> WriteResult(const ControllerConfig& c,
     const fs::path p = dir / "mlp_result.ngc";
     nc::WriteFileAtomically(p.string(), nc::LinuxCncSubroutine("mlp_result", r));
     files.push_back(p.string());
+    if (c.write_tool_table && !r.tools.empty()) {
+      nc::ToolTable table = nc::LoadToolTable(c.tool_table);
+      for (const nc::ToolOffsetChange& t : r.tools) {
+        const bool length = t.reg == nc::ToolRegister::kLengthGeometry;
+        table.Set(t.tool, length ? 'Z' : 'D', length ? t.after_mm : 2 * t.after_mm);
+      }
+      nc::SaveToolTable(table, c.tool_table);
+      files.push_back(c.tool_table);
+    }
   } else if (c.kind == ControllerConfig::Kind::kFanucStyle) {
     const fs::path p = dir / (stem + ".nc");
     nc::WriteFileAtomically(p.string(), nc::FanucStyleSnippet(c.map, r));

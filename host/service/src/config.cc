@@ -60,6 +60,8 @@ ControllerConfig ParseController(const Reader& r, const json& m, const std::stri
   if (kind == "linuxcnc") {
     c.kind = ControllerConfig::Kind::kLinuxCnc;
     c.tool_table = r.Path(j, "tool_table", cw);
+    c.write_tool_table = j.contains("write_tool_table") && j.at("write_tool_table").is_boolean() &&
+                         j.at("write_tool_table").get<bool>();
   } else if (kind == "fanuc" || kind == "haas" || kind == "syntec") {
     c.kind = ControllerConfig::Kind::kFanucStyle;
     c.map = kind == "fanuc" ? nc::FanucMap() : kind == "haas" ? nc::HaasMap() : nc::SyntecMap();

@@ -28,6 +28,10 @@ struct ControllerConfig {
   enum class Kind { kLinuxCnc, kFanucStyle, kFiles };
   Kind kind = Kind::kFiles;
   std::string tool_table;  ///< LinuxCNC: the .tbl file (values before a change are read here)
+  /// LinuxCNC: the host also writes the tool table file itself (atomically), for a controller
+  /// that reloads it (G10 L0) or is not running; otherwise only the result subroutine's
+  /// G10 L1 lines change it, when the program calls it.
+  bool write_tool_table = false;
   std::string result_dir;  ///< where results go: NC subroutine / snippet, JSON and CSV
   nc::NcMap map;           ///< Fanuc-style controls
 };
