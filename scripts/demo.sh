@@ -1,12 +1,18 @@
 #!/usr/bin/env bash
-# The README's main job: install, build, and run the fits on the sample clouds (ground truth in
-# samples/clouds/README.md), the virtual probe through the firmware, camera/projector and
-# hand-eye calibration. Later issues extend it to the full job on the virtual probe.
+# The README's main job: install, build, and run `mlp demo` (the whole job on the virtual
+# machine: mlp-hostd, a virtual probe, hand-eye calibration, alignment -> G54, the bore before
+# its finishing pass -> the finishing tool's radius in the tool table); then the pieces one by
+# one: fits on the sample clouds (ground truth in samples/clouds/README.md), the virtual probe
+# through the firmware, camera/projector calibration, the hand-eye on real line-scanner data.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
 bash scripts/build.sh
 mlp=build/bin/mlp
+echo "== The whole job on the virtual machine"
+echo "\$ mlp demo"
+"$mlp" demo
+echo
 run() { echo; echo "\$ mlp fit $*"; "$mlp" fit --text "$@"; }
 echo "== Reference ball (d 25.4 mm at 250, -120, -310) with 2 % specks: robust vs plain least squares"
 run sphere --method robust samples/clouds/reference_ball_cap.xyz

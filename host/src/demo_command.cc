@@ -285,7 +285,7 @@ int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std:
     const fs::path scene = d.samples / "scenes" / "demo_plate.json";
     const fs::path probe = d.samples / "probes" / "reference_probe.json";
     WriteSite(d);
-    out << "mlp demo: the virtual machine in " << d.dir.string() << "\n";
+    d.out << "mlp demo: the virtual machine in " << d.dir.string() << "\n";
     Child hostd({(SelfDir() / "mlp-hostd").string(), "--config", (d.dir / "hostd.json").string()},
                 d.dir / "hostd.log");
     WaitFor([&] { return fs::exists(d.socket); }, "mlp-hostd did not start: see hostd.log");
@@ -299,7 +299,7 @@ int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std:
           return s.at("probes").at(0).at("connected").get<bool>();
         },
         "the virtual probe did not connect: see probe.log");
-    out << "   mlp-hostd up, virtual probe MLP-REF-0001 connected\n";
+    d.out << "   mlp-hostd up, virtual probe MLP-REF-0001 connected\n";
     const sim::VirtualProbe vp(probe_fw::LoadProbeModel(probe.string()),
                                sim::LoadScene(scene.string()));
     std::ifstream scene_file(scene);
