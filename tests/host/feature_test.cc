@@ -96,7 +96,10 @@ TEST(Plane, FaceThroughChipsAndBurrs) {
   EXPECT_NEAR(f.plane.normal.dot(normal), 1.0, 1e-9);
   EXPECT_NEAR((f.plane.point - Vec3(0, 0, 5)).dot(normal), 0.0, 0.0002);
   EXPECT_NEAR(f.rms_mm, kNoiseMm, 0.2 * kNoiseMm);
-  EXPECT_GE(f.trimmed, 50);     // the chips
+  EXPECT_GE(f.trimmed, 50);                // the chips
+  EXPECT_NEAR(f.height_mm, 0.0, 0.0002);   // the face is where the nominal says
+  EXPECT_GT(f.flatness_mm, 4 * kNoiseMm);  // the minimum zone spans the noise, +-3.5 sigma
+  EXPECT_LT(f.flatness_mm, 10 * kNoiseMm);
   EXPECT_LE(f.points, 5000);    // the step is outside the band
   n.point_mcs = Vec3(0, 0, 8);  // no face there
   EXPECT_THROW(MeasurePlane(m, n), FeatureError);

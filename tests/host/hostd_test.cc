@@ -27,9 +27,10 @@ using test::Site;
 constexpr int kMeasurePort = 17432;           // the measure test's probe link
 constexpr double kBoreDiameterTolMm = 0.002;  // issue 6: bore diameter within 2 um
 constexpr double kBoreCentreTolMm = 0.005;
-constexpr int kAlignPort = 17434;                   // the alignment test's probe link
-constexpr double kOriginTolUm = 5.0;                // issue 6: alignment origin within 5 um
-constexpr double kRotationTolArcsec = 10.0;         // and rotation within 10 arcsec
+constexpr int kAlignPort = 17434;            // the alignment test's probe link
+constexpr double kOriginTolUm = 5.0;         // issue 6: alignment origin within 5 um
+constexpr double kRotationTolArcsec = 10.0;  // and rotation within 10 arcsec
+constexpr double kFaceHeightTolMm = 0.001;
 constexpr int kCalibratePort = 17435;               // the hand-eye test's probe link
 constexpr double kHandEyeTranslationTolMm = 0.002;  // issue 5: M within 2 um
 constexpr double kHandEyeRotationTolArcsec = 5.0;   // and 5 arcsec
@@ -256,6 +257,25 @@ TEST(Hostd, AlignsThePlateToPlaneCircleCircle) {
   const std::string sub = test::ReadText(site.dir / "lcnc" / "mlp_result.ngc");
   EXPECT_NE(sub.find("G10 L2 P1 X"), std::string::npos) << sub;
   EXPECT_NE(sub.find(" R0.35"), std::string::npos) << sub;
+  // The top face's height and flatness with the same captures (nominal z -310, +-0.01).
+  const json face_job = {
+      {"op", "measure"},
+      {"machine", "lcnc-1"},
+      {"feature", "face"},
+      {"captures", face},
+      {"nominal", {{"point_mm", o}, {"normal", {0, 0, 1}}}},
+      {"tolerance", {{"upper_mm", 0.01}, {"lower_mm", 0.01}}},
+      {"flatness_tol_mm", 0.02},
+      {"update", {{"offset", 12}, {"register", "length_wear"}, {"null_band_mm", 0.002}}}};
+  const auto face_run = site.Mlp("request " + site.Request("face", face_job));
+  ASSERT_EQ(face_run.exit_code, 0) << face_run.out << face_run.err;
+  const json face_reply = json::parse(face_run.out);
+  std::printf("face: height %.3f um, flatness %.2f um over %d points\n",
+              face_reply.at("height_mm").get<double>() * 1e3,
+              face_reply.at("flatness_mm").get<double>() * 1e3, face_reply.at("points").get<int>());
+  EXPECT_NEAR(face_reply.at("height_mm").get<double>(), 0.0, kFaceHeightTolMm);
+  EXPECT_EQ(face_reply.at("status"), "in_tolerance");
+  EXPECT_FALSE(face_reply.contains("update"));  // inside the null band
   // A part clamped far from where the macro expects it: refused, nothing written.
   json far = align;
   far["expected_origin_mm"] = {260, 120, -310};

@@ -153,11 +153,16 @@ PlaneMeasurement MeasurePlane(const geometry::Points3& points, const PlaneNomina
     for (Eigen::Index i : keep)
       if (std::abs((points.col(i) - m.plane.point).dot(m.plane.normal)) <= kTrimSigmas * m.rms_mm)
         next.push_back(i);
-    if (next.size() == keep.size()) break;
+    if (next.size() == keep.size()) {
+      m.flatness_mm = geometry::FitMinZonePlane(pts).flatness;
+      break;
+    }
     m.trimmed += static_cast<int>(keep.size() - next.size());
     keep.swap(next);
   }
   if (m.plane.normal.dot(n0) < 0) m.plane.normal = -m.plane.normal;
+  // The fitted plane met by the line through the nominal point along the nominal normal.
+  m.height_mm = (m.plane.point - n.point_mcs).dot(m.plane.normal) / n0.dot(m.plane.normal);
   return m;
 }
 

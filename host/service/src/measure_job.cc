@@ -7,6 +7,7 @@
 #include "mlp/service/adapters.h"
 
 #include <filesystem>
+#include <optional>
 
 #include "job_common.h"
 
@@ -74,6 +75,80 @@ std::string WriteReport(JobContext& ctx,
   return path;
 }
 
+// What a feature's measurement gives the shared decision: the size the tolerance is on, how
+// its error moves an offset, its own numbers for the reply and the plausibility evidence.
+struct Measured {
+  std::string feature, size_name;  ///< size_name: the LinuxCNC parameter (#<_mlp_...>)
+  double size = 0.0;
+  jobs::SizeSpec spec;
+  double change_per_error = 0.5;
+  json fields;
+  jobs::FitEvidence fe;
+  std::string form_problem;  ///< a form tolerance exceeded (flatness): out of tolerance
+  std::optional<jobs::BoreMeasurement> bore;  ///< for the picture
+};
+
+jobs::SizeSpec Spec(const json& r, double nominal) {
+  const json& tol = jf::Object<JobInputError>(r, "tolerance", "request");
+  return {nominal, jf::Number<JobInputError>(tol, "upper_mm", "request.tolerance"),
+          jf::Number<JobInputError>(tol, "lower_mm", "request.tolerance")};
+}
+
+Measured BoreFeature(const json& r, const Evidence& ev) {
+  const jobs::BoreNominal nominal = ParseBore(r);
+  const jobs::BoreMeasurement bore = jobs::MeasureBore(ev.points_mcs, nominal);
+  Measured m;
+  m.feature = "bore", m.size_name = "diameter";
+  m.size = r.value("size", std::string("ls")) == "mic" ? bore.diameter_mic_mm : bore.diameter_mm;
+  m.spec = Spec(r, nominal.diameter_mm);
+  m.change_per_error = 0.5;  // a bore's diameter onto a radius offset: half the error
+  const Vec3& c = bore.top_centre_mcs;
+  m.fields = {{"diameter_mm", bore.diameter_mm},
+              {"diameter_mic_mm", bore.diameter_mic_mm},
+              {"centre_mm", {c.x(), c.y(), c.z()}},
+              {"rms_mm", bore.rms_mm},
+              {"points", bore.points},
+              {"arc_span_deg", bore.arc_span_deg}};
+  m.fe.points = bore.points;
+  m.fe.arc_span_deg = bore.arc_span_deg;
+  m.fe.rms_mm = bore.rms_mm;
+  m.bore = bore;
+  return m;
+}
+
+// A face: its height along the nominal normal (tolerance on it, nominal 0) and its flatness.
+Measured FaceFeature(const json& r, const Evidence& ev) {
+  const json& n = jf::Object<JobInputError>(r, "nominal", "request");
+  jobs::PlaneNominal nominal;
+  nominal.point_mcs = jf::Vector3<JobInputError>(n, "point_mm", "request.nominal");
+  nominal.normal_mcs = jf::Vector3<JobInputError>(n, "normal", "request.nominal");
+  nominal.band_mm = jf::NumberOr<JobInputError>(n, "band_mm", nominal.band_mm, "request.nominal");
+  nominal.within_mm =
+      jf::NumberOr<JobInputError>(n, "within_mm", nominal.within_mm, "request.nominal");
+  const jobs::PlaneMeasurement f = jobs::MeasurePlane(ev.points_mcs, nominal);
+  Measured m;
+  m.feature = "face", m.size_name = "height";
+  m.size = f.height_mm;
+  m.spec = Spec(r, 0.0);
+  // A face proud by e: the tool is e shorter than its length offset says.
+  m.change_per_error = -1.0;
+  const Vec3& nn = f.plane.normal;
+  m.fields = {{"height_mm", f.height_mm},
+              {"flatness_mm", f.flatness_mm},
+              {"normal", {nn.x(), nn.y(), nn.z()}},
+              {"rms_mm", f.rms_mm},
+              {"points", f.points},
+              {"trimmed", f.trimmed}};
+  m.fe.points = f.points;
+  m.fe.rms_mm = f.rms_mm;
+  const double flat_tol = jf::NumberOr<JobInputError>(r, "flatness_tol_mm", 1e9, "request");
+  if (f.flatness_mm > flat_tol)
+    m.form_problem = "flatness " + std::to_string(f.flatness_mm * 1e3).substr(0, 6) +
+                     " um over the tolerance " + std::to_string(flat_tol * 1e3).substr(0, 6) +
+                     " um";
+  return m;
+}
+
 }  // namespace
 
 json RunMeasureJob(JobContext& ctx, const json& r) {
@@ -83,47 +158,36 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
   const std::int64_t job = run.job;
   try {
     const std::string feature = jf::Text<JobInputError>(r, "feature", "request");
-    if (feature != "bore") throw JobInputError("feature \"" + feature + "\" is not measured yet");
+    if (feature != "bore" && feature != "face")
+      throw JobInputError("feature \"" + feature + "\" is not measured yet (bore, face)");
     const calib::CalibrationRecord* cal = &run.Calibration();
-    const jobs::BoreNominal nominal = ParseBore(r);
     if (!r.contains("captures"))
       throw JobInputError("request.captures must list the capture jobs to use");
     const Evidence ev = LoadCaptures(ctx, r.at("captures"), cal->flange_from_probe, job);
-    const jobs::BoreMeasurement bore = jobs::MeasureBore(ev.points_mcs, nominal);
-    const bool mic = r.value("size", std::string("ls")) == "mic";
-    const double size = mic ? bore.diameter_mic_mm : bore.diameter_mm;
-    const json& tol = jf::Object<JobInputError>(r, "tolerance", "request");
-    const jobs::SizeSpec spec{nominal.diameter_mm,
-                              jf::Number<JobInputError>(tol, "upper_mm", "request.tolerance"),
-                              jf::Number<JobInputError>(tol, "lower_mm", "request.tolerance")};
-    // A bore's diameter onto a radius offset: half the error (jobs::Feedback).
-    const jobs::Feedback fb = ParseUpdate(r, 0.5);
-    const jobs::SizeDecision d = jobs::DecideSize(size, spec, fb);
-    const Vec3& c = bore.top_centre_mcs;
-    reply.update({{"feature", "bore"},
-                  {"calibration_id", cal->calibration_id},
-                  {"diameter_mm", bore.diameter_mm},
-                  {"diameter_mic_mm", bore.diameter_mic_mm},
-                  {"size_mm", size},
-                  {"centre_mm", {c.x(), c.y(), c.z()}},
-                  {"rms_mm", bore.rms_mm},
-                  {"points", bore.points},
-                  {"arc_span_deg", bore.arc_span_deg},
-                  {"error_mm", d.error_mm},
-                  {"verdict", jobs::ToString(d.verdict)},
-                  {"reason", d.reason},
-                  {"offset_change_mm", d.offset_change_mm},
-                  {"time_utc", history::UtcNow()}});
-    ctx.history.AddResult(job, {"bore",
+    Measured ms = feature == "bore" ? BoreFeature(r, ev) : FaceFeature(r, ev);
+    const jobs::Feedback fb = ParseUpdate(r, ms.change_per_error);
+    const jobs::SizeDecision d = jobs::DecideSize(ms.size, ms.spec, fb);
+    const bool in_tolerance = d.verdict == jobs::Verdict::kInTolerance && ms.form_problem.empty();
+    const std::string verdict = d.verdict == jobs::Verdict::kInTolerance && !ms.form_problem.empty()
+                                    ? std::string("out of tolerance")
+                                    : jobs::ToString(d.verdict);
+    reply.update(ms.fields);
+    reply.update(
+        {{"feature", ms.feature},
+         {"calibration_id", cal->calibration_id},
+         {"size_mm", ms.size},
+         {"error_mm", d.error_mm},
+         {"verdict", verdict},
+         {"reason", ms.form_problem.empty() ? d.reason : ms.form_problem + "; " + d.reason},
+         {"offset_change_mm", d.offset_change_mm},
+         {"time_utc", history::UtcNow()}});
+    ctx.history.AddResult(job, {ms.feature,
                                 reply,
-                                {{"verdict", jobs::ToString(d.verdict)},
+                                {{"verdict", verdict},
                                  {"error_mm", d.error_mm},
                                  {"offset_change_mm", d.offset_change_mm},
-                                 {"reason", d.reason}}});
-    jobs::FitEvidence fe;
-    fe.points = bore.points;
-    fe.arc_span_deg = bore.arc_span_deg;
-    fe.rms_mm = bore.rms_mm;
+                                 {"reason", reply["reason"]}}});
+    jobs::FitEvidence fe = ms.fe;
     fe.calibration_probe = cal->probe_serial;
     fe.job_probe = ev.probe_serial;
     fe.calibration_age_h = AgeHours(cal->created_utc);
@@ -135,12 +199,10 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
       return run.Finish(history::JobStatus::kRefused, false);
     }
     nc::NcResult out;
-    out.header =
-        "mlprobe job " + std::to_string(job) + ": bore " + reply["verdict"].get<std::string>();
-    out.named = {{"status", d.verdict == jobs::Verdict::kInTolerance ? 0.0 : 1.0},
-                 {"diameter", size},
-                 {"error", d.error_mm}};
-    if (m.controller.kind != ControllerConfig::Kind::kLinuxCnc) out.named.clear();
+    out.header = "mlprobe job " + std::to_string(job) + ": " + ms.feature + " " + verdict;
+    if (m.controller.kind == ControllerConfig::Kind::kLinuxCnc)
+      out.named = {
+          {"status", in_tolerance ? 0.0 : 1.0}, {ms.size_name, ms.size}, {"error", d.error_mm}};
     if (d.update) {
       std::string note;
       const nc::ToolOffsetChange t =
@@ -153,9 +215,8 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
                          {"change_mm", d.offset_change_mm}};
       if (!note.empty()) reply["update"]["note"] = note;
     }
-    reply["report"] = WriteReport(ctx, job, bore, spec, size, d, reply);
-    const bool alarm = d.verdict == jobs::Verdict::kUpperLimitExceeded;
-    if (alarm) reply["alarm"] = d.reason;
+    if (ms.bore) reply["report"] = WriteReport(ctx, job, *ms.bore, ms.spec, ms.size, d, reply);
+    if (d.verdict == jobs::Verdict::kUpperLimitExceeded) reply["alarm"] = d.reason;
     reply["files"] = WriteResult(m.controller, m.name, job, out, reply);
     for (const auto& t : out.tools)
       ctx.history.AddOffsetWrite(
@@ -163,10 +224,9 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
                 "offset " + std::to_string(t.tool) + " " + nc::ToString(t.reg),
                 t.incremental ? json() : json(t.before_mm),
                 t.incremental ? json{{"change_mm", t.after_mm - t.before_mm}} : json(t.after_mm)});
-    return run.Finish(d.verdict == jobs::Verdict::kInTolerance
-                          ? history::JobStatus::kInTolerance
-                          : history::JobStatus::kOutOfTolerance,
-                      true);
+    return run.Finish(
+        in_tolerance ? history::JobStatus::kInTolerance : history::JobStatus::kOutOfTolerance,
+        true);
   } catch (const std::exception& e) {
     return run.Fail(e);
   }

@@ -60,6 +60,11 @@ struct PlaneMeasurement {
   double rms_mm = 0.0;
   int points = 0;   ///< used in the final fit
   int trimmed = 0;  ///< dropped as outliers (chips, burrs, edges)
+  /// Where the face is along the nominal normal, at the nominal point: + means proud of the
+  /// nominal (material left), - below it [mm].
+  double height_mm = 0.0;
+  /// Minimum-zone flatness of the points used (ISO 12781), Chebyshev fit [mm].
+  double flatness_mm = 0.0;
 };
 
 /// A face: the points in the nominal's band, least squares, then iterated trimming of points
