@@ -51,9 +51,10 @@ class Child {
     }
   }
   ~Child() { Stop(); }
-  int Stop() {
+  /// SIGTERM (graceful) by default; SIGKILL is a crash.
+  int Stop(int signal = SIGTERM) {
     if (pid_ <= 0) return exit_code_;
-    kill(pid_, SIGTERM);
+    kill(pid_, signal);
     int status = 0;
     waitpid(pid_, &status, 0);
     pid_ = -1;

@@ -6,6 +6,9 @@
 #include "mlp/history/file_hash.h"
 #include "mlp/history/history.h"
 
+#include <memory>
+#include <thread>
+
 #include "hostd_site.h"
 
 namespace mlp {
@@ -31,6 +34,7 @@ constexpr int kAlignPort = 17434;            // the alignment test's probe link
 constexpr double kOriginTolUm = 5.0;         // issue 6: alignment origin within 5 um
 constexpr double kRotationTolArcsec = 10.0;  // and rotation within 10 arcsec
 constexpr double kFaceHeightTolMm = 0.001;
+constexpr int kCrashPort = 17437;                   // the crash test's probe link
 constexpr int kCalibratePort = 17435;               // the hand-eye test's probe link
 constexpr double kHandEyeTranslationTolMm = 0.002;  // issue 5: M within 2 um
 constexpr double kHandEyeRotationTolArcsec = 5.0;   // and 5 arcsec
@@ -77,6 +81,19 @@ TEST(Hostd, CapturesThroughTheServiceAndRefusesWithReasons) {
   ASSERT_TRUE(fs::exists(cloud));
   EXPECT_EQ(history::Sha256OfFile(cloud), reply.at("cloud_sha256"));
 
+  // No calibration yet: a measurement says so and writes nothing.
+  const auto uncalibrated = site.Mlp(
+      "request " +
+      site.Request(
+          "uncal",
+          {{"op", "measure"},
+           {"machine", "vmc-1"},
+           {"feature", "bore"},
+           {"captures", {reply.at("job_id")}},
+           {"nominal", {{"top_centre_mm", {0, 0, 0}}, {"diameter_mm", 40}, {"depth_mm", 30}}},
+           {"tolerance", {{"upper_mm", 0.02}, {"lower_mm", 0.02}}}}));
+  EXPECT_EQ(uncalibrated.exit_code, 7);
+  EXPECT_NE(uncalibrated.err.find("has no calibration"), std::string::npos) << uncalibrated.err;
   // Bad requests: named reasons, exit codes, nothing captured.
   json bad = TopFaceCapture();
   bad["machine"] = "vmc-9";
@@ -102,17 +119,19 @@ TEST(Hostd, CapturesThroughTheServiceAndRefusesWithReasons) {
   // Every job is in the history, as it ended.
   history::History h((site.dir / "data" / "history.sqlite").string());
   const auto jobs = h.ListJobs({});
-  ASSERT_EQ(jobs.size(), 4u);  // offline, ok, bad aoi, bad roi (an unknown machine is no job)
+  // offline, ok, uncalibrated measure, bad aoi, bad roi (an unknown machine is no job)
+  ASSERT_EQ(jobs.size(), 5u);
   EXPECT_EQ(jobs[0].status, history::JobStatus::kFailed);
   EXPECT_EQ(jobs[1].status, history::JobStatus::kDone);
   EXPECT_EQ(h.ExportJob(jobs[1].id).at("captures").at(0).at("cloud_sha256"),
             reply.at("cloud_sha256"));
-  EXPECT_EQ(jobs[3].status, history::JobStatus::kFailed);
+  EXPECT_EQ(jobs[2].status, history::JobStatus::kFailed);
+  EXPECT_EQ(jobs[4].status, history::JobStatus::kFailed);
   // What a quality engineer exports.
   const std::string db = (site.dir / "data" / "history.sqlite").string();
   const auto csv = RunProcess(kMlp + " history --format csv --db " + db);
   ASSERT_EQ(csv.exit_code, 0) << csv.err;
-  EXPECT_EQ(std::count(csv.out.begin(), csv.out.end(), '\n'), 5);  // header + 4 jobs
+  EXPECT_EQ(std::count(csv.out.begin(), csv.out.end(), '\n'), 6);  // header + 5 jobs
   EXPECT_NE(csv.out.find(",vmc-1,capture,MLP-REF-0001,,done,"), std::string::npos) << csv.out;
   const auto one =
       RunProcess(kMlp + " history --db " + db + " --job " + std::to_string(jobs[1].id));
@@ -379,6 +398,40 @@ TEST(Hostd, CalibratesTheProbeAndRechecksIt) {
   const auto under = site.Mlp("request " + site.Request("under", flat));
   EXPECT_EQ(under.exit_code, 7);
   EXPECT_FALSE(under.err.empty());
+}
+
+// The host crashes while a job waits for its capture: the job is not left "running" (the next
+// start closes it as failed with the reason), the macro's client is told, and the restarted
+// host serves the next job.
+TEST(Hostd, AJobCutOffByACrashIsClosedAtTheNextStart) {
+  Site site("crash", kCrashPort);
+  auto hostd = std::make_unique<Child>(
+      std::vector<std::string>{kHostd, "--config", (site.dir / "hostd.json").string()},
+      site.dir / "hostd.log");
+  Child probe({kSim, "serve", "--probe", kProbe, "--scene", kScene, "--port",
+               std::to_string(kCrashPort), "--key", (site.dir / "probe.key").string()},
+              site.dir / "sim.log");
+  ASSERT_TRUE(test::ProbeConnected(site));
+  // A long capture: every column of the projector (a few seconds of rendering).
+  json slow = TopFaceCapture();
+  slow["columns"] = {0, 1023, 1};
+  std::thread macro([&] {
+    const auto r = site.Mlp("request " + site.Request("slow", slow));
+    EXPECT_EQ(r.exit_code, 7);  // the host went away under it
+  });
+  std::this_thread::sleep_for(1000ms);
+  hostd->Stop(SIGKILL);
+  macro.join();
+  hostd = std::make_unique<Child>(
+      std::vector<std::string>{kHostd, "--config", (site.dir / "hostd.json").string()},
+      site.dir / "hostd2.log");
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const auto ok = site.Mlp("request " + site.Request("after", TopFaceCapture()));
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  const json first = h.ExportJob(h.ListJobs({}).front().id);
+  EXPECT_EQ(first.at("status"), "failed");
+  EXPECT_EQ(first.at("reply").at("error"), "the host stopped while the job ran");
 }
 
 }  // namespace
