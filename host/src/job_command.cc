@@ -120,8 +120,7 @@ int RunRequestCommand(const std::vector<std::string>& args, std::ostream& out, s
         service::SendRequest(o.socket, request, static_cast<int>(o.timeout_s * 1000));
     out << reply.dump(2) << "\n";
     const std::string status = reply.value("status", "");
-    if (reply.contains("error"))
-      err << "mlp: " << reply.at("error").get<std::string>() << "\n";
+    if (reply.contains("error")) err << "mlp: " << reply.at("error").get<std::string>() << "\n";
     if (status == "out_of_tolerance") return kExitOutOfTolerance;
     if (status == "refused") return kExitRefused;
     if (reply.value("ok", false)) return kExitOk;
