@@ -241,21 +241,8 @@ TEST(Hostd, AlignsThePlateToPlaneCircleCircle) {
   const double angle = truth.at("work_rotation_z_deg").get<double>() * M_PI / 180;
   // The nominal positions the macro knows: from the drawing and the part's expected placement
   // (here the truth rounded to a millimetre and without the rotation, as a setter would clamp).
-  const json o = {250, 120, -310};
-  const json align = {
-      {"op", "align"},
-      {"machine", "lcnc-1"},
-      {"method", "plane-circle-circle"},
-      {"work_offset", 1},
-      {"expected_origin_mm", o},
-      {"plane_a", {{"captures", face}, {"nominal", {{"point_mm", o}, {"normal", {0, 0, 1}}}}}},
-      {"circle_b",
-       {{"captures", b},
-        {"nominal", {{"top_centre_mm", o}, {"diameter_mm", 20}, {"depth_mm", 20}}}}},
-      {"circle_c",
-       {{"captures", c},
-        {"nominal",
-         {{"top_centre_mm", {250, 180, -310}}, {"diameter_mm", 20}, {"depth_mm", 20}}}}}};
+  const json o = {250, 120, -310};  // the origin the setter expects
+  const json align = test::DemoPlateAlignJob("lcnc-1", face, b, c);
   const auto run = site.Mlp("request " + site.Request("align", align));
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
   const json reply = json::parse(run.out);

@@ -21,6 +21,7 @@ using namespace std::chrono_literals;
 const std::string kConfig = std::string(MLP_SOURCE_DIR) + "/samples/linuxcnc/mlprobe-sim";
 const std::string kDriver = std::string(MLP_SOURCE_DIR) + "/tests/linuxcnc/lcnc.py";
 constexpr int kPort = 17433;             // this test's probe link
+constexpr int kAlignPort = 17438;        // the alignment test's
 constexpr double kExactMm = 1e-6;        // LinuxCNC keeps doubles; our G10 lines carry 0.1 um
 constexpr double kRoundingMm = 0.00005;  // half the 0.1 um step of the G10 values
 
@@ -62,6 +63,23 @@ class LinuxCnc {
   std::string env_;
 };
 
+// The site's machine lcnc-1 pointed at a fresh copy of the sample LinuxCNC config (its tool
+// table, its subroutine folder), and the scene's calibration stored: the config folder.
+fs::path LinuxCncSite(const Site& site, const std::string& scene) {
+  const fs::path config = site.dir / "mlprobe-sim";
+  fs::copy(kConfig, config, fs::copy_options::recursive);
+  json hostd_config = json::parse(test::ReadText(site.dir / "hostd.json"));
+  for (auto& m : hostd_config.at("machines"))
+    if (m.at("name") == "lcnc-1")
+      m["controller"] = {{"kind", "linuxcnc"},
+                         {"tool_table", (config / "tool.tbl").string()},
+                         {"result_dir", (config / "subs").string()}};
+  std::ofstream(site.dir / "hostd.json") << hostd_config.dump(1);
+  test::SaveSceneCalibration(site, scene);
+  fs::create_directories(config / "jobs");
+  return config;
+}
+
 // The NC program a shop writes: measure the bore, take the result, cut with tool 12 under
 // cutter compensation. With G41 along +X the tool's centre runs one radius to the left (+Y).
 const std::string kProgram =
@@ -81,16 +99,7 @@ TEST(LinuxCnc, AProbingJobSetsTheToolOffsetTheNextCutUses) {
   ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0)
       << "linuxcnc-uspace is not installed: bash scripts/install-deps.sh";
   Site site("linuxcnc", kPort);
-  const fs::path config = site.dir / "mlprobe-sim";
-  fs::copy(kConfig, config, fs::copy_options::recursive);
-  json hostd_config = json::parse(test::ReadText(site.dir / "hostd.json"));
-  for (auto& m : hostd_config.at("machines"))
-    if (m.at("name") == "lcnc-1")
-      m["controller"] = {{"kind", "linuxcnc"},
-                         {"tool_table", (config / "tool.tbl").string()},
-                         {"result_dir", (config / "subs").string()}};
-  std::ofstream(site.dir / "hostd.json") << hostd_config.dump(1);
-  test::SaveSceneCalibration(site);
+  const fs::path config = LinuxCncSite(site, test::kScene);
   Child hostd({test::kHostd, "--config", (site.dir / "hostd.json").string()},
               site.dir / "hostd.log");
   Child probe({test::kSim, "serve", "--probe", test::kProbe, "--scene", test::kScene, "--port",
@@ -99,7 +108,6 @@ TEST(LinuxCnc, AProbingJobSetsTheToolOffsetTheNextCutUses) {
   ASSERT_TRUE(test::ProbeConnected(site));
   const auto captures = test::CaptureBoreWalls(site, "lcnc-1");
   ASSERT_EQ(captures.size(), 4u);
-  fs::create_directories(config / "jobs");
   std::ofstream(config / "jobs" / "1.json")
       << test::BoreMeasureJob(captures, 40.010).dump();  // in tol.
   std::ofstream(config / "jobs" / "2.json")
@@ -140,6 +148,51 @@ TEST(LinuxCnc, AProbingJobSetsTheToolOffsetTheNextCutUses) {
   EXPECT_NEAR(aborted.at("tools").at("12").at("diameter").get<double>(),
               after.at("tools").at("12").at("diameter").get<double>(), kExactMm);
   EXPECT_EQ(aborted.at("position"), after.at("position"));  // no move ran
+}
+
+// G54 through the controller: the demo plate aligned (face A, holes B and C) through M101, the
+// subroutine's G10 L2 P1 ... R sets G54 with its rotation, and a move to the work origin lands
+// on hole B's centre in machine coordinates.
+TEST(LinuxCnc, AnAlignmentSetsG54TheProgramMovesIn) {
+  ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0);
+  Site site("linuxcnc_align", kAlignPort);
+  const fs::path config = LinuxCncSite(site, test::kDemoPlate);
+  Child hostd({test::kHostd, "--config", (site.dir / "hostd.json").string()},
+              site.dir / "hostd.log");
+  Child probe({test::kSim, "serve", "--probe", test::kProbe, "--scene", test::kDemoPlate, "--port",
+               std::to_string(kAlignPort), "--key", (site.dir / "probe.key").string()},
+              site.dir / "sim.log");
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const auto face = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "face_");
+  const auto b = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "b_wall");
+  const auto c = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "c_wall");
+  std::ofstream(config / "jobs" / "1.json") << test::DemoPlateAlignJob("lcnc-1", face, b, c).dump();
+  LinuxCnc cnc(config, site.socket);
+  ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
+  const json after = cnc.Run(
+      "G21 G90 G40 G49\n"
+      "M101 P1 (align the plate)\n"
+      "M66 E0 L0\n"
+      "o<mlp_result> call\n"
+      "G54\n"
+      "G0 X0 Y0 (hole B, the work origin)\n"
+      "G0 X0 Y60 (hole C: along the work Y axis)\n"
+      "M2\n");
+  ASSERT_TRUE(after.value("ended", false)) << after.dump();
+  const json truth = json::parse(test::ReadText(test::kDemoPlate)).at("truth");
+  const double angle = truth.at("work_rotation_z_deg").get<double>();
+  std::printf("LinuxCNC G54 (%.4f, %.4f, %.4f) R%.4f; at work (0, 60): machine (%.4f, %.4f)\n",
+              after.at("g5x_offset")[0].get<double>(), after.at("g5x_offset")[1].get<double>(),
+              after.at("g5x_offset")[2].get<double>(), after.at("g5x_rotation").get<double>(),
+              after.at("position")[0].get<double>(), after.at("position")[1].get<double>());
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(after.at("g5x_offset")[k].get<double>(),
+                truth.at("work_origin_mcs_mm")[k].get<double>(), kRoundingMm + 0.0001);
+  EXPECT_NEAR(after.at("g5x_rotation").get<double>(), angle, kRoundingMm);
+  // Work (0, 60) is hole C's centre: machine 250 - 60 sin(a), 120 + 60 cos(a).
+  const double a = angle * M_PI / 180;
+  EXPECT_NEAR(after.at("position")[0].get<double>(), 250 - 60 * std::sin(a), 0.001);
+  EXPECT_NEAR(after.at("position")[1].get<double>(), 120 + 60 * std::cos(a), 0.001);
 }
 
 }  // namespace
