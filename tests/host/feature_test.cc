@@ -92,6 +92,7 @@ TEST(Plane, FaceThroughChipsAndBurrs) {
   for (size_t i = 0; i < p.size(); ++i) m.col(static_cast<Eigen::Index>(i)) = p[i];
   PlaneNominal n;
   n.point_mcs = Vec3(0, 0, 5), n.normal_mcs = Vec3::UnitZ();
+  n.flatness = true;
   const PlaneMeasurement f = MeasurePlane(m, n);
   EXPECT_NEAR(f.plane.normal.dot(normal), 1.0, 1e-9);
   EXPECT_NEAR((f.plane.point - Vec3(0, 0, 5)).dot(normal), 0.0, 0.0002);

@@ -154,7 +154,7 @@ PlaneMeasurement MeasurePlane(const geometry::Points3& points, const PlaneNomina
       if (std::abs((points.col(i) - m.plane.point).dot(m.plane.normal)) <= kTrimSigmas * m.rms_mm)
         next.push_back(i);
     if (next.size() == keep.size()) {
-      m.flatness_mm = geometry::FitMinZonePlane(pts).flatness;
+      if (n.flatness) m.flatness_mm = geometry::FitMinZonePlane(pts).flatness;
       break;
     }
     m.trimmed += static_cast<int>(keep.size() - next.size());

@@ -120,6 +120,7 @@ Measured BoreFeature(const json& r, const Evidence& ev) {
 Measured FaceFeature(const json& r, const Evidence& ev) {
   const json& n = jf::Object<JobInputError>(r, "nominal", "request");
   jobs::PlaneNominal nominal;
+  nominal.flatness = true;
   nominal.point_mcs = jf::Vector3<JobInputError>(n, "point_mm", "request.nominal");
   nominal.normal_mcs = jf::Vector3<JobInputError>(n, "normal", "request.nominal");
   nominal.band_mm = jf::NumberOr<JobInputError>(n, "band_mm", nominal.band_mm, "request.nominal");
