@@ -192,22 +192,7 @@ void Align(Demo& d, const sim::VirtualProbe& vp, const json& truth) {
   const auto face = d.Capture(vp, "face_", {874, 668, 300, 200});
   const auto b = d.Capture(vp, "b_wall", {874, 668, 300, 200});
   const auto c = d.Capture(vp, "c_wall", {874, 668, 300, 200});
-  // What the setter expects from the drawing and the fixture (the part sits within a mm).
-  const json o = {250, 120, -310};
-  const json r = d.Request(
-      {{"op", "align"},
-       {"machine", "demo-vmc"},
-       {"method", "plane-circle-circle"},
-       {"work_offset", 1},
-       {"expected_origin_mm", o},
-       {"plane_a", {{"captures", face}, {"nominal", {{"point_mm", o}, {"normal", {0, 0, 1}}}}}},
-       {"circle_b",
-        {{"captures", b},
-         {"nominal", {{"top_centre_mm", o}, {"diameter_mm", 20}, {"depth_mm", 20}}}}},
-       {"circle_c",
-        {{"captures", c},
-         {"nominal",
-          {{"top_centre_mm", {250, 180, -310}}, {"diameter_mm", 20}, {"depth_mm", 20}}}}}});
+  const json r = d.Request(DemoPlateAlignRequest("demo-vmc", face, b, c));
   const Eigen::Vector3d origin = Vec(r.at("origin_mm"));
   d.out << std::fixed << std::setprecision(4) << "   G54 X" << origin.x() << " Y" << origin.y()
         << " Z" << origin.z() << " R" << r.at("rotation_z_deg").get<double>()
@@ -257,6 +242,26 @@ void Measure(Demo& d, const sim::VirtualProbe& vp, const json& truth) {
 }
 
 }  // namespace
+
+json DemoPlateAlignRequest(const std::string& machine,
+                           const std::vector<std::int64_t>& face,
+                           const std::vector<std::int64_t>& hole_b,
+                           const std::vector<std::int64_t>& hole_c) {
+  const json o = {250, 120, -310};  // the setter's expectation: the plate within a millimetre
+  return {{"op", "align"},
+          {"machine", machine},
+          {"method", "plane-circle-circle"},
+          {"work_offset", 1},
+          {"expected_origin_mm", o},
+          {"plane_a", {{"captures", face}, {"nominal", {{"point_mm", o}, {"normal", {0, 0, 1}}}}}},
+          {"circle_b",
+           {{"captures", hole_b},
+            {"nominal", {{"top_centre_mm", o}, {"diameter_mm", 20}, {"depth_mm", 20}}}}},
+          {"circle_c",
+           {{"captures", hole_c},
+            {"nominal",
+             {{"top_centre_mm", {250, 180, -310}}, {"diameter_mm", 20}, {"depth_mm", 20}}}}}};
+}
 
 int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   try {

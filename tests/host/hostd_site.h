@@ -5,6 +5,7 @@
 // link (`mlp-sim serve`) and the macro's client `mlp`.
 
 #include "mlp/calib/record.h"
+#include "mlp/host/demo_command.h"
 #include "mlp/sim/render.h"
 #include "mlp/sim/scene.h"
 
@@ -189,29 +190,6 @@ inline json BoreMeasureJob(const std::vector<std::int64_t>& captures, double nom
         {"register", "radius_wear"},
         {"null_band_mm", 0.002},
         {"upper_limit_mm", 0.5}}}};
-}
-
-// Plane-circle-circle alignment of the demo plate on `machine` into G54, from its captures of
-// face A and holes B and C, with the origin the setter expects (the part's true placement
-// rounded to a millimetre, without its rotation).
-inline json DemoPlateAlignJob(const std::string& machine,
-                              const std::vector<std::int64_t>& face,
-                              const std::vector<std::int64_t>& b,
-                              const std::vector<std::int64_t>& c) {
-  const json o = {250, 120, -310};
-  return {{"op", "align"},
-          {"machine", machine},
-          {"method", "plane-circle-circle"},
-          {"work_offset", 1},
-          {"expected_origin_mm", o},
-          {"plane_a", {{"captures", face}, {"nominal", {{"point_mm", o}, {"normal", {0, 0, 1}}}}}},
-          {"circle_b",
-           {{"captures", b},
-            {"nominal", {{"top_centre_mm", o}, {"diameter_mm", 20}, {"depth_mm", 20}}}}},
-          {"circle_c",
-           {{"captures", c},
-            {"nominal",
-             {{"top_centre_mm", {250, 180, -310}}, {"diameter_mm", 20}, {"depth_mm", 20}}}}}};
 }
 
 }  // namespace mlp::test

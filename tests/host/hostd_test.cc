@@ -242,7 +242,7 @@ TEST(Hostd, AlignsThePlateToPlaneCircleCircle) {
   // The nominal positions the macro knows: from the drawing and the part's expected placement
   // (here the truth rounded to a millimetre and without the rotation, as a setter would clamp).
   const json o = {250, 120, -310};  // the origin the setter expects
-  const json align = test::DemoPlateAlignJob("lcnc-1", face, b, c);
+  const json align = host::DemoPlateAlignRequest("lcnc-1", face, b, c);
   const auto run = site.Mlp("request " + site.Request("align", align));
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
   const json reply = json::parse(run.out);

@@ -166,7 +166,8 @@ TEST(LinuxCnc, AnAlignmentSetsG54TheProgramMovesIn) {
   const auto face = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "face_");
   const auto b = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "b_wall");
   const auto c = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "c_wall");
-  std::ofstream(config / "jobs" / "1.json") << test::DemoPlateAlignJob("lcnc-1", face, b, c).dump();
+  std::ofstream(config / "jobs" / "1.json")
+      << host::DemoPlateAlignRequest("lcnc-1", face, b, c).dump();
   LinuxCnc cnc(config, site.socket);
   ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
   const json after = cnc.Run(

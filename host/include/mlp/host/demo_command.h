@@ -6,11 +6,22 @@
 /// finishing pass -> the finishing tool's radius offset; writes the tool table and the result
 /// subroutine and prints what it found against the scene's truth.
 
+#include <cstdint>
 #include <iosfwd>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 namespace mlp::host {
+
+/// The demo plate's plane-circle-circle alignment into G54 on `machine`, from the capture jobs
+/// of face A and holes B and C, with the origin a setter expects (the part's placement rounded
+/// to a millimetre, without its rotation). The demo and the host's tests send this request.
+nlohmann::json DemoPlateAlignRequest(const std::string& machine,
+                                     const std::vector<std::int64_t>& face,
+                                     const std::vector<std::int64_t>& hole_b,
+                                     const std::vector<std::int64_t>& hole_c);
 
 int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
