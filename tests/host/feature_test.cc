@@ -5,6 +5,7 @@
 
 #include <random>
 
+#include "feature_points.h"
 #include <gtest/gtest.h>
 
 namespace mlp::jobs {
@@ -54,8 +55,8 @@ TEST(Bore, SizePositionAndFunctionalSize) {
   EXPECT_GT(m.arc_span_deg, 359.0);
   EXPECT_NEAR(m.rms_mm, kNoiseMm, 0.2 * kNoiseMm);
   // The largest pin is smaller than the least-squares size by about the noise's reach.
-  EXPECT_LT(m.diameter_mic_mm, m.diameter_mm);
-  EXPECT_GT(m.diameter_mic_mm, m.diameter_mm - 8 * kNoiseMm);
+  EXPECT_LT(m.functional_diameter_mm, m.diameter_mm);
+  EXPECT_GT(m.functional_diameter_mm, m.diameter_mm - 8 * kNoiseMm);
 }
 
 TEST(Bore, ShortArcsAndMissingWallsAreSaid) {
@@ -63,8 +64,8 @@ TEST(Bore, ShortArcsAndMissingWallsAreSaid) {
   n.diameter_mm = 60.0, n.depth_mm = 30.0;
   const BoreMeasurement arc = MeasureBore(BorePoints(60.0, 0, 0, 150, 2), n);
   EXPECT_NEAR(arc.arc_span_deg, 150.0, 1.0);
-  EXPECT_EQ(arc.diameter_mic_mm, 0.0);  // no functional size from under half a circle
-  n.top_centre_mcs = Vec3(80, 0, 0);    // the wrong bore
+  EXPECT_EQ(arc.functional_diameter_mm, 0.0);  // no functional size from under half a circle
+  n.top_centre_mcs = Vec3(80, 0, 0);           // the wrong bore
   try {
     MeasureBore(BorePoints(60.0, 0, 0, 360, 3), n);
     ADD_FAILURE() << "measured a bore that is not there";
@@ -73,6 +74,25 @@ TEST(Bore, ShortArcsAndMissingWallsAreSaid) {
   }
   n = {};
   EXPECT_THROW(MeasureBore(BorePoints(60.0, 0, 0, 360, 4), n), FeatureError);  // no nominal
+}
+
+TEST(Boss, SizePositionAndSmallestRing) {
+  // A D30.008 boss at (0.01, -0.02), its wall from z = -20 to -1, its top face and the floor
+  // around it in the cloud.
+  test::CloudMaker cloud(11, kNoiseMm);
+  cloud.Wall(0.01, -0.02, 15.004, -20, -1, 0, 360, 4000);
+  cloud.Patch(Vec3(-10, -10, 0), Vec3::UnitX(), Vec3::UnitY(), 20, 20, 1000);
+  cloud.Patch(Vec3(16, -30, -22), Vec3::UnitX(), Vec3::UnitY(), 10, 60, 1000);
+  BoreNominal n;
+  n.diameter_mm = 30.0, n.depth_mm = 21.0, n.boss = true;
+  const BoreMeasurement m = MeasureBore(cloud.Cloud(), n);
+  EXPECT_NEAR(m.diameter_mm, 30.008, kDiameterTolMm);
+  EXPECT_NEAR(m.top_centre_mcs.x(), 0.01, kCentreTolMm);
+  EXPECT_NEAR(m.top_centre_mcs.y(), -0.02, kCentreTolMm);
+  EXPECT_EQ(m.points, 4000);
+  // The smallest ring over it is larger than the least-squares size by the noise's reach.
+  EXPECT_GT(m.functional_diameter_mm, m.diameter_mm);
+  EXPECT_LT(m.functional_diameter_mm, m.diameter_mm + 8 * kNoiseMm);
 }
 
 TEST(Plane, FaceThroughChipsAndBurrs) {

@@ -15,7 +15,7 @@ BoreReport Report() {
   BoreReport r;
   r.title = "job 42 - bore - vmc-1 <B1>";
   r.nominal_mm = 60.0, r.upper_tol_mm = 0.03, r.lower_tol_mm = 0.0;
-  r.bore.diameter_mm = 59.994, r.bore.diameter_mic_mm = 59.990;
+  r.bore.diameter_mm = 59.994, r.bore.functional_diameter_mm = 59.990;
   r.bore.points = 50000, r.bore.arc_span_deg = 290, r.bore.rms_mm = 0.0018;
   r.bore.deviation_by_degree_mm.assign(360, std::nan(""));
   for (int d = 0; d < 290; ++d)  // a lobed bore: +-4 um, three lobes

@@ -103,8 +103,8 @@ std::string BoreReportSvg(const BoreReport& r) {
        13, "black");
   text("error " + Num(r.error_mm * 1e3, 1) + " um", 13, "black");
   text("least squares D " + Num(r.bore.diameter_mm, 4) + " mm", 13, "black");
-  if (r.bore.diameter_mic_mm > 0)
-    text("max inscribed D " + Num(r.bore.diameter_mic_mm, 4) + " mm", 13, "black");
+  if (r.bore.functional_diameter_mm > 0)
+    text("max inscribed D " + Num(r.bore.functional_diameter_mm, 4) + " mm", 13, "black");
   text("centre X " + Num(r.bore.top_centre_mcs.x(), 4) + "  Y " + Num(r.bore.top_centre_mcs.y(), 4),
        13, "black");
   int covered = 0;

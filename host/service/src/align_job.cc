@@ -24,12 +24,7 @@ jobs::PlaneMeasurement MeasureFace(JobContext& ctx,
                                    std::int64_t job,
                                    std::string* probe) {
   const json& n = jf::Object<JobInputError>(f, "nominal", w);
-  jobs::PlaneNominal nominal;
-  nominal.point_mcs = jf::Vector3<JobInputError>(n, "point_mm", w + ".nominal");
-  nominal.normal_mcs = jf::Vector3<JobInputError>(n, "normal", w + ".nominal");
-  nominal.band_mm = jf::NumberOr<JobInputError>(n, "band_mm", nominal.band_mm, w + ".nominal");
-  nominal.within_mm =
-      jf::NumberOr<JobInputError>(n, "within_mm", nominal.within_mm, w + ".nominal");
+  const jobs::PlaneNominal nominal = ParsePlaneNominal(n, w + ".nominal");
   if (!f.contains("captures")) throw JobInputError(w + ".captures must list capture jobs");
   const Evidence ev = LoadCaptures(ctx, f.at("captures"), m, job);
   *probe = ev.probe_serial;
@@ -55,8 +50,6 @@ geometry::Line3 Intersection(const Plane& a, const Plane& b) {
       Vec3(a.normal.dot(a.point), b.normal.dot(b.point), l.direction.dot(a.point)));
   return l;
 }
-
-json Vec(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 }  // namespace
 
@@ -93,7 +86,7 @@ json RunAlignJob(JobContext& ctx, const json& r) {
         min_span = std::min(min_span, b.arc_span_deg);
         fe.rms_mm = std::max(fe.rms_mm, b.rms_mm);
         fe.points = std::min(fe.points, b.points);
-        reply[names[k]] = {{"centre_mm", Vec(centres[k])},
+        reply[names[k]] = {{"centre_mm", JsonVec(centres[k])},
                            {"diameter_mm", b.diameter_mm},
                            {"rms_mm", b.rms_mm},
                            {"points", b.points},
@@ -101,7 +94,9 @@ json RunAlignJob(JobContext& ctx, const json& r) {
       }
       fe.arc_span_deg = min_span;
       mcs_from_work = geometry::DatumPlaneCircleCircle(a.plane, centres[0], centres[1]);
-    } else if (method == "plane-plane-plane") {
+    } else if (method == "plane-plane-plane" || method == "plane-line-point") {
+      // The 3-2-1 alignment: with a line probe the "line" is face B's trace on A and the
+      // "point" is face C, each a whole face rather than 2 and 1 touch points.
       const jobs::PlaneMeasurement b =
           MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_b", "request"), "request.plane_b",
                       cal->flange_from_probe, job, &probe);
@@ -115,22 +110,24 @@ json RunAlignJob(JobContext& ctx, const json& r) {
       const Vec3 corner = Intersection(b.plane, c.plane).point;
       mcs_from_work = geometry::DatumPlaneLinePoint(a.plane, edge, corner);
     } else {
-      throw JobInputError("method must be plane-circle-circle or plane-plane-plane");
+      throw JobInputError(
+          "method must be plane-circle-circle, plane-line-point or plane-plane-plane");
     }
     const geometry::WorkOffsetReading wo = geometry::ReadWorkOffset(mcs_from_work);
     reply.update(
         {{"method", method},
          {"calibration_id", cal->calibration_id},
-         {"plane_a", {{"normal", Vec(a.plane.normal)}, {"rms_mm", a.rms_mm}, {"points", a.points}}},
+         {"plane_a",
+          {{"normal", JsonVec(a.plane.normal)}, {"rms_mm", a.rms_mm}, {"points", a.points}}},
          {"work_offset", index},
-         {"origin_mm", Vec(wo.origin_mm)},
+         {"origin_mm", JsonVec(wo.origin_mm)},
          {"rotation_z_deg", wo.rotation_z_deg},
          {"tilt_deg", wo.tilt_deg},
          {"time_utc", history::UtcNow()}});
     ctx.history.AddResult(
         job, {"alignment",
               reply,
-              {{"origin_mm", Vec(wo.origin_mm)}, {"rotation_z_deg", wo.rotation_z_deg}}});
+              {{"origin_mm", JsonVec(wo.origin_mm)}, {"rotation_z_deg", wo.rotation_z_deg}}});
     fe.calibration_probe = cal->probe_serial;
     fe.job_probe = probe;
     fe.calibration_age_h = AgeHours(cal->created_utc);
@@ -161,7 +158,7 @@ json RunAlignJob(JobContext& ctx, const json& r) {
                                      : nc::Dialect::kLinuxCnc,
                                  index),
               json(),
-              {{"origin_mm", Vec(wo.origin_mm)}, {"rotation_z_deg", wo.rotation_z_deg}}});
+              {{"origin_mm", JsonVec(wo.origin_mm)}, {"rotation_z_deg", wo.rotation_z_deg}}});
     return run.Finish(history::JobStatus::kDone, true);
   } catch (const std::exception& e) {
     return run.Fail(e);

@@ -64,6 +64,15 @@ jobs::BoreNominal ParseBoreNominal(const json& n, const std::string& w) {
   return b;
 }
 
+jobs::PlaneNominal ParsePlaneNominal(const json& n, const std::string& w) {
+  jobs::PlaneNominal p;
+  p.point_mcs = jf::Vector3<JobInputError>(n, "point_mm", w);
+  p.normal_mcs = jf::Vector3<JobInputError>(n, "normal", w);
+  p.band_mm = jf::NumberOr<JobInputError>(n, "band_mm", p.band_mm, w);
+  p.within_mm = jf::NumberOr<JobInputError>(n, "within_mm", p.within_mm, w);
+  return p;
+}
+
 std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
                                               const json& capture_jobs,
                                               std::int64_t job) {

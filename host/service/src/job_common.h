@@ -57,6 +57,9 @@ struct JobRun {
 
 /// {"top_centre_mm", "axis" (default +Z), "diameter_mm", "depth_mm", "band_mm"}.
 jobs::BoreNominal ParseBoreNominal(const nlohmann::json& n, const std::string& where);
+/// A face's nominal: point_mm, normal, band_mm, within_mm.
+jobs::PlaneNominal ParsePlaneNominal(const nlohmann::json& n, const std::string& where);
+inline nlohmann::json JsonVec(const geometry::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 struct Evidence {
   geometry::Points3 points_mcs;

@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "job_common.h"
+#include "measure_features.h"
 
 namespace mlp::service {
 namespace {
@@ -29,14 +30,12 @@ nc::ToolRegister RegisterOf(const std::string& s) {
       s + "\"");
 }
 
-jobs::BoreNominal ParseBore(const json& r) {
-  return ParseBoreNominal(jf::Object<JobInputError>(r, "nominal", "request"), "request.nominal");
-}
-
-jobs::Feedback ParseUpdate(const json& r, double change_per_error) {
+jobs::Feedback ParseUpdate(const json& r, const Measured& ms) {
   jobs::Feedback f;
-  f.change_per_error = change_per_error;
   if (!r.contains("update")) return f;  // report only
+  if (!ms.change_per_error)
+    throw JobInputError("request.update: a " + ms.feature + " moves no tool offset (report only)");
+  f.change_per_error = *ms.change_per_error;
   const json& u = jf::Object<JobInputError>(r, "update", "request");
   const std::string w = "request.update";
   f.offset_number = jf::Integer<JobInputError>(u, "offset", w);
@@ -75,81 +74,6 @@ std::string WriteReport(JobContext& ctx,
   return path;
 }
 
-// What a feature's measurement gives the shared decision: the size the tolerance is on, how
-// its error moves an offset, its own numbers for the reply and the plausibility evidence.
-struct Measured {
-  std::string feature, size_name;  ///< size_name: the LinuxCNC parameter (#<_mlp_...>)
-  double size = 0.0;
-  jobs::SizeSpec spec;
-  double change_per_error = 0.5;
-  json fields;
-  jobs::FitEvidence fe;
-  std::string form_problem;  ///< a form tolerance exceeded (flatness): out of tolerance
-  std::optional<jobs::BoreMeasurement> bore;  ///< for the picture
-};
-
-jobs::SizeSpec Spec(const json& r, double nominal) {
-  const json& tol = jf::Object<JobInputError>(r, "tolerance", "request");
-  return {nominal, jf::Number<JobInputError>(tol, "upper_mm", "request.tolerance"),
-          jf::Number<JobInputError>(tol, "lower_mm", "request.tolerance")};
-}
-
-Measured BoreFeature(const json& r, const Evidence& ev) {
-  const jobs::BoreNominal nominal = ParseBore(r);
-  const jobs::BoreMeasurement bore = jobs::MeasureBore(ev.points_mcs, nominal);
-  Measured m;
-  m.feature = "bore", m.size_name = "diameter";
-  m.size = r.value("size", std::string("ls")) == "mic" ? bore.diameter_mic_mm : bore.diameter_mm;
-  m.spec = Spec(r, nominal.diameter_mm);
-  m.change_per_error = 0.5;  // a bore's diameter onto a radius offset: half the error
-  const Vec3& c = bore.top_centre_mcs;
-  m.fields = {{"diameter_mm", bore.diameter_mm},
-              {"diameter_mic_mm", bore.diameter_mic_mm},
-              {"centre_mm", {c.x(), c.y(), c.z()}},
-              {"rms_mm", bore.rms_mm},
-              {"points", bore.points},
-              {"arc_span_deg", bore.arc_span_deg}};
-  m.fe.points = bore.points;
-  m.fe.arc_span_deg = bore.arc_span_deg;
-  m.fe.rms_mm = bore.rms_mm;
-  m.bore = bore;
-  return m;
-}
-
-// A face: its height along the nominal normal (tolerance on it, nominal 0) and its flatness.
-Measured FaceFeature(const json& r, const Evidence& ev) {
-  const json& n = jf::Object<JobInputError>(r, "nominal", "request");
-  jobs::PlaneNominal nominal;
-  nominal.flatness = true;
-  nominal.point_mcs = jf::Vector3<JobInputError>(n, "point_mm", "request.nominal");
-  nominal.normal_mcs = jf::Vector3<JobInputError>(n, "normal", "request.nominal");
-  nominal.band_mm = jf::NumberOr<JobInputError>(n, "band_mm", nominal.band_mm, "request.nominal");
-  nominal.within_mm =
-      jf::NumberOr<JobInputError>(n, "within_mm", nominal.within_mm, "request.nominal");
-  const jobs::PlaneMeasurement f = jobs::MeasurePlane(ev.points_mcs, nominal);
-  Measured m;
-  m.feature = "face", m.size_name = "height";
-  m.size = f.height_mm;
-  m.spec = Spec(r, 0.0);
-  // A face proud by e: the tool is e shorter than its length offset says.
-  m.change_per_error = -1.0;
-  const Vec3& nn = f.plane.normal;
-  m.fields = {{"height_mm", f.height_mm},
-              {"flatness_mm", f.flatness_mm},
-              {"normal", {nn.x(), nn.y(), nn.z()}},
-              {"rms_mm", f.rms_mm},
-              {"points", f.points},
-              {"trimmed", f.trimmed}};
-  m.fe.points = f.points;
-  m.fe.rms_mm = f.rms_mm;
-  const double flat_tol = jf::NumberOr<JobInputError>(r, "flatness_tol_mm", 1e9, "request");
-  if (f.flatness_mm > flat_tol)
-    m.form_problem = "flatness " + std::to_string(f.flatness_mm * 1e3).substr(0, 6) +
-                     " um over the tolerance " + std::to_string(flat_tol * 1e3).substr(0, 6) +
-                     " um";
-  return m;
-}
-
 }  // namespace
 
 json RunMeasureJob(JobContext& ctx, const json& r) {
@@ -158,34 +82,33 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
   json& reply = run.reply;
   const std::int64_t job = run.job;
   try {
-    const std::string feature = jf::Text<JobInputError>(r, "feature", "request");
-    if (feature != "bore" && feature != "face")
-      throw JobInputError("feature \"" + feature + "\" is not measured yet (bore, face)");
+    CheckFeatureName(jf::Text<JobInputError>(r, "feature", "request"));
     const calib::CalibrationRecord* cal = &run.Calibration();
     if (!r.contains("captures"))
       throw JobInputError("request.captures must list the capture jobs to use");
     const Evidence ev = LoadCaptures(ctx, r.at("captures"), cal->flange_from_probe, job);
-    Measured ms = feature == "bore" ? BoreFeature(r, ev) : FaceFeature(r, ev);
-    const jobs::Feedback fb = ParseUpdate(r, ms.change_per_error);
+    const Measured ms = MeasureFeature(r, ev, ctx.config.data_dir);
+    const jobs::Feedback fb = ParseUpdate(r, ms);
     const jobs::SizeDecision d = jobs::DecideSize(ms.size, ms.spec, fb);
-    const bool in_tolerance = d.verdict == jobs::Verdict::kInTolerance && ms.form_problem.empty();
-    const std::string verdict = d.verdict == jobs::Verdict::kInTolerance && !ms.form_problem.empty()
+    const bool in_tolerance = d.verdict == jobs::Verdict::kInTolerance && ms.problems.empty();
+    const std::string verdict = d.verdict == jobs::Verdict::kInTolerance && !ms.problems.empty()
                                     ? std::string("out of tolerance")
                                     : jobs::ToString(d.verdict);
+    std::string reason;
+    for (const auto& p : ms.problems) reason += p + "; ";
     reply.update(ms.fields);
-    reply.update(
-        {{"feature", ms.feature},
-         {"calibration_id", cal->calibration_id},
-         {"size_mm", ms.size},
-         {"error_mm", d.error_mm},
-         {"verdict", verdict},
-         {"reason", ms.form_problem.empty() ? d.reason : ms.form_problem + "; " + d.reason},
-         {"offset_change_mm", d.offset_change_mm},
-         {"time_utc", history::UtcNow()}});
+    reply.update({{"feature", ms.feature},
+                  {"calibration_id", cal->calibration_id},
+                  {"size_" + ms.unit, ms.size},
+                  {"error_" + ms.unit, d.error_mm},
+                  {"verdict", verdict},
+                  {"reason", reason + d.reason},
+                  {"offset_change_mm", d.offset_change_mm},
+                  {"time_utc", history::UtcNow()}});
     ctx.history.AddResult(job, {ms.feature,
                                 reply,
                                 {{"verdict", verdict},
-                                 {"error_mm", d.error_mm},
+                                 {"error_" + ms.unit, d.error_mm},
                                  {"offset_change_mm", d.offset_change_mm},
                                  {"reason", reply["reason"]}}});
     jobs::FitEvidence fe = ms.fe;

@@ -19,10 +19,13 @@ class FeatureError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A bore, or with `boss` the outside of a cylindrical boss: the wall from the top face down
+/// `depth_mm` along -axis.
 struct BoreNominal {
   geometry::Vec3 top_centre_mcs = geometry::Vec3::Zero();  ///< axis point in the top face
-  geometry::Vec3 axis_mcs = geometry::Vec3::UnitZ();       ///< unit, out of the bore
+  geometry::Vec3 axis_mcs = geometry::Vec3::UnitZ();       ///< unit, out of the bore (up a boss)
   double diameter_mm = 0.0, depth_mm = 0.0;
+  bool boss = false;
   /// Points within this radial distance of the nominal wall belong to it.
   double band_mm = 0.5;
   /// Away from the rim and the bottom (their edges are not the wall).
@@ -33,9 +36,11 @@ struct BoreMeasurement {
   geometry::Vec3 top_centre_mcs = geometry::Vec3::Zero();  ///< fitted axis at the nominal top
   geometry::Vec3 axis_mcs = geometry::Vec3::UnitZ();
   double diameter_mm = 0.0;  ///< least-squares cylinder
-  /// Maximum inscribed circle of the wall points (functional); 0 when they do not enclose a
-  /// centre (an arc of 180 deg or less).
-  double diameter_mic_mm = 0.0;
+  /// The functional size (ISO 14405-1): a bore's maximum inscribed circle (the largest pin it
+  /// takes), a boss's minimum circumscribed circle (the smallest ring over it), of the wall
+  /// points projected along the fitted axis; 0 when the points span 180 deg or less (no
+  /// functional size from under half a circle).
+  double functional_diameter_mm = 0.0;
   double rms_mm = 0.0, max_abs_mm = 0.0;
   int points = 0;
   double arc_span_deg = 0.0;  ///< 360 minus the largest angular gap between wall points
@@ -45,7 +50,8 @@ struct BoreMeasurement {
   std::vector<double> deviation_by_degree_mm;
 };
 
-/// Throws FeatureError (fewer than 50 wall points) or geometry::GeometryError (degenerate).
+/// A bore or a boss. Throws FeatureError (fewer than 50 wall points) or geometry::GeometryError
+/// (degenerate).
 BoreMeasurement MeasureBore(const geometry::Points3& points_mcs, const BoreNominal& nominal);
 
 struct PlaneNominal {
@@ -69,6 +75,9 @@ struct PlaneMeasurement {
   /// Minimum-zone flatness of the points used (ISO 12781), Chebyshev fit [mm]; 0 unless
   /// PlaneNominal::flatness asked for it.
   double flatness_mm = 0.0;
+  /// The area the points cover: 1 mm squares of the plane holding a point [mm^2] (the
+  /// plausibility gate's coverage for faces).
+  double area_mm2 = 0.0;
 };
 
 /// A face: the points in the nominal's band, least squares, then iterated trimming of points
