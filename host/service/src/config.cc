@@ -116,7 +116,8 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
   for (size_t i = 0; i < j.at("probes").size(); ++i) {
     const std::string w = "probes[" + std::to_string(i) + "]";
     const json& p = j.at("probes")[i];
-    ProbeEntry e{jf::Text<ConfigError>(p, "serial", r.Where(w)), r.Path(p, "key_file", w)};
+    ProbeEntry e{jf::Text<ConfigError>(p, "serial", r.Where(w)), r.Path(p, "key_file", w), ""};
+    if (p.contains("model_file")) e.model_file = r.Path(p, "model_file", w);
     if (!serials.insert(e.serial).second) r.Fail(w + ".serial", "is listed twice");
     c.probes.push_back(e);
   }

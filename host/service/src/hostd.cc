@@ -102,6 +102,7 @@ struct Hostd::Impl {
     });
     // Jobs on stored captures: the same context, one machine at a time.
     const std::pair<const char*, json (*)(JobContext&, const json&)> jobs[] = {
+        {"plan", &RunPlanJob},
         {"measure", &RunMeasureJob},
         {"align", &RunAlignJob},
         {"calibrate", &RunCalibrateJob},

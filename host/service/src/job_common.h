@@ -91,6 +91,7 @@ Evidence LoadCaptures(JobContext& ctx,
 /// `{"op": "measure", ...}` and `{"op": "align", ...}` (docs/HOSTD.md). Always answer; the
 /// status says how the job ended. Nothing reaches the controller unless every check passed.
 nlohmann::json RunMeasureJob(JobContext& ctx, const nlohmann::json& request);
+nlohmann::json RunPlanJob(JobContext& ctx, const nlohmann::json& request);
 nlohmann::json RunAlignJob(JobContext& ctx, const nlohmann::json& request);
 /// `{"op": "calibrate", ...}` (sphere hand-eye) and `{"op": "recheck", ...}` (seed 002).
 nlohmann::json RunCalibrateJob(JobContext& ctx, const nlohmann::json& request);

@@ -1,6 +1,7 @@
 #include "measure_features.h"
 
 #include "mlp/jobs/composite.h"
+#include "mlp/jobs/plan.h"
 #include "mlp/jobs/surface.h"
 #include "mlp/probe_fw/json_fields.h"
 
@@ -159,8 +160,7 @@ Measured Width(const json& r, const Evidence& ev, bool inside) {
 
 // A rectangular pocket or boss: the decision on one size ("x" or "y"), the other held to its
 // own band (tolerance_y, default the same band).
-Measured Rectangle(const json& r, const Evidence& ev, bool inside) {
-  const json& j = Nominal(r);
+jobs::RectangleNominal ParseRectangle(const json& j, bool inside) {
   jobs::RectangleNominal n;
   n.centre_mcs = jf::Vector3<JobInputError>(j, "centre_mm", kNom);
   n.x_direction_mcs = j.contains("x_direction") ? jf::Vector3<JobInputError>(j, "x_direction", kNom)
@@ -171,6 +171,11 @@ Measured Rectangle(const json& r, const Evidence& ev, bool inside) {
   n.inside = inside;
   n.band_mm = jf::NumberOr<JobInputError>(j, "band_mm", n.band_mm, kNom);
   n.within_mm = jf::NumberOr<JobInputError>(j, "within_mm", n.within_mm, kNom);
+  return n;
+}
+
+Measured Rectangle(const json& r, const Evidence& ev, bool inside) {
+  const jobs::RectangleNominal n = ParseRectangle(Nominal(r), inside);
   const jobs::RectangleMeasurement rect = jobs::MeasureRectangle(ev.points_mcs, n);
   const std::string size = r.value("size", std::string("x"));
   if (size != "x" && size != "y") throw JobInputError("request.size must be x or y");
@@ -195,11 +200,16 @@ Measured Rectangle(const json& r, const Evidence& ev, bool inside) {
   return m;
 }
 
-Measured Step(const json& r, const Evidence& ev) {
-  const json& j = Nominal(r);
+jobs::StepNominal ParseStep(const json& j) {
   jobs::StepNominal n;
   n.a = ParsePlaneNominal(jf::Object<JobInputError>(j, "a", kNom), kNom + ".a");
   n.b = ParsePlaneNominal(jf::Object<JobInputError>(j, "b", kNom), kNom + ".b");
+  return n;
+}
+
+Measured Step(const json& r, const Evidence& ev) {
+  const json& j = Nominal(r);
+  const jobs::StepNominal n = ParseStep(j);
   const jobs::StepMeasurement s = jobs::MeasureStep(ev.points_mcs, n);
   Measured m;
   m.feature = "step", m.size_name = "height";
@@ -215,8 +225,7 @@ Measured Step(const json& r, const Evidence& ev) {
   return m;
 }
 
-Measured Angle(const json& r, const Evidence& ev) {
-  const json& j = Nominal(r);
+jobs::AngleNominal ParseAngle(const json& j) {
   jobs::AngleNominal n;
   n.face = ParsePlaneNominal(jf::Object<JobInputError>(j, "face", kNom), kNom + ".face");
   if (j.contains("datum")) {
@@ -225,6 +234,12 @@ Measured Angle(const json& r, const Evidence& ev) {
   } else {
     n.datum.normal_mcs = jf::Vector3<JobInputError>(j, "datum_direction", kNom);
   }
+  return n;
+}
+
+Measured Angle(const json& r, const Evidence& ev) {
+  const json& j = Nominal(r);
+  const jobs::AngleNominal n = ParseAngle(j);
   const jobs::AngleMeasurement a = jobs::MeasureAngle(ev.points_mcs, n);
   Measured m;
   m.feature = "angle", m.size_name = "angle", m.unit = "deg";
@@ -239,8 +254,7 @@ Measured Angle(const json& r, const Evidence& ev) {
   return m;
 }
 
-Measured Pcd(const json& r, const Evidence& ev) {
-  const json& j = Nominal(r);
+jobs::PcdNominal ParsePcd(const json& j) {
   jobs::PcdNominal n;
   if (!j.contains("holes") || !j.at("holes").is_array())
     throw JobInputError("request.nominal.holes must list the holes' nominals");
@@ -249,6 +263,11 @@ Measured Pcd(const json& r, const Evidence& ev) {
         ParseBoreNominal(j.at("holes")[k], kNom + ".holes[" + std::to_string(k) + "]"));
   n.centre_mcs = jf::Vector3<JobInputError>(j, "centre_mm", kNom);
   n.diameter_mm = jf::Number<JobInputError>(j, "diameter_mm", kNom);
+  return n;
+}
+
+Measured Pcd(const json& r, const Evidence& ev) {
+  const jobs::PcdNominal n = ParsePcd(Nominal(r));
   const jobs::PcdMeasurement p = jobs::MeasurePcd(ev.points_mcs, n);
   Measured m;
   m.feature = "pcd", m.size_name = "diameter";
@@ -275,8 +294,7 @@ Measured Pcd(const json& r, const Evidence& ev) {
   return m;
 }
 
-Measured Ellipse(const json& r, const Evidence& ev, bool inside) {
-  const json& j = Nominal(r);
+jobs::EllipseNominal ParseEllipse(const json& j, bool inside) {
   jobs::EllipseNominal n;
   n.top_centre_mcs = jf::Vector3<JobInputError>(j, "top_centre_mm", kNom);
   n.axis_mcs = j.contains("axis") ? jf::Vector3<JobInputError>(j, "axis", kNom) : Vec3::UnitZ();
@@ -288,6 +306,11 @@ Measured Ellipse(const json& r, const Evidence& ev, bool inside) {
   n.depth_mm = jf::Number<JobInputError>(j, "depth_mm", kNom);
   n.inside = inside;
   n.band_mm = jf::NumberOr<JobInputError>(j, "band_mm", n.band_mm, kNom);
+  return n;
+}
+
+Measured Ellipse(const json& r, const Evidence& ev, bool inside) {
+  const jobs::EllipseNominal n = ParseEllipse(Nominal(r), inside);
   const jobs::EllipseMeasurement e = jobs::MeasureEllipse(ev.points_mcs, n);
   const std::string size = r.value("size", std::string("major"));
   if (size != "major" && size != "minor")
@@ -360,22 +383,92 @@ Measured Surface(const json& r, const Evidence& ev, const std::string& data_dir)
 }
 
 using Measure = std::function<Measured(const json&, const Evidence&, const std::string&)>;
+using Views = std::function<std::vector<jobs::ViewTarget>(
+    const json& nominal, const std::string& data_dir, const jobs::PlanOptions&)>;
+struct Feature {
+  Measure measure;
+  Views views;
+};
 
-const std::map<std::string, Measure>& Features() {
-  static const std::map<std::string, Measure> features = {
-      {"bore", [](auto& r, auto& ev, auto&) { return Cylindrical(r, ev, false); }},
-      {"boss", [](auto& r, auto& ev, auto&) { return Cylindrical(r, ev, true); }},
-      {"face", [](auto& r, auto& ev, auto&) { return Face(r, ev); }},
-      {"pocket_width", [](auto& r, auto& ev, auto&) { return Width(r, ev, true); }},
-      {"web_width", [](auto& r, auto& ev, auto&) { return Width(r, ev, false); }},
-      {"rect_pocket", [](auto& r, auto& ev, auto&) { return Rectangle(r, ev, true); }},
-      {"rect_boss", [](auto& r, auto& ev, auto&) { return Rectangle(r, ev, false); }},
-      {"step", [](auto& r, auto& ev, auto&) { return Step(r, ev); }},
-      {"angle", [](auto& r, auto& ev, auto&) { return Angle(r, ev); }},
-      {"pcd", [](auto& r, auto& ev, auto&) { return Pcd(r, ev); }},
-      {"ellipse_bore", [](auto& r, auto& ev, auto&) { return Ellipse(r, ev, true); }},
-      {"ellipse_boss", [](auto& r, auto& ev, auto&) { return Ellipse(r, ev, false); }},
-      {"surface", [](auto& r, auto& ev, auto& dir) { return Surface(r, ev, dir); }},
+std::vector<jobs::ViewTarget> Join(std::vector<jobs::ViewTarget> a,
+                                   const std::vector<jobs::ViewTarget>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+std::vector<jobs::ViewTarget> CylinderViews(const json& j, bool boss, const jobs::PlanOptions& o) {
+  jobs::BoreNominal n = ParseBoreNominal(j, kNom);
+  n.boss = boss;
+  return jobs::BoreViews("wall", n, o);
+}
+
+std::vector<jobs::ViewTarget> PcdViews(const json& j, const jobs::PlanOptions& o) {
+  const jobs::PcdNominal n = ParsePcd(j);
+  std::vector<jobs::ViewTarget> views;
+  for (size_t k = 0; k < n.holes.size(); ++k)
+    views = Join(views, jobs::BoreViews("hole" + std::to_string(k + 1), n.holes[k], o));
+  return views;
+}
+
+std::vector<jobs::ViewTarget> AngleViews(const json& j, const jobs::PlanOptions& o) {
+  const jobs::AngleNominal n = ParseAngle(j);
+  auto views = jobs::FaceViews("face", n.face, o);
+  return n.datum_face ? Join(views, jobs::FaceViews("datum", n.datum, o)) : views;
+}
+
+const std::map<std::string, Feature>& Features() {
+  using O = jobs::PlanOptions;
+  static const std::map<std::string, Feature> features = {
+      {"bore",
+       {[](auto& r, auto& ev, auto&) { return Cylindrical(r, ev, false); },
+        [](auto& j, auto&, const O& o) { return CylinderViews(j, false, o); }}},
+      {"boss",
+       {[](auto& r, auto& ev, auto&) { return Cylindrical(r, ev, true); },
+        [](auto& j, auto&, const O& o) { return CylinderViews(j, true, o); }}},
+      {"face",
+       {[](auto& r, auto& ev, auto&) { return Face(r, ev); },
+        [](auto& j, auto&, const O& o) {
+          return jobs::FaceViews("face", ParsePlaneNominal(j, kNom), o);
+        }}},
+      {"pocket_width",
+       {[](auto& r, auto& ev, auto&) { return Width(r, ev, true); },
+        [](auto& j, auto&, const O& o) { return jobs::WidthViews(ParseWidth(j, true), o); }}},
+      {"web_width",
+       {[](auto& r, auto& ev, auto&) { return Width(r, ev, false); },
+        [](auto& j, auto&, const O& o) { return jobs::WidthViews(ParseWidth(j, false), o); }}},
+      {"rect_pocket",
+       {[](auto& r, auto& ev, auto&) { return Rectangle(r, ev, true); },
+        [](auto& j, auto&, const O& o) {
+          return jobs::RectangleViews(ParseRectangle(j, true), o);
+        }}},
+      {"rect_boss",
+       {[](auto& r, auto& ev, auto&) { return Rectangle(r, ev, false); },
+        [](auto& j, auto&, const O& o) {
+          return jobs::RectangleViews(ParseRectangle(j, false), o);
+        }}},
+      {"step",
+       {[](auto& r, auto& ev, auto&) { return Step(r, ev); },
+        [](auto& j, auto&, const O& o) {
+          const jobs::StepNominal n = ParseStep(j);
+          return Join(jobs::FaceViews("face_a", n.a, o), jobs::FaceViews("face_b", n.b, o));
+        }}},
+      {"angle",
+       {[](auto& r, auto& ev, auto&) { return Angle(r, ev); },
+        [](auto& j, auto&, const O& o) { return AngleViews(j, o); }}},
+      {"pcd",
+       {[](auto& r, auto& ev, auto&) { return Pcd(r, ev); },
+        [](auto& j, auto&, const O& o) { return PcdViews(j, o); }}},
+      {"ellipse_bore",
+       {[](auto& r, auto& ev, auto&) { return Ellipse(r, ev, true); },
+        [](auto& j, auto&, const O& o) { return jobs::EllipseViews(ParseEllipse(j, true), o); }}},
+      {"ellipse_boss",
+       {[](auto& r, auto& ev, auto&) { return Ellipse(r, ev, false); },
+        [](auto& j, auto&, const O& o) { return jobs::EllipseViews(ParseEllipse(j, false), o); }}},
+      {"surface",
+       {[](auto& r, auto& ev, auto& dir) { return Surface(r, ev, dir); },
+        [](auto& j, auto& dir, const O& o) {
+          return jobs::SurfaceViews(SurfaceNominalOf(j, dir), o);
+        }}},
   };
   return features;
 }
@@ -392,7 +485,15 @@ void CheckFeatureName(const std::string& feature) {
 Measured MeasureFeature(const json& r, const Evidence& ev, const std::string& data_dir) {
   const std::string feature = jf::Text<JobInputError>(r, "feature", "request");
   CheckFeatureName(feature);
-  return Features().at(feature)(r, ev, data_dir);
+  return Features().at(feature).measure(r, ev, data_dir);
+}
+
+std::vector<jobs::ViewTarget> FeatureViews(const json& r,
+                                           const std::string& data_dir,
+                                           const jobs::PlanOptions& options) {
+  const std::string feature = jf::Text<JobInputError>(r, "feature", "request");
+  CheckFeatureName(feature);
+  return Features().at(feature).views(Nominal(r), data_dir, options);
 }
 
 }  // namespace mlp::service

@@ -6,6 +6,7 @@
 
 #include "mlp/jobs/decision.h"
 #include "mlp/jobs/feature.h"
+#include "mlp/jobs/plan.h"
 
 #include <optional>
 #include <string>
@@ -41,5 +42,10 @@ void CheckFeatureName(const std::string& feature);
 Measured MeasureFeature(const nlohmann::json& request,
                         const Evidence& evidence,
                         const std::string& data_dir);
+
+/// The views a feature's capture plan needs (mlp::jobs plan.h), from the same request.
+std::vector<jobs::ViewTarget> FeatureViews(const nlohmann::json& request,
+                                           const std::string& data_dir,
+                                           const jobs::PlanOptions& options);
 
 }  // namespace mlp::service

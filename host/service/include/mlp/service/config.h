@@ -22,6 +22,7 @@ class ConfigError : public std::runtime_error {
 
 struct ProbeEntry {
   std::string serial, key_file;
+  std::string model_file;  ///< its camera/projector model (capture plans); "" when not given
 };
 
 struct ControllerConfig {

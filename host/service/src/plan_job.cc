@@ -1,0 +1,64 @@
+#include "mlp/jobs/plan.h"
+#include "mlp/probe_fw/json_fields.h"
+#include "mlp/probe_fw/probe_model.h"
+
+#include <algorithm>
+
+#include "job_common.h"
+#include "measure_features.h"
+
+namespace mlp::service {
+namespace {
+
+namespace jf = probe_fw::json_fields;
+using json = nlohmann::json;
+
+jobs::PlanOptions ParseOptions(const json& r) {
+  jobs::PlanOptions o;
+  o.standoff_mm = jf::NumberOr<JobInputError>(r, "standoff_mm", o.standoff_mm, "request");
+  o.wall_tilt_deg = jf::NumberOr<JobInputError>(r, "wall_tilt_deg", o.wall_tilt_deg, "request");
+  o.patch_mm = jf::NumberOr<JobInputError>(r, "patch_mm", o.patch_mm, "request");
+  o.column_step = jf::NumberOr<JobInputError>(r, "column_step", o.column_step, "request");
+  o.views_per_circle = static_cast<int>(
+      jf::NumberOr<JobInputError>(r, "views_per_circle", o.views_per_circle, "request"));
+  o.Check();
+  return o;
+}
+
+json CaptureJson(const jobs::PlannedCapture& c) {
+  return {{"capture_id", c.id},
+          {"mcs_from_flange", jf::PoseToJson(c.mcs_from_flange)},
+          {"aoi", {c.aoi.x0, c.aoi.y0, c.aoi.width, c.aoi.height}},
+          {"columns", {c.first_column, c.last_column, c.column_step}}};
+}
+
+}  // namespace
+
+json RunPlanJob(JobContext& ctx, const json& r) {
+  JobRun run(ctx, "plan", r);
+  try {
+    const calib::CalibrationRecord& cal = run.Calibration();
+    const auto probe =
+        std::find_if(ctx.config.probes.begin(), ctx.config.probes.end(),
+                     [&](const ProbeEntry& p) { return p.serial == ctx.machine.probe_serial; });
+    if (probe == ctx.config.probes.end() || probe->model_file.empty())
+      throw JobInputError("probe " + ctx.machine.probe_serial +
+                          " has no model_file in the configuration: a plan needs its camera "
+                          "and projector model");
+    const probe_fw::ProbeModel model = probe_fw::LoadProbeModel(probe->model_file);
+    const jobs::PlanOptions options = ParseOptions(r);
+    const auto plan = jobs::PlanCaptures(FeatureViews(r, ctx.config.data_dir, options), model,
+                                         cal.flange_from_probe, options);
+    json captures = json::array();
+    for (const auto& c : plan) captures.push_back(CaptureJson(c));
+    run.reply["captures"] = captures;
+    run.reply["calibration_id"] = cal.calibration_id;
+    const std::string tilt = jobs::CheckReachable(plan);
+    run.reply["three_axis"] = tilt.empty() ? json("reachable") : json(tilt);
+    return run.Finish(history::JobStatus::kDone, true);
+  } catch (const std::exception& e) {
+    return run.Fail(e);
+  }
+}
+
+}  // namespace mlp::service
