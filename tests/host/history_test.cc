@@ -94,6 +94,23 @@ TEST(History, ListsFiltersAndExportsCsv) {
       << csv;
 }
 
+TEST(History, TheLatestCaptureOfANameWhateverItsStatus) {
+  History h(FreshDb("named").string());
+  auto capture = [&](const std::string& machine, const std::string& name, JobStatus status) {
+    const auto id = h.StartJob({machine, "capture", "MLP-1", "", {{"capture_id", name}}});
+    h.FinishJob(id, status, json::object(), json::object());
+    return id;
+  };
+  const auto first = capture("vmc-1", "wall_0", JobStatus::kDone);
+  capture("vmc-2", "wall_0", JobStatus::kDone);  // another machine's
+  EXPECT_EQ(h.LatestCapture("vmc-1", "wall_0")->id, first);
+  const auto failed = capture("vmc-1", "wall_0", JobStatus::kFailed);
+  const auto latest = h.LatestCapture("vmc-1", "wall_0");  // the failed one: no stand-in
+  EXPECT_EQ(latest->id, failed);
+  EXPECT_EQ(latest->status, JobStatus::kFailed);
+  EXPECT_FALSE(h.LatestCapture("vmc-1", "wall_90"));
+}
+
 TEST(History, JobsLeftRunningAreClosedOnStartUp) {
   const fs::path db = FreshDb("interrupted");
   std::int64_t id = 0;

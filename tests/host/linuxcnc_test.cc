@@ -20,8 +20,10 @@ using namespace std::chrono_literals;
 
 const std::string kConfig = std::string(MLP_SOURCE_DIR) + "/samples/linuxcnc/mlprobe-sim";
 const std::string kDriver = std::string(MLP_SOURCE_DIR) + "/tests/linuxcnc/lcnc.py";
-constexpr int kPort = 17433;             // this test's probe link
-constexpr int kAlignPort = 17438;        // the alignment test's
+constexpr int kPort = 17433;       // this test's probe link
+constexpr int kAlignPort = 17438;  // the alignment test's
+constexpr int kPosePort = 17440;   // the controller-pose test's
+constexpr double kFaceHeightTolMm = 0.001;
 constexpr double kExactMm = 1e-6;        // LinuxCNC keeps doubles; our G10 lines carry 0.1 um
 constexpr double kRoundingMm = 0.00005;  // half the 0.1 um step of the G10 values
 
@@ -194,6 +196,74 @@ TEST(LinuxCnc, AnAlignmentSetsG54TheProgramMovesIn) {
   const double a = angle * M_PI / 180;
   EXPECT_NEAR(after.at("position")[0].get<double>(), 250 - 60 * std::sin(a), 0.001);
   EXPECT_NEAR(after.at("position")[1].get<double>(), 120 + 60 * std::cos(a), 0.001);
+}
+
+// Captures at the pose the controller reports: the program moves over the demo plate's top face
+// and orients the spindle (M19 R), M101 takes the capture there (the pose read from LinuxCNC's
+// stat channel and the spindle's orientation pin), and the face is measured from the captures
+// by name.
+TEST(LinuxCnc, CapturesAtTheControllersPoseAndMeasuresByName) {
+  ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0);
+  Site site("linuxcnc_pose", kPosePort);
+  const fs::path config = LinuxCncSite(site, test::kDemoPlate);
+  Child hostd({test::kHostd, "--config", (site.dir / "hostd.json").string()},
+              site.dir / "hostd.log");
+  Child probe({test::kSim, "serve", "--probe", test::kProbe, "--scene", test::kDemoPlate, "--port",
+               std::to_string(kPosePort), "--key", (site.dir / "probe.key").string()},
+              site.dir / "sim.log");
+  ASSERT_TRUE(test::ProbeConnected(site));
+  // Three spots on the plate's top face (z -310) clear of the holes, the probe 120 mm above
+  // (the gauge point 35 mm above the camera), the spindle turned differently at each.
+  const double spots[3][3] = {{240, 150, 0}, {330, 115, 90}, {330, 190, 200}};
+  std::string program = "G21 G90 G40 G49\nG53 G0 Z-100\n";
+  for (int k = 0; k < 3; ++k) {
+    const std::string name = "top_" + std::to_string(k + 1);
+    std::ofstream(config / "jobs" / (std::to_string(k + 1) + ".json"))
+        << json{{"op", "capture"}, {"machine", "lcnc-1"},         {"capture_id", name},
+                {"roi", "full"},   {"aoi", {924, 668, 200, 200}}, {"columns", {480, 560, 2}}}
+               .dump();
+    program += "G53 G0 X" + std::to_string(spots[k][0]) + " Y" + std::to_string(spots[k][1]) +
+               "\nG53 G0 Z-155\nM19 R" + std::to_string(spots[k][2]) + "\nM101 P" +
+               std::to_string(k + 1) + "\nM66 E0 L0\n";
+  }
+  std::ofstream(config / "jobs" / "4.json") << json{
+      {"op", "measure"},
+      {"machine", "lcnc-1"},
+      {"feature", "face"},
+      {"captures", {"top_1", "top_2", "top_3"}},
+      {"nominal", {{"point_mm", {250, 120, -310}}, {"normal", {0, 0, 1}}}},
+      {"tolerance",
+       {{"upper_mm", 0.01}, {"lower_mm", 0.01}}}}.dump();
+  program += "M101 P4\nM66 E0 L0\no<mlp_result> call\nM2\n";
+  LinuxCnc cnc(config, site.socket);
+  ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
+  const json after = cnc.Run(program);
+  ASSERT_TRUE(after.value("ended", false)) << after.dump();
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  const auto jobs = h.ListJobs({});
+  ASSERT_EQ(jobs.size(), 4u) << after.dump();
+  for (int k = 0; k < 3; ++k) {  // each capture's H is where the controller stood
+    const json pose =
+        h.ExportJob(jobs[static_cast<size_t>(k)].id).at("request").at("mcs_from_flange");
+    const double turn = spots[k][2] * M_PI / 180;
+    EXPECT_NEAR(pose.at("translation_mm")[0].get<double>(), spots[k][0], kExactMm);
+    EXPECT_NEAR(pose.at("translation_mm")[1].get<double>(), spots[k][1], kExactMm);
+    EXPECT_NEAR(pose.at("translation_mm")[2].get<double>(), -155.0, kExactMm);
+    EXPECT_NEAR(pose.at("rotation_vector_rad")[0].get<double>(), M_PI * std::cos(turn / 2), 1e-9);
+    EXPECT_NEAR(pose.at("rotation_vector_rad")[1].get<double>(), M_PI * std::sin(turn / 2), 1e-9);
+  }
+  const json reply = h.ExportJob(jobs.back().id).at("reply");
+  std::printf(
+      "LinuxCNC poses: top face from 3 captures at the controller's pose: height %.3f um, "
+      "%d points\n",
+      reply.at("height_mm").get<double>() * 1e3, reply.at("points").get<int>());
+  EXPECT_EQ(reply.at("status"), "in_tolerance") << reply.dump();
+  EXPECT_NEAR(reply.at("height_mm").get<double>(), 0.0, kFaceHeightTolMm);
+  // M5 releases the orientation: the probe's turn is unknown, so no capture is taken.
+  const json refused = cnc.Run("G21 G90\nM5\nM101 P1\nM2\n");
+  EXPECT_NE(refused.at("errors").dump().find("orient the spindle"), std::string::npos)
+      << refused.dump();
+  EXPECT_EQ(h.ListJobs({}).size(), 4u);
 }
 
 }  // namespace

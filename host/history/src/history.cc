@@ -240,34 +240,59 @@ std::vector<std::int64_t> History::CloseInterruptedJobs(const std::string& reaso
   return ids;
 }
 
+namespace {
+
+constexpr const char* kSummaryColumns =
+    "SELECT id, machine, kind, probe_serial, calibration_id, status, started_utc, "
+    "COALESCE(finished_utc, '') FROM jobs ";
+
+JobSummary SummaryOf(SQLite::Statement& q) {
+  JobSummary s;
+  s.id = q.getColumn(0).getInt64();
+  s.machine = q.getColumn(1).getString();
+  s.kind = q.getColumn(2).getString();
+  s.probe_serial = q.getColumn(3).getString();
+  s.calibration_id = q.getColumn(4).getString();
+  s.status = JobStatusFrom(q.getColumn(5).getString());
+  s.started_utc = q.getColumn(6).getString();
+  s.finished_utc = q.getColumn(7).getString();
+  return s;
+}
+
+}  // namespace
+
 std::vector<JobSummary> History::ListJobs(const JobFilter& f) const {
   std::vector<JobSummary> out;
   try {
-    SQLite::Statement q(
-        impl_->db,
-        "SELECT id, machine, kind, probe_serial, calibration_id, status, started_utc, "
-        "COALESCE(finished_utc, '') FROM jobs WHERE (?1 IS NULL OR machine = ?1) AND "
-        "(?2 IS NULL OR kind = ?2) AND (?3 IS NULL OR started_utc >= ?3) ORDER BY id LIMIT ?4");
+    SQLite::Statement q(impl_->db,
+                        std::string(kSummaryColumns) +
+                            "WHERE (?1 IS NULL OR machine = ?1) AND (?2 IS NULL OR kind = ?2) AND "
+                            "(?3 IS NULL OR started_utc >= ?3) ORDER BY id LIMIT ?4");
     if (f.machine) q.bind(1, *f.machine);
     if (f.kind) q.bind(2, *f.kind);
     if (f.since_utc) q.bind(3, *f.since_utc);
     q.bind(4, f.limit);
-    while (q.executeStep()) {
-      JobSummary s;
-      s.id = q.getColumn(0).getInt64();
-      s.machine = q.getColumn(1).getString();
-      s.kind = q.getColumn(2).getString();
-      s.probe_serial = q.getColumn(3).getString();
-      s.calibration_id = q.getColumn(4).getString();
-      s.status = JobStatusFrom(q.getColumn(5).getString());
-      s.started_utc = q.getColumn(6).getString();
-      s.finished_utc = q.getColumn(7).getString();
-      out.push_back(s);
-    }
+    while (q.executeStep()) out.push_back(SummaryOf(q));
   } catch (const SQLite::Exception& e) {
     Fail("history " + impl_->path + ": " + e.what());
   }
   return out;
+}
+
+std::optional<JobSummary> History::LatestCapture(const std::string& machine,
+                                                 const std::string& capture_id) const {
+  try {
+    SQLite::Statement q(impl_->db,
+                        std::string(kSummaryColumns) +
+                            "WHERE machine = ?1 AND kind = 'capture' AND "
+                            "json_extract(request, '$.capture_id') = ?2 ORDER BY id DESC LIMIT 1");
+    q.bind(1, machine);
+    q.bind(2, capture_id);
+    if (q.executeStep()) return SummaryOf(q);
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+  return std::nullopt;
 }
 
 json History::ExportJob(std::int64_t job) const {

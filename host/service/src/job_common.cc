@@ -73,6 +73,26 @@ jobs::PlaneNominal ParsePlaneNominal(const json& n, const std::string& w) {
   return p;
 }
 
+// A capture by job id, or by the name the macro gave it: its newest capture of that name on
+// this machine, which must have succeeded and be recent (a failed or missing capture never
+// lets an older one of the same name stand in).
+std::int64_t CaptureJobId(JobContext& ctx, const json& c) {
+  if (c.is_number_integer()) return c.get<std::int64_t>();
+  if (!c.is_string())
+    throw JobInputError("request.captures holds capture job ids or capture names");
+  const std::string name = c.get<std::string>();
+  const auto latest = ctx.history.LatestCapture(ctx.machine.name, name);
+  if (!latest) throw JobInputError("no capture named \"" + name + "\" on " + ctx.machine.name);
+  const std::string what =
+      "the latest capture \"" + name + "\" (job " + std::to_string(latest->id) + ")";
+  if (latest->status != history::JobStatus::kDone)
+    throw JobInputError(what + " " + history::ToString(latest->status) + ": take it again");
+  if (AgeHours(latest->started_utc) * 3600 > kNamedCaptureMaxAgeS)
+    throw JobInputError(what + " is older than " + std::to_string(kNamedCaptureMaxAgeS / 60) +
+                        " minutes: take it again");
+  return latest->id;
+}
+
 std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
                                               const json& capture_jobs,
                                               std::int64_t job) {
@@ -80,12 +100,12 @@ std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
     throw JobInputError("captures must list the capture jobs to use");
   std::vector<StoredCapture> out;
   for (const auto& c : capture_jobs) {
-    if (!c.is_number_integer()) throw JobInputError("request.captures holds capture job ids");
-    const json stored = ctx.history.ExportJob(c.get<std::int64_t>());
+    const std::int64_t id = CaptureJobId(ctx, c);
+    const json stored = ctx.history.ExportJob(id);
     if (stored.at("kind") != "capture" || stored.at("status") != "done" ||
         stored.at("machine") != ctx.machine.name || stored.at("captures").empty())
-      throw JobInputError("job " + std::to_string(c.get<std::int64_t>()) +
-                          " is not a finished capture on " + ctx.machine.name);
+      throw JobInputError("job " + std::to_string(id) + " is not a finished capture on " +
+                          ctx.machine.name);
     const json& row = stored.at("captures").at(0);
     const std::string path = row.at("cloud_path");
     if (history::Sha256OfFile(path) != row.at("cloud_sha256"))

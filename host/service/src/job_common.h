@@ -61,6 +61,10 @@ jobs::BoreNominal ParseBoreNominal(const nlohmann::json& n, const std::string& w
 jobs::PlaneNominal ParsePlaneNominal(const nlohmann::json& n, const std::string& where);
 inline nlohmann::json JsonVec(const geometry::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
+/// A capture named in a request (rather than given by job id) is used only this soon after it
+/// was taken: the macro takes its captures and then measures.
+constexpr int kNamedCaptureMaxAgeS = 3600;
+
 struct Evidence {
   geometry::Points3 points_mcs;
   std::string probe_serial;

@@ -84,6 +84,11 @@ class History {
   std::vector<std::int64_t> CloseInterruptedJobs(const std::string& reason);
 
   std::vector<JobSummary> ListJobs(const JobFilter& filter) const;
+  /// The newest capture job on `machine` whose request named `capture_id`, whatever its status
+  /// (a macro refers to its captures by name; a failed newest one must not let an older one
+  /// stand in).
+  std::optional<JobSummary> LatestCapture(const std::string& machine,
+                                          const std::string& capture_id) const;
   /// The whole job: its row, captures, results, offset writes. Throws for an unknown id.
   nlohmann::json ExportJob(std::int64_t job) const;
 
