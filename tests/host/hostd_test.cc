@@ -35,6 +35,7 @@ constexpr double kOriginTolUm = 5.0;         // issue 6: alignment origin within
 constexpr double kRotationTolArcsec = 10.0;  // and rotation within 10 arcsec
 constexpr double kFaceHeightTolMm = 0.001;
 constexpr int kCrashPort = 17437;                   // the crash test's probe link
+constexpr int kFailurePort = 17441;                 // the failure paths test's
 constexpr int kCalibratePort = 17435;               // the hand-eye test's probe link
 constexpr double kHandEyeTranslationTolMm = 0.002;  // issue 5: M within 2 um
 constexpr double kHandEyeRotationTolArcsec = 5.0;   // and 5 arcsec
@@ -419,6 +420,65 @@ TEST(Hostd, AJobCutOffByACrashIsClosedAtTheNextStart) {
   const json first = h.ExportJob(h.ListJobs({}).front().id);
   EXPECT_EQ(first.at("status"), "failed");
   EXPECT_EQ(first.at("reply").at("error"), "the host stopped while the job ran");
+}
+
+// The failure paths that must write nothing: a calibration older than the machine allows, a
+// cloud file changed after its capture, the probe dropping off the link in the middle of a
+// capture. Each gives the operator a reason and leaves the result folder empty.
+TEST(Hostd, StaleCalibrationTamperedCloudAndALinkDropWriteNothing) {
+  Site site("failures", kFailurePort);
+  json config = json::parse(test::ReadText(site.dir / "hostd.json"));
+  config["capture_timeout_s"] = 3;  // how long a dropped probe is waited for
+  std::ofstream(site.dir / "hostd.json") << config.dump(1);
+  test::SaveSceneCalibration(site);
+  // Made on 1 September: 82 days old, the limit is 720 h.
+  for (const auto& f :
+       fs::directory_iterator(site.dir / "data" / "calibrations" / "MLP-REF-0001")) {
+    json record = json::parse(test::ReadText(f.path()));
+    record["created_utc"] = "2026-09-01T00:00:00.000Z";
+    std::ofstream(f.path()) << record.dump(1);
+  }
+  Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+  auto probe = std::make_unique<Child>(
+      std::vector<std::string>{kSim, "serve", "--probe", kProbe, "--scene", kScene, "--port",
+                               std::to_string(kFailurePort), "--key",
+                               (site.dir / "probe.key").string()},
+      site.dir / "sim.log");
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const auto walls = test::CaptureBoreWalls(site, "vmc-1");
+  ASSERT_EQ(walls.size(), 4u);
+  json measure = test::BoreMeasureJob(walls, 40.010);
+  measure["machine"] = "vmc-1";
+  const auto stale = site.Mlp("request " + site.Request("stale", measure));
+  EXPECT_EQ(stale.exit_code, 6) << stale.out << stale.err;  // refused
+  EXPECT_NE(stale.err.find("h old, the limit is 720"), std::string::npos) << stale.err;
+  EXPECT_FALSE(fs::exists(site.dir / "out")) << "a refused job wrote a result";
+
+  // A cloud changed on disk after its capture: the job fails, naming the file.
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  const std::string cloud = h.ExportJob(walls[0]).at("captures").at(0).at("cloud_path");
+  std::ofstream(cloud, std::ios::app) << "0 0 0\n";
+  const auto tampered = site.Mlp("request " + site.Request("tampered", measure));
+  EXPECT_EQ(tampered.exit_code, 7);
+  EXPECT_NE(tampered.err.find("changed since it was captured"), std::string::npos) << tampered.err;
+
+  // The probe goes down half way through a long capture (every projector column) and does not
+  // come back: the capture fails once the timeout has passed, saying so; no cloud is stored.
+  json slow = TopFaceCapture();
+  slow["columns"] = {0, 1023, 1};
+  std::thread macro([&] {
+    const auto r = site.Mlp("request " + site.Request("drop", slow));
+    EXPECT_EQ(r.exit_code, 7);
+    EXPECT_NE(r.err.find("dropped off the link during capture"), std::string::npos) << r.err;
+  });
+  std::this_thread::sleep_for(500ms);
+  probe->Stop(SIGKILL);
+  macro.join();
+  const auto jobs = h.ListJobs({});
+  const json dropped = h.ExportJob(jobs.back().id);
+  EXPECT_EQ(dropped.at("status"), "failed");
+  EXPECT_TRUE(dropped.at("captures").empty());
+  EXPECT_FALSE(fs::exists(site.dir / "out"));
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "mlp/service/capture_broker.h"
 
+#include <algorithm>
 #include <condition_variable>
 #include <map>
 #include <mutex>
@@ -95,10 +96,20 @@ link::LinkCloud CaptureBroker::Capture(const std::string& serial,
                        "probe " + serial + " is not connected to the host");
   std::unique_lock lock(s.m);
   Pending& p = s.pending.at(request.capture_id);
-  if (!s.cv.wait_for(lock, timeout, [&] { return p.cloud || p.error; }))
-    throw CaptureError(CaptureError::Kind::kTimeout,
-                       "probe " + serial + " sent no cloud for capture " + request.capture_id +
-                           " within " + std::to_string(timeout.count()) + " ms");
+  // A probe that drops off the link keeps its cloud and resends it when it is back (a Wi-Fi
+  // glitch costs no capture), so a drop is waited out up to the timeout like a slow capture.
+  if (!s.cv.wait_for(lock, timeout, [&] { return p.cloud || p.error; })) {
+    lock.unlock();
+    const auto on_link = s.host->ConnectedProbes();
+    const bool connected = std::find(on_link.begin(), on_link.end(), serial) != on_link.end();
+    const std::string within = " within " + std::to_string(timeout.count()) + " ms";
+    throw CaptureError(
+        CaptureError::Kind::kTimeout,
+        connected
+            ? "probe " + serial + " sent no cloud for capture " + request.capture_id + within
+            : "probe " + serial + " dropped off the link during capture " + request.capture_id +
+                  " and was not back" + within + ": take the capture again");
+  }
   if (p.error)
     throw CaptureError(
         CaptureError::Kind::kProbeError,
