@@ -95,11 +95,24 @@ struct Demo {
   std::string socket;
   std::ostream& out;
   json summary = json::object();  ///< what was found against the truth (--json)
+  /// Where the time went, summed over the demo's jobs [ms]: each capture's frames (the virtual
+  /// probe renders them), firmware, link and host share, and the host's time in the other jobs.
+  json time_ms = {{"frames", 0.0},       {"firmware", 0.0},  {"link", 0.0},
+                  {"capture_host", 0.0}, {"jobs_host", 0.0}, {"captures", 0}};
 
-  json Request(const json& r) const {
+  json Request(const json& r) {
     const json reply = service::SendRequest(socket, r, kRequestTimeoutMs);
     if (!reply.value("ok", false) && reply.value("status", "") != "out_of_tolerance")
       throw DemoError(r.value("op", "?") + ": " + reply.value("error", std::string("failed")));
+    if (reply.contains("timings_ms")) {
+      const json& t = reply.at("timings_ms");
+      for (const char* k : {"frames", "firmware", "link"})
+        time_ms[k] = time_ms[k].get<double>() + t.at(k).get<double>();
+      time_ms["capture_host"] = time_ms["capture_host"].get<double>() + t.at("host").get<double>();
+      time_ms["captures"] = time_ms["captures"].get<int>() + 1;
+    } else if (reply.contains("host_ms")) {
+      time_ms["jobs_host"] = time_ms["jobs_host"].get<double>() + reply.at("host_ms").get<double>();
+    }
     return reply;
   }
 
@@ -107,7 +120,7 @@ struct Demo {
   // columns a capture plan would give: the capture job ids.
   std::vector<std::int64_t> Capture(const sim::VirtualProbe& vp,
                                     const std::string& prefix,
-                                    probe_fw::Aoi aoi) const {
+                                    probe_fw::Aoi aoi) {
     std::vector<std::int64_t> ids;
     for (const sim::Capture& c : vp.scene().captures) {
       if (c.id.rfind(prefix, 0) != 0) continue;
@@ -315,6 +328,7 @@ int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std:
     std::ifstream sub(d.dir / "subs" / "mlp_result.ngc");
     d.summary["tool_table"] = (d.dir / "tool.tbl").string();
     d.summary["subroutine"] = (d.dir / "subs" / "mlp_result.ngc").string();
+    d.summary["time_ms"] = d.time_ms;
     if (as_json) {
       out << d.summary.dump(2) << "\n";
       return kExitOk;
@@ -323,6 +337,13 @@ int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std:
         << "), the result subroutine the NC program calls:\n"
         << std::string(std::istreambuf_iterator<char>(sub), {}) << "   history: mlp history --db "
         << (d.dir / "data" / "history.sqlite").string() << "\n";
+    const json& t = d.time_ms;
+    out << std::setprecision(2) << "5. time: " << t.at("captures").get<int>()
+        << " captures: frames " << t.at("frames").get<double>() / 1e3
+        << " s (the virtual probe renders them), firmware " << t.at("firmware").get<double>() / 1e3
+        << " s, link " << t.at("link").get<double>() / 1e3 << " s, host "
+        << t.at("capture_host").get<double>() / 1e3 << " s; the host's jobs "
+        << t.at("jobs_host").get<double>() / 1e3 << " s\n";
     return kExitOk;
   } catch (const UsageError& e) {
     err << "mlp demo: " << e.what() << "\n" << kUsage;

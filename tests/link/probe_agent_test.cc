@@ -100,6 +100,7 @@ TEST(ProbeAgent, VirtualProbeAnswersCaptureRequestsAndBadRequestsGetTypedErrors)
     EXPECT_EQ(c.calibration_id, node.probe->model().calibration_id);
     EXPECT_EQ(c.mcs_from_flange, top.mcs_from_flange);
     EXPECT_LE(c.first_frame_ns, c.last_frame_ns);
+    EXPECT_LE(c.last_frame_ns, c.processed_ns);
     EXPECT_GT(c.size(), 5000u);
     ExpectOnTopFace(*node.probe, c);
   }

@@ -178,6 +178,19 @@ struct Hostd::Impl {
     return job(*m, request);
   }
 
+  // Where a capture's time went: the probe's frames and firmware (durations on its own clock),
+  // the link (the rest of the host's round trip: the request out, the cloud back), the host
+  // (store and hash). The virtual probe's "frames" are its rendering.
+  static json CaptureTimings(const link::LinkCloud& c, double round_trip_ms, double total_ms) {
+    const double frames_ms = static_cast<double>(c.last_frame_ns - c.first_frame_ns) * 1e-6;
+    const double firmware_ms = static_cast<double>(c.processed_ns - c.last_frame_ns) * 1e-6;
+    return {{"frames", frames_ms},
+            {"firmware", firmware_ms},
+            {"link", std::max(0.0, round_trip_ms - frames_ms - firmware_ms)},
+            {"host", total_ms - round_trip_ms},
+            {"total", total_ms}};
+  }
+
   json Capture(const MachineConfig& m, const json& request) {
     const auto t0 = Clock::now();
     const std::int64_t job = history.StartJob({m.name, "capture", m.probe_serial, "", request});
@@ -187,10 +200,11 @@ struct Hostd::Impl {
                                    : std::string("c1");
       const std::string id = m.name + "-" + std::to_string(job) + "-" + name;
       const link::CaptureRequest cr = ParseCapture(request, id);
+      const auto sent = Clock::now();
       const link::LinkCloud cloud = broker->Capture(
           m.probe_serial, cr,
           std::chrono::milliseconds(static_cast<long>(config.capture_timeout_s * 1000)));
-      const double capture_ms = Ms(t0);
+      const double round_trip_ms = Ms(sent);
       const fs::path dir = fs::path(config.CloudDir()) / std::to_string(job);
       fs::create_directories(dir);
       const std::string path = (dir / (name + ".ply")).string();
@@ -200,6 +214,7 @@ struct Hostd::Impl {
       const std::string sha = history::Sha256OfFile(path);
       json pose = request.at("mcs_from_flange");
       history.AddCapture(job, {id, pose, path, sha, static_cast<std::int64_t>(cloud.size())});
+      const json timings = CaptureTimings(cloud, round_trip_ms, Ms(t0));
       const json reply = {{"ok", true},
                           {"status", "done"},
                           {"job_id", job},
@@ -207,9 +222,9 @@ struct Hostd::Impl {
                           {"points", cloud.size()},
                           {"cloud_path", path},
                           {"cloud_sha256", sha},
-                          {"probe_calibration_id", cloud.calibration_id}};
-      history.FinishJob(job, history::JobStatus::kDone, reply,
-                        {{"capture", capture_ms}, {"total", Ms(t0)}});
+                          {"probe_calibration_id", cloud.calibration_id},
+                          {"timings_ms", timings}};
+      history.FinishJob(job, history::JobStatus::kDone, reply, timings);
       return reply;
     } catch (const std::exception& e) {
       const json reply = {

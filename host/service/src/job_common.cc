@@ -43,7 +43,8 @@ const calib::CalibrationRecord& JobRun::Calibration() const {
 json JobRun::Finish(history::JobStatus status, bool ok) {
   reply["ok"] = ok;
   reply["status"] = history::ToString(status);
-  ctx.history.FinishJob(job, status, reply, {{"total", Ms(started)}});
+  reply["host_ms"] = Ms(started);  // the stored clouds to the decision written
+  ctx.history.FinishJob(job, status, reply, {{"total", reply["host_ms"]}});
   return reply;
 }
 

@@ -24,13 +24,13 @@ ProbeAgent::ProbeAgent(ProbeModel model, link::ProbeLink* link, Camera camera, l
     : model_(std::move(model)), link_(link), camera_(std::move(camera)), log_(std::move(log)) {}
 
 link::LinkCloud ProbeAgent::Capture(const link::CaptureRequest& request) const {
+  link::LinkCloud out;
+  out.first_frame_ns = WallClockNs();  // the acquisition starts as the camera is armed
   std::unique_ptr<FrameSource> source = camera_(request);
   std::optional<Frame> led;
   std::vector<Frame> laser;
-  link::LinkCloud out;
   Frame f;
   while (source->Next(&f)) {
-    if (out.first_frame_ns == 0) out.first_frame_ns = WallClockNs();
     if (f.laser_column < 0.0) {
       led = std::move(f);
     } else {
@@ -52,6 +52,7 @@ link::LinkCloud ProbeAgent::Capture(const link::CaptureRequest& request) const {
     for (int a = 0; a < 3; ++a) out.xyz.push_back(p.point_in_probe(a));
     out.quality.push_back(static_cast<float>(p.quality));
   }
+  out.processed_ns = WallClockNs();
   return out;
 }
 

@@ -115,6 +115,7 @@ Bytes EncodeCloud(const LinkCloud& c, bool compress) {
   }
   PutU64(&out, static_cast<std::uint64_t>(c.first_frame_ns));
   PutU64(&out, static_cast<std::uint64_t>(c.last_frame_ns));
+  PutU64(&out, static_cast<std::uint64_t>(c.processed_ns));
   PutU32(&out, static_cast<std::uint32_t>(c.size()));
   const Bytes body = Body(c);
   if (!compress) {
@@ -142,6 +143,7 @@ LinkCloud DecodeCloud(const Bytes& payload) {
   for (double& h : c.mcs_from_flange) h = r.F64();
   c.first_frame_ns = static_cast<std::int64_t>(r.U64());
   c.last_frame_ns = static_cast<std::int64_t>(r.U64());
+  c.processed_ns = static_cast<std::int64_t>(r.U64());
   const std::size_t n = r.U32();
   if (n > kMaxCloudPoints) Bad("point count " + std::to_string(n) + " over the limit");
   const std::size_t max_body = 3 * (4 + kMaxVarint * n) + n;  // three streams + quality

@@ -23,8 +23,14 @@ struct LinkCloud {
   std::string probe_serial;
   std::string calibration_id;
   std::array<double, 16> mcs_from_flange{};  ///< H at capture, row-major 4 x 4
-  std::int64_t first_frame_ns = 0;           ///< timestamps of the first and last frame
+  /// The acquisition on the probe's clock [ns]: from arming the camera for the first frame (a
+  /// virtual probe renders then) to the last frame in.
+  std::int64_t first_frame_ns = 0;
   std::int64_t last_frame_ns = 0;
+  /// When the firmware had the cloud ready (after triangulation), on the probe's clock: with
+  /// the frame times it splits a capture's time into frames and firmware, the rest of the
+  /// host's round trip being the link's.
+  std::int64_t processed_ns = 0;
   std::vector<double> xyz;     ///< x y z per point [mm], probe frame
   std::vector<float> quality;  ///< 0..1 per point
   std::size_t size() const { return quality.size(); }
