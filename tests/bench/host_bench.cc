@@ -10,7 +10,9 @@
 #include "mlp/history/file_hash.h"
 #include "mlp/history/history.h"
 #include "mlp/jobs/decision.h"
+#include "mlp/jobs/composite.h"
 #include "mlp/jobs/feature.h"
+#include "mlp/jobs/surface.h"
 #include "mlp/jobs/report.h"
 #include "mlp/nc/nc_output.h"
 #include "mlp/nc/tool_table.h"
@@ -20,6 +22,8 @@
 #include <random>
 
 #include <benchmark/benchmark.h>
+
+#include "../host/feature_points.h"
 
 namespace {
 
@@ -164,7 +168,58 @@ void BM_AlignJobHostSide(benchmark::State& state) {
   state.counters["points"] = 15000 + 2 * 24000;
 }
 
+// The fits of the other features alone (no files, no writes), at the sizes their planned
+// captures give: what they add to a job against the bore's.
+void BM_RectanglePocketFit(benchmark::State& state) {
+  mlp::jobs::test::CloudMaker cloud(5, kNoiseMm);
+  for (double s : {1.0, -1.0}) {
+    cloud.Patch(Vec3(s * 30, -4, -11.5), Vec3::UnitY(), Vec3::UnitZ(), 8, 8, 12500);
+    cloud.Patch(Vec3(-4, s * 20, -11.5), Vec3::UnitX(), Vec3::UnitZ(), 8, 8, 12500);
+  }
+  const Points3 p = cloud.Cloud();
+  mlp::jobs::RectangleNominal n;
+  n.centre_mcs = Vec3(0, 0, -7.5), n.size_x_mm = 60, n.size_y_mm = 40, n.within_mm = 6;
+  for (auto _ : state) benchmark::DoNotOptimize(mlp::jobs::MeasureRectangle(p, n));
+  state.counters["points"] = 50000;
+}
+
+void BM_PcdFit(benchmark::State& state) {
+  mlp::jobs::test::CloudMaker cloud(6, kNoiseMm);
+  mlp::jobs::PcdNominal n;
+  n.diameter_mm = 30;
+  for (int k = 0; k < 4; ++k) {
+    const Vec3 at = 15 * mlp::jobs::test::Dir(90 * k);
+    cloud.Wall(at.x(), at.y(), 4, -10, -2, 0, 360, 12500);
+    mlp::jobs::BoreNominal h;
+    h.top_centre_mcs = at, h.diameter_mm = 8, h.depth_mm = 12;
+    n.holes.push_back(h);
+  }
+  const Points3 p = cloud.Cloud();
+  for (auto _ : state) benchmark::DoNotOptimize(mlp::jobs::MeasurePcd(p, n));
+  state.counters["points"] = 50000;
+}
+
+void BM_SurfacePatchAgainstNominal(benchmark::State& state) {
+  // A flat 20 x 20 mm nominal every 0.25 mm (6,561 vector points), 50,000 measured points.
+  mlp::jobs::SurfaceNominal n;
+  n.spacing_mm = 0.25;
+  n.points_mcs.resize(3, 81 * 81), n.normals_mcs.resize(3, 81 * 81);
+  for (int i = 0; i < 81; ++i)
+    for (int j = 0; j < 81; ++j) {
+      n.points_mcs.col(i * 81 + j) = Vec3(-10 + 0.25 * i, -10 + 0.25 * j, 0);
+      n.normals_mcs.col(i * 81 + j) = Vec3::UnitZ();
+    }
+  mlp::jobs::test::CloudMaker cloud(7, kNoiseMm);
+  cloud.Patch(Vec3(-10, -10, 0), Vec3::UnitX(), Vec3::UnitY(), 20, 20, 50000);
+  const Points3 p = cloud.Cloud();
+  for (auto _ : state) benchmark::DoNotOptimize(mlp::jobs::MeasureSurface(p, n));
+  state.counters["points"] = 50000;
+}
+
 BENCHMARK(BM_MemoryReadBaseline)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RectanglePocketFit)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PcdFit)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SurfacePatchAgainstNominal)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_BoreJobHostSide)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_AlignJobHostSide)->Unit(benchmark::kMillisecond);
 
