@@ -9,11 +9,11 @@
 #include "mlp/geometry/datum.h"
 #include "mlp/history/file_hash.h"
 #include "mlp/history/history.h"
-#include "mlp/jobs/decision.h"
 #include "mlp/jobs/composite.h"
+#include "mlp/jobs/decision.h"
 #include "mlp/jobs/feature.h"
-#include "mlp/jobs/surface.h"
 #include "mlp/jobs/report.h"
+#include "mlp/jobs/surface.h"
 #include "mlp/nc/nc_output.h"
 #include "mlp/nc/tool_table.h"
 #include "mlp/probe_fw/cloud_file.h"
@@ -21,9 +21,8 @@
 #include <filesystem>
 #include <random>
 
-#include <benchmark/benchmark.h>
-
 #include "../host/feature_points.h"
+#include <benchmark/benchmark.h>
 
 namespace {
 

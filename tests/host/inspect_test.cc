@@ -3,6 +3,7 @@
 // virtual probe renders them through the firmware and the authenticated link, the host
 // measures; each result against the scene's truth (samples/scenes/features_block.json).
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -84,11 +85,30 @@ TEST(Inspect, PlansCapturesAndMeasuresEveryFeatureOfTheBlock) {
     json measure = f;
     measure.erase("truth"), measure.erase("views_per_circle");
     measure["op"] = "measure", measure["machine"] = "vmc-1", measure["captures"] = captures;
+    // The boss also sets up G55 on its centre: the work offset moves by where it was found.
+    if (feature == "boss") measure["update_work"] = {{"offset", 2}, {"axes", "xy"}};
     const json reply = RequestOn(site, feature + "-measure", measure);
     std::printf("%s: %zu planned captures, status %s\n", feature.c_str(), captures.size(),
                 reply.value("status", "?").c_str());
     EXPECT_EQ(reply.value("status", ""), "in_tolerance") << feature << ": " << reply.dump();
     CheckAgainstTruth(feature, f.at("truth"), reply);
+    // The operator's picture: the feature's name, the verdict and its surfaces.
+    ASSERT_TRUE(reply.contains("report")) << feature;
+    const std::string svg = ReadText(reply.at("report").get<std::string>());
+    EXPECT_NE(svg.find(" - " + feature + " - vmc-1"), std::string::npos) << feature;
+    EXPECT_NE(svg.find("in tolerance"), std::string::npos) << feature;
+    EXPECT_GT(std::count(svg.begin(), svg.end(), '\n'), 100) << feature << ": no points drawn";
+    if (feature == "boss") {
+      const json truth = f.at("truth").at("centre_mm"),
+                 nominal = f.at("nominal").at("top_centre_mm");
+      for (int k = 0; k < 2; ++k)
+        EXPECT_NEAR(reply.at("update_work").at("shift_mm")[k].get<double>(),
+                    truth[k].get<double>() - nominal[k].get<double>(), kPositionTolMm);
+      EXPECT_EQ(reply.at("update_work").at("shift_mm")[2].get<double>(), 0.0);  // xy only
+      std::printf("  boss         G55 shift      (%.2f, %.2f) um\n",
+                  reply.at("update_work").at("shift_mm")[0].get<double>() * 1e3,
+                  reply.at("update_work").at("shift_mm")[1].get<double>() * 1e3);
+    }
   }
 }
 

@@ -198,6 +198,22 @@ TEST(NcOutput, IncrementsWhenTheValueBeforeIsInTheControl) {
   EXPECT_THROW(LinuxCncSubroutine("mlp_result", r), NcOutputError);
 }
 
+TEST(NcOutput, ShiftsAWorkOffsetInTheControl) {
+  // A bore found 12 um right and 5 um low of where G55 says: G55 X and Y move by that.
+  NcResult r;
+  WorkOffsetChange w;
+  w.index = 2, w.incremental = true, w.axes[2] = false;
+  w.after_mm[0] = 0.012, w.after_mm[1] = -0.005;
+  r.work.push_back(w);
+  EXPECT_EQ(LinuxCncSubroutine("mlp_result", r),
+            "o<mlp_result> sub\nG10 L2 P2 X[#5241 + 0.0120] Y[#5242 - 0.0050]\n"
+            "o<mlp_result> endsub\nM2\n");
+  NcMap fanuc = FanucMap();
+  EXPECT_EQ(FanucStyleSnippet(fanuc, r), "G90\nG91 G10 L2 P2 X0.0120 Y-0.0050\nG90\n");
+  fanuc.use_variables = true;
+  EXPECT_EQ(FanucStyleSnippet(fanuc, r), "G90\n#5241 = #5241 + 0.0120\n#5242 = #5242 - 0.0050\n");
+}
+
 TEST(NcOutput, RefusesWhatTheMachineCannotTake) {
   NcMap fanuc = FanucMap();
   fanuc.use_variables = true;

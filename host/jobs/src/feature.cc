@@ -177,6 +177,7 @@ PlaneMeasurement MeasurePlane(const geometry::Points3& points, const PlaneNomina
     if (next.size() == keep.size()) {
       if (n.flatness) m.flatness_mm = geometry::FitMinZonePlane(pts).flatness;
       m.area_mm2 = CoveredAreaMm2(pts, m.plane);
+      m.used = keep;
       break;
     }
     m.trimmed += static_cast<int>(keep.size() - next.size());

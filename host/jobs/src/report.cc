@@ -104,7 +104,9 @@ std::string BoreReportSvg(const BoreReport& r) {
   text("error " + Num(r.error_mm * 1e3, 1) + " um", 13, "black");
   text("least squares D " + Num(r.bore.diameter_mm, 4) + " mm", 13, "black");
   if (r.bore.functional_diameter_mm > 0)
-    text("max inscribed D " + Num(r.bore.functional_diameter_mm, 4) + " mm", 13, "black");
+    text(std::string(r.boss ? "min circumscribed D " : "max inscribed D ") +
+             Num(r.bore.functional_diameter_mm, 4) + " mm",
+         13, "black");
   text("centre X " + Num(r.bore.top_centre_mcs.x(), 4) + "  Y " + Num(r.bore.top_centre_mcs.y(), 4),
        13, "black");
   int covered = 0;
@@ -127,6 +129,125 @@ std::string BoreReportSvg(const BoreReport& r) {
   } else {
     text(r.decision, 12, "black");
   }
+  text(r.time_utc, 11, "#777");
+  s << "</svg>\n";
+  return s.str();
+}
+
+namespace {
+
+constexpr int kPanelPx = 200, kMaxPanelPoints = 2500;
+
+// Two directions across `normal`: machine X projected first, so a level face is drawn as
+// seen from above with X to the right.
+void PlaneAxes(const geometry::Vec3& normal, geometry::Vec3* u, geometry::Vec3* v) {
+  const geometry::Vec3 x = geometry::Vec3::UnitX() - normal.dot(geometry::Vec3::UnitX()) * normal;
+  *u = x.norm() > 0.1 ? geometry::Vec3(x.normalized()) : geometry::Vec3(normal.unitOrthogonal());
+  *v = normal.cross(*u);
+}
+
+// The 99th percentile of |deviation| over every panel (at least 0.1 um).
+double ColourScale(const std::vector<DeviationPanel>& panels) {
+  std::vector<double> all;
+  for (const auto& p : panels)
+    for (double d : p.deviation_mm) all.push_back(std::abs(d));
+  if (all.empty()) return 1e-4;
+  const auto k = static_cast<std::ptrdiff_t>(0.99 * static_cast<double>(all.size() - 1));
+  std::nth_element(all.begin(), all.begin() + k, all.end());
+  return std::max(all[static_cast<size_t>(k)], 1e-4);
+}
+
+void Panel(std::ostringstream& s, const DeviationPanel& p, double x0, double y0, double scale) {
+  s << "<rect x='" << x0 << "' y='" << y0 << "' width='" << kPanelPx << "' height='" << kPanelPx
+    << "' fill='#f4f4f4' stroke='#999'/>\n"
+    << "<text x='" << x0 << "' y='" << y0 - 5 << "' font-size='12'>" << Escape(p.title)
+    << "</text>\n";
+  if (p.xy_mm.empty()) return;
+  double lo_x = 1e300, hi_x = -1e300, lo_y = 1e300, hi_y = -1e300;
+  for (const auto& q : p.xy_mm)
+    lo_x = std::min(lo_x, q.x()), hi_x = std::max(hi_x, q.x()), lo_y = std::min(lo_y, q.y()),
+    hi_y = std::max(hi_y, q.y());
+  const double span = std::max({hi_x - lo_x, hi_y - lo_y, 1e-3});
+  const double k = (kPanelPx - 16) / span;  // equal scales: the surface's true shape
+  const double cx = x0 + kPanelPx / 2.0 - k * (lo_x + hi_x) / 2;
+  const double cy = y0 + kPanelPx / 2.0 + k * (lo_y + hi_y) / 2;
+  const size_t stride = std::max<size_t>(1, p.xy_mm.size() / kMaxPanelPoints);
+  for (size_t i = 0; i < p.xy_mm.size(); i += stride)
+    s << "<circle cx='" << Num(cx + k * p.xy_mm[i].x(), 1) << "' cy='"
+      << Num(cy - k * p.xy_mm[i].y(), 1) << "' r='1.6' fill='" << Colour(p.deviation_mm[i] / scale)
+      << "'/>\n";
+  s << "<text x='" << x0 + kPanelPx - 4 << "' y='" << y0 + kPanelPx - 4
+    << "' font-size='10' text-anchor='end' fill='#555'>" << Num(span, 1) << " mm across</text>\n";
+}
+
+}  // namespace
+
+DeviationPanel FacePanel(const std::string& title,
+                         const geometry::Points3& points,
+                         const PlaneMeasurement& face) {
+  geometry::Vec3 u, v;
+  PlaneAxes(face.plane.normal, &u, &v);
+  DeviationPanel p;
+  p.title = title;
+  for (Eigen::Index i : face.used) {
+    const geometry::Vec3 d = points.col(i) - face.plane.point;
+    p.xy_mm.emplace_back(d.dot(u), d.dot(v));
+    p.deviation_mm.push_back(d.dot(face.plane.normal));
+  }
+  return p;
+}
+
+DeviationPanel PointsPanel(const std::string& title,
+                           const geometry::Points3& points,
+                           const std::vector<double>& deviation_mm,
+                           const geometry::Vec3& normal) {
+  geometry::Vec3 u, v;
+  PlaneAxes(normal.normalized(), &u, &v);
+  DeviationPanel p;
+  p.title = title;
+  for (Eigen::Index i = 0; i < points.cols(); ++i)
+    p.xy_mm.emplace_back(points.col(i).dot(u), points.col(i).dot(v));
+  p.deviation_mm = deviation_mm;
+  return p;
+}
+
+DeviationPanel RingPanel(const std::string& title, const BoreMeasurement& hole) {
+  geometry::Vec3 u, v;
+  PlaneAxes(hole.axis_mcs, &u, &v);
+  DeviationPanel p;
+  p.title = title;
+  const auto& dev = hole.deviation_by_degree_mm;
+  for (size_t b = 0; b < dev.size(); ++b) {
+    if (!std::isfinite(dev[b])) continue;
+    const double a = (static_cast<double>(b) + 0.5) * M_PI / 180, r = hole.diameter_mm / 2;
+    p.xy_mm.emplace_back(r * std::cos(a), r * std::sin(a));
+    p.deviation_mm.push_back(dev[b]);
+  }
+  return p;
+}
+
+std::string FeatureReportSvg(const FeatureReport& r) {
+  const double scale = ColourScale(r.panels);
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='900' height='500' "
+       "font-family='sans-serif'>\n"
+    << "<rect width='900' height='500' fill='white'/>\n";
+  for (size_t k = 0; k < std::min<size_t>(4, r.panels.size()); ++k)
+    Panel(s, r.panels[k], 20 + 230.0 * static_cast<double>(k % 2),
+          40 + 240.0 * static_cast<double>(k / 2), scale);
+  const double y0 = 40, dy = 22;
+  int line = 0;
+  const auto text = [&](const std::string& t, int size, const std::string& colour) {
+    s << "<text x='480' y='" << Num(y0 + dy * line++, 0) << "' font-size='" << size << "' fill='"
+      << colour << "'>" << Escape(t) << "</text>\n";
+  };
+  text(r.title, 16, "black");
+  text(r.verdict, 22, VerdictColour(r.verdict));
+  for (const auto& l : r.lines) text(l, 13, "black");
+  if (!r.panels.empty())
+    text("colour: blue below, red above (+-" + Num(scale * 1e3, 1) + " um: 99 % of the points)", 12,
+         "#555");
+  text(r.decision.size() > 60 ? r.decision.substr(0, 60) + "..." : r.decision, 12, "black");
   text(r.time_utc, 11, "#777");
   s << "</svg>\n";
   return s.str();

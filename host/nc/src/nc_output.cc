@@ -125,7 +125,17 @@ std::string LinuxCncSubroutine(const std::string& name, const NcResult& r) {
   for (const WorkOffsetChange& w : r.work) {
     WorkOffsetName(Dialect::kLinuxCnc, w.index);  // range check
     s << "G10 L2 P" << w.index;
-    for (int a = 0; a < 3; ++a) s << " " << kAxes[a] << Num(w.after_mm[a]);
+    // LinuxCNC keeps G54..G59.3 in parameters 5221 + 20 (index - 1) + axis.
+    const int x_param = 5221 + 20 * (w.index - 1);
+    for (int a = 0; a < 3; ++a) {
+      if (!w.axes[a]) continue;
+      const double shift = w.after_mm[a] - w.before_mm[a];
+      if (w.incremental)
+        s << " " << kAxes[a] << "[#" << x_param + a << (shift < 0 ? " - " : " + ")
+          << Num(std::abs(shift)) << "]";
+      else
+        s << " " << kAxes[a] << Num(w.after_mm[a]);
+    }
     if (w.rotation_after_deg) s << " R" << Num(*w.rotation_after_deg);
     s << "\n";
   }
@@ -180,12 +190,24 @@ std::string FanucStyleSnippet(const NcMap& map, const NcResult& r) {
     if (map.use_variables) {
       const int x = extended ? map.extended_work_var + (w.index - 7) * map.extended_work_stride
                              : map.work_var + (w.index - 1) * map.work_stride;
-      for (int a = 0; a < 3; ++a) s << "#" << x + a << " = " << Num(w.after_mm[a]) << "\n";
+      for (int a = 0; a < 3; ++a) {
+        if (!w.axes[a]) continue;
+        const double shift = w.after_mm[a] - w.before_mm[a];
+        if (w.incremental)
+          s << "#" << x + a << " = #" << x + a << (shift < 0 ? " - " : " + ")
+            << Num(std::abs(shift)) << "\n";
+        else
+          s << "#" << x + a << " = " << Num(w.after_mm[a]) << "\n";
+      }
     } else {
-      s << "G10 "
+      // G91: the values are added to the offset; back to G90 at once.
+      s << (w.incremental ? "G91 G10 " : "G10 ")
         << (extended ? "L20 P" + std::to_string(w.index - 6) : "L2 P" + std::to_string(w.index));
-      for (int a = 0; a < 3; ++a) s << " " << kAxes[a] << Num(w.after_mm[a]);
-      s << "\n";
+      for (int a = 0; a < 3; ++a)
+        if (w.axes[a])
+          s << " " << kAxes[a]
+            << Num(w.incremental ? w.after_mm[a] - w.before_mm[a] : w.after_mm[a]);
+      s << (w.incremental ? "\nG90\n" : "\n");
     }
     if (w.rotation_after_deg) {
       if (map.rotation_var <= 0)

@@ -101,6 +101,7 @@ Measured Cylindrical(const json& r, const Evidence& ev, bool boss) {
               {"points", b.points},
               {"arc_span_deg", b.arc_span_deg}};
   CheckPosition(r, tp, m.feature, &m);
+  m.found_mcs = b.top_centre_mcs, m.nominal_mcs = n.top_centre_mcs;
   m.fe.points = b.points;
   m.fe.arc_span_deg = b.arc_span_deg;
   m.fe.rms_mm = b.rms_mm;
@@ -122,6 +123,9 @@ Measured Face(const json& r, const Evidence& ev) {
   m.fields["flatness_mm"] = f.flatness_mm;
   m.fields["trimmed"] = f.trimmed;
   AddFace(f, &m.fe);
+  m.panels = {jobs::FacePanel("the face", ev.points_mcs, f)};
+  m.nominal_mcs = n.point_mcs;
+  m.found_mcs = n.point_mcs + f.height_mm * n.normal_mcs.normalized();
   const double flat_tol = jf::NumberOr<JobInputError>(r, "flatness_tol_mm", 1e9, "request");
   if (f.flatness_mm > flat_tol)
     m.problems.push_back("flatness " + Um(f.flatness_mm) + " over its tolerance " + Um(flat_tol));
@@ -155,6 +159,9 @@ Measured Width(const json& r, const Evidence& ev, bool inside) {
               {"face_minus", FaceFields(w.minus)}};
   AddFace(w.plus, &m.fe);
   AddFace(w.minus, &m.fe);
+  m.found_mcs = w.centre_mcs, m.nominal_mcs = n.centre_mcs;
+  m.panels = {jobs::FacePanel("face at +direction", ev.points_mcs, w.plus),
+              jobs::FacePanel("face at -direction", ev.points_mcs, w.minus)};
   return m;
 }
 
@@ -195,8 +202,13 @@ Measured Rectangle(const json& r, const Evidence& ev, bool inside) {
               {"true_position_mm", tp},
               {"rotation_deg", rect.rotation_deg}};
   CheckPosition(r, tp, m.feature, &m);
+  m.found_mcs = rect.centre_mcs, m.nominal_mcs = n.centre_mcs;
   for (const auto* f : {&rect.x.plus, &rect.x.minus, &rect.y.plus, &rect.y.minus})
     AddFace(*f, &m.fe);
+  m.panels = {jobs::FacePanel("+x side", ev.points_mcs, rect.x.plus),
+              jobs::FacePanel("-x side", ev.points_mcs, rect.x.minus),
+              jobs::FacePanel("+y side", ev.points_mcs, rect.y.plus),
+              jobs::FacePanel("-y side", ev.points_mcs, rect.y.minus)};
   return m;
 }
 
@@ -222,6 +234,8 @@ Measured Step(const json& r, const Evidence& ev) {
               {"face_b", FaceFields(s.b)}};
   AddFace(s.a, &m.fe);
   AddFace(s.b, &m.fe);
+  m.panels = {jobs::FacePanel("face A", ev.points_mcs, s.a),
+              jobs::FacePanel("face B", ev.points_mcs, s.b)};
   return m;
 }
 
@@ -247,9 +261,11 @@ Measured Angle(const json& r, const Evidence& ev) {
   m.spec = Spec(r, "tolerance", jf::Number<JobInputError>(j, "angle_deg", kNom), "deg");
   m.fields = {{"angle_deg", a.angle_deg}, {"skew_deg", a.skew_deg}, {"face", FaceFields(a.face)}};
   AddFace(a.face, &m.fe);
+  m.panels = {jobs::FacePanel("the face", ev.points_mcs, a.face)};
   if (n.datum_face) {
     m.fields["datum"] = FaceFields(a.datum);
     AddFace(a.datum, &m.fe);
+    m.panels.push_back(jobs::FacePanel("the datum", ev.points_mcs, a.datum));
   }
   return m;
 }
@@ -282,10 +298,12 @@ Measured Pcd(const json& r, const Evidence& ev) {
                      {"true_position_mm", p.true_position_mm[k]},
                      {"points", h.points}});
     CheckPosition(r, p.true_position_mm[k], "hole " + std::to_string(k + 1), &m);
+    m.panels.push_back(jobs::RingPanel("hole " + std::to_string(k + 1), h));
     m.fe.points = k == 0 ? h.points : std::min(m.fe.points, h.points);
     m.fe.rms_mm = std::max(m.fe.rms_mm, h.rms_mm);
     m.fe.arc_span_deg = std::min(*m.fe.arc_span_deg, h.arc_span_deg);
   }
+  m.found_mcs = p.centre_mcs, m.nominal_mcs = n.centre_mcs;
   m.fields = {{"diameter_mm", p.diameter_mm},
               {"centre_mm", JsonVec(p.centre_mcs)},
               {"rotation_deg", p.rotation_deg},
@@ -330,6 +348,7 @@ Measured Ellipse(const json& r, const Evidence& ev, bool inside) {
               {"rms_mm", e.rms_mm},
               {"points", e.points}};
   CheckPosition(r, tp, m.feature, &m);
+  m.found_mcs = e.top_centre_mcs, m.nominal_mcs = n.top_centre_mcs;
   m.fe.points = e.points;
   m.fe.rms_mm = e.rms_mm;
   return m;
@@ -368,8 +387,8 @@ jobs::SurfaceNominal SurfaceNominalOf(const json& j, const std::string& data_dir
 // A surface patch against its nominal: the profile (2 max |deviation|) against its tolerance.
 // The deviations are the measurement, not fit residuals: the RMS limit does not apply.
 Measured Surface(const json& r, const Evidence& ev, const std::string& data_dir) {
-  const jobs::SurfaceMeasurement s =
-      jobs::MeasureSurface(ev.points_mcs, SurfaceNominalOf(Nominal(r), data_dir));
+  const jobs::SurfaceNominal nominal = SurfaceNominalOf(Nominal(r), data_dir);
+  const jobs::SurfaceMeasurement s = jobs::MeasureSurface(ev.points_mcs, nominal);
   Measured m;
   m.feature = "surface", m.size_name = "profile";
   m.size = s.profile_mm;
@@ -379,6 +398,8 @@ Measured Surface(const json& r, const Evidence& ev, const std::string& data_dir)
               {"coverage", s.coverage},     {"area_mm2", s.area_mm2}};
   m.fe.points = s.points;
   m.fe.area_mm2 = s.area_mm2;
+  m.panels = {jobs::PointsPanel("against the nominal", s.points_mcs, s.deviation_mm,
+                                nominal.normals_mcs.rowwise().sum())};
   return m;
 }
 

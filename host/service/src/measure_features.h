@@ -7,6 +7,7 @@
 #include "mlp/jobs/decision.h"
 #include "mlp/jobs/feature.h"
 #include "mlp/jobs/plan.h"
+#include "mlp/jobs/report.h"
 
 #include <optional>
 #include <string>
@@ -31,7 +32,12 @@ struct Measured {
   /// Other tolerances of the job that were exceeded (flatness, true position, the second size
   /// of a rectangle): each makes the verdict out of tolerance.
   std::vector<std::string> problems;
-  std::optional<jobs::BoreMeasurement> bore;  ///< for the picture
+  std::optional<jobs::BoreMeasurement> bore;  ///< for the picture: a roundness plot
+  std::vector<jobs::DeviationPanel> panels;   ///< for the picture of the others
+  /// Where the feature was found and where its nominal put it (a centre, a face's point): a
+  /// work offset update moves by the difference. Unset for features without a position.
+  std::optional<geometry::Vec3> found_mcs;
+  geometry::Vec3 nominal_mcs = geometry::Vec3::Zero();
 };
 
 /// Throws JobInputError listing the features known when `feature` is not one of them.

@@ -78,6 +78,8 @@ struct PlaneMeasurement {
   /// The area the points cover: 1 mm squares of the plane holding a point [mm^2] (the
   /// plausibility gate's coverage for faces).
   double area_mm2 = 0.0;
+  /// The points of the final fit, as indices into the points given (for the report).
+  std::vector<Eigen::Index> used;
 };
 
 /// A face: the points in the nominal's band, least squares, then iterated trimming of points

@@ -29,6 +29,12 @@ struct WorkOffsetChange {
   double before_mm[3] = {0, 0, 0}, after_mm[3] = {0, 0, 0};  ///< X Y Z
   /// Rotation about Z [deg], where the controller keeps one with the offset (LinuxCNC: R).
   std::optional<double> rotation_before_deg, rotation_after_deg;
+  /// Which of X Y Z are written (a bore's centre moves X and Y, a face Z).
+  bool axes[3] = {true, true, true};
+  /// The values before live in the control: the shift after - before is added there
+  /// (LinuxCNC: G10 L2 with the offset's own parameters, #5221...; Fanuc-style: G91 G10, or
+  /// #var = #var + shift).
+  bool incremental = false;
 };
 
 }  // namespace mlp::nc

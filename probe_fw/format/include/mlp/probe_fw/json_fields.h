@@ -33,6 +33,13 @@ double NumberOr(const json& j, const char* key, double fallback, const std::stri
 }
 
 template <class Error>
+bool FlagOr(const json& j, const char* key, bool fallback, const std::string& where) {
+  if (!j.contains(key)) return fallback;
+  if (!j.at(key).is_boolean()) Fail<Error>(where + "." + key + " must be true or false");
+  return j.at(key).get<bool>();
+}
+
+template <class Error>
 int Integer(const json& j, const char* key, const std::string& where) {
   if (!j.contains(key) || !j.at(key).is_number_integer()) {
     Fail<Error>(where + "." + key + " must be an integer");
