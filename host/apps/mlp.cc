@@ -3,6 +3,7 @@
 #include "mlp/host/fit_command.h"
 #include "mlp/host/history_command.h"
 #include "mlp/host/job_command.h"
+#include "mlp/host/tool_command.h"
 
 #include <cerrno>
 #include <cstring>
@@ -25,6 +26,7 @@ constexpr const char* kUsage =
     "  status    the host service's health: probes, machines (mlp-hostd must run)\n"
     "  request   send a job request (JSON) to mlp-hostd and print its reply\n"
     "  history   list or export the job history (mlp history --help)\n"
+    "  tool      tools from their shadow images: mlp tool strobe (plans the strobe)\n"
     "  --version print the version\n";
 
 // Replaces this process with `name` from the same folder (mlp-calibrate links Ceres and OpenCV,
@@ -60,6 +62,7 @@ int main(int argc, char** argv) {
   if (args[0] == "status") return mlp::host::RunStatusCommand(rest, std::cout, std::cerr);
   if (args[0] == "request") return mlp::host::RunRequestCommand(rest, std::cout, std::cerr);
   if (args[0] == "history") return mlp::host::RunHistoryCommand(rest, std::cout, std::cerr);
+  if (args[0] == "tool") return mlp::host::RunToolCommand(rest, std::cout, std::cerr);
   std::cerr << "mlp: unknown command '" << args[0] << "'\n" << kUsage;
   return mlp::host::kExitBadInput;
 }

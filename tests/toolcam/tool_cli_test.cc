@@ -1,0 +1,35 @@
+// `mlp tool strobe` as a real process: the plan in text and JSON, the exit codes, and a refused
+// plan's reason on stderr with nothing on stdout.
+
+#include "process_run.h"
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace {
+
+using mlp::test::RunProcess;
+const std::string kMlp = MLP_BINARY;
+
+TEST(ToolCli, PlansTheStrobe) {
+  const auto text = RunProcess(kMlp + " tool strobe --rpm 7200 --fps 45 --resolution-deg 3.6");
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("100 positions, 2.22 s"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("2 per image"), std::string::npos) << text.out;
+  const auto json = RunProcess(kMlp + " tool strobe --rpm 70 --fps 60 --resolution-deg 1 --json");
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  const auto plan = nlohmann::json::parse(json.out);
+  EXPECT_EQ(plan.at("skip"), 7);
+  EXPECT_EQ(plan.at("position").size(), 360u);
+}
+
+TEST(ToolCli, ExitCodesSayWhatWentWrong) {
+  const auto refused = RunProcess(kMlp + " tool strobe --rpm 72 --fps 60 --resolution-deg 1");
+  EXPECT_EQ(refused.exit_code, 3);
+  EXPECT_TRUE(refused.out.empty());
+  EXPECT_NE(refused.err.find("needs 70.00 rpm"), std::string::npos) << refused.err;
+  EXPECT_EQ(RunProcess(kMlp + " tool strobe --rpm 7200").exit_code, 2);
+  EXPECT_EQ(RunProcess(kMlp + " tool strobe --rpm x --fps 1 --resolution-deg 1").exit_code, 2);
+  EXPECT_EQ(RunProcess(kMlp + " tool").exit_code, 2);
+}
+
+}  // namespace
