@@ -2,6 +2,7 @@
 
 #include "mlp/host/cli.h"
 #include "mlp/toolcam/strobe.h"
+#include "mlp/toolcam/tool_camera.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -20,7 +21,12 @@ constexpr const char* kUsage =
     "  the strobe for shadow images of a tool turning at R rpm, a camera at F images/s, a\n"
     "  position every D degrees: pulse width, pulses per image, when they fire, the order of\n"
     "  the positions (docs/TOOLCAM.md)\n"
-    "exit codes: 0 planned, 2 bad arguments, 3 cannot be planned (the reason is printed), 1 bug\n";
+    "       mlp tool render --tool TOOL.json --out DIR --rpm R --fps F --resolution-deg D\n"
+    "                       [--seed N] [--start-deg A] [strobe options]\n"
+    "  the virtual tool camera: the plan's shadow frames (DIR/frame_NNNN.pgm) and their truth\n"
+    "  (DIR/truth.json); the tool description format: docs/TOOLCAM.md\n"
+    "exit codes: 0 done, 2 bad arguments or tool file, 3 cannot be planned (the reason is\n"
+    "printed), 1 bug\n";
 
 double Number(const std::string& flag, const std::string& v) {
   char* end = nullptr;
@@ -30,7 +36,15 @@ double Number(const std::string& flag, const std::string& v) {
   return x;
 }
 
-toolcam::StrobeRequest Parse(const std::vector<std::string>& args, bool* json) {
+struct RenderOptions {
+  std::string tool, out;
+  unsigned seed = 1;
+  double start_deg = 17.0;  // the tool's angle at the first image: unknown to a measurement
+};
+
+toolcam::StrobeRequest Parse(const std::vector<std::string>& args,
+                             bool* json,
+                             RenderOptions* render) {
   toolcam::StrobeRequest r;
   bool rpm = false, fps = false, res = false;
   for (size_t i = 0; i < args.size(); ++i) {
@@ -44,7 +58,19 @@ toolcam::StrobeRequest Parse(const std::vector<std::string>& args, bool* json) {
       continue;
     }
     if (i + 1 >= args.size()) throw UsageError(k + " needs a value");
+    if (render && (k == "--tool" || k == "--out")) {
+      (k == "--tool" ? render->tool : render->out) = args[++i];
+      continue;
+    }
     const double v = Number(k, args[++i]);
+    if (render && k == "--seed") {
+      render->seed = static_cast<unsigned>(v);
+      continue;
+    }
+    if (render && k == "--start-deg") {
+      render->start_deg = v;
+      continue;
+    }
     if (k == "--rpm")
       r.rpm = v, rpm = true;
     else if (k == "--fps")
@@ -80,14 +106,39 @@ void Print(const toolcam::StrobePlan& p, std::ostream& out) {
   if (!p.note.empty()) out << "  " << p.note << "\n";
 }
 
+int Render(const RenderOptions& o,
+           const toolcam::StrobePlan& plan,
+           std::ostream& out,
+           std::ostream& err) {
+  toolcam::ToolDescription tool;
+  try {
+    tool = toolcam::LoadTool(o.tool);
+  } catch (const toolcam::ToolError& e) {
+    err << "mlp tool: " << e.what() << "\n";
+    return kExitBadInput;
+  }
+  err << "mlp tool: rendering " << plan.positions << " frames of " << tool.id << "\n";
+  const int n = toolcam::RenderToolSequence(tool, toolcam::ToolCameraModel(), plan,
+                                            o.start_deg * M_PI / 180, o.seed, o.out);
+  out << n << " frames and truth.json in " << o.out << "\n";
+  return kExitOk;
+}
+
 }  // namespace
 
 int RunToolCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   try {
-    if (args.empty() || args[0] != "strobe") throw UsageError("expected: mlp tool strobe ...");
+    if (args.empty() || (args[0] != "strobe" && args[0] != "render"))
+      throw UsageError("expected: mlp tool strobe ... or mlp tool render ...");
     bool json = false;
-    const toolcam::StrobeRequest r = Parse({args.begin() + 1, args.end()}, &json);
+    RenderOptions render;
+    const bool rendering = args[0] == "render";
+    const toolcam::StrobeRequest r =
+        Parse({args.begin() + 1, args.end()}, &json, rendering ? &render : nullptr);
+    if (rendering && (render.tool.empty() || render.out.empty()))
+      throw UsageError("mlp tool render needs --tool and --out");
     const toolcam::StrobePlan p = toolcam::PlanStrobe(r);
+    if (rendering) return Render(render, p, out, err);
     if (!json) {
       Print(p, out);
       return kExitOk;

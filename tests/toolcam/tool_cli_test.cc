@@ -1,6 +1,8 @@
 // `mlp tool strobe` as a real process: the plan in text and JSON, the exit codes, and a refused
 // plan's reason on stderr with nothing on stdout.
 
+#include <filesystem>
+
 #include "process_run.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -30,6 +32,21 @@ TEST(ToolCli, ExitCodesSayWhatWentWrong) {
   EXPECT_EQ(RunProcess(kMlp + " tool strobe --rpm 7200").exit_code, 2);
   EXPECT_EQ(RunProcess(kMlp + " tool strobe --rpm x --fps 1 --resolution-deg 1").exit_code, 2);
   EXPECT_EQ(RunProcess(kMlp + " tool").exit_code, 2);
+}
+
+TEST(ToolCli, RendersTheVirtualToolCamerasFrames) {
+  const std::string dir = "/tmp/mlp_tool_cli_render";
+  std::filesystem::remove_all(dir);
+  const std::string tool = std::string(MLP_SOURCE_DIR) + "/samples/tools/endmill_d10_z4_new.json";
+  const auto run = RunProcess(kMlp + " tool render --tool " + tool + " --out " + dir +
+                              " --rpm 5000 --fps 50 --resolution-deg 90 --seed 4");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/frame_0003.pgm"));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/truth.json"));
+  const auto bad = RunProcess(kMlp + " tool render --tool /nonexistent.json --out " + dir +
+                              " --rpm 5000 --fps 50 --resolution-deg 90");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("cannot read"), std::string::npos) << bad.err;
 }
 
 }  // namespace

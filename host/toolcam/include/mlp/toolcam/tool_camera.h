@@ -1,0 +1,71 @@
+#pragma once
+/// @file The virtual tool camera: back-lit shadow frames of a tool turning in the spindle, frozen
+/// by strobe pulses (seed 000), with the blur of the pulse's length, the optics' blur and
+/// distortion, sensor noise, and coolant drops and chips in random places. Deterministic for a
+/// seed; the truth (each edge's radius and tip, each frame's angle, each drop) is known.
+///
+/// Camera: telecentric (orthographic), looking along the tool frame's +x, so a pixel sees a
+/// point (y, h) of the tool frame: y = (u - axis_u_px) mm_per_px, h = (tip_v_px - v) mm_per_px
+/// for pixel centres (u, v) before distortion. With the axis outside the image (a tool wider
+/// than the field), the frame shows one side of the tool near its tip.
+
+#include "mlp/toolcam/strobe.h"
+#include "mlp/toolcam/tool_model.h"
+
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace mlp::toolcam {
+
+struct ToolCameraModel {
+  int width_px = 1024, height_px = 768;
+  double mm_per_px = 0.004;   ///< object side
+  double axis_u_px = -738.0;  ///< column of the spindle axis (y = 0)
+  double tip_v_px = 560.0;    ///< row of the nominal tip (h = 0)
+  /// Radial distortion: a point at the image's corner moves by this share of its distance
+  /// from the centre (telecentric lenses: under 0.1 %).
+  double distortion_k1 = 0.0005;
+  double psf_sigma_px = 0.7;       ///< the optics' blur
+  double bright = 210, dark = 25;  ///< grey levels of the back-light and the shadow
+  double noise_sigma = 2.0;        ///< grey levels, Gaussian
+  double drops_per_frame = 1.5;    ///< coolant drops and chips (mean, Poisson)
+  double y_mm(double u) const { return (u - axis_u_px) * mm_per_px; }
+  double h_mm(double v) const { return (tip_v_px - v) * mm_per_px; }
+  void Validate() const;  ///< throws ToolError naming the field
+};
+
+/// A coolant drop or chip in a frame: a disc in the (y, h) plane.
+struct Drop {
+  double y_mm = 0, h_mm = 0, radius_mm = 0;
+};
+
+struct ToolFrame {
+  std::vector<std::uint8_t> pixels;  ///< row-major, width x height
+  std::vector<Drop> drops;
+};
+
+/// One frame with the tool turned `turn_rad` (the pulse's middle) and turning `blur_rad` while
+/// the pulse lasts.
+ToolFrame RenderToolFrame(const ToolDescription& tool,
+                          const ToolCameraModel& camera,
+                          double turn_rad,
+                          double blur_rad,
+                          std::mt19937& rng);
+
+/// The frames of a strobe plan, written as DIR/frame_NNNN.pgm and DIR/truth.json (format
+/// `mlprobe-tool-frames/1`: the camera, the tool's truth per edge, each frame's position,
+/// angle and drops). The tool's angle at the first image is `start_turn_rad` (unknown to the
+/// measurement). Returns the number of frames.
+int RenderToolSequence(const ToolDescription& tool,
+                       const ToolCameraModel& camera,
+                       const StrobePlan& plan,
+                       double start_turn_rad,
+                       unsigned seed,
+                       const std::string& dir);
+
+/// Writes an 8-bit binary PGM (P5) atomically; throws ToolError.
+void WritePgm(const std::string& path, int width, int height, const std::vector<std::uint8_t>& px);
+
+}  // namespace mlp::toolcam

@@ -1,0 +1,64 @@
+#pragma once
+/// @file A cutting tool as the tool camera sees it (format `mlprobe-tool/1`, samples/tools/,
+/// docs/TOOLCAM.md): flutes with their cutting edges, each with its own runout (radial offset),
+/// length (axial offset), and defects along it (chipped or worn places inside the nominal
+/// edge, built-up edge outside). The geometry is what a silhouette shows: each edge's outer
+/// radius along the tool and its angle about the axis.
+///
+/// Tool frame: z along the spindle axis, up into the spindle, 0 at the nominal tip; the tool
+/// turns about z. Heights h are mm above the nominal tip.
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace mlp::toolcam {
+
+class ToolError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// A place along an edge where its radius differs from the ground edge's: smooth (a cosine
+/// bell over its length), `depth_mm` > 0 inside (chipped, worn), < 0 outside (built-up edge).
+struct EdgeDefect {
+  double h_mm = 0.0;       ///< where it starts, above the nominal tip
+  double length_mm = 0.0;  ///< along the tool
+  double depth_mm = 0.0;
+};
+
+struct CuttingEdge {
+  double radial_offset_mm = 0.0;  ///< runout: this edge's radius minus the nominal
+  double axial_offset_mm = 0.0;   ///< > 0: this edge reaches lower (the tool is longer there)
+  std::vector<EdgeDefect> defects;
+};
+
+struct ToolDescription {
+  std::string id;
+  double diameter_mm = 0.0;
+  double length_mm = 0.0;  ///< gauge point to the nominal tip (the tool table's length)
+  int flutes = 0;
+  double corner_radius_mm = 0.0;  ///< 0 sharp corner; diameter / 2 a ball nose
+  double helix_deg = 0.0;
+  double flute_length_mm = 0.0;
+  /// The web between the flutes: a cylinder of this share of the radius.
+  double core_ratio = 0.55;
+  std::vector<CuttingEdge> edges;  ///< one per flute
+
+  double Radius() const { return diameter_mm / 2; }
+  /// Height of edge k's tip above the nominal tip (negative when the edge is longer).
+  double TipH(int k) const;
+  /// Edge k's outer radius at height h (<= 0 below its tip): corner radius, runout, defects.
+  double EdgeRadius(int k, double h_mm) const;
+  /// Edge k's angle about z at height h when the tool has turned `turn_rad` (the helix winds
+  /// the edge round as it rises).
+  double EdgeAngle(int k, double h_mm, double turn_rad) const;
+  /// Throws ToolError naming the first field out of range.
+  void Validate() const;
+};
+
+/// Parses and validates `mlprobe-tool/1`; throws ToolError naming the field.
+ToolDescription ParseTool(const std::string& json_text);
+ToolDescription LoadTool(const std::string& path);
+
+}  // namespace mlp::toolcam

@@ -1,0 +1,264 @@
+#include "mlp/toolcam/tool_camera.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+namespace mlp::toolcam {
+namespace {
+
+constexpr int kSubRows = 8;      // sub-pixel rows per pixel row: near-level edges to 1/16 px
+constexpr int kBlurSamples = 5;  // angles over a pulse
+
+[[noreturn]] void Fail(const std::string& what) { throw ToolError("tool camera: " + what); }
+
+// The shadow's extent across one height h: the blades of the edges reaching h (each from the
+// axis to its outer radius, seen from the side) and the web between them.
+bool ShadowSpan(const ToolDescription& t, double h, double turn, double* lo, double* hi) {
+  bool any = false;
+  *lo = 0, *hi = 0;
+  for (int k = 0; k < t.flutes; ++k) {
+    const double r = t.EdgeRadius(k, h);
+    if (r <= 0) continue;
+    const double y = r * std::sin(t.EdgeAngle(k, h, turn));
+    *lo = std::min(*lo, y), *hi = std::max(*hi, y);
+    any = true;
+  }
+  if (!any) return false;
+  const double core = t.core_ratio * t.Radius();
+  *lo = std::min(*lo, -core), *hi = std::max(*hi, core);
+  return true;
+}
+
+// Adds `weight` times the share of each pixel column that [a, b] (pixel units; column u spans
+// [u - 0.5, u + 0.5]) covers, into a difference array for the whole columns and `row` for the
+// partial ones at its ends.
+void AddSpan(
+    double a, double b, double weight, std::vector<double>* row, std::vector<double>* diff) {
+  const int w = static_cast<int>(row->size());
+  a = std::max(a, -0.5), b = std::min(b, w - 0.5);
+  if (b <= a) return;
+  const int ua = static_cast<int>(std::floor(a + 0.5)), ub = static_cast<int>(std::floor(b + 0.5));
+  if (ua == ub) {
+    (*row)[static_cast<size_t>(ua)] += weight * (b - a);
+    return;
+  }
+  (*row)[static_cast<size_t>(ua)] += weight * (ua + 0.5 - a);
+  if (ub < w) (*row)[static_cast<size_t>(ub)] += weight * (b - (ub - 0.5));
+  (*diff)[static_cast<size_t>(ua + 1)] += weight;
+  (*diff)[static_cast<size_t>(ub)] -= weight;
+}
+
+std::vector<Drop> PlaceDrops(const ToolDescription& t,
+                             const ToolCameraModel& c,
+                             double turn,
+                             std::mt19937& rng) {
+  std::poisson_distribution<int> count(c.drops_per_frame);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::vector<Drop> drops;
+  const int n = c.drops_per_frame > 0 ? count(rng) : 0;
+  for (int i = 0; i < n; ++i) {
+    Drop d;
+    d.radius_mm = 0.01 + 0.03 * unit(rng);
+    d.h_mm = c.h_mm(unit(rng) * (c.height_px - 1));
+    double lo = 0, hi = 0;
+    if (unit(rng) < 0.5 && ShadowSpan(t, d.h_mm, turn, &lo, &hi))  // stuck to the edge
+      d.y_mm = hi + d.radius_mm * (0.2 + 0.7 * unit(rng));
+    else
+      d.y_mm = c.y_mm(unit(rng) * (c.width_px - 1));
+    drops.push_back(d);
+  }
+  return drops;
+}
+
+// Shadow share of every pixel: the tool's (averaged over the pulse) and the drops', as the
+// union of independent covers.
+std::vector<double> Coverage(const ToolDescription& t,
+                             const ToolCameraModel& c,
+                             double turn,
+                             double blur,
+                             const std::vector<Drop>& drops) {
+  const auto w = static_cast<size_t>(c.width_px);
+  std::vector<double> cover(w * static_cast<size_t>(c.height_px), 0.0);
+  std::vector<double> tool(w), tool_diff(w + 1), drop(w), drop_diff(w + 1);
+  const double weight = 1.0 / (kSubRows * kBlurSamples);
+  for (int v = 0; v < c.height_px; ++v) {
+    std::fill(tool.begin(), tool.end(), 0.0), std::fill(tool_diff.begin(), tool_diff.end(), 0.0);
+    std::fill(drop.begin(), drop.end(), 0.0), std::fill(drop_diff.begin(), drop_diff.end(), 0.0);
+    for (int s = 0; s < kSubRows; ++s) {
+      const double h = c.h_mm(v - 0.5 + (s + 0.5) / kSubRows);
+      for (int b = 0; b < kBlurSamples; ++b) {
+        const double a = turn + blur * ((b + 0.5) / kBlurSamples - 0.5);
+        double lo = 0, hi = 0;
+        if (ShadowSpan(t, h, a, &lo, &hi))
+          AddSpan(lo / c.mm_per_px + c.axis_u_px, hi / c.mm_per_px + c.axis_u_px, weight, &tool,
+                  &tool_diff);
+      }
+      for (const Drop& d : drops) {
+        const double dh = h - d.h_mm;
+        if (std::abs(dh) >= d.radius_mm) continue;
+        const double half = std::sqrt(d.radius_mm * d.radius_mm - dh * dh);
+        AddSpan((d.y_mm - half) / c.mm_per_px + c.axis_u_px,
+                (d.y_mm + half) / c.mm_per_px + c.axis_u_px, 1.0 / kSubRows, &drop, &drop_diff);
+      }
+    }
+    double run_t = 0, run_d = 0;
+    for (size_t u = 0; u < w; ++u) {
+      run_t += tool_diff[u], run_d += drop_diff[u];
+      const double ct = std::min(1.0, tool[u] + run_t), cd = std::min(1.0, drop[u] + run_d);
+      cover[static_cast<size_t>(v) * w + u] = 1 - (1 - ct) * (1 - cd);
+    }
+  }
+  return cover;
+}
+
+// Separable Gaussian blur (the optics' point spread), edges clamped.
+void Blur(std::vector<double>* img, int w, int h, double sigma) {
+  if (sigma <= 0) return;
+  const int r = static_cast<int>(std::ceil(3 * sigma));
+  std::vector<double> k(static_cast<size_t>(2 * r + 1));
+  double sum = 0;
+  for (int i = -r; i <= r; ++i)
+    sum += k[static_cast<size_t>(i + r)] = std::exp(-0.5 * i * i / (sigma * sigma));
+  for (double& x : k) x /= sum;
+  std::vector<double> tmp(img->size());
+  const auto at = [&](const std::vector<double>& a, int x, int y) {
+    return a[static_cast<size_t>(std::clamp(y, 0, h - 1) * w + std::clamp(x, 0, w - 1))];
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      double s = 0;
+      for (int i = -r; i <= r; ++i) s += k[static_cast<size_t>(i + r)] * at(*img, x + i, y);
+      tmp[static_cast<size_t>(y * w + x)] = s;
+    }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      double s = 0;
+      for (int i = -r; i <= r; ++i) s += k[static_cast<size_t>(i + r)] * at(tmp, x, y + i);
+      (*img)[static_cast<size_t>(y * w + x)] = s;
+    }
+}
+
+// Radial distortion about the image's centre: the pixel at distance rho (in corner units)
+// shows what the ideal lens puts at rho / (1 + k1 rho^2); bilinear resampling.
+std::vector<double> Distort(const std::vector<double>& img, int w, int h, double k1) {
+  if (k1 == 0) return img;
+  const double cx = (w - 1) / 2.0, cy = (h - 1) / 2.0, corner2 = cx * cx + cy * cy;
+  std::vector<double> out(img.size());
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double dx = x - cx, dy = y - cy, s = 1 / (1 + k1 * (dx * dx + dy * dy) / corner2);
+      const double sx = std::clamp(cx + dx * s, 0.0, w - 1.001),
+                   sy = std::clamp(cy + dy * s, 0.0, h - 1.001);
+      const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
+      const double fx = sx - x0, fy = sy - y0;
+      const auto p = [&](int xx, int yy) { return img[static_cast<size_t>(yy * w + xx)]; };
+      out[static_cast<size_t>(y * w + x)] =
+          (1 - fy) * ((1 - fx) * p(x0, y0) + fx * p(x0 + 1, y0)) +
+          fy * ((1 - fx) * p(x0, y0 + 1) + fx * p(x0 + 1, y0 + 1));
+    }
+  return out;
+}
+
+}  // namespace
+
+void ToolCameraModel::Validate() const {
+  if (width_px < 16 || height_px < 16 || width_px > 8192 || height_px > 8192)
+    Fail("the image must be 16..8192 px each way");
+  if (!(mm_per_px > 0)) Fail("mm_per_px must be > 0");
+  if (!(bright > dark) || dark < 0 || bright > 255) Fail("0 <= dark < bright <= 255");
+  if (!(noise_sigma >= 0) || !(psf_sigma_px >= 0) || !(drops_per_frame >= 0))
+    Fail("noise, blur and drops must be >= 0");
+  if (!(std::abs(distortion_k1) < 0.05)) Fail("distortion_k1 must be under 5 %");
+}
+
+ToolFrame RenderToolFrame(const ToolDescription& tool,
+                          const ToolCameraModel& c,
+                          double turn_rad,
+                          double blur_rad,
+                          std::mt19937& rng) {
+  c.Validate();
+  ToolFrame f;
+  f.drops = PlaceDrops(tool, c, turn_rad, rng);
+  std::vector<double> img = Coverage(tool, c, turn_rad, blur_rad, f.drops);
+  for (double& x : img) x = c.bright - (c.bright - c.dark) * x;
+  Blur(&img, c.width_px, c.height_px, c.psf_sigma_px);
+  img = Distort(img, c.width_px, c.height_px, c.distortion_k1);
+  std::normal_distribution<double> noise(0, c.noise_sigma);
+  f.pixels.resize(img.size());
+  for (size_t i = 0; i < img.size(); ++i)
+    f.pixels[i] = static_cast<std::uint8_t>(
+        std::clamp(std::lround(img[i] + (c.noise_sigma > 0 ? noise(rng) : 0.0)), 0L, 255L));
+  return f;
+}
+
+void WritePgm(const std::string& path, int w, int h, const std::vector<std::uint8_t>& px) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    out << "P5\n" << w << " " << h << "\n255\n";
+    out.write(reinterpret_cast<const char*>(px.data()), static_cast<std::streamsize>(px.size()));
+    if (!out) Fail("cannot write " + tmp);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) Fail("cannot write " + path + ": " + ec.message());
+}
+
+int RenderToolSequence(const ToolDescription& tool,
+                       const ToolCameraModel& c,
+                       const StrobePlan& plan,
+                       double start_turn_rad,
+                       unsigned seed,
+                       const std::string& dir) {
+  std::filesystem::create_directories(dir);
+  std::mt19937 rng(seed);
+  const double blur = plan.pulse_width_us * 1e-6 * plan.rpm / 60 * 2 * M_PI;
+  nlohmann::ordered_json frames = nlohmann::ordered_json::array();
+  for (size_t i = 0; i < plan.position.size(); ++i) {
+    const double turn = start_turn_rad + 2 * M_PI * plan.position[i] / plan.positions;
+    const ToolFrame f = RenderToolFrame(tool, c, turn, blur, rng);
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%04zu.pgm", i);
+    WritePgm((std::filesystem::path(dir) / name).string(), c.width_px, c.height_px, f.pixels);
+    nlohmann::ordered_json drops = nlohmann::ordered_json::array();
+    for (const Drop& d : f.drops) drops.push_back({d.y_mm, d.h_mm, d.radius_mm});
+    frames.push_back({{"file", name},
+                      {"position", plan.position[i]},
+                      {"turn_deg", std::fmod(turn * 180 / M_PI, 360.0)},
+                      {"drops_y_h_r_mm", drops}});
+  }
+  nlohmann::ordered_json edges = nlohmann::ordered_json::array();
+  for (int k = 0; k < tool.flutes; ++k) {
+    nlohmann::ordered_json defects = nlohmann::ordered_json::array();
+    for (const EdgeDefect& d : tool.edges[static_cast<size_t>(k)].defects)
+      defects.push_back({{"h_mm", d.h_mm}, {"length_mm", d.length_mm}, {"depth_mm", d.depth_mm}});
+    edges.push_back(
+        {{"radius_mm", tool.Radius() + tool.edges[static_cast<size_t>(k)].radial_offset_mm},
+         {"tip_h_mm", tool.TipH(k)},
+         {"defects", defects}});
+  }
+  const nlohmann::ordered_json truth = {
+      {"format", "mlprobe-tool-frames/1"},
+      {"tool", tool.id},
+      {"camera",
+       {{"width_px", c.width_px},
+        {"height_px", c.height_px},
+        {"mm_per_px", c.mm_per_px},
+        {"axis_u_px", c.axis_u_px},
+        {"tip_v_px", c.tip_v_px},
+        {"distortion_k1", c.distortion_k1}}},
+      {"strobe",
+       {{"rpm", plan.rpm}, {"positions", plan.positions}, {"pulse_width_us", plan.pulse_width_us}}},
+      {"start_turn_deg", start_turn_rad * 180 / M_PI},
+      {"edges", edges},
+      {"frames", frames}};
+  std::ofstream((std::filesystem::path(dir) / "truth.json").string()) << truth.dump(1) << "\n";
+  return static_cast<int>(plan.position.size());
+}
+
+}  // namespace mlp::toolcam

@@ -1,0 +1,110 @@
+#include "mlp/toolcam/tool_model.h"
+
+#include "mlp/probe_fw/json_fields.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace mlp::toolcam {
+namespace {
+
+namespace jf = probe_fw::json_fields;
+using json = nlohmann::json;
+
+[[noreturn]] void Fail(const std::string& what) { throw ToolError("tool: " + what); }
+
+double Bell(double x) {  // 0 at 0 and 1, 1 in the middle, smooth at both ends
+  return x <= 0 || x >= 1 ? 0.0 : 0.5 - 0.5 * std::cos(2 * M_PI * x);
+}
+
+CuttingEdge ParseEdge(const json& e, const std::string& w) {
+  CuttingEdge edge;
+  edge.radial_offset_mm = jf::NumberOr<ToolError>(e, "radial_offset_mm", 0.0, w);
+  edge.axial_offset_mm = jf::NumberOr<ToolError>(e, "axial_offset_mm", 0.0, w);
+  if (e.contains("defects")) {
+    if (!e.at("defects").is_array()) Fail(w + ".defects must be an array");
+    for (size_t i = 0; i < e.at("defects").size(); ++i) {
+      const json& d = e.at("defects")[i];
+      const std::string dw = w + ".defects[" + std::to_string(i) + "]";
+      edge.defects.push_back({jf::Number<ToolError>(d, "h_mm", dw),
+                              jf::Number<ToolError>(d, "length_mm", dw),
+                              jf::Number<ToolError>(d, "depth_mm", dw)});
+    }
+  }
+  return edge;
+}
+
+}  // namespace
+
+double ToolDescription::TipH(int k) const { return -edges[static_cast<size_t>(k)].axial_offset_mm; }
+
+double ToolDescription::EdgeRadius(int k, double h) const {
+  const CuttingEdge& e = edges[static_cast<size_t>(k)];
+  const double above_tip = h - TipH(k);
+  if (above_tip < 0) return 0.0;
+  const double r_edge = Radius() + e.radial_offset_mm;
+  double r = r_edge;
+  if (above_tip < corner_radius_mm) {  // the corner: an arc of its radius
+    const double d = corner_radius_mm - above_tip;
+    r = r_edge - corner_radius_mm + std::sqrt(corner_radius_mm * corner_radius_mm - d * d);
+  }
+  for (const EdgeDefect& d : e.defects) r -= d.depth_mm * Bell((h - d.h_mm) / d.length_mm);
+  return std::max(r, 0.0);
+}
+
+double ToolDescription::EdgeAngle(int k, double h, double turn_rad) const {
+  return turn_rad + 2 * M_PI * k / flutes + h * std::tan(helix_deg * M_PI / 180) / Radius();
+}
+
+void ToolDescription::Validate() const {
+  if (!(diameter_mm > 0 && diameter_mm < 500)) Fail("diameter_mm must be in (0, 500)");
+  if (!(length_mm > 0)) Fail("length_mm must be > 0");
+  if (flutes < 1 || flutes > 32) Fail("flutes must be 1..32");
+  if (!(corner_radius_mm >= 0 && corner_radius_mm <= Radius()))
+    Fail("corner_radius_mm must be in [0, diameter / 2]");
+  if (!(helix_deg >= 0 && helix_deg < 60)) Fail("helix_deg must be in [0, 60)");
+  if (!(flute_length_mm > 0 && flute_length_mm <= length_mm))
+    Fail("flute_length_mm must be in (0, length_mm]");
+  if (!(core_ratio > 0 && core_ratio < 1)) Fail("core_ratio must be in (0, 1)");
+  if (static_cast<int>(edges.size()) != flutes) Fail("edges must list one edge per flute");
+  for (const CuttingEdge& e : edges) {
+    if (std::abs(e.radial_offset_mm) > 0.1 * Radius() || std::abs(e.axial_offset_mm) > 1.0)
+      Fail("an edge's offsets must be within 10 % of the radius and 1 mm");
+    for (const EdgeDefect& d : e.defects)
+      if (!(d.length_mm > 0) || !(std::abs(d.depth_mm) < 0.5 * Radius()) || !(d.h_mm >= -1))
+        Fail("a defect needs a length > 0, a depth under half the radius, h_mm >= -1");
+  }
+}
+
+ToolDescription ParseTool(const std::string& text) {
+  const json j = jf::ParseDocument<ToolError>(text, "mlprobe-tool/1", "tool");
+  ToolDescription t;
+  t.id = jf::Text<ToolError>(j, "id", "tool");
+  t.diameter_mm = jf::Number<ToolError>(j, "diameter_mm", "tool");
+  t.length_mm = jf::Number<ToolError>(j, "length_mm", "tool");
+  t.flutes = jf::Integer<ToolError>(j, "flutes", "tool");
+  t.corner_radius_mm = jf::NumberOr<ToolError>(j, "corner_radius_mm", 0.0, "tool");
+  t.helix_deg = jf::NumberOr<ToolError>(j, "helix_deg", 30.0, "tool");
+  t.flute_length_mm = jf::Number<ToolError>(j, "flute_length_mm", "tool");
+  t.core_ratio = jf::NumberOr<ToolError>(j, "core_ratio", t.core_ratio, "tool");
+  if (j.contains("edges")) {
+    if (!j.at("edges").is_array()) Fail("edges must be an array");
+    for (size_t k = 0; k < j.at("edges").size(); ++k)
+      t.edges.push_back(ParseEdge(j.at("edges")[k], "tool.edges[" + std::to_string(k) + "]"));
+  } else if (t.flutes > 0 && t.flutes <= 32) {
+    t.edges.resize(static_cast<size_t>(t.flutes));  // a new, true-running tool
+  }
+  t.Validate();
+  return t;
+}
+
+ToolDescription LoadTool(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ToolError("tool: cannot read " + path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return ParseTool(s.str());
+}
+
+}  // namespace mlp::toolcam
