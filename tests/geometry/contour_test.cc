@@ -1,0 +1,58 @@
+// Sub-pixel crossings of a rendered step edge: a straight edge at a known sub-pixel place,
+// blurred by a Gaussian and noised, is found where it is.
+
+#include "mlp/geometry/contour.h"
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace mlp::geometry {
+namespace {
+
+constexpr double kDark = 25, kBright = 210, kLevel = (kDark + kBright) / 2;
+
+// A vertical edge at u = edge (dark left of it) with a Gaussian blur of sigma px: the grey of a
+// pixel is the blurred step's value at its centre.
+std::vector<std::uint8_t> Step(
+    int w, int h, double edge, double sigma, double noise, bool vertical) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0, noise);
+  std::vector<std::uint8_t> px(static_cast<size_t>(w * h));
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      const double x = (vertical ? u : v) - edge;
+      const double light = 0.5 * (1 + std::erf(x / (sigma * std::sqrt(2.0))));
+      px[static_cast<size_t>(v * w + u)] =
+          static_cast<std::uint8_t>(std::lround(kDark + (kBright - kDark) * light + n(rng)));
+    }
+  return px;
+}
+
+TEST(Contour, RowCrossingsFindAVerticalEdgeToAFewHundredthsOfAPixel) {
+  const auto px = Step(64, 200, 30.37, 0.8, 2.0, true);
+  const Points2 c = RowCrossings({px.data(), 64, 200}, kLevel);
+  ASSERT_EQ(c.cols(), 200);
+  EXPECT_NEAR(c.row(0).mean(), 30.37, 0.01);  // 200 rows: the mean to 1/100 px
+  // Each row alone: the noise through the centroid of the rise, 0.05 px RMS.
+  EXPECT_LT(std::sqrt((c.row(0).array() - 30.37).square().mean()), 0.05);
+  EXPECT_EQ(c(1, 17), 17);
+}
+
+TEST(Contour, ColumnCrossingsFindAHorizontalEdge) {
+  const auto px = Step(150, 80, 41.62, 0.8, 2.0, false);
+  const Points2 c = ColumnCrossings({px.data(), 150, 80}, kLevel);
+  ASSERT_EQ(c.cols(), 150);
+  EXPECT_NEAR(c.row(1).mean(), 41.62, 0.01);
+}
+
+TEST(Contour, NoCrossingNoPoint) {
+  const std::vector<std::uint8_t> dark(100, 20);
+  EXPECT_EQ(RowCrossings({dark.data(), 10, 10}, kLevel).cols(), 0);
+  EXPECT_EQ(ColumnCrossings({dark.data(), 10, 10}, kLevel).cols(), 0);
+}
+
+}  // namespace
+}  // namespace mlp::geometry
