@@ -29,6 +29,7 @@ void Check(const StrobeRequest& r) {
   positive(r.max_duration_s, "the longest coverage time");
   if (!(r.blanking_us >= 0) || !(r.rpm_tolerance >= 0) || r.max_pulses_per_image < 1)
     Refuse("blanking, speed tolerance must be >= 0 and pulses per image >= 1");
+  if (!(r.pulse_share > 0 && r.pulse_share <= 1)) Refuse("the pulse's share must be in (0, 1]");
 }
 
 double Frac(double x) { return x - std::floor(x); }
@@ -85,7 +86,8 @@ StrobePlan PlanStrobe(const StrobeRequest& r) {
   p.rpm = rps * 60, p.rpm_changed = std::abs(p.rpm - r.rpm) > 1e-9 * r.rpm;
   const double rev_us = 1e6 / rps;
   p.step_time_us = rev_us / n;
-  p.pulse_width_us = std::floor(p.step_time_us / r.timer_resolution_us) * r.timer_resolution_us;
+  p.pulse_width_us =
+      std::floor(r.pulse_share * p.step_time_us / r.timer_resolution_us) * r.timer_resolution_us;
   if (p.pulse_width_us < r.min_pulse_us)
     Refuse("at " + Fmt(p.rpm, 0) + " rpm the tool turns one " + Fmt(r.resolution_deg, 3) +
            " deg step in " + Fmt(p.step_time_us, 3) + " us, shorter than the illuminator's " +

@@ -16,24 +16,6 @@ constexpr int kBlurSamples = 5;  // angles over a pulse
 
 [[noreturn]] void Fail(const std::string& what) { throw ToolError("tool camera: " + what); }
 
-// The shadow's extent across one height h: the blades of the edges reaching h (each from the
-// axis to its outer radius, seen from the side) and the web between them.
-bool ShadowSpan(const ToolDescription& t, double h, double turn, double* lo, double* hi) {
-  bool any = false;
-  *lo = 0, *hi = 0;
-  for (int k = 0; k < t.flutes; ++k) {
-    const double r = t.EdgeRadius(k, h);
-    if (r <= 0) continue;
-    const double y = r * std::sin(t.EdgeAngle(k, h, turn));
-    *lo = std::min(*lo, y), *hi = std::max(*hi, y);
-    any = true;
-  }
-  if (!any) return false;
-  const double core = t.core_ratio * t.Radius();
-  *lo = std::min(*lo, -core), *hi = std::max(*hi, core);
-  return true;
-}
-
 // Adds `weight` times the share of each pixel column that [a, b] (pixel units; column u spans
 // [u - 0.5, u + 0.5]) covers, into a difference array for the whole columns and `row` for the
 // partial ones at its ends.
@@ -66,7 +48,7 @@ std::vector<Drop> PlaceDrops(const ToolDescription& t,
     d.radius_mm = 0.01 + 0.03 * unit(rng);
     d.h_mm = c.h_mm(unit(rng) * (c.height_px - 1));
     double lo = 0, hi = 0;
-    if (unit(rng) < 0.5 && ShadowSpan(t, d.h_mm, turn, &lo, &hi))  // stuck to the edge
+    if (unit(rng) < 0.5 && t.ShadowSpan(d.h_mm, turn, &lo, &hi))  // stuck to the edge
       d.y_mm = hi + d.radius_mm * (0.2 + 0.7 * unit(rng));
     else
       d.y_mm = c.y_mm(unit(rng) * (c.width_px - 1));
@@ -94,7 +76,7 @@ std::vector<double> Coverage(const ToolDescription& t,
       for (int b = 0; b < kBlurSamples; ++b) {
         const double a = turn + blur * ((b + 0.5) / kBlurSamples - 0.5);
         double lo = 0, hi = 0;
-        if (ShadowSpan(t, h, a, &lo, &hi))
+        if (t.ShadowSpan(h, a, &lo, &hi))
           AddSpan(lo / c.mm_per_px + c.axis_u_px, hi / c.mm_per_px + c.axis_u_px, weight, &tool,
                   &tool_diff);
       }
@@ -129,16 +111,28 @@ void Blur(std::vector<double>* img, int w, int h, double sigma) {
   const auto at = [&](const std::vector<double>& a, int x, int y) {
     return a[static_cast<size_t>(std::clamp(y, 0, h - 1) * w + std::clamp(x, 0, w - 1))];
   };
+  // Along rows, then down columns; away from the borders without the clamping.
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       double s = 0;
-      for (int i = -r; i <= r; ++i) s += k[static_cast<size_t>(i + r)] * at(*img, x + i, y);
+      if (x >= r && x < w - r) {
+        const double* row = img->data() + static_cast<size_t>(y * w + x - r);
+        for (int i = 0; i <= 2 * r; ++i) s += k[static_cast<size_t>(i)] * row[i];
+      } else {
+        for (int i = -r; i <= r; ++i) s += k[static_cast<size_t>(i + r)] * at(*img, x + i, y);
+      }
       tmp[static_cast<size_t>(y * w + x)] = s;
     }
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       double s = 0;
-      for (int i = -r; i <= r; ++i) s += k[static_cast<size_t>(i + r)] * at(tmp, x, y + i);
+      if (y >= r && y < h - r) {
+        const double* col = tmp.data() + static_cast<size_t>((y - r) * w + x);
+        for (int i = 0; i <= 2 * r; ++i)
+          s += k[static_cast<size_t>(i)] * col[static_cast<size_t>(i * w)];
+      } else {
+        for (int i = -r; i <= r; ++i) s += k[static_cast<size_t>(i + r)] * at(tmp, x, y + i);
+      }
       (*img)[static_cast<size_t>(y * w + x)] = s;
     }
 }

@@ -2,6 +2,7 @@
 
 #include "mlp/probe_fw/json_fields.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -55,6 +56,30 @@ double ToolDescription::EdgeRadius(int k, double h) const {
 
 double ToolDescription::EdgeAngle(int k, double h, double turn_rad) const {
   return turn_rad + 2 * M_PI * k / flutes + h * std::tan(helix_deg * M_PI / 180) / Radius();
+}
+
+bool ToolDescription::ShadowSpan(double h, double turn, double* lo, double* hi) const {
+  bool any = false;
+  *lo = 0, *hi = 0;
+  // sin of each edge's angle (EdgeAngle) by turning one sine/cosine pair a flute at a time:
+  // two sincos a call instead of one sin and one tan an edge (the renderer's hot loop).
+  const double base = EdgeAngle(0, h, turn), step = 2 * M_PI / flutes;
+  double s = std::sin(base), c = std::cos(base);
+  const double ss = std::sin(step), cs = std::cos(step);
+  for (int k = 0; k < flutes; ++k) {
+    const double r = EdgeRadius(k, h);
+    if (r > 0) {
+      const double y = r * s;
+      *lo = std::min(*lo, y), *hi = std::max(*hi, y);
+      any = true;
+    }
+    const double s_next = s * cs + c * ss;
+    c = c * cs - s * ss, s = s_next;
+  }
+  if (!any) return false;
+  const double core = core_ratio * Radius();
+  *lo = std::min(*lo, -core), *hi = std::max(*hi, core);
+  return true;
 }
 
 void ToolDescription::Validate() const {

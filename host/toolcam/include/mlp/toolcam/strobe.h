@@ -42,6 +42,9 @@ struct StrobeRequest {
   /// to the one asked for, at which the step is a whole number of positions coprime with them.
   double rpm_tolerance = 0.02;
   int max_pulses_per_image = 8;
+  /// The pulse as a share of its bound (1: the whole step, as the seed; shorter pulses blur
+  /// less and need more light).
+  double pulse_share = 1.0;
 };
 
 struct StrobePlan {

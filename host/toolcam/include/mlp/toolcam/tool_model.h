@@ -53,6 +53,10 @@ struct ToolDescription {
   /// Edge k's angle about z at height h when the tool has turned `turn_rad` (the helix winds
   /// the edge round as it rises).
   double EdgeAngle(int k, double h_mm, double turn_rad) const;
+  /// The shadow's extent across height h with the tool turned `turn_rad`, seen along x: each
+  /// edge reaching h is a blade from the axis to its radius, plus the web between the flutes.
+  /// False where nothing of the tool reaches h.
+  bool ShadowSpan(double h_mm, double turn_rad, double* lo_mm, double* hi_mm) const;
   /// Throws ToolError naming the first field out of range.
   void Validate() const;
 };

@@ -1,0 +1,78 @@
+#pragma once
+/// @file A tool measured from its strobed shadow images (seed 000): the silhouette's sub-pixel
+/// outline in each image (geometry/contour.h), angular indexing without an encoder (the
+/// outline's extreme +y at a reference height against the images' angular order: its maxima
+/// are the flutes, the nearest images their principal images), then per flute the reference
+/// edge model (the tool description's nominal silhouette) shifted in y (radius) and z (length)
+/// by least squares, contamination (coolant, chips) removed, and what stays off the model
+/// reported as wear (inside) and build-up (outside).
+
+#include "mlp/geometry/types.h"
+#include "mlp/toolcam/tool_camera.h"
+#include "mlp/toolcam/tool_model.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace mlp::toolcam {
+
+/// A frame's silhouette outline in the tool frame (y across, h up from the nominal tip) [mm]:
+/// `side` from the rows (the +y flank), `bottom` from the columns (the end).
+struct Outline {
+  std::vector<geometry::Vec2> side, bottom;
+};
+
+/// Sub-pixel outline of one frame, undistorted and mapped with the camera's calibration.
+Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCameraModel& camera);
+
+struct MeasureOptions {
+  double h_ref_mm = 1.5;  ///< the height that indexes the flutes (above the corner)
+  double band_mm = 0.04;  ///< half the band round it
+  /// Outside the model by more than this and shorter than `contamination_length_mm`: coolant,
+  /// a chip, oil (removed, the fit repeated).
+  double contamination_mm = 0.003;
+  double contamination_length_mm = 0.15;
+  /// A stretch of the edge off the model by more than this, at least `finding_length_mm` long:
+  /// wear (inside) or build-up (outside).
+  double finding_mm = 0.004;
+  double finding_length_mm = 0.03;
+  int rounds = 4;
+};
+
+/// A stretch of an edge off its model.
+struct Finding {
+  bool buildup = false;  ///< outside the model; else wear (inside)
+  double h_mm = 0.0;     ///< its middle, above the nominal tip
+  double length_mm = 0.0, max_mm = 0.0, area_mm2 = 0.0;
+};
+
+struct FluteMeasurement {
+  int frame = 0;                ///< its principal image (index into the frames given)
+  double angle_deg = 0.0;       ///< where its maximum lies in the images' angular order
+  double radius_mm = 0.0;       ///< the edge's radius (the model shifted in y)
+  double tip_h_mm = 0.0;        ///< its tip above the nominal tip (negative: longer)
+  double rms_mm = 0.0;          ///< of the outline about the shifted model
+  int points = 0, removed = 0;  ///< used; left out as contamination or findings
+  std::vector<Finding> findings;
+};
+
+struct ToolMeasurement {
+  std::vector<FluteMeasurement> flutes;  ///< in order round the tool from the highest peak
+  double radius_mm = 0.0;                ///< the largest edge's: what cuts the wall
+  double tip_h_mm = 0.0;                 ///< the longest edge's: what cuts the floor
+  double runout_mm = 0.0;                ///< largest minus smallest edge radius
+  /// The edges' radii as a centre off the spindle axis: r_k = r0 + e cos(angle_k - phase).
+  double eccentricity_mm = 0.0, eccentricity_deg = 0.0;
+};
+
+/// `frames[i]` was taken at angular position `positions[i]` of `position_count` (the strobe
+/// plan's order; the absolute angle is unknown). Throws ToolError when the frames do not show
+/// the flutes (too few frames, no outline at the reference height).
+ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames,
+                            const std::vector<int>& positions,
+                            int position_count,
+                            const ToolDescription& nominal,
+                            const ToolCameraModel& camera,
+                            const MeasureOptions& options = {});
+
+}  // namespace mlp::toolcam

@@ -1,0 +1,342 @@
+#include "mlp/toolcam/measure.h"
+
+#include "mlp/geometry/contour.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+namespace mlp::toolcam {
+namespace {
+
+using geometry::Vec2;
+
+[[noreturn]] void Fail(const std::string& what) { throw ToolError("tool measurement: " + what); }
+
+// Pixel -> tool frame, undoing the lens' radial distortion (the camera's calibration).
+Vec2 ToTool(const Vec2& px, const ToolCameraModel& c) {
+  const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
+  const double corner2 = cx * cx + cy * cy;
+  const Vec2 d(px.x() - cx, px.y() - cy);
+  const Vec2 u = Vec2(cx, cy) + d / (1 + c.distortion_k1 * d.squaredNorm() / corner2);
+  return {c.y_mm(u.x()), c.h_mm(u.y())};
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+double ReferenceY(const Outline& o, const MeasureOptions& opt) {
+  std::vector<double> y;
+  for (const Vec2& p : o.side)
+    if (std::abs(p.y() - opt.h_ref_mm) < opt.band_mm) y.push_back(p.x());
+  return Median(y);
+}
+
+// The outline points a flute's fit uses, each with the way "outside the model" points: the
+// flank (+y) and the flat end (-h).
+struct FitPoint {
+  Vec2 p;
+  bool side = true;
+  bool active = true;
+  double residual = 0;  ///< outward from the model [mm]
+};
+
+// The nominal tool (its edges true) shifted by (dy, dh) and turned: the reference model.
+struct Model {
+  ToolDescription tool;
+  double turn0 = 0;  ///< the principal image's turn before the fitted correction
+  bool fit_turn = false;
+
+  // The outline's flank at height h: the shadow's +y extent.
+  double Flank(double h, double turn) const {
+    double lo = 0, hi = 0;
+    return tool.ShadowSpan(h, turn, &lo, &hi) ? hi : 0.0;
+  }
+
+  // The outline's underside: for each y the lowest height whose shadow reaches it (the flat
+  // end, then the corner's arc seen at the blade's angle). Tabulated as the flank every
+  // 0.25 um of height from just below the tip through the corner (where the flank grows with
+  // height), then read back by interpolation.
+  struct Underside {
+    std::vector<double> h, y;  ///< y non-decreasing
+    double At(double yq) const {
+      const auto it = std::lower_bound(y.begin(), y.end(), yq);
+      if (it == y.begin()) return h.front();
+      if (it == y.end()) return h.back();
+      const auto i = static_cast<size_t>(it - y.begin());
+      const double t = y[i] > y[i - 1] ? (yq - y[i - 1]) / (y[i] - y[i - 1]) : 1.0;
+      return h[i - 1] + t * (h[i] - h[i - 1]);
+    }
+  };
+
+  Underside Tabulate(double turn) const {
+    Underside u;
+    constexpr double kStepMm = 0.00025;
+    double running = 0;
+    for (double h = -0.05; h <= tool.corner_radius_mm + 0.05; h += kStepMm) {
+      running = std::max(running, Flank(h, turn));  // the underside sees the widest so far
+      u.h.push_back(h), u.y.push_back(running);
+    }
+    return u;
+  }
+
+  // Outward residuals of every point for parameters x = (dy, dh, dturn): a flank point right
+  // of the model, an underside point below it.
+  void Residuals(const Eigen::Vector3d& x, std::vector<FitPoint>* pts) const {
+    const double turn = turn0 + x(2);
+    const Underside under = Tabulate(turn);
+    for (FitPoint& f : *pts) {
+      if (f.side)
+        f.residual = f.p.x() - (Flank(f.p.y() - x(1), turn) + x(0));
+      else
+        f.residual = (under.At(f.p.x() - x(0)) + x(1)) - f.p.y();
+    }
+  }
+};
+
+// Least squares over the active points (Gauss-Newton, numeric derivatives: the model's
+// silhouette has no closed form once the helix turns the edge with height).
+Eigen::Vector3d Fit(const Model& m, std::vector<FitPoint>* pts, Eigen::Vector3d x) {
+  const int n_par = m.fit_turn ? 3 : 2;
+  for (int it = 0; it < 30; ++it) {
+    m.Residuals(x, pts);
+    std::vector<double> r0;
+    for (const FitPoint& f : *pts) r0.push_back(f.residual);
+    Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n_par, static_cast<Eigen::Index>(pts->size()));
+    for (int k = 0; k < n_par; ++k) {
+      Eigen::Vector3d xe = x;
+      const double eps = k == 2 ? 1e-5 : 1e-5;
+      xe(k) += eps;
+      m.Residuals(xe, pts);
+      for (size_t i = 0; i < pts->size(); ++i)
+        jt(k, static_cast<Eigen::Index>(i)) = ((*pts)[i].residual - r0[i]) / eps;
+    }
+    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n_par, n_par);
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(n_par);
+    for (size_t i = 0; i < pts->size(); ++i) {
+      if (!(*pts)[i].active) continue;
+      const Eigen::VectorXd j = jt.col(static_cast<Eigen::Index>(i));
+      a += j * j.transpose();
+      b -= j * r0[i];
+    }
+    const Eigen::VectorXd step = a.ldlt().solve(b);
+    if (!step.allFinite()) Fail("the flute's outline does not determine its position");
+    x.head(n_par) += step;
+    if (step.norm() < 1e-8) break;
+  }
+  m.Residuals(x, pts);
+  return x;
+}
+
+// Runs of consecutive points (in order along the outline) beyond `limit` one way.
+template <class Visit>
+void Runs(const std::vector<FitPoint>& pts,
+          const std::vector<size_t>& order,
+          double limit,
+          bool outside,
+          Visit visit) {
+  size_t start = 0;
+  bool in = false;
+  for (size_t k = 0; k <= order.size(); ++k) {
+    const bool off = k < order.size() &&
+                     (outside ? pts[order[k]].residual > limit : pts[order[k]].residual < -limit);
+    if (off && !in) start = k, in = true;
+    if (!off && in) {
+      visit(start, k);
+      in = false;
+    }
+  }
+}
+
+struct Ordered {
+  std::vector<size_t> side, bottom;  ///< side by h, bottom by y
+};
+
+Ordered Order(const std::vector<FitPoint>& pts) {
+  Ordered o;
+  for (size_t i = 0; i < pts.size(); ++i) (pts[i].side ? o.side : o.bottom).push_back(i);
+  std::sort(o.side.begin(), o.side.end(),
+            [&](size_t a, size_t b) { return pts[a].p.y() < pts[b].p.y(); });
+  std::sort(o.bottom.begin(), o.bottom.end(),
+            [&](size_t a, size_t b) { return pts[a].p.x() < pts[b].p.x(); });
+  return o;
+}
+
+double Along(const FitPoint& f) { return f.side ? f.p.y() : f.p.x(); }
+
+// Off the model beyond the finding limit: out of the reference fit. Also the findings (runs
+// at least finding_length_mm long; outside runs shorter than contamination_length_mm are
+// contamination, not build-up).
+std::vector<Finding> Classify(std::vector<FitPoint>* pts, const MeasureOptions& o) {
+  for (FitPoint& f : *pts) f.active = true;
+  std::vector<Finding> findings;
+  const Ordered ord = Order(*pts);
+  for (const auto* line : {&ord.side, &ord.bottom}) {
+    for (bool outside : {true, false}) {
+      const double limit = outside ? o.contamination_mm : o.finding_mm;
+      Runs(*pts, *line, limit, outside, [&](size_t a, size_t b) {
+        const double from = Along((*pts)[(*line)[a]]), to = Along((*pts)[(*line)[b - 1]]);
+        double worst = 0, area = 0;
+        for (size_t k = a; k < b; ++k) {
+          FitPoint& f = (*pts)[(*line)[k]];
+          f.active = false;
+          worst = std::max(worst, std::abs(f.residual));
+          if (k + 1 < b)
+            area += std::abs(f.residual) * std::abs(Along((*pts)[(*line)[k + 1]]) - Along(f));
+        }
+        const double length = std::abs(to - from);
+        const bool contamination = outside && length < o.contamination_length_mm;
+        if (contamination || length < o.finding_length_mm || worst < o.finding_mm) return;
+        Finding fd;
+        fd.buildup = outside;
+        fd.h_mm = (*line == ord.side) ? (from + to) / 2 : 0.0;
+        fd.length_mm = length, fd.max_mm = worst, fd.area_mm2 = area;
+        findings.push_back(fd);
+      });
+    }
+  }
+  return findings;
+}
+
+FluteMeasurement MeasureFlute(const Outline& o,
+                              const ToolDescription& nominal,
+                              double turn0,
+                              const MeasureOptions& opt) {
+  Model m;
+  m.tool = nominal;
+  for (auto& e : m.tool.edges) e = CuttingEdge{};
+  m.turn0 = turn0;
+  m.fit_turn = nominal.helix_deg >= 5.0;  // a straight flute's turn trades with its radius
+  const double r = nominal.Radius(), rc = nominal.corner_radius_mm;
+  std::vector<FitPoint> pts;
+  for (const Vec2& p : o.side)  // the flank, above the corner's flat part
+    if (p.y() > 0.6 * rc && p.y() < nominal.flute_length_mm) pts.push_back({p, true});
+  for (const Vec2& p : o.bottom)  // the end and the corner, where the outline is not upright
+    if (p.x() < r - 0.1 * rc && p.y() < 0.7 * rc) pts.push_back({p, false});
+  if (pts.size() < 20) Fail("too few outline points on a flute's principal image");
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  FluteMeasurement fm;
+  for (int round = 0; round < opt.rounds; ++round) {
+    x = Fit(m, &pts, x);
+    fm.findings = Classify(&pts, opt);
+  }
+  fm.radius_mm = r + x(0);
+  fm.tip_h_mm = x(1);
+  double ss = 0;
+  for (const FitPoint& f : pts) {
+    if (!f.active) {
+      ++fm.removed;
+      continue;
+    }
+    ss += f.residual * f.residual;
+    ++fm.points;
+  }
+  fm.rms_mm = fm.points > 0 ? std::sqrt(ss / fm.points) : 0.0;
+  return fm;
+}
+
+// The eccentricity of the edges' radii round the tool: r_k = r0 + a cos(phi_k) + b sin(phi_k).
+void Eccentricity(ToolMeasurement* t) {
+  const auto n = static_cast<Eigen::Index>(t->flutes.size());
+  if (n < 3) return;
+  Eigen::MatrixXd a(n, 3);
+  Eigen::VectorXd r(n);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double phi = t->flutes[static_cast<size_t>(k)].angle_deg * M_PI / 180;
+    a.row(k) << 1, std::cos(phi), std::sin(phi);
+    r(k) = t->flutes[static_cast<size_t>(k)].radius_mm;
+  }
+  const Eigen::Vector3d c = a.colPivHouseholderQr().solve(r);
+  t->eccentricity_mm = std::hypot(c(1), c(2));
+  t->eccentricity_deg = std::atan2(c(2), c(1)) * 180 / M_PI;
+}
+
+}  // namespace
+
+Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCameraModel& c) {
+  if (pixels.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
+    Fail("a frame's size is not the camera's");
+  const geometry::GreyView g{pixels.data(), c.width_px, c.height_px};
+  const double level = (c.bright + c.dark) / 2;
+  Outline o;
+  // Only scan lines that start in the tool's shadow: a drop in the light makes a crossing too.
+  const geometry::Points2 rows = geometry::RowCrossings(g, level);
+  for (Eigen::Index i = 0; i < rows.cols(); ++i)
+    if (g.At(0, static_cast<int>(rows(1, i))) < level) o.side.push_back(ToTool(rows.col(i), c));
+  const geometry::Points2 cols = geometry::ColumnCrossings(g, level);
+  for (Eigen::Index i = 0; i < cols.cols(); ++i)
+    if (g.At(static_cast<int>(cols(0, i)), 0) < level) o.bottom.push_back(ToTool(cols.col(i), c));
+  return o;
+}
+
+ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames,
+                            const std::vector<int>& positions,
+                            int position_count,
+                            const ToolDescription& nominal,
+                            const ToolCameraModel& camera,
+                            const MeasureOptions& opt) {
+  const int n = nominal.flutes;
+  if (frames.size() != positions.size() || position_count < 3 * n ||
+      frames.size() < static_cast<size_t>(3 * n))
+    Fail("at least 3 images per flute, each with its angular position, are needed");
+  std::vector<Outline> outlines;
+  std::vector<double> ref;
+  for (const auto& f : frames) {
+    outlines.push_back(ExtractOutline(f, camera));
+    ref.push_back(ReferenceY(outlines.back(), opt));
+  }
+  // The images in angular order; the flutes are the maxima of the reference height's extreme.
+  std::vector<size_t> order(frames.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return positions[a] < positions[b]; });
+  const double step_deg = 360.0 / position_count;
+  const auto angle = [&](size_t i) { return positions[i] * step_deg; };
+  size_t top = 0;
+  for (size_t i = 0; i < ref.size(); ++i)
+    if (std::isfinite(ref[i]) && (!std::isfinite(ref[top]) || ref[i] > ref[top])) top = i;
+  if (!std::isfinite(ref[top])) Fail("no image shows the outline at the reference height");
+  ToolMeasurement t;
+  for (int f = 0; f < n; ++f) {
+    const double want = angle(top) + f * 360.0 / n;
+    size_t k_best = order.size();
+    for (size_t k = 0; k < order.size(); ++k) {
+      double off = std::fmod(angle(order[k]) - want, 360.0);
+      off -= 360.0 * std::round(off / 360.0);
+      if (std::abs(off) > 180.0 / n || !std::isfinite(ref[order[k]])) continue;
+      if (k_best == order.size() || ref[order[k]] > ref[order[k_best]]) k_best = k;
+    }
+    if (k_best == order.size()) Fail("no image near flute " + std::to_string(f + 1));
+    // The maximum between images: a parabola through the principal image and its neighbours.
+    const size_t i0 = order[k_best];
+    const double ym = ref[order[(k_best + order.size() - 1) % order.size()]];
+    const double yp = ref[order[(k_best + 1) % order.size()]];
+    const double curve = ym - 2 * ref[i0] + yp;
+    const double offset_deg = curve < 0 ? step_deg * (ym - yp) / (2 * curve) : 0.0;
+    // The principal image's turn: its flute at +y at the reference height, less the offset.
+    const double turn0 =
+        M_PI / 2 - nominal.EdgeAngle(0, opt.h_ref_mm, 0.0) - offset_deg * M_PI / 180;
+    FluteMeasurement fm = MeasureFlute(outlines[i0], nominal, turn0, opt);
+    fm.frame = static_cast<int>(i0);
+    fm.angle_deg = angle(i0) + offset_deg;
+    t.flutes.push_back(fm);
+  }
+  t.radius_mm = t.tip_h_mm = 0;
+  double smallest = 1e300;
+  t.tip_h_mm = 1e300;
+  for (const auto& f : t.flutes) {
+    t.radius_mm = std::max(t.radius_mm, f.radius_mm);
+    smallest = std::min(smallest, f.radius_mm);
+    t.tip_h_mm = std::min(t.tip_h_mm, f.tip_h_mm);
+  }
+  t.runout_mm = t.radius_mm - smallest;
+  Eccentricity(&t);
+  return t;
+}
+
+}  // namespace mlp::toolcam
