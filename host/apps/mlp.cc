@@ -3,7 +3,6 @@
 #include "mlp/host/fit_command.h"
 #include "mlp/host/history_command.h"
 #include "mlp/host/job_command.h"
-#include "mlp/host/tool_command.h"
 
 #include <cerrno>
 #include <cstring>
@@ -26,7 +25,8 @@ constexpr const char* kUsage =
     "  status    the host service's health: probes, machines (mlp-hostd must run)\n"
     "  request   send a job request (JSON) to mlp-hostd and print its reply\n"
     "  history   list or export the job history (mlp history --help)\n"
-    "  tool      tools from their shadow images: mlp tool strobe (plans the strobe)\n"
+    "  tool      tools from their shadow images: strobe plan, virtual camera, measurement\n"
+    "            (mlp tool --help; runs mlp-tool beside this program)\n"
     "  --version print the version\n";
 
 // Replaces this process with `name` from the same folder (mlp-calibrate links Ceres and OpenCV,
@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
   }
   if (args[0] == "calibrate") return RunSibling(argv, "mlp-calibrate");
   if (args[0] == "demo") return RunSibling(argv, "mlp-demo");
+  if (args[0] == "tool") return RunSibling(argv, "mlp-tool");
   if (args[0] == "fit") {
     return mlp::host::RunFitCommand({args.begin() + 1, args.end()}, std::cout, std::cerr);
   }
@@ -62,7 +63,6 @@ int main(int argc, char** argv) {
   if (args[0] == "status") return mlp::host::RunStatusCommand(rest, std::cout, std::cerr);
   if (args[0] == "request") return mlp::host::RunRequestCommand(rest, std::cout, std::cerr);
   if (args[0] == "history") return mlp::host::RunHistoryCommand(rest, std::cout, std::cerr);
-  if (args[0] == "tool") return mlp::host::RunToolCommand(rest, std::cout, std::cerr);
   std::cerr << "mlp: unknown command '" << args[0] << "'\n" << kUsage;
   return mlp::host::kExitBadInput;
 }

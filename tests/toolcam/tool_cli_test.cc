@@ -2,6 +2,7 @@
 // plan's reason on stderr with nothing on stdout.
 
 #include <filesystem>
+#include <fstream>
 
 #include "process_run.h"
 #include <gtest/gtest.h>
@@ -47,6 +48,35 @@ TEST(ToolCli, RendersTheVirtualToolCamerasFrames) {
                               " --rpm 5000 --fps 50 --resolution-deg 90");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("cannot read"), std::string::npos) << bad.err;
+}
+
+TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
+  const std::string dir = "/tmp/mlp_tool_cli_measure";
+  std::filesystem::remove_all(dir);
+  const std::string tools = std::string(MLP_SOURCE_DIR) + "/samples/tools/";
+  const auto render =
+      RunProcess(kMlp + " tool render --tool " + tools + "endmill_d10_z4_worn.json --out " + dir +
+                 " --rpm 5000 --fps 50 --resolution-deg 7.2 --seed 5");
+  ASSERT_EQ(render.exit_code, 0) << render.err;
+  const auto run = RunProcess(kMlp + " tool measure --images " + dir + " --tool " + tools +
+                              "endmill_d10_z4_new.json --overlay " + dir + "/overlay.png --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto m = nlohmann::json::parse(run.out);
+  // Edge 2 cuts the wall (5.006) and the floor (4 um long): the tool table's figures.
+  EXPECT_NEAR(m.at("diameter_mm").get<double>(), 10.012, 0.002);
+  EXPECT_NEAR(m.at("length_mm").get<double>(), 75.004, 0.001);
+  int findings = 0;
+  for (const auto& f : m.at("flutes")) findings += static_cast<int>(f.at("findings").size());
+  EXPECT_EQ(findings, 2);  // the chip and the build-up
+  std::ifstream png(dir + "/overlay.png", std::ios::binary);
+  char magic[4] = {};
+  png.read(magic, 4);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+  // Images that are not there: bad input.
+  EXPECT_EQ(RunProcess(kMlp + " tool measure --images /nonexistent --tool " + tools +
+                       "endmill_d10_z4_new.json")
+                .exit_code,
+            2);
 }
 
 }  // namespace

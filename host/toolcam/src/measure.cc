@@ -3,6 +3,7 @@
 #include "mlp/geometry/contour.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <Eigen/Dense>
@@ -44,6 +45,7 @@ struct FitPoint {
   bool side = true;
   bool active = true;
   double residual = 0;  ///< outward from the model [mm]
+  FluteMeasurement::PointKind kind = FluteMeasurement::kUsed;
 };
 
 // The nominal tool (its edges true) shifted by (dy, dh) and turned: the reference model.
@@ -52,10 +54,19 @@ struct Model {
   double turn0 = 0;  ///< the principal image's turn before the fitted correction
   bool fit_turn = false;
 
-  // The outline's flank at height h: the shadow's +y extent.
+  double blur = 0;
+
+  // The outline's flank at height h: the shadow's +y extent; with a pulse's blur, where half
+  // the angles over the pulse reach (the half-grey edge of their average): their median.
   double Flank(double h, double turn) const {
     double lo = 0, hi = 0;
-    return tool.ShadowSpan(h, turn, &lo, &hi) ? hi : 0.0;
+    if (blur < 1e-4) return tool.ShadowSpan(h, turn, &lo, &hi) ? hi : 0.0;
+    std::array<double, 5> reach{};
+    for (int b = 0; b < 5; ++b)
+      reach[static_cast<size_t>(b)] =
+          tool.ShadowSpan(h, turn + blur * ((b + 0.5) / 5 - 0.5), &lo, &hi) ? hi : 0.0;
+    std::nth_element(reach.begin(), reach.begin() + 2, reach.end());
+    return reach[2];
   }
 
   // The outline's underside: for each y the lowest height whose shadow reaches it (the flat
@@ -173,7 +184,7 @@ double Along(const FitPoint& f) { return f.side ? f.p.y() : f.p.x(); }
 // at least finding_length_mm long; outside runs shorter than contamination_length_mm are
 // contamination, not build-up).
 std::vector<Finding> Classify(std::vector<FitPoint>* pts, const MeasureOptions& o) {
-  for (FitPoint& f : *pts) f.active = true;
+  for (FitPoint& f : *pts) f.active = true, f.kind = FluteMeasurement::kUsed;
   std::vector<Finding> findings;
   const Ordered ord = Order(*pts);
   for (const auto* line : {&ord.side, &ord.bottom}) {
@@ -191,7 +202,13 @@ std::vector<Finding> Classify(std::vector<FitPoint>* pts, const MeasureOptions& 
         }
         const double length = std::abs(to - from);
         const bool contamination = outside && length < o.contamination_length_mm;
-        if (contamination || length < o.finding_length_mm || worst < o.finding_mm) return;
+        const bool finding =
+            !contamination && length >= o.finding_length_mm && worst >= o.finding_mm;
+        for (size_t k = a; k < b; ++k)
+          (*pts)[(*line)[k]].kind = !finding  ? FluteMeasurement::kContamination
+                                    : outside ? FluteMeasurement::kBuildup
+                                              : FluteMeasurement::kWear;
+        if (!finding) return;
         Finding fd;
         fd.buildup = outside;
         fd.h_mm = (*line == ord.side) ? (from + to) / 2 : 0.0;
@@ -211,6 +228,7 @@ FluteMeasurement MeasureFlute(const Outline& o,
   m.tool = nominal;
   for (auto& e : m.tool.edges) e = CuttingEdge{};
   m.turn0 = turn0;
+  m.blur = opt.blur_rad;
   m.fit_turn = nominal.helix_deg >= 5.0;  // a straight flute's turn trades with its radius
   const double r = nominal.Radius(), rc = nominal.corner_radius_mm;
   std::vector<FitPoint> pts;
@@ -237,6 +255,14 @@ FluteMeasurement MeasureFlute(const Outline& o,
     ++fm.points;
   }
   fm.rms_mm = fm.points > 0 ? std::sqrt(ss / fm.points) : 0.0;
+  for (const FitPoint& f : pts) fm.points_yh.push_back(f.p), fm.point_kind.push_back(f.kind);
+  // The fitted model's outline: the flank down to the corner, then the underside inwards.
+  const double turn = m.turn0 + x(2);
+  for (double h = 2.5; h >= 0.3 * rc; h -= 0.01)
+    fm.model_yh.emplace_back(m.Flank(h, turn) + x(0), h + x(1));
+  const auto under = m.Tabulate(turn);
+  for (size_t i = under.h.size(); i-- > 0;)
+    if (under.y[i] > 0) fm.model_yh.emplace_back(under.y[i] + x(0), under.h[i] + x(1));
   return fm;
 }
 
@@ -262,7 +288,18 @@ Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCamera
   if (pixels.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
     Fail("a frame's size is not the camera's");
   const geometry::GreyView g{pixels.data(), c.width_px, c.height_px};
-  const double level = (c.bright + c.dark) / 2;
+  // Half way between the shadow's and the back-light's grey, from the image itself (a real
+  // light source ages): the 2nd and 98th percentiles.
+  std::array<int, 256> histogram{};
+  for (std::uint8_t p : pixels) ++histogram[p];
+  const auto percentile = [&](double share) {
+    long seen = 0;
+    for (int v = 0; v < 256; ++v)
+      if ((seen += histogram[static_cast<size_t>(v)]) >= share * static_cast<double>(pixels.size()))
+        return v;
+    return 255;
+  };
+  const double level = (percentile(0.02) + percentile(0.98)) / 2.0;
   Outline o;
   // Only scan lines that start in the tool's shadow: a drop in the light makes a crossing too.
   const geometry::Points2 rows = geometry::RowCrossings(g, level);

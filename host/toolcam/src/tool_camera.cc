@@ -252,6 +252,15 @@ int RenderToolSequence(const ToolDescription& tool,
       {"edges", edges},
       {"frames", frames}};
   std::ofstream((std::filesystem::path(dir) / "truth.json").string()) << truth.dump(1) << "\n";
+  // What a real tool camera records beside its images (no truth): the measurement's input.
+  nlohmann::ordered_json images = nlohmann::ordered_json::array();
+  for (const auto& f : frames)
+    images.push_back({{"file", f.at("file")}, {"position", f.at("position")}});
+  const nlohmann::ordered_json manifest = {{"format", "mlprobe-tool-images/1"},
+                                           {"camera", truth.at("camera")},
+                                           {"strobe", truth.at("strobe")},
+                                           {"images", images}};
+  std::ofstream((std::filesystem::path(dir) / "images.json").string()) << manifest.dump(1) << "\n";
   return static_cast<int>(plan.position.size());
 }
 

@@ -37,6 +37,10 @@ struct MeasureOptions {
   double finding_mm = 0.004;
   double finding_length_mm = 0.03;
   int rounds = 4;
+  /// The tool's turn while a pulse lasts [rad] (pulse width x angular speed, from the strobe
+  /// plan): the image is the average over it, and so is the model (5 angles, as the virtual
+  /// camera); a long pulse otherwise shrinks every edge by r (1 - cos(blur / 4)).
+  double blur_rad = 0.0;
 };
 
 /// A stretch of an edge off its model.
@@ -54,6 +58,12 @@ struct FluteMeasurement {
   double rms_mm = 0.0;          ///< of the outline about the shifted model
   int points = 0, removed = 0;  ///< used; left out as contamination or findings
   std::vector<Finding> findings;
+  /// For the overlay, in the tool frame [mm]: the fitted model's outline (flank from the top
+  /// down, then the underside), and each outline point with what it was taken for.
+  std::vector<geometry::Vec2> model_yh;
+  enum PointKind { kUsed, kContamination, kWear, kBuildup };
+  std::vector<geometry::Vec2> points_yh;
+  std::vector<PointKind> point_kind;
 };
 
 struct ToolMeasurement {
