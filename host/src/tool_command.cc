@@ -33,8 +33,11 @@ constexpr const char* kUsage =
     "  the virtual tool camera: the plan's shadow frames (DIR/frame_NNNN.pgm) and their truth\n"
     "  (DIR/truth.json); the tool description format: docs/TOOLCAM.md\n"
     "       mlp tool measure --images DIR --tool NOMINAL.json [--overlay FILE.png] [--json]\n"
+    "                        [--save-reference TOOL.json]\n"
     "  each edge's radius and length, wear and build-up from DIR/images.json (the images and\n"
-    "  their angular positions, the camera's calibration) against the nominal tool\n"
+    "  their angular positions, the camera's calibration) against the tool's description (a\n"
+    "  stored reference: what changed since); --save-reference stores this measurement as the\n"
+    "  tool's new reference\n"
     "exit codes: 0 done, 2 bad arguments, tool file or images, 3 cannot be planned or\n"
     "measured (the reason is printed), 1 bug\n";
 
@@ -264,7 +267,7 @@ nlohmann::json MeasurementJson(const toolcam::ToolDescription& tool,
 }
 
 int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  std::string images, tool_file, overlay;
+  std::string images, tool_file, overlay, save_reference;
   bool json = false;
   for (size_t i = 0; i < args.size(); ++i) {
     if (args[i] == "--json") {
@@ -279,6 +282,8 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       tool_file = v;
     else if (args[i - 1] == "--overlay")
       overlay = v;
+    else if (args[i - 1] == "--save-reference")
+      save_reference = v;
     else
       throw UsageError("unknown argument " + args[i - 1]);
   }
@@ -296,6 +301,13 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   const toolcam::ToolMeasurement m =
       toolcam::MeasureTool(im.pixels, im.position, im.positions, tool, im.camera, options);
   if (!overlay.empty()) WriteOverlay(overlay, im, m);
+  if (!save_reference.empty()) {  // whole or not at all: a temporary file, then rename
+    const std::string tmp = save_reference + ".tmp";
+    std::ofstream(tmp) << toolcam::ToJson(toolcam::ReferenceFrom(tool, m));
+    std::error_code ec;
+    std::filesystem::rename(tmp, save_reference, ec);
+    if (ec) throw UsageError("cannot write " + save_reference + ": " + ec.message());
+  }
   if (json) {
     out << MeasurementJson(tool, m).dump() << "\n";
     return kExitOk;

@@ -123,6 +123,37 @@ TEST(ToolMeasure, FindsTheChipAndTheBuiltUpEdge) {
   EXPECT_EQ(buildups, 1);
 }
 
+// A measured tool stored as its reference: measured again against it, nothing is new; after
+// a new chip on another edge, only that chip is found.
+TEST(ToolMeasure, AStoredReferenceShowsOnlyWhatChanged) {
+  const ToolDescription worn = LoadTool(kTools + "endmill_d10_z4_worn.json");
+  const ToolDescription nominal = LoadTool(kTools + "endmill_d10_z4_new.json");
+  const MeasuredRun first = RenderAndMeasure(worn, nominal, SmallCamera(0), 21);
+  const ToolDescription reference = ParseTool(ToJson(ReferenceFrom(nominal, first.m)));
+  const MeasuredRun again = RenderAndMeasure(worn, reference, SmallCamera(0), 22);
+  ExpectEdgesMatch(worn, again, kCleanTolMm);
+  for (const FluteMeasurement& f : again.m.flutes) {
+    EXPECT_GE(f.edge, 0);
+    EXPECT_TRUE(f.findings.empty()) << "edge " << f.edge + 1 << ": " << f.findings.size();
+  }
+  ToolDescription chipped = worn;  // a new 12 um chip on edge 4 at h 1.0 mm
+  chipped.edges[3].defects.push_back({1.0, 0.2, 0.012});
+  const MeasuredRun later = RenderAndMeasure(chipped, reference, SmallCamera(0), 23);
+  int found = 0;
+  for (const FluteMeasurement& f : later.m.flutes)
+    for (const Finding& d : f.findings) {
+      const int k = EdgeFacing(chipped, later.turn[static_cast<size_t>(f.frame)], 1.5);
+      std::printf("  new since the reference: edge %d %s at h %.3f mm, %.1f um\n", k + 1,
+                  d.buildup ? "build-up" : "wear", d.h_mm, d.max_mm * 1e3);
+      EXPECT_EQ(k, 3);
+      EXPECT_FALSE(d.buildup);
+      EXPECT_NEAR(d.h_mm, 1.1, 0.03);
+      EXPECT_NEAR(d.max_mm, 0.012, 0.002);
+      ++found;
+    }
+  EXPECT_EQ(found, 1);
+}
+
 // A clean tool with coolant drops at the camera's usual rate (1.5 a frame), 100 seeded runs
 // at a coarser 14.4 deg step (25 images: the sweep's time): not one finding, every edge within
 // the drops' tolerance.

@@ -68,6 +68,17 @@ TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
   int findings = 0;
   for (const auto& f : m.at("flutes")) findings += static_cast<int>(f.at("findings").size());
   EXPECT_EQ(findings, 2);  // the chip and the build-up
+  // Stored as the tool's reference, the same images show nothing new.
+  const auto save = RunProcess(kMlp + " tool measure --images " + dir + " --tool " + tools +
+                               "endmill_d10_z4_new.json --save-reference " + dir + "/ref.json");
+  ASSERT_EQ(save.exit_code, 0) << save.err;
+  const auto again =
+      RunProcess(kMlp + " tool measure --images " + dir + " --tool " + dir + "/ref.json --json");
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  int later = 0;
+  for (const auto& f : nlohmann::json::parse(again.out).at("flutes"))
+    later += static_cast<int>(f.at("findings").size());
+  EXPECT_EQ(later, 0);
   std::ifstream png(dir + "/overlay.png", std::ios::binary);
   char magic[4] = {};
   png.read(magic, 4);

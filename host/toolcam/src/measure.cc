@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 
 #include <Eigen/Dense>
 
@@ -220,13 +221,46 @@ std::vector<Finding> Classify(std::vector<FitPoint>* pts, const MeasureOptions& 
   return findings;
 }
 
+// The tool with its edges ground: no runout, no defects, no measured shape.
+ToolDescription Ground(const ToolDescription& t) {
+  ToolDescription g = t;
+  for (auto& e : g.edges) e = CuttingEdge{};
+  return g;
+}
+
+// Flank residuals binned every 0.01 mm of height, plus the model edge's own shape off the
+// ground edge: the edge's measured shape.
+std::vector<std::pair<double, double>> Profile(const std::vector<FitPoint>& pts,
+                                               const ToolDescription& model,
+                                               int edge) {
+  constexpr double kBinMm = 0.01;
+  std::map<long, std::pair<double, int>> bins;
+  for (const FitPoint& f : pts) {
+    if (!f.side || f.kind == FluteMeasurement::kContamination) continue;
+    auto& b = bins[std::lround(f.p.y() / kBinMm)];
+    b.first += f.residual, ++b.second;
+  }
+  const ToolDescription ground = Ground(model);
+  std::vector<std::pair<double, double>> profile;
+  for (const auto& [bin, sum] : bins) {
+    const double h = bin * kBinMm;
+    const double own = model.EdgeRadius(edge, h) - ground.EdgeRadius(edge, h) -
+                       model.edges[static_cast<size_t>(edge)].radial_offset_mm;
+    profile.emplace_back(h, own + sum.first / sum.second);
+  }
+  return profile;
+}
+
+// One flute in its principal image against `model`'s edge `edge` (facing the camera at the
+// reference height when the tool has turned turn0).
 FluteMeasurement MeasureFlute(const Outline& o,
-                              const ToolDescription& nominal,
+                              const ToolDescription& model,
+                              int edge,
                               double turn0,
                               const MeasureOptions& opt) {
+  const ToolDescription& nominal = model;
   Model m;
-  m.tool = nominal;
-  for (auto& e : m.tool.edges) e = CuttingEdge{};
+  m.tool = model;
   m.turn0 = turn0;
   m.blur = opt.blur_rad;
   m.fit_turn = nominal.helix_deg >= 5.0;  // a straight flute's turn trades with its radius
@@ -243,8 +277,9 @@ FluteMeasurement MeasureFlute(const Outline& o,
     x = Fit(m, &pts, x);
     fm.findings = Classify(&pts, opt);
   }
-  fm.radius_mm = r + x(0);
-  fm.tip_h_mm = x(1);
+  const CuttingEdge& e = model.edges[static_cast<size_t>(edge)];
+  fm.radius_mm = r + e.radial_offset_mm + x(0);
+  fm.tip_h_mm = model.TipH(edge) + x(1);
   double ss = 0;
   for (const FitPoint& f : pts) {
     if (!f.active) {
@@ -256,6 +291,7 @@ FluteMeasurement MeasureFlute(const Outline& o,
   }
   fm.rms_mm = fm.points > 0 ? std::sqrt(ss / fm.points) : 0.0;
   for (const FitPoint& f : pts) fm.points_yh.push_back(f.p), fm.point_kind.push_back(f.kind);
+  fm.profile = Profile(pts, model, edge);
   // The fitted model's outline: the flank down to the corner, then the underside inwards.
   const double turn = m.turn0 + x(2);
   for (double h = 2.5; h >= 0.3 * rc; h -= 0.01)
@@ -339,6 +375,8 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
     if (std::isfinite(ref[i]) && (!std::isfinite(ref[top]) || ref[i] > ref[top])) top = i;
   if (!std::isfinite(ref[top])) Fail("no image shows the outline at the reference height");
   ToolMeasurement t;
+  const ToolDescription ground = Ground(nominal);
+  std::vector<double> offsets_deg;
   for (int f = 0; f < n; ++f) {
     const double want = angle(top) + f * 360.0 / n;
     size_t k_best = order.size();
@@ -357,11 +395,42 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
     const double offset_deg = curve < 0 ? step_deg * (ym - yp) / (2 * curve) : 0.0;
     // The principal image's turn: its flute at +y at the reference height, less the offset.
     const double turn0 =
-        M_PI / 2 - nominal.EdgeAngle(0, opt.h_ref_mm, 0.0) - offset_deg * M_PI / 180;
-    FluteMeasurement fm = MeasureFlute(outlines[i0], nominal, turn0, opt);
+        M_PI / 2 - ground.EdgeAngle(0, opt.h_ref_mm, 0.0) - offset_deg * M_PI / 180;
+    FluteMeasurement fm = MeasureFlute(outlines[i0], ground, 0, turn0, opt);
     fm.frame = static_cast<int>(i0);
     fm.angle_deg = angle(i0) + offset_deg;
+    offsets_deg.push_back(offset_deg);
     t.flutes.push_back(fm);
+  }
+  const bool reference = std::any_of(nominal.edges.begin(), nominal.edges.end(),
+                                     [](const CuttingEdge& e) { return e.Measured(); });
+  if (reference) {
+    // Flute f (one pitch further round from the highest peak) faces the camera one edge
+    // earlier: edge (j0 - f) mod n; j0 the turn of the order that fits radii and tips best.
+    int j0 = 0;
+    double best = 1e300;
+    for (int j = 0; j < n; ++j) {
+      double cost = 0;
+      for (int f = 0; f < n; ++f) {
+        const int e = ((j - f) % n + n) % n;
+        const double dr =
+            t.flutes[static_cast<size_t>(f)].radius_mm -
+            (nominal.Radius() + nominal.edges[static_cast<size_t>(e)].radial_offset_mm);
+        const double dt = t.flutes[static_cast<size_t>(f)].tip_h_mm - nominal.TipH(e);
+        cost += dr * dr + dt * dt;
+      }
+      if (cost < best) best = cost, j0 = j;
+    }
+    for (int f = 0; f < n; ++f) {
+      FluteMeasurement& fm = t.flutes[static_cast<size_t>(f)];
+      const int e = ((j0 - f) % n + n) % n;
+      const double turn0 = M_PI / 2 - nominal.EdgeAngle(e, opt.h_ref_mm, 0.0) -
+                           offsets_deg[static_cast<size_t>(f)] * M_PI / 180;
+      FluteMeasurement again =
+          MeasureFlute(outlines[static_cast<size_t>(fm.frame)], nominal, e, turn0, opt);
+      again.frame = fm.frame, again.angle_deg = fm.angle_deg, again.edge = e;
+      fm = again;
+    }
   }
   t.radius_mm = t.tip_h_mm = 0;
   double smallest = 1e300;
@@ -374,6 +443,20 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
   t.runout_mm = t.radius_mm - smallest;
   Eccentricity(&t);
   return t;
+}
+
+ToolDescription ReferenceFrom(const ToolDescription& nominal, const ToolMeasurement& m) {
+  ToolDescription ref = Ground(nominal);
+  const int n = nominal.flutes;
+  for (int f = 0; f < static_cast<int>(m.flutes.size()) && f < n; ++f) {
+    const FluteMeasurement& fm = m.flutes[static_cast<size_t>(f)];
+    const int e = fm.edge >= 0 ? fm.edge : (n - f) % n;
+    CuttingEdge& edge = ref.edges[static_cast<size_t>(e)];
+    edge.radial_offset_mm = fm.radius_mm - nominal.Radius();
+    edge.axial_offset_mm = -fm.tip_h_mm;
+    edge.profile = fm.profile;
+  }
+  return ref;
 }
 
 }  // namespace mlp::toolcam

@@ -33,6 +33,16 @@ CuttingEdge ParseEdge(const json& e, const std::string& w) {
                               jf::Number<ToolError>(d, "depth_mm", dw)});
     }
   }
+  if (e.contains("profile")) {
+    if (!e.at("profile").is_array()) Fail(w + ".profile must be an array of [h_mm, dr_mm]");
+    for (const json& p : e.at("profile")) {
+      if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number())
+        Fail(w + ".profile must be an array of [h_mm, dr_mm]");
+      edge.profile.emplace_back(p[0].get<double>(), p[1].get<double>());
+      if (edge.profile.size() > 1 && !(edge.profile.back().first > edge.profile.end()[-2].first))
+        Fail(w + ".profile's heights must rise");
+    }
+  }
   return edge;
 }
 
@@ -51,6 +61,16 @@ double ToolDescription::EdgeRadius(int k, double h) const {
     r = r_edge - corner_radius_mm + std::sqrt(corner_radius_mm * corner_radius_mm - d * d);
   }
   for (const EdgeDefect& d : e.defects) r -= d.depth_mm * Bell((h - d.h_mm) / d.length_mm);
+  if (e.profile.size() >= 2 && h >= e.profile.front().first && h <= e.profile.back().first) {
+    const auto hi = std::lower_bound(e.profile.begin(), e.profile.end(), std::make_pair(h, -1e300));
+    if (hi == e.profile.begin()) {
+      r += hi->second;
+    } else {
+      const auto lo = hi - 1;
+      const double t = hi->first > lo->first ? (h - lo->first) / (hi->first - lo->first) : 0.0;
+      r += lo->second + t * (hi->second - lo->second);
+    }
+  }
   return std::max(r, 0.0);
 }
 
@@ -122,6 +142,29 @@ ToolDescription ParseTool(const std::string& text) {
   }
   t.Validate();
   return t;
+}
+
+std::string ToJson(const ToolDescription& t) {
+  nlohmann::ordered_json edges = nlohmann::ordered_json::array();
+  for (const CuttingEdge& e : t.edges) {
+    nlohmann::ordered_json defects = nlohmann::ordered_json::array();
+    nlohmann::ordered_json profile = nlohmann::ordered_json::array();
+    for (const EdgeDefect& d : e.defects)
+      defects.push_back({{"h_mm", d.h_mm}, {"length_mm", d.length_mm}, {"depth_mm", d.depth_mm}});
+    for (const auto& [h, dr] : e.profile) profile.push_back({h, dr});
+    nlohmann::ordered_json edge = {{"radial_offset_mm", e.radial_offset_mm},
+                                   {"axial_offset_mm", e.axial_offset_mm}};
+    if (!e.defects.empty()) edge["defects"] = defects;
+    if (!e.profile.empty()) edge["profile"] = profile;
+    edges.push_back(edge);
+  }
+  const nlohmann::ordered_json j = {
+      {"format", "mlprobe-tool/1"},   {"id", t.id},
+      {"diameter_mm", t.diameter_mm}, {"length_mm", t.length_mm},
+      {"flutes", t.flutes},           {"corner_radius_mm", t.corner_radius_mm},
+      {"helix_deg", t.helix_deg},     {"flute_length_mm", t.flute_length_mm},
+      {"core_ratio", t.core_ratio},   {"edges", edges}};
+  return j.dump(1) + "\n";
 }
 
 ToolDescription LoadTool(const std::string& path) {

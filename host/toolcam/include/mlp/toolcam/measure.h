@@ -12,6 +12,7 @@
 #include "mlp/toolcam/tool_model.h"
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace mlp::toolcam {
@@ -51,7 +52,10 @@ struct Finding {
 };
 
 struct FluteMeasurement {
-  int frame = 0;                ///< its principal image (index into the frames given)
+  int frame = 0;  ///< its principal image (index into the frames given)
+  /// The reference's edge it was measured against (a stored reference), -1 against the
+  /// nominal's ground edge.
+  int edge = -1;
   double angle_deg = 0.0;       ///< where its maximum lies in the images' angular order
   double radius_mm = 0.0;       ///< the edge's radius (the model shifted in y)
   double tip_h_mm = 0.0;        ///< its tip above the nominal tip (negative: longer)
@@ -64,6 +68,9 @@ struct FluteMeasurement {
   enum PointKind { kUsed, kContamination, kWear, kBuildup };
   std::vector<geometry::Vec2> points_yh;
   std::vector<PointKind> point_kind;
+  /// The edge's shape off its ground edge along h, every 0.01 mm (h, dr) [mm]: the reference's
+  /// own shape plus what this measurement found (a stored reference keeps it).
+  std::vector<std::pair<double, double>> profile;
 };
 
 struct ToolMeasurement {
@@ -76,13 +83,21 @@ struct ToolMeasurement {
 };
 
 /// `frames[i]` was taken at angular position `positions[i]` of `position_count` (the strobe
-/// plan's order; the absolute angle is unknown). Throws ToolError when the frames do not show
-/// the flutes (too few frames, no outline at the reference height).
+/// plan's order; the absolute angle is unknown). `nominal` is the tool's description; when its
+/// edges carry measured data (a stored reference), each flute is matched to its edge (the
+/// turn of the edges' order that fits the radii and tips best) and measured against that
+/// edge's stored shape, so findings are what changed since. Throws ToolError when the frames
+/// do not show the flutes (too few frames, no outline at the reference height).
 ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames,
                             const std::vector<int>& positions,
                             int position_count,
                             const ToolDescription& nominal,
                             const ToolCameraModel& camera,
                             const MeasureOptions& options = {});
+
+/// The measured tool as its new reference: the nominal's description with each edge's measured
+/// runout, length and shape (profile), edge 0 the flute of the highest peak (or the edges
+/// matched against a reference, kept).
+ToolDescription ReferenceFrom(const ToolDescription& nominal, const ToolMeasurement& measured);
 
 }  // namespace mlp::toolcam

@@ -10,6 +10,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace mlp::toolcam {
@@ -31,6 +32,12 @@ struct CuttingEdge {
   double radial_offset_mm = 0.0;  ///< runout: this edge's radius minus the nominal
   double axial_offset_mm = 0.0;   ///< > 0: this edge reaches lower (the tool is longer there)
   std::vector<EdgeDefect> defects;
+  /// A measured edge's shape: its radius off the ground edge at heights h [mm], (h, dr) pairs
+  /// rising in h, linear between them and 0 outside (what a stored reference keeps).
+  std::vector<std::pair<double, double>> profile;
+  bool Measured() const {
+    return radial_offset_mm != 0 || axial_offset_mm != 0 || !defects.empty() || !profile.empty();
+  }
 };
 
 struct ToolDescription {
@@ -64,5 +71,7 @@ struct ToolDescription {
 /// Parses and validates `mlprobe-tool/1`; throws ToolError naming the field.
 ToolDescription ParseTool(const std::string& json_text);
 ToolDescription LoadTool(const std::string& path);
+/// `mlprobe-tool/1` text that ParseTool reads back to the same tool.
+std::string ToJson(const ToolDescription& tool);
 
 }  // namespace mlp::toolcam
