@@ -154,6 +154,32 @@ TEST(ToolMeasure, AStoredReferenceShowsOnlyWhatChanged) {
   EXPECT_EQ(found, 1);
 }
 
+// The camera against the machine from the calibration pin: scale, the spindle axis' column and
+// roll, the gauge point's row, against the camera the pin was rendered with.
+TEST(ToolCalibration, ThePinGivesScaleAxisAndGauge) {
+  const ToolDescription pin = LoadTool(kTools + "calibration_pin_d3.json");
+  ToolCameraModel c;  // the default lens (distortion 0.05 %, noise 2 grey levels)
+  c.axis_u_px = 511.3, c.tip_v_px = 560.4, c.drops_per_frame = 0;
+  std::mt19937 rng(31);
+  std::vector<std::vector<std::uint8_t>> frames;
+  for (int k = 0; k < 3; ++k) frames.push_back(RenderToolFrame(pin, c, k, 0, rng).pixels);
+  const PinCalibration p = CalibrateWithPin(frames, c, pin);
+  const double gauge_true = c.tip_v_px - pin.length_mm / c.mm_per_px;
+  std::printf(
+      "pin: scale %.7f mm/px (%+.1f ppm), axis %.3f px (%+.3f), gauge %.2f px (%+.2f px, "
+      "%+.2f um), roll %.4f deg, width rms %.3f px over %d rows\n",
+      p.mm_per_px, (p.mm_per_px / c.mm_per_px - 1) * 1e6, p.axis_u_px, p.axis_u_px - c.axis_u_px,
+      p.gauge_v_px, p.gauge_v_px - gauge_true, (p.gauge_v_px - gauge_true) * c.mm_per_px * 1e3,
+      p.roll_deg, p.width_rms_px, p.rows);
+  EXPECT_NEAR(p.mm_per_px / c.mm_per_px, 1.0, 2e-5);  // 20 ppm: 1 um over the 50 mm pin
+  EXPECT_NEAR(p.axis_u_px, c.axis_u_px, 0.05);
+  EXPECT_NEAR(p.gauge_v_px, gauge_true, 0.25);  // 1 um
+  EXPECT_NEAR(p.roll_deg, 0.0, 0.002);
+  ToolDescription cutter = pin;
+  cutter.pin = false;
+  EXPECT_THROW(CalibrateWithPin(frames, c, cutter), ToolError);
+}
+
 // A clean tool with coolant drops at the camera's usual rate (1.5 a frame), 100 seeded runs
 // at a coarser 14.4 deg step (25 images: the sweep's time): not one finding, every edge within
 // the drops' tolerance.

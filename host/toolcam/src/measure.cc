@@ -18,10 +18,7 @@ using geometry::Vec2;
 
 // Pixel -> tool frame, undoing the lens' radial distortion (the camera's calibration).
 Vec2 ToTool(const Vec2& px, const ToolCameraModel& c) {
-  const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
-  const double corner2 = cx * cx + cy * cy;
-  const Vec2 d(px.x() - cx, px.y() - cy);
-  const Vec2 u = Vec2(cx, cy) + d / (1 + c.distortion_k1 * d.squaredNorm() / corner2);
+  const Vec2 u = Undistort(px, c);
   return {c.y_mm(u.x()), c.h_mm(u.y())};
 }
 
@@ -320,12 +317,14 @@ void Eccentricity(ToolMeasurement* t) {
 
 }  // namespace
 
-Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCameraModel& c) {
-  if (pixels.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
-    Fail("a frame's size is not the camera's");
-  const geometry::GreyView g{pixels.data(), c.width_px, c.height_px};
-  // Half way between the shadow's and the back-light's grey, from the image itself (a real
-  // light source ages): the 2nd and 98th percentiles.
+Vec2 Undistort(const Vec2& px, const ToolCameraModel& c) {
+  const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
+  const double corner2 = cx * cx + cy * cy;
+  const Vec2 d(px.x() - cx, px.y() - cy);
+  return Vec2(cx, cy) + d / (1 + c.distortion_k1 * d.squaredNorm() / corner2);
+}
+
+double ShadowLevel(const std::vector<std::uint8_t>& pixels) {
   std::array<int, 256> histogram{};
   for (std::uint8_t p : pixels) ++histogram[p];
   const auto percentile = [&](double share) {
@@ -335,7 +334,14 @@ Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCamera
         return v;
     return 255;
   };
-  const double level = (percentile(0.02) + percentile(0.98)) / 2.0;
+  return (percentile(0.02) + percentile(0.98)) / 2.0;
+}
+
+Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCameraModel& c) {
+  if (pixels.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
+    Fail("a frame's size is not the camera's");
+  const geometry::GreyView g{pixels.data(), c.width_px, c.height_px};
+  const double level = ShadowLevel(pixels);
   Outline o;
   // Only scan lines that start in the tool's shadow: a drop in the light makes a crossing too.
   const geometry::Points2 rows = geometry::RowCrossings(g, level);
@@ -457,6 +463,74 @@ ToolDescription ReferenceFrom(const ToolDescription& nominal, const ToolMeasurem
     edge.profile = fm.profile;
   }
   return ref;
+}
+
+PinCalibration CalibrateWithPin(const std::vector<std::vector<std::uint8_t>>& frames,
+                                const ToolCameraModel& c,
+                                const ToolDescription& pin) {
+  if (!pin.pin) Fail("the calibration needs a pin (\"kind\": \"pin\")");
+  constexpr int kEndMarginPx = 30;  // flank rows stop this far above the end (its edge's blur)
+  std::vector<double> ends, width, mid_u, mid_v;
+  for (const auto& px : frames) {
+    if (px.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
+      Fail("a frame's size is not the camera's");
+    const geometry::GreyView g{px.data(), c.width_px, c.height_px};
+    const double level = ShadowLevel(px);
+    // Both flanks per row: the first fall from the light (left), the first rise (right).
+    const geometry::Points2 left = geometry::RowCrossings(g, level, true);
+    const geometry::Points2 right = geometry::RowCrossings(g, level, false);
+    std::map<int, Vec2> left_at;
+    for (Eigen::Index i = 0; i < left.cols(); ++i)
+      left_at[static_cast<int>(left(1, i))] = Undistort(left.col(i), c);
+    std::vector<Vec2> pairs_l, pairs_r;
+    for (Eigen::Index i = 0; i < right.cols(); ++i) {
+      const auto it = left_at.find(static_cast<int>(right(1, i)));
+      if (it == left_at.end()) continue;
+      pairs_l.push_back(it->second), pairs_r.push_back(Undistort(right.col(i), c));
+    }
+    if (pairs_l.size() < 50) Fail("an image shows both of the pin's flanks on fewer than 50 rows");
+    // The end: each column between the flanks, from the top, rises into the light there.
+    double lo_u = 1e300, hi_u = -1e300;
+    for (size_t k = 0; k < pairs_l.size(); ++k)
+      lo_u = std::min(lo_u, pairs_l[k].x()), hi_u = std::max(hi_u, pairs_r[k].x());
+    const geometry::Points2 cols = geometry::ColumnCrossings(g, level);
+    std::vector<double> end_v;
+    const double inset = 0.15 * (hi_u - lo_u);  // away from the end's rounded edge
+    for (Eigen::Index i = 0; i < cols.cols(); ++i)
+      if (cols(0, i) > lo_u + inset && cols(0, i) < hi_u - inset &&
+          g.At(static_cast<int>(cols(0, i)), 0) < level)
+        end_v.push_back(Undistort(cols.col(i), c).y());
+    if (end_v.size() < 10) Fail("an image does not show the pin's end");
+    const double end = Median(end_v);
+    ends.push_back(end);
+    for (size_t k = 0; k < pairs_l.size(); ++k) {
+      if (pairs_l[k].y() > end - kEndMarginPx) continue;
+      width.push_back(pairs_r[k].x() - pairs_l[k].x());
+      mid_u.push_back((pairs_l[k].x() + pairs_r[k].x()) / 2), mid_v.push_back(pairs_l[k].y());
+    }
+  }
+  if (width.size() < 50) Fail("too few flank rows above the pin's end");
+  PinCalibration p;
+  p.rows = static_cast<int>(width.size());
+  p.columns = static_cast<int>(ends.size());
+  double mean_w = 0;
+  for (double w : width) mean_w += w / static_cast<double>(width.size());
+  double ss = 0;
+  for (double w : width) ss += (w - mean_w) * (w - mean_w);
+  p.width_rms_px = std::sqrt(ss / static_cast<double>(width.size()));
+  p.mm_per_px = pin.diameter_mm / mean_w;
+  // The axis: the flanks' middle line u = a + b v, least squares.
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(mid_u.size()), 2);
+  Eigen::VectorXd u(static_cast<Eigen::Index>(mid_u.size()));
+  for (size_t k = 0; k < mid_u.size(); ++k)
+    a.row(static_cast<Eigen::Index>(k)) << 1, mid_v[k], u(static_cast<Eigen::Index>(k)) = mid_u[k];
+  const Eigen::Vector2d line = a.colPivHouseholderQr().solve(u);
+  double end_mean = 0;
+  for (double e : ends) end_mean += e / static_cast<double>(ends.size());
+  p.axis_u_px = line(0) + line(1) * end_mean;
+  p.roll_deg = std::atan(line(1)) * 180 / M_PI;
+  p.gauge_v_px = end_mean - pin.length_mm / p.mm_per_px;
+  return p;
 }
 
 }  // namespace mlp::toolcam

@@ -81,6 +81,11 @@ double ToolDescription::EdgeAngle(int k, double h, double turn_rad) const {
 bool ToolDescription::ShadowSpan(double h, double turn, double* lo, double* hi) const {
   bool any = false;
   *lo = 0, *hi = 0;
+  if (pin) {  // round: the same from every side
+    const double r = EdgeRadius(0, h);
+    *lo = -r, *hi = r;
+    return r > 0;
+  }
   // sin of each edge's angle (EdgeAngle) by turning one sine/cosine pair a flute at a time:
   // two sincos a call instead of one sin and one tan an edge (the renderer's hot loop).
   const double base = EdgeAngle(0, h, turn), step = 2 * M_PI / flutes;
@@ -133,6 +138,11 @@ ToolDescription ParseTool(const std::string& text) {
   t.helix_deg = jf::NumberOr<ToolError>(j, "helix_deg", 30.0, "tool");
   t.flute_length_mm = jf::Number<ToolError>(j, "flute_length_mm", "tool");
   t.core_ratio = jf::NumberOr<ToolError>(j, "core_ratio", t.core_ratio, "tool");
+  if (j.contains("kind")) {
+    const std::string kind = jf::Text<ToolError>(j, "kind", "tool");
+    if (kind != "pin" && kind != "cutter") Fail("kind must be cutter or pin");
+    t.pin = kind == "pin";
+  }
   if (j.contains("edges")) {
     if (!j.at("edges").is_array()) Fail("edges must be an array");
     for (size_t k = 0; k < j.at("edges").size(); ++k)
@@ -158,12 +168,17 @@ std::string ToJson(const ToolDescription& t) {
     if (!e.profile.empty()) edge["profile"] = profile;
     edges.push_back(edge);
   }
-  const nlohmann::ordered_json j = {
-      {"format", "mlprobe-tool/1"},   {"id", t.id},
-      {"diameter_mm", t.diameter_mm}, {"length_mm", t.length_mm},
-      {"flutes", t.flutes},           {"corner_radius_mm", t.corner_radius_mm},
-      {"helix_deg", t.helix_deg},     {"flute_length_mm", t.flute_length_mm},
-      {"core_ratio", t.core_ratio},   {"edges", edges}};
+  const nlohmann::ordered_json j = {{"format", "mlprobe-tool/1"},
+                                    {"id", t.id},
+                                    {"diameter_mm", t.diameter_mm},
+                                    {"length_mm", t.length_mm},
+                                    {"flutes", t.flutes},
+                                    {"corner_radius_mm", t.corner_radius_mm},
+                                    {"helix_deg", t.helix_deg},
+                                    {"flute_length_mm", t.flute_length_mm},
+                                    {"core_ratio", t.core_ratio},
+                                    {"kind", t.pin ? "pin" : "cutter"},
+                                    {"edges", edges}};
   return j.dump(1) + "\n";
 }
 

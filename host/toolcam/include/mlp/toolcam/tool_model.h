@@ -50,6 +50,8 @@ struct ToolDescription {
   double flute_length_mm = 0.0;
   /// The web between the flutes: a cylinder of this share of the radius.
   double core_ratio = 0.55;
+  /// A calibration pin (`"kind": "pin"`): a plain cylinder of the diameter, its flat end the tip.
+  bool pin = false;
   std::vector<CuttingEdge> edges;  ///< one per flute
 
   double Radius() const { return diameter_mm / 2; }
