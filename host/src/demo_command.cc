@@ -1,6 +1,7 @@
 #include "mlp/host/demo_command.h"
 
 #include "mlp/host/cli.h"
+#include "mlp/probe_fw/json_fields.h"
 #include "mlp/service/job_client.h"
 #include "mlp/sim/render.h"
 #include "mlp/sim/scene.h"
@@ -124,19 +125,7 @@ struct Demo {
     std::vector<std::int64_t> ids;
     for (const sim::Capture& c : vp.scene().captures) {
       if (c.id.rfind(prefix, 0) != 0) continue;
-      double first = 0, last = 0;
-      vp.ColumnsReaching(c, aoi, &first, &last);
-      const auto t = c.mcs_from_flange.translation();
-      const Eigen::AngleAxisd r(c.mcs_from_flange.linear());
-      const Eigen::Vector3d rv = r.axis() * r.angle();
-      const json reply = Request({{"op", "capture"},
-                                  {"machine", "demo-vmc"},
-                                  {"capture_id", c.id},
-                                  {"mcs_from_flange",
-                                   {{"translation_mm", {t.x(), t.y(), t.z()}},
-                                    {"rotation_vector_rad", {rv.x(), rv.y(), rv.z()}}}},
-                                  {"aoi", {aoi.x0, aoi.y0, aoi.width, aoi.height}},
-                                  {"columns", {first, last, 2.0}}});
+      const json reply = Request(SceneCaptureRequest("demo-vmc", vp, c, aoi));
       out << "  " << std::left << std::setw(14) << c.id << std::right << std::setw(7)
           << reply.at("points").get<int>() << " points\n"
           << std::flush;
@@ -255,6 +244,20 @@ void Measure(Demo& d, const sim::VirtualProbe& vp, const json& truth) {
 }
 
 }  // namespace
+
+json SceneCaptureRequest(const std::string& machine,
+                         const sim::VirtualProbe& probe,
+                         const sim::Capture& capture,
+                         const probe_fw::Aoi& aoi) {
+  double first = 0, last = 0;
+  probe.ColumnsReaching(capture, aoi, &first, &last);
+  return {{"op", "capture"},
+          {"machine", machine},
+          {"capture_id", capture.id},
+          {"mcs_from_flange", probe_fw::json_fields::PoseToJson(capture.mcs_from_flange)},
+          {"aoi", {aoi.x0, aoi.y0, aoi.width, aoi.height}},
+          {"columns", {first, last, 2.0}}};
+}
 
 json DemoPlateAlignRequest(const std::string& machine,
                            const std::vector<std::int64_t>& face,

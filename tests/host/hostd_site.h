@@ -149,20 +149,8 @@ inline std::vector<std::int64_t> CaptureSceneViews(const Site& site,
   std::vector<std::int64_t> captures;
   for (const sim::Capture& c : vp.scene().captures) {
     if (c.id.rfind(prefix, 0) != 0) continue;
-    double first = 0, last = 0;
-    vp.ColumnsReaching(c, aoi, &first, &last);
-    const auto t = c.mcs_from_flange.translation();
-    const Eigen::AngleAxisd r(c.mcs_from_flange.linear());
-    const geometry::Vec3 rv = r.axis() * r.angle();
-    const auto run = site.Mlp(
-        "request " + site.Request(c.id, {{"op", "capture"},
-                                         {"machine", machine},
-                                         {"capture_id", c.id},
-                                         {"mcs_from_flange",
-                                          {{"translation_mm", {t.x(), t.y(), t.z()}},
-                                           {"rotation_vector_rad", {rv.x(), rv.y(), rv.z()}}}},
-                                         {"aoi", {aoi.x0, aoi.y0, aoi.width, aoi.height}},
-                                         {"columns", {first, last, 2.0}}}));
+    const auto run =
+        site.Mlp("request " + site.Request(c.id, host::SceneCaptureRequest(machine, vp, c, aoi)));
     EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
     if (run.exit_code == 0) captures.push_back(json::parse(run.out).at("job_id"));
   }

@@ -13,7 +13,22 @@
 
 #include <nlohmann/json.hpp>
 
+namespace mlp::sim {
+class VirtualProbe;
+struct Capture;
+}  // namespace mlp::sim
+namespace mlp::probe_fw {
+struct Aoi;
+}  // namespace mlp::probe_fw
+
 namespace mlp::host {
+
+/// A capture request for one of a scene's captures on `machine`: its pose, the AOI, and every
+/// second projector column that reaches the scene there. The demo and the host's tests send it.
+nlohmann::json SceneCaptureRequest(const std::string& machine,
+                                   const sim::VirtualProbe& probe,
+                                   const sim::Capture& capture,
+                                   const probe_fw::Aoi& aoi);
 
 /// The demo plate's plane-circle-circle alignment into G54 on `machine`, from the capture jobs
 /// of face A and holes B and C, with the origin a setter expects (the part's placement rounded
