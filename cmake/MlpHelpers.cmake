@@ -16,16 +16,21 @@ function(mlp_add_library name)
   mlp_set_warnings(mlp_${name})
 endfunction()
 
-# mlp_add_test(<module> <name> SOURCES ... DEPS ...): one gtest binary, tests discovered as
-# <module>/<Suite>.<Case> so ctest -R geometry/ selects a module.
+# mlp_add_test(<module> <name> SOURCES ... DEPS ... [RESOURCE_LOCK lock]): one gtest binary,
+# tests discovered as <module>/<Suite>.<Case> so ctest -R geometry/ selects a module. Tests
+# sharing a RESOURCE_LOCK never run at once under ctest -j (one LinuxCNC per machine).
 function(mlp_add_test module name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "RESOURCE_LOCK" "SOURCES;DEPS" ${ARGN})
   set(target test_${module}_${name})
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE ${ARG_DEPS} mlp_test_main GTest::gmock)
   mlp_set_warnings(${target})
   set_target_properties(${target} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/tests)
+  set(lock)
+  if(ARG_RESOURCE_LOCK)
+    set(lock RESOURCE_LOCK ${ARG_RESOURCE_LOCK})
+  endif()
   gtest_discover_tests(${target} TEST_PREFIX "${module}/" DISCOVERY_TIMEOUT 60
                        PROPERTIES ENVIRONMENT "MLP_SHARED_DATA=${MLP_SHARED_DATA_DIR}"
-                                  TIMEOUT 300)
+                                  TIMEOUT 300 ${lock})
 endfunction()
