@@ -188,7 +188,8 @@ Images ReadImages(const std::string& dir) {
 // Tool frame -> pixel, through the lens' distortion (the inverse of the measurement's mapping
 // to first order: enough to draw).
 cv::Point2d ToPixel(const geometry::Vec2& yh, const toolcam::ToolCameraModel& c) {
-  const double u = yh.x() / c.mm_per_px + c.axis_u_px, v = c.tip_v_px - yh.y() / c.mm_per_px;
+  const geometry::Vec2 ideal = c.PixelFromTool(yh);
+  const double u = ideal.x(), v = ideal.y();
   const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
   const double rho2 = ((u - cx) * (u - cx) + (v - cy) * (v - cy)) / (cx * cx + cy * cy);
   return {cx + (u - cx) * (1 + c.distortion_k1 * rho2),

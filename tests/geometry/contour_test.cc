@@ -48,6 +48,32 @@ TEST(Contour, ColumnCrossingsFindAHorizontalEdge) {
   EXPECT_NEAR(c.row(1).mean(), 41.62, 0.01);
 }
 
+// A window into the image scans only its own columns and rows (two shadows on one row: each
+// found in its window), in the window's coordinates.
+TEST(Contour, AWindowScansOnlyItsPart) {
+  const auto px = Step(64, 200, 30.37, 0.8, 2.0, true);
+  const GreyView whole{px.data(), 64, 200};
+  const GreyView w = whole.Window(20, 50, 30, 400);  // clipped at the image's bottom
+  EXPECT_EQ(w.height, 150);
+  const Points2 c = RowCrossings(w, kLevel);
+  ASSERT_EQ(c.cols(), 150);
+  EXPECT_NEAR(c.row(0).mean() + 20, 30.37, 0.01);
+  EXPECT_EQ(c(1, 0), 0);  // the window's first row: the image's row 50
+  EXPECT_EQ(w.At(0, 0), whole.At(20, 50));
+  EXPECT_EQ(RowCrossings(whole.Window(40, 0, 24, 200), kLevel).cols(), 0);  // light only
+}
+
+// A shadow's edge with another shadow 3 px on (a coolant drop just off a tool's flank): the
+// falling steps of the second are inside the centroid's window; the crossing stays on the
+// first edge (it ran 85 px off before).
+TEST(Contour, AnEdgeWithAnotherJustBehindItStaysOnItsOwn) {
+  const std::vector<std::uint8_t> row = {25, 25, 25, 25, 25, 44, 97, 155, 171, 77, 30, 25, 25, 25};
+  const Points2 c = RowCrossings({row.data(), static_cast<int>(row.size()), 1}, kLevel);
+  ASSERT_EQ(c.cols(), 1);
+  EXPECT_GT(c(0, 0), 5.0);
+  EXPECT_LT(c(0, 0), 7.0);
+}
+
 TEST(Contour, NoCrossingNoPoint) {
   const std::vector<std::uint8_t> dark(100, 20);
   EXPECT_EQ(RowCrossings({dark.data(), 10, 10}, kLevel).cols(), 0);

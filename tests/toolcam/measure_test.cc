@@ -193,6 +193,9 @@ TEST(ToolMeasure, NoFalseFindingsOnACleanToolOver100SeededRuns) {
     const MeasuredRun run = RenderAndMeasure(nominal, nominal, c, seed, 14.4);
     for (const FluteMeasurement& f : run.m.flutes) {
       findings += static_cast<int>(f.findings.size());
+      for (const Finding& d : f.findings)
+        std::printf("  seed %u: %s at h %.3f mm, %.1f um, %.3f mm long\n", seed,
+                    d.buildup ? "build-up" : "wear", d.h_mm, d.max_mm * 1e3, d.length_mm);
       worst_um =
           std::max({worst_um, std::abs(f.radius_mm - 5.0) * 1e3, std::abs(f.tip_h_mm) * 1e3});
     }

@@ -94,7 +94,7 @@ TEST(ToolCamera, TheShadowsEdgeIsWhereTheGeometryPutsIt) {
   const ToolCameraModel c = CleanCamera();
   // Edge 2 (k = 1, radius 5.006) pointing at +y at the height of row 200.
   const int row = 200;
-  const double h = c.h_mm(row);
+  const double h = c.ToolFromPixel({c.axis_u_px, row}).y();
   const double turn = M_PI / 2 - t.EdgeAngle(1, h, 0.0);
   std::mt19937 rng(1);
   const ToolFrame f = RenderToolFrame(t, c, turn, 0.0, rng);

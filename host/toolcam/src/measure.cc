@@ -17,10 +17,7 @@ using geometry::Vec2;
 [[noreturn]] void Fail(const std::string& what) { throw ToolError("tool measurement: " + what); }
 
 // Pixel -> tool frame, undoing the lens' radial distortion (the camera's calibration).
-Vec2 ToTool(const Vec2& px, const ToolCameraModel& c) {
-  const Vec2 u = Undistort(px, c);
-  return {c.y_mm(u.x()), c.h_mm(u.y())};
-}
+Vec2 ToTool(const Vec2& px, const ToolCameraModel& c) { return c.ToolFromPixel(Undistort(px, c)); }
 
 double Median(std::vector<double> v) {
   if (v.empty()) return std::nan("");

@@ -46,24 +46,28 @@ std::vector<Drop> PlaceDrops(const ToolDescription& t,
   for (int i = 0; i < n; ++i) {
     Drop d;
     d.radius_mm = 0.01 + 0.03 * unit(rng);
-    d.h_mm = c.h_mm(unit(rng) * (c.height_px - 1));
+    const double u = unit(rng) * (c.width_px - 1), v = unit(rng) * (c.height_px - 1);
+    const geometry::Vec2 at = c.ToolFromPixel({u, v});
+    d.h_mm = at.y();
     double lo = 0, hi = 0;
     if (unit(rng) < 0.5 && t.ShadowSpan(d.h_mm, turn, &lo, &hi))  // stuck to the edge
       d.y_mm = hi + d.radius_mm * (0.2 + 0.7 * unit(rng));
     else
-      d.y_mm = c.y_mm(unit(rng) * (c.width_px - 1));
+      d.y_mm = at.x();
     drops.push_back(d);
   }
   return drops;
 }
 
-// Shadow share of every pixel: the tool's (averaged over the pulse) and the drops', as the
-// union of independent covers.
+// Shadow share of every pixel of a canvas square to the spindle (`c`'s roll is applied when
+// resampling): the tool's (averaged over the pulse) and the drops', as the union of
+// independent covers.
 std::vector<double> Coverage(const ToolDescription& t,
                              const ToolCameraModel& c,
                              double turn,
                              double blur,
                              const std::vector<Drop>& drops) {
+  const double tan_pitch = std::tan(c.pitch_deg * M_PI / 180);
   const auto w = static_cast<size_t>(c.width_px);
   std::vector<double> cover(w * static_cast<size_t>(c.height_px), 0.0);
   std::vector<double> tool(w), tool_diff(w + 1), drop(w), drop_diff(w + 1);
@@ -72,13 +76,13 @@ std::vector<double> Coverage(const ToolDescription& t,
     std::fill(tool.begin(), tool.end(), 0.0), std::fill(tool_diff.begin(), tool_diff.end(), 0.0);
     std::fill(drop.begin(), drop.end(), 0.0), std::fill(drop_diff.begin(), drop_diff.end(), 0.0);
     for (int s = 0; s < kSubRows; ++s) {
-      const double h = c.h_mm(v - 0.5 + (s + 0.5) / kSubRows);
+      const double h = (c.tip_v_px - (v - 0.5 + (s + 0.5) / kSubRows)) * c.mm_per_px;
       for (int b = 0; b < kBlurSamples; ++b) {
         const double a = turn + blur * ((b + 0.5) / kBlurSamples - 0.5);
-        double lo = 0, hi = 0;
-        if (t.ShadowSpan(h, a, &lo, &hi))
-          AddSpan(lo / c.mm_per_px + c.axis_u_px, hi / c.mm_per_px + c.axis_u_px, weight, &tool,
-                  &tool_diff);
+        const ShadowSpans spans = t.Shadow(h, a, tan_pitch);
+        for (int k = 0; k < spans.count; ++k)
+          AddSpan(spans.lo[k] / c.mm_per_px + c.axis_u_px, spans.hi[k] / c.mm_per_px + c.axis_u_px,
+                  weight, &tool, &tool_diff);
       }
       for (const Drop& d : drops) {
         const double dh = h - d.h_mm;
@@ -137,20 +141,26 @@ void Blur(std::vector<double>* img, int w, int h, double sigma) {
     }
 }
 
-// Radial distortion about the image's centre: the pixel at distance rho (in corner units)
-// shows what the ideal lens puts at rho / (1 + k1 rho^2); bilinear resampling.
-std::vector<double> Distort(const std::vector<double>& img, int w, int h, double k1) {
-  if (k1 == 0) return img;
+// The image from the canvas (square to the spindle, `margin` pixels wider on every side):
+// each pixel's ideal position (radial distortion about the image's centre: the pixel at
+// distance rho, in corner units, shows what the ideal lens puts at rho / (1 + k1 rho^2)), its
+// tool point with the camera's roll, that point's canvas pixel; bilinear resampling.
+std::vector<double> Resample(const std::vector<double>& canvas,
+                             const ToolCameraModel& c,
+                             int margin) {
+  const int w = c.width_px, h = c.height_px, cw = w + 2 * margin, ch = h + 2 * margin;
   const double cx = (w - 1) / 2.0, cy = (h - 1) / 2.0, corner2 = cx * cx + cy * cy;
-  std::vector<double> out(img.size());
+  std::vector<double> out(static_cast<size_t>(w) * static_cast<size_t>(h));
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      const double dx = x - cx, dy = y - cy, s = 1 / (1 + k1 * (dx * dx + dy * dy) / corner2);
-      const double sx = std::clamp(cx + dx * s, 0.0, w - 1.001),
-                   sy = std::clamp(cy + dy * s, 0.0, h - 1.001);
+      const double dx = x - cx, dy = y - cy,
+                   s = 1 / (1 + c.distortion_k1 * (dx * dx + dy * dy) / corner2);
+      const geometry::Vec2 yh = c.ToolFromPixel({cx + dx * s, cy + dy * s});
+      const double sx = std::clamp(yh.x() / c.mm_per_px + c.axis_u_px + margin, 0.0, cw - 1.001);
+      const double sy = std::clamp(c.tip_v_px - yh.y() / c.mm_per_px + margin, 0.0, ch - 1.001);
       const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
       const double fx = sx - x0, fy = sy - y0;
-      const auto p = [&](int xx, int yy) { return img[static_cast<size_t>(yy * w + xx)]; };
+      const auto p = [&](int xx, int yy) { return canvas[static_cast<size_t>(yy * cw + xx)]; };
       out[static_cast<size_t>(y * w + x)] =
           (1 - fy) * ((1 - fx) * p(x0, y0) + fx * p(x0 + 1, y0)) +
           fy * ((1 - fx) * p(x0, y0 + 1) + fx * p(x0 + 1, y0 + 1));
@@ -160,6 +170,19 @@ std::vector<double> Distort(const std::vector<double>& img, int w, int h, double
 
 }  // namespace
 
+geometry::Vec2 ToolCameraModel::ToolFromPixel(const geometry::Vec2& px) const {
+  const double a = roll_deg * M_PI / 180, du = (px.x() - axis_u_px) * mm_per_px,
+               dv = (tip_v_px - px.y()) * mm_per_px;
+  return {std::cos(a) * du + std::sin(a) * dv, std::cos(a) * dv - std::sin(a) * du};
+}
+
+geometry::Vec2 ToolCameraModel::PixelFromTool(const geometry::Vec2& yh) const {
+  const double a = roll_deg * M_PI / 180;
+  const double du = std::cos(a) * yh.x() - std::sin(a) * yh.y(),
+               dv = std::sin(a) * yh.x() + std::cos(a) * yh.y();
+  return {axis_u_px + du / mm_per_px, tip_v_px - dv / mm_per_px};
+}
+
 void ToolCameraModel::Validate() const {
   if (width_px < 16 || height_px < 16 || width_px > 8192 || height_px > 8192)
     Fail("the image must be 16..8192 px each way");
@@ -168,6 +191,8 @@ void ToolCameraModel::Validate() const {
   if (!(noise_sigma >= 0) || !(psf_sigma_px >= 0) || !(drops_per_frame >= 0))
     Fail("noise, blur and drops must be >= 0");
   if (!(std::abs(distortion_k1) < 0.05)) Fail("distortion_k1 must be under 5 %");
+  if (!(std::abs(roll_deg) <= 5) || !(std::abs(pitch_deg) <= 5))
+    Fail("roll_deg and pitch_deg must be within 5 deg");
 }
 
 ToolFrame RenderToolFrame(const ToolDescription& tool,
@@ -178,10 +203,17 @@ ToolFrame RenderToolFrame(const ToolDescription& tool,
   c.Validate();
   ToolFrame f;
   f.drops = PlaceDrops(tool, c, turn_rad, rng);
-  std::vector<double> img = Coverage(tool, c, turn_rad, blur_rad, f.drops);
+  // A canvas square to the spindle, wide enough for the roll to turn it inside the image.
+  const double corner = std::hypot(c.width_px, c.height_px) / 2;
+  const int margin =
+      2 + static_cast<int>(std::ceil(corner * std::abs(std::sin(c.roll_deg * M_PI / 180))));
+  ToolCameraModel canvas = c;
+  canvas.width_px += 2 * margin, canvas.height_px += 2 * margin;
+  canvas.axis_u_px += margin, canvas.tip_v_px += margin;
+  std::vector<double> img = Coverage(tool, canvas, turn_rad, blur_rad, f.drops);
   for (double& x : img) x = c.bright - (c.bright - c.dark) * x;
-  Blur(&img, c.width_px, c.height_px, c.psf_sigma_px);
-  img = Distort(img, c.width_px, c.height_px, c.distortion_k1);
+  Blur(&img, canvas.width_px, canvas.height_px, c.psf_sigma_px);
+  img = Resample(img, c, margin);
   std::normal_distribution<double> noise(0, c.noise_sigma);
   f.pixels.resize(img.size());
   for (size_t i = 0; i < img.size(); ++i)
@@ -245,7 +277,9 @@ int RenderToolSequence(const ToolDescription& tool,
         {"mm_per_px", c.mm_per_px},
         {"axis_u_px", c.axis_u_px},
         {"tip_v_px", c.tip_v_px},
-        {"distortion_k1", c.distortion_k1}}},
+        {"distortion_k1", c.distortion_k1},
+        {"roll_deg", c.roll_deg},
+        {"pitch_deg", c.pitch_deg}}},
       {"strobe",
        {{"rpm", plan.rpm}, {"positions", plan.positions}, {"pulse_width_us", plan.pulse_width_us}}},
       {"start_turn_deg", start_turn_rad * 180 / M_PI},

@@ -3,6 +3,7 @@
 #include "mlp/probe_fw/json_fields.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -79,32 +80,80 @@ double ToolDescription::EdgeAngle(int k, double h, double turn_rad) const {
 }
 
 bool ToolDescription::ShadowSpan(double h, double turn, double* lo, double* hi) const {
+  const ShadowSpans s = Shadow(h, turn, 0.0);
+  *lo = s.count ? s.lo[0] : 0.0, *hi = s.count ? s.hi[s.count - 1] : 0.0;
+  return s.count > 0;
+}
+
+ShadowSpans ToolDescription::Shadow(double h, double turn, double tan_pitch) const {
+  if (pin) return PinShadow(h, turn, tan_pitch);
+  ShadowSpans out;
+  double lo = 0, hi = 0;
   bool any = false;
-  *lo = 0, *hi = 0;
-  if (pin) {  // round: the same from every side
-    const double r = EdgeRadius(0, h);
-    *lo = -r, *hi = r;
-    return r > 0;
-  }
   // sin of each edge's angle (EdgeAngle) by turning one sine/cosine pair a flute at a time:
   // two sincos a call instead of one sin and one tan an edge (the renderer's hot loop).
   const double base = EdgeAngle(0, h, turn), step = 2 * M_PI / flutes;
   double s = std::sin(base), c = std::cos(base);
-  const double ss = std::sin(step), cs = std::cos(step);
+  const double ss = std::sin(step), cs = std::cos(step), depth_rise = Radius() * tan_pitch;
   for (int k = 0; k < flutes; ++k) {
-    const double r = EdgeRadius(k, h);
+    const double r = EdgeRadius(k, h + c * depth_rise);  // the outer point is at depth R cos
     if (r > 0) {
       const double y = r * s;
-      *lo = std::min(*lo, y), *hi = std::max(*hi, y);
+      lo = std::min(lo, y), hi = std::max(hi, y);
       any = true;
     }
     const double s_next = s * cs + c * ss;
     c = c * cs - s * ss, s = s_next;
   }
-  if (!any) return false;
+  if (!any) return out;
   const double core = core_ratio * Radius();
-  *lo = std::min(*lo, -core), *hi = std::max(*hi, core);
-  return true;
+  out.count = 1, out.lo[0] = std::min(lo, -core), out.hi[0] = std::max(hi, core);
+  return out;
+}
+
+// Half the pin's shadow at image height h: the widest |y| of its round section over the
+// depths x the ray crosses, x^2 + y^2 <= r(h + x tan_pitch)^2. Only the end (and its edge
+// round) needs the depths: sampled at 33, closer than the end's own blur matters for (the
+// pin's end is a landmark; the calibration's heights come from the blades).
+double ToolDescription::PinHalfWidth(double h, double tan_pitch) const {
+  const double r_max = Radius() + edges[0].radial_offset_mm;
+  if (tan_pitch == 0 || h - r_max * std::abs(tan_pitch) > TipH(0) + corner_radius_mm)
+    return EdgeRadius(0, h);
+  double widest2 = 0;
+  for (int i = 0; i <= 32; ++i) {
+    const double x = r_max * (i / 16.0 - 1), r = EdgeRadius(0, h + x * tan_pitch);
+    widest2 = std::max(widest2, r * r - x * x);
+  }
+  return std::sqrt(widest2);
+}
+
+ShadowSpans ToolDescription::PinShadow(double h, double turn, double tan_pitch) const {
+  std::array<std::pair<double, double>, 3> spans{};
+  int n = 0;
+  if (const double w = PinHalfWidth(h, tan_pitch); w > 0) spans[n++] = {-w, w};
+  for (const PinBlade& b : blades) {
+    // A rod at depth xc reaching down to h_end: the ray at h meets it where
+    // h + (xc + x') tan_pitch >= h_end, x' its own depth; its widest chord where it does.
+    const double xc = b.offset_mm * std::cos(turn), yc = b.offset_mm * std::sin(turn);
+    const double rho = b.width_mm / 2, h_end = TipH(0) - b.extends_mm;
+    double half = h >= h_end ? rho : 0.0;
+    if (tan_pitch != 0) {
+      const double q = ((h_end - h) / tan_pitch - xc) * (tan_pitch > 0 ? 1 : -1);
+      half = q <= 0 ? rho : q < rho ? std::sqrt(rho * rho - q * q) : 0.0;
+    }
+    if (half > 0) spans[n++] = {yc - half, yc + half};
+  }
+  for (int i = 1; i < n; ++i)  // by hand: GCC 12 warns falsely on std::sort of 3
+    for (int j = i; j > 0 && spans[j] < spans[j - 1]; --j) std::swap(spans[j], spans[j - 1]);
+  ShadowSpans out;
+  for (int i = 0; i < n; ++i) {  // disjoint: overlapping spans merged
+    if (out.count > 0 && spans[i].first <= out.hi[out.count - 1]) {
+      out.hi[out.count - 1] = std::max(out.hi[out.count - 1], spans[i].second);
+      continue;
+    }
+    out.lo[out.count] = spans[i].first, out.hi[out.count] = spans[i].second, ++out.count;
+  }
+  return out;
 }
 
 void ToolDescription::Validate() const {
@@ -118,6 +167,14 @@ void ToolDescription::Validate() const {
     Fail("flute_length_mm must be in (0, length_mm]");
   if (!(core_ratio > 0 && core_ratio < 1)) Fail("core_ratio must be in (0, 1)");
   if (static_cast<int>(edges.size()) != flutes) Fail("edges must list one edge per flute");
+  if (!blades.empty() && (!pin || blades.size() != 2)) Fail("blades: a pin has none or two");
+  for (const PinBlade& b : blades)
+    if (!(b.width_mm > 0) || !(b.extends_mm > 0 && b.extends_mm <= 50) ||
+        !(std::abs(b.offset_mm) + b.width_mm / 2 <= Radius()))
+      Fail("a blade needs width_mm > 0, extends_mm in (0, 50], and to lie within the pin");
+  if (blades.size() == 2 &&
+      !(std::abs(blades[0].offset_mm - blades[1].offset_mm) > blades[0].width_mm))
+    Fail("the blades must lie apart by more than their width");
   for (const CuttingEdge& e : edges) {
     if (std::abs(e.radial_offset_mm) > 0.1 * Radius() || std::abs(e.axial_offset_mm) > 1.0)
       Fail("an edge's offsets must be within 10 % of the radius and 1 mm");
@@ -142,6 +199,16 @@ ToolDescription ParseTool(const std::string& text) {
     const std::string kind = jf::Text<ToolError>(j, "kind", "tool");
     if (kind != "pin" && kind != "cutter") Fail("kind must be cutter or pin");
     t.pin = kind == "pin";
+  }
+  if (j.contains("blades")) {
+    if (!j.at("blades").is_array()) Fail("blades must be an array");
+    for (size_t k = 0; k < j.at("blades").size(); ++k) {
+      const json& b = j.at("blades")[k];
+      const std::string w = "tool.blades[" + std::to_string(k) + "]";
+      t.blades.push_back({jf::Number<ToolError>(b, "offset_mm", w),
+                          jf::Number<ToolError>(b, "width_mm", w),
+                          jf::Number<ToolError>(b, "extends_mm", w)});
+    }
   }
   if (j.contains("edges")) {
     if (!j.at("edges").is_array()) Fail("edges must be an array");
@@ -179,6 +246,15 @@ std::string ToJson(const ToolDescription& t) {
                                     {"core_ratio", t.core_ratio},
                                     {"kind", t.pin ? "pin" : "cutter"},
                                     {"edges", edges}};
+  if (!t.blades.empty()) {
+    nlohmann::ordered_json blades = nlohmann::ordered_json::array();
+    for (const PinBlade& b : t.blades)
+      blades.push_back(
+          {{"offset_mm", b.offset_mm}, {"width_mm", b.width_mm}, {"extends_mm", b.extends_mm}});
+    nlohmann::ordered_json with = j;
+    with["blades"] = blades;
+    return with.dump(1) + "\n";
+  }
   return j.dump(1) + "\n";
 }
 

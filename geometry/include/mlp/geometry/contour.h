@@ -17,11 +17,19 @@
 
 namespace mlp::geometry {
 
-/// A grey image in memory: row-major, `width` x `height`, 8 bits a pixel.
+/// A grey image in memory: row-major, `width` x `height`, 8 bits a pixel, rows `stride` pixels
+/// apart (0: `width`, a whole image; more: a window into a larger one).
 struct GreyView {
   const std::uint8_t* pixels = nullptr;
   int width = 0, height = 0;
-  double At(int u, int v) const { return pixels[static_cast<long>(v) * width + u]; }
+  int stride = 0;
+  double At(int u, int v) const {
+    return pixels[static_cast<long>(v) * (stride > 0 ? stride : width) + u];
+  }
+  /// The window of columns [u0, u0 + w) and rows [v0, v0 + h), its far sides clipped to the
+  /// image; (u0, v0) must lie in the image. Crossings found in it are in its own coordinates
+  /// (add u0, v0).
+  GreyView Window(int u0, int v0, int w, int h) const;
 };
 
 /// Each row's first crossing from below `level` to at or above it, scanning from the left

@@ -6,9 +6,18 @@
 ///
 /// Camera: telecentric (orthographic), looking along the tool frame's +x, so a pixel sees a
 /// point (y, h) of the tool frame: y = (u - axis_u_px) mm_per_px, h = (tip_v_px - v) mm_per_px
-/// for pixel centres (u, v) before distortion. With the axis outside the image (a tool wider
-/// than the field), the frame shows one side of the tool near its tip.
+/// for pixel centres (u, v) before distortion, when the camera is square to the spindle. With
+/// the axis outside the image (a tool wider than the field), the frame shows one side of the
+/// tool near its tip.
+///
+/// Mounted less than square (seed 000 example 4: the optical axis' tilt about x and y): `roll`
+/// turns the tool's image about (axis_u_px, tip_v_px), the spindle axis leaning right going
+/// down for roll > 0; `pitch` tilts the view along the axis, a ray through image height h
+/// meeting depth x (away from the camera) at height h + x tan(pitch), so what is farther looks
+/// lower for pitch > 0. The measurement maps pixels with the roll; the pitch is for the
+/// alignment (a calibration reports it) and the virtual camera.
 
+#include "mlp/geometry/types.h"
 #include "mlp/toolcam/strobe.h"
 #include "mlp/toolcam/tool_model.h"
 
@@ -27,12 +36,14 @@ struct ToolCameraModel {
   /// Radial distortion: a point at the image's corner moves by this share of its distance
   /// from the centre (telecentric lenses: under 0.1 %).
   double distortion_k1 = 0.0005;
-  double psf_sigma_px = 0.7;       ///< the optics' blur
-  double bright = 210, dark = 25;  ///< grey levels of the back-light and the shadow
-  double noise_sigma = 2.0;        ///< grey levels, Gaussian
-  double drops_per_frame = 1.5;    ///< coolant drops and chips (mean, Poisson)
-  double y_mm(double u) const { return (u - axis_u_px) * mm_per_px; }
-  double h_mm(double v) const { return (tip_v_px - v) * mm_per_px; }
+  double psf_sigma_px = 0.7;               ///< the optics' blur
+  double bright = 210, dark = 25;          ///< grey levels of the back-light and the shadow
+  double noise_sigma = 2.0;                ///< grey levels, Gaussian
+  double drops_per_frame = 1.5;            ///< coolant drops and chips (mean, Poisson)
+  double roll_deg = 0.0, pitch_deg = 0.0;  ///< up to 5 deg each
+  /// Tool frame (y, h) [mm] of an ideal (undistorted) pixel position, and back.
+  geometry::Vec2 ToolFromPixel(const geometry::Vec2& px) const;
+  geometry::Vec2 PixelFromTool(const geometry::Vec2& yh) const;
   void Validate() const;  ///< throws ToolError naming the field
 };
 

@@ -40,6 +40,21 @@ struct CuttingEdge {
   }
 };
 
+/// A calibration pin's blade (seed 000 example 4): a ground rod parallel to the axis below the
+/// pin's end, `offset_mm` from the axis along the pin's x (at turn 0), `extends_mm` long (its
+/// flat end that far below the pin's end: a pre-calibrated length). Two blades far apart in
+/// depth show the view's pitch (their ends' heights differ by their depths times its tangent);
+/// ground round, so each looks `width_mm` wide from every side.
+struct PinBlade {
+  double offset_mm = 0.0, width_mm = 0.0, extends_mm = 0.0;
+};
+
+/// What shades one height of the image: up to three disjoint spans across y [mm], rising.
+struct ShadowSpans {
+  int count = 0;
+  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+};
+
 struct ToolDescription {
   std::string id;
   double diameter_mm = 0.0;
@@ -50,8 +65,10 @@ struct ToolDescription {
   double flute_length_mm = 0.0;
   /// The web between the flutes: a cylinder of this share of the radius.
   double core_ratio = 0.55;
-  /// A calibration pin (`"kind": "pin"`): a plain cylinder of the diameter, its flat end the tip.
+  /// A calibration pin (`"kind": "pin"`): a plain cylinder of the diameter, its flat end the tip
+  /// (h = 0), and either no blades or two below it.
   bool pin = false;
+  std::vector<PinBlade> blades;
   std::vector<CuttingEdge> edges;  ///< one per flute
 
   double Radius() const { return diameter_mm / 2; }
@@ -66,8 +83,16 @@ struct ToolDescription {
   /// edge reaching h is a blade from the axis to its radius, plus the web between the flutes.
   /// False where nothing of the tool reaches h.
   bool ShadowSpan(double h_mm, double turn_rad, double* lo_mm, double* hi_mm) const;
+  /// The same as disjoint spans (a pin's blades below its end are two), seen with the view's
+  /// pitch: a ray at image height h meets depth x at height h + x tan_pitch (tool_camera.h).
+  /// A cutter's edge is taken at the depth of its outer point (its silhouette's part).
+  ShadowSpans Shadow(double h_mm, double turn_rad, double tan_pitch) const;
   /// Throws ToolError naming the first field out of range.
   void Validate() const;
+
+ private:
+  double PinHalfWidth(double h_mm, double tan_pitch) const;
+  ShadowSpans PinShadow(double h_mm, double turn_rad, double tan_pitch) const;
 };
 
 /// Parses and validates `mlprobe-tool/1`; throws ToolError naming the field.
