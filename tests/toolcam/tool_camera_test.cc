@@ -18,6 +18,8 @@ namespace {
 namespace fs = std::filesystem;
 const std::string kTools = std::string(MLP_SOURCE_DIR) + "/samples/tools/";
 constexpr double kEdgeTolPx = 0.03;  // the renderer's sub-rows and blur samples
+// A near-level edge: its cover is found on 8 sub-rows a pixel, to 1/16 px (tool_camera.cc).
+constexpr double kLevelEdgeTolPx = 1.0 / 16;
 
 // A camera with nothing but the optics' symmetric blur: edges must sit exactly where the
 // geometry says.
@@ -103,6 +105,44 @@ TEST(ToolCamera, TheShadowsEdgeIsWhereTheGeometryPutsIt) {
   // The tip under that edge, 1 mm in from the side (on the flat end): edge 2's tip, 4 um low.
   const int column = static_cast<int>(std::lround((5.0 - 1.0) / c.mm_per_px + c.axis_u_px));
   EXPECT_NEAR(ColumnCrossing(f, c, column), c.tip_v_px - t.TipH(1) / c.mm_per_px, kEdgeTolPx);
+}
+
+// A camera turned about x (roll) and y (pitch): the pin's blades (turned 45 deg, one 0.64 mm
+// nearer, one farther) end where the geometry puts them, each lower by its depth times
+// tan(pitch) (at its middle column, where its round end's far side shows: depth + r); the
+// flank crosses each row where the rolled mapping says.
+TEST(ToolCamera, AMountTurnedAboutXAndYShowsWhereTheGeometrySays) {
+  ToolDescription pin = LoadTool(kTools + "calibration_pin_d3_blades.json");
+  ToolCameraModel c = CleanCamera();
+  c.axis_u_px = 505.7, c.tip_v_px = 300.2, c.roll_deg = 0.4, c.pitch_deg = 0.5;
+  const double turn = M_PI / 4, tan_pitch = std::tan(c.pitch_deg * M_PI / 180);
+  std::mt19937 rng(3);
+  const ToolFrame f = RenderToolFrame(pin, c, turn, 0.0, rng);
+  for (const PinBlade& b : pin.blades) {
+    const double y = b.offset_mm * std::sin(turn), depth = b.offset_mm * std::cos(turn);
+    const double h_end = -b.extends_mm - (depth + b.width_mm / 2) * tan_pitch;
+    // The end at the blade's middle: down its column from the row of the blade's middle.
+    const geometry::Vec2 end = c.PixelFromTool({y, h_end});
+    const int column = static_cast<int>(std::lround(end.x()));
+    const double seen_h =
+        c.ToolFromPixel({static_cast<double>(column), ColumnCrossing(f, c, column)}).y();
+    const double expected_h =
+        -b.extends_mm -
+        (depth +
+         b.width_mm / 2 *
+             std::sqrt(1 -
+                       std::pow((c.ToolFromPixel({static_cast<double>(column), end.y()}).x() - y) /
+                                    (b.width_mm / 2),
+                                2))) *
+            tan_pitch;
+    EXPECT_NEAR(seen_h, expected_h, kLevelEdgeTolPx * c.mm_per_px) << "blade at " << b.offset_mm;
+  }
+  const int row = 100;  // the right flank (y = +1.5) on a row above the end
+  const double h_row = c.ToolFromPixel({c.axis_u_px, static_cast<double>(row)}).y();
+  const geometry::Vec2 a = c.PixelFromTool({1.5, h_row - 0.1}),
+                       b = c.PixelFromTool({1.5, h_row + 0.1});
+  const double expected_u = a.x() + (b.x() - a.x()) * (row - a.y()) / (b.y() - a.y());
+  EXPECT_NEAR(RowCrossing(f, c, row), expected_u, kEdgeTolPx);
 }
 
 TEST(ToolCamera, DeterministicForASeedWithDropsWhereTheTruthSays) {

@@ -31,25 +31,6 @@ double ShadowLevel(const std::vector<std::uint8_t>& pixels);
 /// A pixel position with the lens' radial distortion undone (the camera's calibration).
 geometry::Vec2 Undistort(const geometry::Vec2& pixel, const ToolCameraModel& camera);
 
-/// The camera against the machine from a calibration pin (seed 000 example 4): a cylinder of
-/// known diameter and length (gauge point to its flat end) turning in the spindle, both flanks
-/// and the end in view. Its flanks give the scale (their distance is the diameter) and the
-/// spindle axis (their middle line: its column and its roll in the image), its end the row of
-/// the gauge point (the end's row less the length).
-struct PinCalibration {
-  double mm_per_px = 0.0;
-  double axis_u_px = 0.0;     ///< the spindle axis' column at the end's row
-  double gauge_v_px = 0.0;    ///< the gauge point's row (a tool's tip row: + its length / scale)
-  double roll_deg = 0.0;      ///< the spindle axis' turn in the image (+: leaning right going down)
-  double width_rms_px = 0.0;  ///< of the flanks' distance over the rows: the pin's roundness
-  int rows = 0, columns = 0;  ///< flank rows and end columns used
-};
-
-/// Throws ToolError when the images do not show both flanks and the end.
-PinCalibration CalibrateWithPin(const std::vector<std::vector<std::uint8_t>>& frames,
-                                const ToolCameraModel& camera,
-                                const ToolDescription& pin);
-
 struct MeasureOptions {
   double h_ref_mm = 1.5;  ///< the height that indexes the flutes (above the corner)
   double band_mm = 0.04;  ///< half the band round it

@@ -1,0 +1,59 @@
+#pragma once
+/// @file The tool camera against the machine from a calibration pin (seed 000 example 4): a
+/// ground cylinder of known diameter and length (gauge point to its flat end) turning slowly
+/// in the spindle, both flanks and the end in view, and below the end two blades (round rods
+/// parallel to the axis, far apart in depth, of pre-calibrated lengths).
+///
+/// - The flanks give the scale (their distance is the diameter) and the spindle axis: their
+///   middle line's column (the optical axis' y offset) and its turn in the image (the tilt about
+///   x, `roll`).
+/// - The blades give the tilt about y (`pitch`): the view meets depth x at height
+///   h + x tan(pitch), so a blade's end looks higher or lower by its depth times tan(pitch).
+///   Each blade's depth in each image is the rate its y changes with the turn (y = o sin a,
+///   x = o cos a = dy/da), from a sine fitted to its y over the turn; the ends' heights against
+///   the depths, least squares over every image where the blades stand apart, give tan(pitch)
+///   and the end's height free of it (the optical axis' z offset). The seed compares the two
+///   principal images 180 deg apart; the fit over all images is the same idea with more data.
+/// - Without blades, the end's row gives the height and the pitch is not measured (a pitched
+///   view lowers a flat end by up to its radius times tan(pitch): 2.6 um for 0.1 deg on D3).
+///
+/// Positions count the tool's turn about +z of the tool frame (z up into the spindle); counted
+/// the other way, the pitch comes out with the wrong sign.
+
+#include "mlp/toolcam/tool_camera.h"
+#include "mlp/toolcam/tool_model.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace mlp::toolcam {
+
+struct PinCalibration {
+  double mm_per_px = 0.0;
+  double roll_deg = 0.0;        ///< tilt about x: the spindle axis leaning right going down
+  double pitch_deg = 0.0;       ///< tilt about y; 0 when not measured
+  bool pitch_measured = false;  ///< the pin has blades and enough images showed them apart
+  double end_u_px = 0.0, end_v_px = 0.0;      ///< the pin's end on the spindle axis (h = 0)
+  double gauge_u_px = 0.0, gauge_v_px = 0.0;  ///< the gauge point, the pin's length up the axis
+  double width_rms_px = 0.0;  ///< of the flanks' distance over the rows: the pin's roundness
+  double blade_rms_um = 0.0;  ///< of the blades' end heights about the fit
+  int rows = 0;               ///< flank rows used
+  int blade_images = 0;       ///< images where both blades were measured
+
+  /// The camera for a tool of `length_mm` (gauge point to its nominal tip): `base` (size,
+  /// lens, light) with this calibration, its tip row and axis column where the tool's nominal
+  /// tip is.
+  ToolCameraModel CameraFor(const ToolCameraModel& base, double length_mm) const;
+};
+
+/// `frames[i]` shows the pin turned to position `positions[i]` of `position_count` (the blades'
+/// depths need at least 8 images spread round the turn; a pin without blades needs one).
+/// `camera` gives the image size and the lens' distortion. Throws ToolError when the images do
+/// not show both flanks and the end, or the blades are not seen apart in enough images.
+PinCalibration CalibrateWithPin(const std::vector<std::vector<std::uint8_t>>& frames,
+                                const std::vector<int>& positions,
+                                int position_count,
+                                const ToolCameraModel& camera,
+                                const ToolDescription& pin);
+
+}  // namespace mlp::toolcam
