@@ -96,6 +96,22 @@ TEST(ToolMeasure, ACleanToolsEdgesToAMicrometre) {
   for (const auto& f : run.m.flutes) EXPECT_TRUE(f.findings.empty()) << "a finding on a clean edge";
 }
 
+// A camera turned 0.4 deg about x and 0.3 deg about y (as its calibration says): the rolled
+// pixels and the pitched view of the edges' ends are in the measurement's model, so the edges
+// are where they were square on (uncorrected, the pitch alone would move an end facing the
+// camera by R tan(0.3 deg) = 26 um).
+TEST(ToolMeasure, AMountTurnedAboutXAndYIsMeasuredThroughItsCalibration) {
+  const ToolDescription worn = LoadTool(kTools + "endmill_d10_z4_worn.json");
+  ToolDescription runout = worn;
+  for (auto& e : runout.edges) e.defects.clear();
+  const ToolDescription nominal = LoadTool(kTools + "endmill_d10_z4_new.json");
+  ToolCameraModel c = SmallCamera(0);
+  c.roll_deg = 0.4, c.pitch_deg = 0.3;
+  const MeasuredRun run = RenderAndMeasure(runout, nominal, c, 13);
+  ExpectEdgesMatch(runout, run, kCleanTolMm);
+  for (const auto& f : run.m.flutes) EXPECT_TRUE(f.findings.empty()) << "a finding on a clean edge";
+}
+
 TEST(ToolMeasure, CoolantDropsAreLeftOut) {
   const ToolDescription nominal = LoadTool(kTools + "endmill_d10_z4_new.json");
   const MeasuredRun run = RenderAndMeasure(nominal, nominal, SmallCamera(3.0), 12);

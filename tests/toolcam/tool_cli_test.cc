@@ -1,6 +1,8 @@
 // `mlp tool strobe` as a real process: the plan in text and JSON, the exit codes, and a refused
 // plan's reason on stderr with nothing on stdout.
 
+#include "mlp/toolcam/tool_camera.h"
+
 #include <filesystem>
 #include <fstream>
 
@@ -88,6 +90,97 @@ TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
                        "endmill_d10_z4_new.json")
                 .exit_code,
             2);
+}
+
+// The camera calibrated with the bladed pin through the command line, then a tool measured
+// with that calibration (the manifest without one, as a real camera's) and written to a
+// LinuxCNC tool table: refused with findings or beyond the change limit, nothing changed then.
+TEST(ToolCli, CalibratesTheCameraThenMeasuresIntoTheToolTable) {
+  const std::string dir = "/tmp/mlp_tool_cli_calibrate";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string tools = std::string(MLP_SOURCE_DIR) + "/samples/tools/";
+  // The true camera: turned 0.3 deg about x, 0.03 about y, the pin's end at (505.7, 400.6).
+  mlp::toolcam::ToolCameraModel truth;
+  truth.axis_u_px = 505.7, truth.tip_v_px = 400.6, truth.roll_deg = -0.3, truth.pitch_deg = 0.03;
+  const std::string camera = " --roll-deg -0.3 --pitch-deg 0.03 --drops 0";
+  const auto pin = RunProcess(kMlp + " tool render --tool " + tools +
+                              "calibration_pin_d3_blades.json --out " + dir + "/pin" + camera +
+                              " --axis-u-px 505.7 --tip-v-px 400.6 --rpm 70 --fps 6 "
+                              "--resolution-deg 10 --pulse-share 0.01 --seed 7");
+  ASSERT_EQ(pin.exit_code, 0) << pin.err;
+  const auto cal =
+      RunProcess(kMlp + " tool calibrate --images " + dir + "/pin --pin " + tools +
+                 "calibration_pin_d3_blades.json --out " + dir + "/camera.json --json");
+  ASSERT_EQ(cal.exit_code, 0) << cal.err;
+  const auto c = nlohmann::json::parse(cal.out);
+  EXPECT_NEAR(c.at("roll_deg").get<double>(), -0.3, 0.002);
+  EXPECT_NEAR(c.at("pitch_deg").get<double>(), 0.03, 0.005);
+  EXPECT_NEAR(c.at("mm_per_px").get<double>() / truth.mm_per_px, 1.0, 2e-5);
+  const mlp::geometry::Vec2 gauge = truth.PixelFromTool({0, 50.0});
+  EXPECT_NEAR(c.at("gauge_v_px").get<double>(), gauge.y(), 0.25);
+  // A new D10 tool, 75 mm: the NC moves the spindle 4 mm across and 24.4 mm up to show its
+  // edge and tip; the camera sees its tip where the pin's frame puts it.
+  const mlp::geometry::Vec2 tip = truth.PixelFromTool({-4.0, 50.0 + 24.4 - 75.0});
+  char place[160];
+  std::snprintf(place, sizeof place,
+                " --axis-u-px %.6f --tip-v-px %.6f --spindle-y-mm -4 --spindle-z-mm 24.4", tip.x(),
+                tip.y());
+  const std::string images = dir + "/tool";
+  const auto tool =
+      RunProcess(kMlp + " tool render --tool " + tools + "endmill_d10_z4_new.json --out " + images +
+                 camera + place + " --rpm 5000 --fps 50 --resolution-deg 7.2 --pulse-share 0.1");
+  ASSERT_EQ(tool.exit_code, 0) << tool.err;
+  {  // what a real camera's manifest holds: no calibration of its own
+    std::ifstream in(images + "/images.json");
+    nlohmann::json m = nlohmann::json::parse(in);
+    for (const char* k : {"axis_u_px", "tip_v_px", "roll_deg", "pitch_deg"}) m["camera"].erase(k);
+    std::ofstream(images + "/images.json") << m.dump(1);
+  }
+  const std::string table = dir + "/tool.tbl";
+  const std::string table_text = "; shop tools\nT3 P3 Z+75.000000 D+10.000000 ;D10 Z4\n";
+  std::ofstream(table) << table_text;
+  const std::string measure = kMlp + " tool measure --frames " + images + " --tool " + tools +
+                              "endmill_d10_z4_new.json --tool-table " + table + " --tool-number 3";
+  EXPECT_EQ(RunProcess(measure).exit_code, 2);  // no calibration anywhere: bad input
+  const auto tight = RunProcess(measure + " --camera " + dir + "/camera.json --max-change-mm 1e-6");
+  EXPECT_EQ(tight.exit_code, 4) << tight.err;
+  EXPECT_NE(tight.err.find("beyond"), std::string::npos) << tight.err;
+  const auto read_table = [&] {
+    std::ifstream in(table);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_EQ(read_table(), table_text);
+  const auto run = RunProcess(measure + " --camera " + dir + "/camera.json --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto m = nlohmann::json::parse(run.out);
+  std::printf("calibrated: roll %+.4f pitch %+.4f deg; tool: diameter %+.2f um, length %+.2f um\n",
+              c.at("roll_deg").get<double>() + 0.3, c.at("pitch_deg").get<double>() - 0.03,
+              (m.at("diameter_mm").get<double>() - 10) * 1e3,
+              (m.at("length_mm").get<double>() - 75) * 1e3);
+  // The calibration's figures carried 30 mm down the axis to the tool: within 2 um.
+  EXPECT_NEAR(m.at("diameter_mm").get<double>(), 10.0, 0.002);
+  EXPECT_NEAR(m.at("length_mm").get<double>(), 75.0, 0.002);
+  EXPECT_NEAR(m.at("tool_table").at("length_after_mm").get<double>(), m.at("length_mm"), 1e-12);
+  const std::string after = read_table();
+  EXPECT_NE(after.find("; shop tools\nT3 P3 Z"), std::string::npos) << after;
+  EXPECT_NE(after.find(";D10 Z4"), std::string::npos) << after;
+  EXPECT_EQ(after.find("Z+75.000000"), std::string::npos) << after;
+  std::ifstream log(dir + "/mlp-tool-changes.csv");
+  std::string header, line;
+  std::getline(log, header), std::getline(log, line);
+  EXPECT_NE(line.find(",3,T13-EM10-Z4,75.00000,"), std::string::npos) << line;
+  // The worn tool's images: chipped and built up: measured, the table left alone.
+  const auto worn = RunProcess(kMlp + " tool render --tool " + tools +
+                               "endmill_d10_z4_worn.json --out " + dir + "/worn" + camera + place +
+                               " --rpm 5000 --fps 50 --resolution-deg 7.2 --pulse-share 0.1");
+  ASSERT_EQ(worn.exit_code, 0) << worn.err;
+  const auto refused = RunProcess(kMlp + " tool measure --images " + dir + "/worn --tool " + tools +
+                                  "endmill_d10_z4_new.json --camera " + dir +
+                                  "/camera.json --tool-table " + table + " --tool-number 3");
+  EXPECT_EQ(refused.exit_code, 4) << refused.err;
+  EXPECT_NE(refused.err.find("finding"), std::string::npos) << refused.err;
+  EXPECT_EQ(read_table(), after);
 }
 
 }  // namespace

@@ -50,16 +50,20 @@ struct Model {
   bool fit_turn = false;
 
   double blur = 0;
+  double tan_pitch = 0;  ///< the camera's (tool_camera.h): an edge's end seen at its depth
+
+  double Reach(double h, double turn) const {
+    const ShadowSpans s = tool.Shadow(h, turn, tan_pitch);
+    return s.count > 0 ? s.hi[s.count - 1] : 0.0;
+  }
 
   // The outline's flank at height h: the shadow's +y extent; with a pulse's blur, where half
   // the angles over the pulse reach (the half-grey edge of their average): their median.
   double Flank(double h, double turn) const {
-    double lo = 0, hi = 0;
-    if (blur < 1e-4) return tool.ShadowSpan(h, turn, &lo, &hi) ? hi : 0.0;
+    if (blur < 1e-4) return Reach(h, turn);
     std::array<double, 5> reach{};
     for (int b = 0; b < 5; ++b)
-      reach[static_cast<size_t>(b)] =
-          tool.ShadowSpan(h, turn + blur * ((b + 0.5) / 5 - 0.5), &lo, &hi) ? hi : 0.0;
+      reach[static_cast<size_t>(b)] = Reach(h, turn + blur * ((b + 0.5) / 5 - 0.5));
     std::nth_element(reach.begin(), reach.begin() + 2, reach.end());
     return reach[2];
   }
@@ -251,12 +255,14 @@ FluteMeasurement MeasureFlute(const Outline& o,
                               const ToolDescription& model,
                               int edge,
                               double turn0,
-                              const MeasureOptions& opt) {
+                              const MeasureOptions& opt,
+                              double pitch_deg) {
   const ToolDescription& nominal = model;
   Model m;
   m.tool = model;
   m.turn0 = turn0;
   m.blur = opt.blur_rad;
+  m.tan_pitch = std::tan(pitch_deg * M_PI / 180);
   m.fit_turn = nominal.helix_deg >= 5.0;  // a straight flute's turn trades with its radius
   const double r = nominal.Radius(), rc = nominal.corner_radius_mm;
   std::vector<FitPoint> pts;
@@ -399,7 +405,7 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
     // The principal image's turn: its flute at +y at the reference height, less the offset.
     const double turn0 =
         M_PI / 2 - ground.EdgeAngle(0, opt.h_ref_mm, 0.0) - offset_deg * M_PI / 180;
-    FluteMeasurement fm = MeasureFlute(outlines[i0], ground, 0, turn0, opt);
+    FluteMeasurement fm = MeasureFlute(outlines[i0], ground, 0, turn0, opt, camera.pitch_deg);
     fm.frame = static_cast<int>(i0);
     fm.angle_deg = angle(i0) + offset_deg;
     offsets_deg.push_back(offset_deg);
@@ -429,8 +435,8 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
       const int e = ((j0 - f) % n + n) % n;
       const double turn0 = M_PI / 2 - nominal.EdgeAngle(e, opt.h_ref_mm, 0.0) -
                            offsets_deg[static_cast<size_t>(f)] * M_PI / 180;
-      FluteMeasurement again =
-          MeasureFlute(outlines[static_cast<size_t>(fm.frame)], nominal, e, turn0, opt);
+      FluteMeasurement again = MeasureFlute(outlines[static_cast<size_t>(fm.frame)], nominal, e,
+                                            turn0, opt, camera.pitch_deg);
       again.frame = fm.frame, again.angle_deg = fm.angle_deg, again.edge = e;
       fm = again;
     }

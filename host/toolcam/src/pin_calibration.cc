@@ -1,6 +1,7 @@
 #include "mlp/toolcam/pin_calibration.h"
 
 #include "mlp/geometry/contour.h"
+#include "mlp/probe_fw/json_fields.h"
 #include "mlp/toolcam/measure.h"
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <map>
 
 #include <Eigen/Dense>
+#include <nlohmann/json.hpp>
 
 namespace mlp::toolcam {
 namespace {
@@ -195,13 +197,61 @@ std::vector<double> Depths(const std::vector<double>& angle,
 
 }  // namespace
 
-ToolCameraModel PinCalibration::CameraFor(const ToolCameraModel& base, double length_mm) const {
+ToolCameraModel PinCalibration::CameraFor(const ToolCameraModel& base,
+                                          double length_mm,
+                                          double shift_y_mm,
+                                          double shift_z_mm) const {
   ToolCameraModel c = base;
   c.mm_per_px = mm_per_px, c.roll_deg = roll_deg, c.pitch_deg = pitch_deg;
-  const double a = roll_deg * M_PI / 180;
-  c.axis_u_px = gauge_u_px + std::sin(a) * length_mm / mm_per_px;
-  c.tip_v_px = gauge_v_px + std::cos(a) * length_mm / mm_per_px;
+  // The tip is (shift_y, shift_z - length) from the gauge point, turned by the roll.
+  const double a = roll_deg * M_PI / 180, dz = shift_z_mm - length_mm;
+  c.axis_u_px = gauge_u_px + (std::cos(a) * shift_y_mm - std::sin(a) * dz) / mm_per_px;
+  c.tip_v_px = gauge_v_px - (std::sin(a) * shift_y_mm + std::cos(a) * dz) / mm_per_px;
   return c;
+}
+
+std::string CameraCalibrationJson(const PinCalibration& p,
+                                  const ToolCameraModel& base,
+                                  const std::string& pin_id) {
+  const nlohmann::ordered_json j = {{"format", "mlprobe-tool-camera/1"},
+                                    {"pin", pin_id},
+                                    {"width_px", base.width_px},
+                                    {"height_px", base.height_px},
+                                    {"distortion_k1", base.distortion_k1},
+                                    {"mm_per_px", p.mm_per_px},
+                                    {"roll_deg", p.roll_deg},
+                                    {"pitch_deg", p.pitch_deg},
+                                    {"pitch_measured", p.pitch_measured},
+                                    {"gauge_u_px", p.gauge_u_px},
+                                    {"gauge_v_px", p.gauge_v_px},
+                                    {"end_u_px", p.end_u_px},
+                                    {"end_v_px", p.end_v_px},
+                                    {"width_rms_px", p.width_rms_px},
+                                    {"blade_rms_um", p.blade_rms_um},
+                                    {"rows", p.rows},
+                                    {"blade_images", p.blade_images}};
+  return j.dump(1) + "\n";
+}
+
+PinCalibration ParseCameraCalibration(const std::string& text, ToolCameraModel* base) {
+  namespace jf = probe_fw::json_fields;
+  const auto j = jf::ParseDocument<ToolError>(text, "mlprobe-tool-camera/1", "camera calibration");
+  const std::string w = "camera calibration";
+  base->width_px = jf::Integer<ToolError>(j, "width_px", w);
+  base->height_px = jf::Integer<ToolError>(j, "height_px", w);
+  base->distortion_k1 = jf::NumberOr<ToolError>(j, "distortion_k1", 0.0, w);
+  PinCalibration p;
+  p.mm_per_px = jf::Number<ToolError>(j, "mm_per_px", w);
+  p.roll_deg = jf::Number<ToolError>(j, "roll_deg", w);
+  p.pitch_deg = jf::NumberOr<ToolError>(j, "pitch_deg", 0.0, w);
+  p.pitch_measured = jf::FlagOr<ToolError>(j, "pitch_measured", false, w);
+  p.gauge_u_px = jf::Number<ToolError>(j, "gauge_u_px", w);
+  p.gauge_v_px = jf::Number<ToolError>(j, "gauge_v_px", w);
+  p.end_u_px = jf::NumberOr<ToolError>(j, "end_u_px", 0.0, w);
+  p.end_v_px = jf::NumberOr<ToolError>(j, "end_v_px", 0.0, w);
+  ToolCameraModel check = p.CameraFor(*base, 0.0);
+  check.Validate();  // the scale, the tilts and the size in range
+  return p;
 }
 
 PinCalibration CalibrateWithPin(const std::vector<std::vector<std::uint8_t>>& frames,

@@ -1,6 +1,7 @@
 #pragma once
-/// @file `mlp tool ...`: tools measured from their shadow images (seed 000). `mlp tool strobe`
-/// plans the strobe for a tool turning in the spindle (docs/TOOLCAM.md).
+/// @file `mlp tool ...`: tools measured from their shadow images (seed 000): the strobe plan,
+/// the virtual tool camera, the camera's calibration with a pin, the measurement and its
+/// tool table update (docs/TOOLCAM.md).
 
 #include <ostream>
 #include <string>
@@ -8,7 +9,8 @@
 
 namespace mlp::host {
 
-/// Exit codes: 0 planned, 2 bad arguments, 3 the plan cannot be made (the reason printed).
+/// Exit codes: 0 done, 2 bad arguments or files, 3 the plan or measurement cannot be made (the
+/// reason printed), 4 measured but the tool table not changed (the reason printed).
 int RunToolCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
 }  // namespace mlp::host

@@ -24,6 +24,7 @@
 #include "mlp/toolcam/tool_model.h"
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace mlp::toolcam {
@@ -40,11 +41,24 @@ struct PinCalibration {
   int rows = 0;               ///< flank rows used
   int blade_images = 0;       ///< images where both blades were measured
 
-  /// The camera for a tool of `length_mm` (gauge point to its nominal tip): `base` (size,
+  /// The camera for a tool of `length_mm` (gauge point to its nominal tip) with the spindle
+  /// moved by (`shift_y_mm`, `shift_z_mm`) from where it stood for the calibration (as the
+  /// camera sees the machine's axes: y across the image, z up the spindle): `base` (size,
   /// lens, light) with this calibration, its tip row and axis column where the tool's nominal
   /// tip is.
-  ToolCameraModel CameraFor(const ToolCameraModel& base, double length_mm) const;
+  ToolCameraModel CameraFor(const ToolCameraModel& base,
+                            double length_mm,
+                            double shift_y_mm = 0.0,
+                            double shift_z_mm = 0.0) const;
 };
+
+/// The calibration as a file (`mlprobe-tool-camera/1`, docs/TOOLCAM.md): the figures above,
+/// the image size and lens it holds for, and the pin it came from.
+std::string CameraCalibrationJson(const PinCalibration& p,
+                                  const ToolCameraModel& base,
+                                  const std::string& pin_id);
+/// Parses it; `base` gets the image size and the lens. Throws ToolError naming the field.
+PinCalibration ParseCameraCalibration(const std::string& json_text, ToolCameraModel* base);
 
 /// `frames[i]` shows the pin turned to position `positions[i]` of `position_count` (the blades'
 /// depths need at least 8 images spread round the turn; a pin without blades needs one).

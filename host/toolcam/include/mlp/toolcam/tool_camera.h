@@ -14,8 +14,8 @@
 /// turns the tool's image about (axis_u_px, tip_v_px), the spindle axis leaning right going
 /// down for roll > 0; `pitch` tilts the view along the axis, a ray through image height h
 /// meeting depth x (away from the camera) at height h + x tan(pitch), so what is farther looks
-/// lower for pitch > 0. The measurement maps pixels with the roll; the pitch is for the
-/// alignment (a calibration reports it) and the virtual camera.
+/// lower for pitch > 0. The measurement maps pixels with the roll and sees the edges' ends
+/// with the pitch (both from the camera's calibration, pin_calibration.h).
 
 #include "mlp/geometry/types.h"
 #include "mlp/toolcam/strobe.h"
@@ -65,16 +65,26 @@ ToolFrame RenderToolFrame(const ToolDescription& tool,
                           double blur_rad,
                           std::mt19937& rng);
 
-/// The frames of a strobe plan, written as DIR/frame_NNNN.pgm and DIR/truth.json (format
-/// `mlprobe-tool-frames/1`: the camera, the tool's truth per edge, each frame's position,
-/// angle and drops). The tool's angle at the first image is `start_turn_rad` (unknown to the
-/// measurement). Returns the number of frames.
+/// Where the NC put the spindle for the images, from where it stood when the camera was
+/// calibrated (as the camera sees the machine's axes: y across the image, z up the spindle):
+/// what a camera's manifest records beside its images (pin_calibration.h, CameraFor).
+struct SpindleShift {
+  double y_mm = 0.0, z_mm = 0.0;
+};
+
+/// The frames of a strobe plan, written as DIR/frame_NNNN.pgm, DIR/images.json (format
+/// `mlprobe-tool-images/1`: what a real camera records: each image's position, the strobe,
+/// the image size and lens, the spindle's shift, and the camera's calibration as the virtual
+/// camera knows it) and DIR/truth.json (`mlprobe-tool-frames/1`: the camera, the tool's truth
+/// per edge, each frame's angle and drops). The tool's angle at the first image is
+/// `start_turn_rad` (unknown to the measurement). Returns the number of frames.
 int RenderToolSequence(const ToolDescription& tool,
                        const ToolCameraModel& camera,
                        const StrobePlan& plan,
                        double start_turn_rad,
                        unsigned seed,
-                       const std::string& dir);
+                       const std::string& dir,
+                       const SpindleShift& shift = {});
 
 /// Writes an 8-bit binary PGM (P5) atomically; throws ToolError.
 void WritePgm(const std::string& path, int width, int height, const std::vector<std::uint8_t>& px);

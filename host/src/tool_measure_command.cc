@@ -1,0 +1,448 @@
+// `mlp tool measure` and `mlp tool calibrate`: images (DIR/images.json and the images it
+// lists) measured against a tool description or a calibration pin; the camera's calibration
+// written and read; the measured tool into a LinuxCNC tool table (atomically, bounded, logged).
+
+#include "mlp/host/cli.h"
+#include "mlp/nc/tool_table.h"
+#include "mlp/probe_fw/json_fields.h"
+#include "mlp/toolcam/measure.h"
+#include "mlp/toolcam/pin_calibration.h"
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "tool_commands.h"
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace mlp::host::tool {
+namespace {
+
+namespace jf = probe_fw::json_fields;
+namespace fs = std::filesystem;
+
+constexpr int kExitRefused = 4;  // measured, but the tool table was not changed (the reason)
+// A pitch beyond this is corrected in the model but a person is told to realign the camera:
+// the far side of a D20 tool then leaves a 0.2 mm depth of field's middle by over 0.1 mm.
+constexpr double kPitchWarnDeg = 0.5;
+
+// The measurement stands; a change it would make was refused (the reason).
+class RefusedError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct Images {
+  toolcam::ToolCameraModel camera;
+  bool calibrated = false;  ///< the manifest holds the camera's calibration
+  toolcam::SpindleShift shift;
+  int positions = 0;
+  double blur_rad = 0;  ///< the tool's turn during a pulse
+  std::vector<int> position;
+  std::vector<std::vector<std::uint8_t>> pixels;
+};
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw UsageError("cannot read " + path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// DIR/images.json (`mlprobe-tool-images/1`) and the images it lists (any format OpenCV reads).
+Images ReadImages(const std::string& dir) {
+  const std::string manifest = (fs::path(dir) / "images.json").string();
+  const auto j =
+      jf::ParseDocument<UsageError>(ReadText(manifest), "mlprobe-tool-images/1", manifest);
+  const auto& c = jf::Object<UsageError>(j, "camera", "images.json");
+  Images im;
+  im.camera.width_px = jf::Integer<UsageError>(c, "width_px", "camera");
+  im.camera.height_px = jf::Integer<UsageError>(c, "height_px", "camera");
+  im.camera.distortion_k1 = jf::NumberOr<UsageError>(c, "distortion_k1", 0.0, "camera");
+  // The lens' scale (nominal, or calibrated with the rest); the axis and tip when calibrated.
+  im.camera.mm_per_px = jf::Number<UsageError>(c, "mm_per_px", "camera");
+  im.calibrated = c.contains("axis_u_px") && c.contains("tip_v_px");
+  if (im.calibrated) {
+    im.camera.axis_u_px = jf::Number<UsageError>(c, "axis_u_px", "camera");
+    im.camera.tip_v_px = jf::Number<UsageError>(c, "tip_v_px", "camera");
+    im.camera.roll_deg = jf::NumberOr<UsageError>(c, "roll_deg", 0.0, "camera");
+    im.camera.pitch_deg = jf::NumberOr<UsageError>(c, "pitch_deg", 0.0, "camera");
+  }
+  if (j.contains("spindle")) {
+    const auto& s = jf::Object<UsageError>(j, "spindle", "images.json");
+    im.shift.y_mm = jf::NumberOr<UsageError>(s, "y_mm", 0.0, "spindle");
+    im.shift.z_mm = jf::NumberOr<UsageError>(s, "z_mm", 0.0, "spindle");
+  }
+  const auto& strobe = jf::Object<UsageError>(j, "strobe", "images.json");
+  im.positions = jf::Integer<UsageError>(strobe, "positions", "strobe");
+  im.blur_rad = jf::NumberOr<UsageError>(strobe, "pulse_width_us", 0.0, "strobe") * 1e-6 *
+                jf::Number<UsageError>(strobe, "rpm", "strobe") / 60 * 2 * M_PI;
+  if (!j.contains("images") || !j.at("images").is_array())
+    throw UsageError("images.json: images must list the images");
+  for (const auto& e : j.at("images")) {
+    const std::string file = (fs::path(dir) / jf::Text<UsageError>(e, "file", "image")).string();
+    const cv::Mat g = cv::imread(file, cv::IMREAD_GRAYSCALE);
+    if (g.empty() || g.cols != im.camera.width_px || g.rows != im.camera.height_px)
+      throw UsageError("cannot read " + file + " as a " + std::to_string(im.camera.width_px) +
+                       " x " + std::to_string(im.camera.height_px) + " grey image");
+    im.pixels.emplace_back(g.begin<std::uint8_t>(), g.end<std::uint8_t>());
+    im.position.push_back(jf::Integer<UsageError>(e, "position", "image"));
+  }
+  return im;
+}
+
+toolcam::ToolDescription ReadTool(const std::string& path) {
+  try {
+    return toolcam::LoadTool(path);
+  } catch (const toolcam::ToolError& e) {
+    throw UsageError(e.what());
+  }
+}
+
+// Flags: "--name value" pairs and bare switches; throws UsageError for anything else.
+struct Flags {
+  std::map<std::string, std::string> values;
+  std::set<std::string> switches;
+  std::string Get(const std::string& k) const {
+    const auto it = values.find(k);
+    return it == values.end() ? "" : it->second;
+  }
+};
+
+Flags ParseFlags(const std::vector<std::string>& args,
+                 const std::set<std::string>& valued,
+                 const std::set<std::string>& bare) {
+  Flags f;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (bare.count(args[i])) {
+      f.switches.insert(args[i]);
+      continue;
+    }
+    if (!valued.count(args[i])) throw UsageError("unknown argument " + args[i]);
+    if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
+    f.values[args[i]] = args[i + 1];
+    ++i;
+  }
+  return f;
+}
+
+// The camera for the tool in these images: the calibration file's (with the spindle's shift
+// from the manifest) or else the manifest's own.
+toolcam::ToolCameraModel CameraFor(const Images& im,
+                                   const std::string& calibration_file,
+                                   double tool_length_mm,
+                                   std::vector<std::string>* warnings) {
+  if (calibration_file.empty()) {
+    if (!im.calibrated)
+      throw UsageError(
+          "images.json holds no camera calibration: give --camera (mlp tool calibrate)");
+    return im.camera;
+  }
+  toolcam::ToolCameraModel base = im.camera;
+  toolcam::PinCalibration cal;
+  try {
+    cal = toolcam::ParseCameraCalibration(ReadText(calibration_file), &base);
+  } catch (const toolcam::ToolError& e) {
+    throw UsageError(calibration_file + ": " + e.what());
+  }
+  if (base.width_px != im.camera.width_px || base.height_px != im.camera.height_px)
+    throw UsageError(calibration_file + " is for " + std::to_string(base.width_px) + " x " +
+                     std::to_string(base.height_px) + " images, not these");
+  if (std::abs(cal.pitch_deg) > kPitchWarnDeg) {
+    std::ostringstream w;
+    w << std::fixed << std::setprecision(3) << "the camera is pitched " << cal.pitch_deg
+      << " deg about y: measured through it, but realign the camera (under " << kPitchWarnDeg
+      << " deg)";
+    warnings->push_back(w.str());
+  }
+  return cal.CameraFor(base, tool_length_mm, im.shift.y_mm, im.shift.z_mm);
+}
+
+// Tool frame -> pixel, through the lens' distortion (the inverse of the measurement's mapping
+// to first order: enough to draw).
+cv::Point2d ToPixel(const geometry::Vec2& yh, const toolcam::ToolCameraModel& c) {
+  const geometry::Vec2 ideal = c.PixelFromTool(yh);
+  const double u = ideal.x(), v = ideal.y();
+  const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
+  const double rho2 = ((u - cx) * (u - cx) + (v - cy) * (v - cy)) / (cx * cx + cy * cy);
+  return {cx + (u - cx) * (1 + c.distortion_k1 * rho2),
+          cy + (v - cy) * (1 + c.distortion_k1 * rho2)};
+}
+
+// The principal image of every flute, side by side in rows of two: the fitted model in green,
+// contamination yellow, wear blue, build-up red, the figures on top.
+void WriteOverlay(const std::string& path,
+                  const std::vector<std::vector<std::uint8_t>>& images,
+                  const toolcam::ToolCameraModel& camera,
+                  const toolcam::ToolMeasurement& m) {
+  std::vector<cv::Mat> tiles;
+  const cv::Scalar kColour[] = {{0, 0, 0}, {0, 220, 255}, {255, 80, 0}, {0, 0, 255}};
+  for (size_t k = 0; k < m.flutes.size(); ++k) {
+    const auto& f = m.flutes[k];
+    const auto& px = images[static_cast<size_t>(f.frame)];
+    cv::Mat grey(camera.height_px, camera.width_px, CV_8UC1, const_cast<std::uint8_t*>(px.data()));
+    cv::Mat tile;
+    cv::cvtColor(grey, tile, cv::COLOR_GRAY2BGR);
+    std::vector<cv::Point> model;
+    for (const auto& p : f.model_yh) model.push_back(ToPixel(p, camera));
+    cv::polylines(tile, model, false, cv::Scalar(0, 200, 0), 1, cv::LINE_AA);
+    for (size_t i = 0; i < f.points_yh.size(); ++i)
+      if (f.point_kind[i] != toolcam::FluteMeasurement::kUsed)
+        cv::circle(tile, ToPixel(f.points_yh[i], camera), 2, kColour[f.point_kind[i]], cv::FILLED);
+    std::ostringstream t;
+    t.setf(std::ios::fixed);
+    t.precision(4);
+    t << "flute " << k + 1 << ": r " << f.radius_mm << " mm, tip " << std::showpos
+      << std::setprecision(2) << f.tip_h_mm * 1e3 << std::noshowpos << " um, " << f.findings.size()
+      << " finding(s)";
+    cv::putText(tile, t.str(), {12, 28}, cv::FONT_HERSHEY_SIMPLEX, 0.7, {0, 0, 160}, 2,
+                cv::LINE_AA);
+    tiles.push_back(tile);
+  }
+  if (tiles.size() % 2)
+    tiles.push_back(cv::Mat(tiles[0].size(), tiles[0].type(), cv::Scalar(255, 255, 255)));
+  std::vector<cv::Mat> rows;
+  for (size_t k = 0; k < tiles.size(); k += 2) {
+    cv::Mat row;
+    cv::hconcat(tiles[k], tiles[k + 1], row);
+    rows.push_back(row);
+  }
+  cv::Mat all;
+  cv::vconcat(rows, all);
+  if (!cv::imwrite(path, all)) throw UsageError("cannot write " + path);
+}
+
+nlohmann::json MeasurementJson(const toolcam::ToolDescription& tool,
+                               const toolcam::ToolMeasurement& m) {
+  nlohmann::json flutes = nlohmann::json::array();
+  for (const auto& f : m.flutes) {
+    nlohmann::json findings = nlohmann::json::array();
+    for (const auto& d : f.findings)
+      findings.push_back({{"kind", d.buildup ? "build-up" : "wear"},
+                          {"h_mm", d.h_mm},
+                          {"length_mm", d.length_mm},
+                          {"max_mm", d.max_mm},
+                          {"area_mm2", d.area_mm2}});
+    flutes.push_back({{"image", f.frame},
+                      {"angle_deg", f.angle_deg},
+                      {"radius_mm", f.radius_mm},
+                      {"tip_h_mm", f.tip_h_mm},
+                      {"rms_mm", f.rms_mm},
+                      {"points", f.points},
+                      {"removed", f.removed},
+                      {"findings", findings}});
+  }
+  return {{"tool", tool.id},
+          {"radius_mm", m.radius_mm},
+          {"diameter_mm", 2 * m.radius_mm},
+          {"length_mm", tool.length_mm - m.tip_h_mm},
+          {"runout_mm", m.runout_mm},
+          {"eccentricity_mm", m.eccentricity_mm},
+          {"flutes", flutes}};
+}
+
+struct TableChange {
+  int tool = 0;
+  double length_before = 0, length_after = 0, diameter_before = 0, diameter_after = 0;
+};
+
+// The measured length (Z) and diameter (D) into tool `number` of a LinuxCNC tool table: refused
+// (nothing written) beyond `max_change_mm` from the table's values or with wear / build-up
+// found unless accepted; whole or not at all; a line per change appended to
+// mlp-tool-changes.csv beside the table (before and after).
+TableChange UpdateToolTable(const std::string& file,
+                            int number,
+                            double max_change_mm,
+                            bool accept_findings,
+                            const toolcam::ToolDescription& tool,
+                            const toolcam::ToolMeasurement& m,
+                            const std::string& images) {
+  nc::ToolTable table;
+  try {
+    table = nc::LoadToolTable(file);
+  } catch (const nc::ToolTableError& e) {
+    throw UsageError(e.what());
+  }
+  const auto record = table.Find(number);
+  if (!record) throw UsageError("tool " + std::to_string(number) + " is not in " + file);
+  TableChange c{number, record->Get('Z'), tool.length_mm - m.tip_h_mm, record->Get('D'),
+                2 * m.radius_mm};
+  int findings = 0;
+  for (const auto& f : m.flutes) findings += static_cast<int>(f.findings.size());
+  std::ostringstream why;
+  why << std::fixed << std::setprecision(4);
+  if (findings > 0 && !accept_findings)
+    why << findings << " finding(s) of wear or build-up: look at the tool (--accept-findings "
+        << "writes it anyway)";
+  else if (std::abs(c.length_after - c.length_before) > max_change_mm ||
+           std::abs(c.diameter_after - c.diameter_before) > max_change_mm)
+    why << "the change is beyond " << max_change_mm << " mm (length " << c.length_before << " -> "
+        << c.length_after << ", diameter " << c.diameter_before << " -> " << c.diameter_after
+        << "): a wrong tool or a wrong number? (--max-change-mm)";
+  if (!why.str().empty()) throw RefusedError("tool table not changed: " + why.str());
+  try {
+    table.Set(number, 'Z', c.length_after);
+    table.Set(number, 'D', c.diameter_after);
+    nc::SaveToolTable(table, file);
+  } catch (const nc::ToolTableError& e) {
+    throw RefusedError(std::string("tool table not changed: ") + e.what());
+  }
+  const fs::path log = fs::path(file).parent_path() / "mlp-tool-changes.csv";
+  const bool fresh = !fs::exists(log);
+  std::ofstream out(log, std::ios::app);
+  if (fresh)
+    out << "time_utc,tool,tool_id,length_before_mm,length_after_mm,diameter_before_mm,diameter_"
+           "after_mm,images\n";
+  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  out << std::put_time(&utc, "%Y-%m-%dT%H:%M:%SZ") << "," << number << "," << tool.id << ","
+      << std::fixed << std::setprecision(5) << c.length_before << "," << c.length_after << ","
+      << c.diameter_before << "," << c.diameter_after << "," << images << "\n";
+  return c;
+}
+
+void PrintMeasurement(const toolcam::ToolDescription& tool,
+                      const toolcam::ToolMeasurement& m,
+                      std::ostream& out) {
+  out << std::fixed << std::setprecision(4) << "tool " << tool.id << ": diameter "
+      << 2 * m.radius_mm << " mm, length " << tool.length_mm - m.tip_h_mm << " mm, runout "
+      << std::setprecision(1) << m.runout_mm * 1e3 << " um\n";
+  for (size_t k = 0; k < m.flutes.size(); ++k) {
+    const auto& f = m.flutes[k];
+    out << std::setprecision(4) << "  flute " << k + 1 << ": radius " << f.radius_mm << " mm, tip "
+        << std::setprecision(2) << f.tip_h_mm * 1e3 << " um, rms " << f.rms_mm * 1e3 << " um\n";
+    for (const auto& d : f.findings)
+      out << std::setprecision(3) << "    " << (d.buildup ? "build-up" : "wear") << " at h "
+          << d.h_mm << " mm: " << std::setprecision(1) << d.max_mm * 1e3 << " um, "
+          << std::setprecision(3) << d.length_mm << " mm long\n";
+  }
+}
+
+void SaveReference(const std::string& path,
+                   const toolcam::ToolDescription& tool,
+                   const toolcam::ToolMeasurement& m) {
+  try {
+    nc::WriteFileAtomically(path, toolcam::ToJson(toolcam::ReferenceFrom(tool, m)));
+  } catch (const std::runtime_error& e) {
+    throw UsageError("cannot write " + path + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const Flags f =
+      ParseFlags(args,
+                 {"--images", "--frames", "--tool", "--camera", "--overlay", "--save-reference",
+                  "--tool-table", "--tool-number", "--max-change-mm"},
+                 {"--json", "--accept-findings"});
+  const std::string images = f.Get("--images").empty() ? f.Get("--frames") : f.Get("--images");
+  if (images.empty() || f.Get("--tool").empty())
+    throw UsageError("mlp tool measure needs --images (or --frames) and --tool");
+  if (f.Get("--tool-table").empty() != f.Get("--tool-number").empty())
+    throw UsageError("--tool-table and --tool-number go together");
+  const toolcam::ToolDescription tool = ReadTool(f.Get("--tool"));
+  const Images im = ReadImages(images);
+  std::vector<std::string> warnings;
+  const toolcam::ToolCameraModel camera =
+      CameraFor(im, f.Get("--camera"), tool.length_mm, &warnings);
+  for (const auto& w : warnings) err << "mlp tool: warning: " << w << "\n";
+  toolcam::MeasureOptions options;
+  options.blur_rad = im.blur_rad;
+  const toolcam::ToolMeasurement m =
+      toolcam::MeasureTool(im.pixels, im.position, im.positions, tool, camera, options);
+  if (!f.Get("--overlay").empty()) WriteOverlay(f.Get("--overlay"), im.pixels, camera, m);
+  if (!f.Get("--save-reference").empty()) SaveReference(f.Get("--save-reference"), tool, m);
+  nlohmann::json result = MeasurementJson(tool, m);
+  result["warnings"] = warnings;
+  int code = kExitOk;
+  if (!f.Get("--tool-table").empty()) {
+    const int number = static_cast<int>(Number("--tool-number", f.Get("--tool-number")));
+    const double max_change = f.Get("--max-change-mm").empty()
+                                  ? 0.5
+                                  : Number("--max-change-mm", f.Get("--max-change-mm"));
+    try {
+      const TableChange c =
+          UpdateToolTable(f.Get("--tool-table"), number, max_change,
+                          f.switches.count("--accept-findings") > 0, tool, m, images);
+      result["tool_table"] = {
+          {"file", f.Get("--tool-table")},           {"tool", c.tool},
+          {"length_before_mm", c.length_before},     {"length_after_mm", c.length_after},
+          {"diameter_before_mm", c.diameter_before}, {"diameter_after_mm", c.diameter_after}};
+    } catch (const RefusedError& e) {
+      result["tool_table"] = {{"file", f.Get("--tool-table")}, {"refused", e.what()}};
+      err << "mlp tool: " << e.what() << "\n";
+      code = kExitRefused;
+    }
+  }
+  if (f.switches.count("--json")) {
+    out << result.dump() << "\n";
+    return code;
+  }
+  PrintMeasurement(tool, m, out);
+  if (result.contains("tool_table") && !result["tool_table"].contains("refused"))
+    out << std::fixed << std::setprecision(4) << "  tool table " << f.Get("--tool-table") << ": T"
+        << result["tool_table"]["tool"].get<int>() << " Z "
+        << result["tool_table"]["length_before_mm"].get<double>() << " -> "
+        << result["tool_table"]["length_after_mm"].get<double>() << " mm, D "
+        << result["tool_table"]["diameter_before_mm"].get<double>() << " -> "
+        << result["tool_table"]["diameter_after_mm"].get<double>() << " mm\n";
+  if (!f.Get("--overlay").empty()) out << "  overlay: " << f.Get("--overlay") << "\n";
+  return code;
+}
+
+int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const Flags f = ParseFlags(args, {"--images", "--frames", "--pin", "--out"}, {"--json"});
+  const std::string images = f.Get("--images").empty() ? f.Get("--frames") : f.Get("--images");
+  if (images.empty() || f.Get("--pin").empty() || f.Get("--out").empty())
+    throw UsageError("mlp tool calibrate needs --images (or --frames), --pin and --out");
+  const toolcam::ToolDescription pin = ReadTool(f.Get("--pin"));
+  if (!pin.pin) throw UsageError(f.Get("--pin") + " is not a pin (\"kind\": \"pin\")");
+  const Images im = ReadImages(images);  // its mm_per_px: the lens' nominal scale
+  err << "mlp tool: calibrating from " << im.pixels.size() << " images of " << pin.id << "\n";
+  const toolcam::PinCalibration p =
+      toolcam::CalibrateWithPin(im.pixels, im.position, im.positions, im.camera, pin);
+  try {
+    nc::WriteFileAtomically(f.Get("--out"), toolcam::CameraCalibrationJson(p, im.camera, pin.id));
+  } catch (const std::runtime_error& e) {
+    throw UsageError("cannot write " + f.Get("--out") + ": " + e.what());
+  }
+  std::vector<std::string> advice;
+  if (p.pitch_measured && std::abs(p.pitch_deg) > kPitchWarnDeg)
+    advice.push_back(
+        "realign the camera about y (tools are measured through the pitch, but the "
+        "far side of a large tool leaves the depth of field)");
+  if (!p.pitch_measured) advice.push_back("the pin has no blades: the pitch was not measured");
+  if (f.switches.count("--json")) {
+    nlohmann::json j = nlohmann::json::parse(toolcam::CameraCalibrationJson(p, im.camera, pin.id));
+    j["file"] = f.Get("--out");
+    j["advice"] = advice;
+    out << j.dump() << "\n";
+    return kExitOk;
+  }
+  out << std::fixed << std::setprecision(7) << "camera calibration from " << pin.id << ": "
+      << p.mm_per_px << " mm/px\n"
+      << std::setprecision(4) << "  roll (about x) " << p.roll_deg << " deg, pitch (about y) "
+      << (p.pitch_measured ? std::to_string(p.pitch_deg) + " deg" : std::string("not measured"))
+      << "\n  spindle axis at the pin's end: column " << std::setprecision(3) << p.end_u_px
+      << ", row " << p.end_v_px << "; gauge point row " << p.gauge_v_px << "\n  flanks over "
+      << p.rows << " rows, width rms " << p.width_rms_px << " px";
+  if (p.pitch_measured)
+    out << "; blades in " << p.blade_images << " images, ends rms " << std::setprecision(2)
+        << p.blade_rms_um << " um";
+  out << "\n  written to " << f.Get("--out") << "\n";
+  for (const auto& a : advice) out << "  note: " << a << "\n";
+  return kExitOk;
+}
+
+}  // namespace mlp::host::tool
