@@ -1,0 +1,158 @@
+#pragma once
+/// @file The setter's signal processed as its DSP would (seed 003): one sample in, the state
+/// updated, memory fixed whatever the signal's length (rings of a few dips per tooth).
+///
+/// A turning tool: the signal (a 9-sample average) is followed through its extremes with a
+/// hysteresis; a max-min-max is a dip (its minimum to a sub-sample by a parabola, its width
+/// between the crossings of a fixed share). A dip counts only
+/// - on the teeth's schedule: at least two of the last 8 dips lie whole tooth periods before
+///   it (a coolant drop comes at random; the supporting dips are confirmed with it);
+/// - in its tooth's band: once a tooth has 3 extremes, a new one within `band_mm` of its line.
+/// Each tooth's minima, turned into intrusions through the calibration curve, lie on a line in
+/// time (the feed). Once a tooth has `fit_min` of them within `fit_tol_mm`, moving at the
+/// feed, its line says when it blocks `threshold_share` of the light; the leading tooth's
+/// crossing (the longest tooth entering, the last leaving) fires the trigger, as soon as it
+/// is due (at the predicted crossing, or at once if the line shows it already past; the
+/// trigger then says how far the axis moved since, to subtract from the position latched).
+/// The dips' widths grow as the tool goes in: with the tooth's tip crossing the width's
+/// intrusion x_w at turn angles +-phi, cos(phi) = (x_w - axis) / r falls linearly with the
+/// axis: its rate against the feed is the tooth's radius.
+///
+/// A tool not turning (a pin): the signal crossing the threshold share, its slope matching
+/// the calibration curve at the feed (a drop falls far faster) and held there `hold_s` (a drop
+/// passes).
+
+#include "mlp/setter/calibration_curve.h"
+
+#include <array>
+#include <limits>
+#include <string>
+
+namespace mlp::setter {
+
+struct ProcessorConfig {
+  double sample_rate_hz = 80000.0;
+  double rpm = 0.0;  ///< 0: not turning
+  int teeth = 1;
+  double feed_mm_min = 6.0;
+  bool entering = true;
+  CalibrationCurve curve;
+  double threshold_share = 0.5;    ///< of the clear light: the trigger's level
+  double width_share = 0.8;        ///< a dip's width between its crossings of this share
+  int fit_min = 4;                 ///< a tooth's extremes on its line before it can trigger
+  double fit_tol_mm = 0.001;       ///< their rms about the line
+  double band_mm = 0.002;          ///< a tooth's next extreme this close to its line
+  double gate_share = 0.04;        ///< of a tooth period: the schedule's window
+  double hysteresis_share = 0.02;  ///< smaller swings are noise
+  double hold_s = 0.003;           ///< not turning: beyond the threshold this long
+  void Validate() const;           ///< throws SetterError naming the field
+};
+
+struct Trigger {
+  long sample = -1;  ///< the sample that fired it (-1: not yet)
+  double time_s = 0.0;
+  double threshold_time_s = 0.0;  ///< when the threshold was crossed (the line's prediction)
+  /// How far the axis has moved past the edge when the trigger fired, along its motion [mm]:
+  /// the edge is the position the control latches minus this.
+  double edge_offset_mm = 0.0;
+  int tooth = -1;    ///< the tooth whose line triggered; -1 not turning
+  int extremes = 0;  ///< on its line
+};
+
+enum class Rejected { kOffSchedule, kOutsideBand, kTooSteep, kNotHeld };
+const char* ToString(Rejected r);
+
+struct Rejection {
+  long sample = 0;
+  Rejected reason = Rejected::kOffSchedule;
+};
+
+class BeamProcessor {
+ public:
+  static constexpr int kMaxTeeth = 16;
+  static constexpr int kRing = 8;        ///< dips kept for the schedule, extremes per tooth
+  static constexpr int kSmooth = 9;      ///< the running average's length
+  static constexpr int kSlopeMax = 512;  ///< samples in the pin's slope window (1 ms)
+
+  /// Throws SetterError for a configuration out of range.
+  explicit BeamProcessor(const ProcessorConfig& config);
+  /// One sample in; true when it fired the trigger.
+  bool Push(float volts);
+  bool Triggered() const { return trigger_.sample >= 0; }
+  const Trigger& trigger() const { return trigger_; }
+  /// The leading tooth's radius from its dips' widths [mm]; NaN before 3 widths.
+  double ToothRadiusMm() const;
+  /// How far tooth k's line lies behind the leading tooth's [mm] (its shorter reach); NaN
+  /// while either has fewer than 2 extremes.
+  double ToothLagMm(int tooth) const;
+  int LeadingTooth() const;
+  long Samples() const { return n_; }
+  int RejectionCount(Rejected r) const { return rejection_count_[static_cast<size_t>(r)]; }
+  /// The last 16 rejections, oldest first.
+  std::array<Rejection, 16> RecentRejections(int* count) const;
+
+ private:
+  struct Dip {
+    double t = 0, share = 1, width_s = -1;
+    bool confirmed = false;
+  };
+  struct Fit {
+    double a = 0, b = 0, rms = 0;  // x = a + b t
+    int inliers = 0;
+  };
+  // The last kRing points (t, x) of a series and the line through most of them.
+  struct Ring {
+    std::array<double, kRing> t{}, x{};
+    int n = 0, head = 0;
+    void Push(double tt, double xx);
+    double LastT() const { return t[static_cast<size_t>((head + kRing - 1) % kRing)]; }
+    bool Line(double tol, double speed, double dir, Fit* fit) const;
+  };
+  struct Tooth {
+    Ring extremes;  // (t, intrusion)
+    Ring widths;    // (t, cos of half the dip's angle), for the band of the next width
+    double st = 0, sy = 0, stt = 0, sty = 0;  // all the widths' regression sums
+    int width_count = 0;
+    double deep_t = -1e300;  // its last dip deeper than the curve's span
+  };
+
+  void Smoothed(double share, double t);  // the extreme follower
+  double RawCross(double level, bool falling, double smoothed_t) const;
+  void FinishDip();
+  void Schedule(const Dip& d);
+  void AddToTooth(const Dip& d);
+  void AddWidth(Tooth* th, const Dip& d);
+  void UpdatePrediction();
+  void PinStep(double share, double t);
+  void Reject(Rejected r, long sample);
+
+  ProcessorConfig cfg_;
+  double period_s_ = 0, x_threshold_ = 0, x_width_ = 0, feed_mm_s_ = 0, dir_ = 1;
+  long n_ = 0;
+  std::array<double, kSmooth> smooth_{};
+  double smooth_sum_ = 0;
+  // The extreme follower on the averaged signal.
+  bool seeking_min_ = false;
+  double max_ = -1, min_ = 2, min_t_ = 0, min_left_ = 0, min_right_ = 0, prev_ = 1, prev_t_ = 0;
+  bool min_right_set_ = false;
+  double down_t_ = -1, up_t_ = -1, pending_down_t_ = -1;
+  Dip dip_;
+  bool dip_open_ = false;
+  // The schedule's ring of dips and the teeth.
+  std::array<Dip, kRing> ring_{};
+  int ring_n_ = 0, ring_head_ = 0;
+  double t_ref_ = std::numeric_limits<double>::quiet_NaN();
+  std::array<Tooth, kMaxTeeth> teeth_{};
+  double due_t_ = std::numeric_limits<double>::quiet_NaN();
+  int due_tooth_ = -1, due_extremes_ = 0;
+  Trigger trigger_;
+  // Not turning: the slope window and the hold.
+  std::array<double, kSlopeMax> slope_ring_{};
+  int slope_n_ = 0;
+  double cross_t_ = -1;
+  std::array<int, 4> rejection_count_{};
+  std::array<Rejection, 16> recent_{};
+  int recent_n_ = 0;
+};
+
+}  // namespace mlp::setter

@@ -1,0 +1,39 @@
+#pragma once
+/// @file The setter's calibration curve (seed 003): the receiver's voltage against how far an
+/// edge reaches into the beam, from a pin driven in at a known feed, stored as a cubic
+/// (`mlprobe-beam-curve/1`). Intrusion x [mm] is counted from where the pin blocked half the
+/// light (the beam's centre) along the approach; shares are of the clear level.
+
+#include <string>
+#include <vector>
+
+namespace mlp::setter {
+
+struct CalibrationCurve {
+  double clear_v = 0.0;             ///< the receiver with the beam clear, during the calibration
+  double lo_mm = 0.0, hi_mm = 0.0;  ///< the fitted span of x (shares from 90 % down to 10 %)
+  double c[4] = {0, 0, 0, 0};       ///< share = c0 + c1 x + c2 x^2 + c3 x^3
+  double rms = 0.0;                 ///< of the fit, share of clear
+  int samples = 0;                  ///< fitted
+
+  double Share(double x_mm) const;
+  /// The intrusion at which the curve passes `share` (inside [lo, hi]; clamped to them).
+  double IntrusionAt(double share) const;
+  double ShareLo() const { return Share(hi_mm); }  ///< the deepest share fitted (10 %)
+  double ShareHi() const { return Share(lo_mm); }  ///< the shallowest (90 %)
+};
+
+/// The curve from a pin's signal: the clear level (the median of the first 20 ms entering,
+/// the last leaving), the half-light crossing, x = feed x time from it, a cubic through the
+/// samples between 90 % and 10 %. Throws SetterError when the pin never blocks half the beam,
+/// or the curve is not monotonic over its span.
+CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
+                                  double sample_rate_hz,
+                                  double feed_mm_min,
+                                  bool entering);
+
+std::string CurveJson(const CalibrationCurve& c);
+/// Throws SetterError naming the field.
+CalibrationCurve ParseCurve(const std::string& json_text);
+
+}  // namespace mlp::setter

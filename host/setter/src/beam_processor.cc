@@ -1,0 +1,367 @@
+#include "mlp/setter/beam_processor.h"
+
+#include "mlp/setter/beam_signal.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace mlp::setter {
+namespace {
+
+[[noreturn]] void Fail(const std::string& what) { throw SetterError("beam processor: " + what); }
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// The band of a dip's width about its tooth's line, in cos(half its angle): its noise is
+// about 1e-5 (half a microsecond on a crossing); a drop in the dip moves it by far more.
+constexpr double kWidthBand = 2e-4;
+
+// Where a straight line through (t0, y0) and (t1, y1) meets `level`.
+double Cross(double t0, double y0, double t1, double y1, double level) {
+  return y1 == y0 ? t1 : t0 + (t1 - t0) * (level - y0) / (y1 - y0);
+}
+
+}  // namespace
+
+const char* ToString(Rejected r) {
+  switch (r) {
+    case Rejected::kOffSchedule:
+      return "a dip off the teeth's schedule (a drop?)";
+    case Rejected::kOutsideBand:
+      return "an extreme outside its tooth's band";
+    case Rejected::kTooSteep:
+      return "a fall steeper than the calibration curve at the feed (a drop?)";
+    case Rejected::kNotHeld:
+      return "the light came back before the hold (a drop?)";
+  }
+  return "?";
+}
+
+void ProcessorConfig::Validate() const {
+  if (!(sample_rate_hz >= 10000 && sample_rate_hz <= 500000)) Fail("sample_rate_hz: 10..500 kHz");
+  if (!(rpm >= 0 && rpm <= 60000) || teeth < 1 || teeth > BeamProcessor::kMaxTeeth)
+    Fail("rpm 0..60000, teeth 1..16");
+  if (!(feed_mm_min > 0)) Fail("feed_mm_min must be > 0");
+  if (!(curve.clear_v > 0) || !(curve.hi_mm > curve.lo_mm)) Fail("no calibration curve");
+  if (!(threshold_share > curve.ShareLo() && threshold_share < curve.ShareHi()))
+    Fail("the threshold must lie on the calibration curve's span");
+  if (!(width_share > threshold_share && width_share < curve.ShareHi()))
+    Fail("the width's share must lie between the threshold and the curve's top");
+  if (fit_min < 3 || fit_min > BeamProcessor::kRing || !(fit_tol_mm > 0) || !(band_mm > 0) ||
+      !(gate_share > 0 && gate_share < 0.25) || !(hysteresis_share > 0) || !(hold_s > 0))
+    Fail("fit_min 3..8; tolerances, gate (under 1/4), hysteresis and hold > 0");
+}
+
+BeamProcessor::BeamProcessor(const ProcessorConfig& c) : cfg_(c) {
+  c.Validate();
+  if (c.rpm > 0) period_s_ = 60.0 / (c.rpm * c.teeth);
+  x_threshold_ = c.curve.IntrusionAt(c.threshold_share);
+  x_width_ = c.curve.IntrusionAt(c.width_share);
+  feed_mm_s_ = c.feed_mm_min / 60.0;
+  dir_ = c.entering ? 1.0 : -1.0;
+}
+
+bool BeamProcessor::Push(float volts) {
+  const double share = volts / cfg_.curve.clear_v;
+  const auto slot = static_cast<size_t>(n_ % kSmooth);
+  smooth_sum_ += share - smooth_[slot];
+  smooth_[slot] = share;
+  bool fired = false;
+  if (n_ >= kSmooth - 1) {
+    const double y = smooth_sum_ / kSmooth, t = (n_ - kSmooth / 2) / cfg_.sample_rate_hz;
+    if (cfg_.rpm > 0)
+      Smoothed(y, t);
+    else
+      PinStep(y, t);
+    prev_ = y, prev_t_ = t;
+  }
+  const double now = n_ / cfg_.sample_rate_hz;
+  if (!Triggered() && cfg_.rpm > 0 && !std::isnan(due_t_) && now >= due_t_) {
+    trigger_ = {n_, now, due_t_, dir_ * feed_mm_s_ * (now - due_t_), due_tooth_, due_extremes_};
+    fired = true;
+  }
+  if (!Triggered() && cfg_.rpm == 0 && cross_t_ >= 0 && now - cross_t_ >= cfg_.hold_s) {
+    trigger_ = {n_, now, cross_t_, dir_ * feed_mm_s_ * (now - cross_t_), -1, 0};
+    fired = true;
+  }
+  ++n_;
+  return fired;
+}
+
+// The extremes of the averaged share with a hysteresis: max, min (a dip opens), max (it
+// closes); the width's crossings on the way down and up.
+void BeamProcessor::Smoothed(double y, double t) {
+  const double h = cfg_.hysteresis_share, w = cfg_.width_share;
+  const bool down = prev_ >= w && y < w, up = prev_ < w && y >= w;
+  if (down) {
+    const double tc = RawCross(w, true, Cross(prev_t_, prev_, t, y, w));
+    if (dip_open_)
+      pending_down_t_ = tc;  // the next dip's, while this one waits for its second max
+    else
+      down_t_ = tc;
+  }
+  if (up && dip_open_ && up_t_ < 0) up_t_ = RawCross(w, false, Cross(prev_t_, prev_, t, y, w));
+  if (!seeking_min_) {
+    max_ = std::max(max_, y);
+    if (y < max_ - h) {
+      if (dip_open_) FinishDip();
+      seeking_min_ = true;
+      min_ = y, min_t_ = t, min_left_ = prev_, min_right_set_ = false;
+    }
+    return;
+  }
+  if (y < min_) {
+    min_ = y, min_t_ = t, min_left_ = prev_, min_right_set_ = false;
+  } else if (!min_right_set_) {
+    min_right_ = y, min_right_set_ = true;
+  }
+  if (y > min_ + h && min_right_set_) {
+    // The minimum between samples: a parabola through it and its neighbours.
+    const double den = min_left_ - 2 * min_ + min_right_;
+    const double off = den > 0 ? std::clamp(0.5 * (min_left_ - min_right_) / den, -0.5, 0.5) : 0;
+    dip_ = {min_t_ + off / cfg_.sample_rate_hz, min_ - 0.25 * (min_left_ - min_right_) * off, -1,
+            false};
+    dip_open_ = true, up_t_ = -1, pending_down_t_ = -1;
+    seeking_min_ = false, max_ = y;
+  }
+}
+
+// The width's crossings are found on the average (one per side, whatever the noise) but timed
+// on the samples themselves, the pair straddling the level nearest it: the average's crossing
+// moves with the dip's curvature, which changes as the tool goes in (it took 0.4 % off the
+// radius from the widths).
+double BeamProcessor::RawCross(double level, bool falling, double smoothed_t) const {
+  double best = smoothed_t, best_gap = 1e300;
+  for (long j = n_ - kSmooth + 1; j < n_; ++j) {
+    const double a = smooth_[static_cast<size_t>(j % kSmooth)],
+                 b = smooth_[static_cast<size_t>((j + 1) % kSmooth)];
+    if (falling ? !(a >= level && b < level) : !(a < level && b >= level)) continue;
+    const double tc = (j + (a - level) / (a - b)) / cfg_.sample_rate_hz;
+    if (std::abs(tc - smoothed_t) < best_gap) best = tc, best_gap = std::abs(tc - smoothed_t);
+  }
+  return best;
+}
+
+void BeamProcessor::FinishDip() {
+  if (down_t_ >= 0 && up_t_ > down_t_ && dip_.share < cfg_.width_share)
+    dip_.width_s = up_t_ - down_t_;
+  dip_open_ = false;
+  down_t_ = pending_down_t_, up_t_ = -1, pending_down_t_ = -1;
+  Schedule(dip_);
+}
+
+// A dip counts when at least two of the last dips lie whole tooth periods before it; those
+// are confirmed with it. A dip that leaves the ring unconfirmed was not the tool's.
+void BeamProcessor::Schedule(const Dip& d) {
+  std::array<bool, kRing> supports{};
+  int support = 0;
+  for (int i = 0; i < ring_n_; ++i) {
+    const Dip& r = ring_[static_cast<size_t>((ring_head_ + i) % kRing)];
+    const double k = (d.t - r.t) / period_s_, m = std::round(k);
+    if (m >= 1 && std::abs(k - m) < cfg_.gate_share)
+      supports[static_cast<size_t>(i)] = true, ++support;
+  }
+  Dip in = d;
+  if (support >= 2) {
+    for (int i = 0; i < ring_n_; ++i) {  // oldest first
+      Dip& r = ring_[static_cast<size_t>((ring_head_ + i) % kRing)];
+      if (supports[static_cast<size_t>(i)] && !r.confirmed) r.confirmed = true, AddToTooth(r);
+    }
+    in.confirmed = true;
+    AddToTooth(in);
+  }
+  if (ring_n_ == kRing) {
+    const Dip& out = ring_[static_cast<size_t>(ring_head_)];
+    if (!out.confirmed) {
+      const long at = static_cast<long>(std::lround(out.t * cfg_.sample_rate_hz));
+      Reject(Rejected::kOffSchedule, at);
+    }
+    ring_[static_cast<size_t>(ring_head_)] = in;
+    ring_head_ = (ring_head_ + 1) % kRing;
+  } else {
+    ring_[static_cast<size_t>((ring_head_ + ring_n_) % kRing)] = in;
+    ++ring_n_;
+  }
+}
+
+// The line through most of the tooth's extremes (every pair's line, its points within `tol`,
+// the best then fitted by least squares): a drop that came in on the schedule is outvoted.
+// `speed` > 0: only lines moving at +-50 % of it along `dir`.
+void BeamProcessor::Ring::Push(double tt, double xx) {
+  t[static_cast<size_t>(head)] = tt, x[static_cast<size_t>(head)] = xx;
+  head = (head + 1) % kRing, n = std::min(n + 1, kRing);
+}
+
+bool BeamProcessor::Ring::Line(double tol, double speed, double dir, Fit* fit) const {
+  if (n < 2) return false;
+  unsigned best = 0;
+  int best_count = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      const double ti = t[static_cast<size_t>(i)], tj = t[static_cast<size_t>(j)];
+      if (ti == tj) continue;
+      const double b = (x[static_cast<size_t>(j)] - x[static_cast<size_t>(i)]) / (tj - ti);
+      if (speed > 0 && !(b * dir > 0.5 * speed && b * dir < 1.5 * speed)) continue;
+      const double a = x[static_cast<size_t>(i)] - b * ti;
+      unsigned mask = 0;
+      int count = 0;
+      for (int k = 0; k < n; ++k)
+        if (std::abs(x[static_cast<size_t>(k)] - (a + b * t[static_cast<size_t>(k)])) <= tol)
+          mask |= 1u << k, ++count;
+      if (count > best_count) best = mask, best_count = count;
+    }
+  if (best_count < 2) return false;
+  double mt = 0, mx = 0;
+  for (int k = 0; k < n; ++k)
+    if (best >> k & 1u) mt += t[static_cast<size_t>(k)], mx += x[static_cast<size_t>(k)];
+  mt /= best_count, mx /= best_count;
+  double stt_ = 0, stx = 0;
+  for (int k = 0; k < n; ++k)
+    if (best >> k & 1u) {
+      const double dt = t[static_cast<size_t>(k)] - mt;
+      stt_ += dt * dt, stx += dt * (x[static_cast<size_t>(k)] - mx);
+    }
+  if (!(stt_ > 0)) return false;
+  fit->b = stx / stt_, fit->a = mx - fit->b * mt, fit->inliers = best_count;
+  double ss = 0;
+  for (int k = 0; k < n; ++k)
+    if (best >> k & 1u)
+      ss += std::pow(x[static_cast<size_t>(k)] - (fit->a + fit->b * t[static_cast<size_t>(k)]), 2);
+  fit->rms = std::sqrt(ss / best_count);
+  return true;
+}
+
+void BeamProcessor::AddToTooth(const Dip& d) {
+  if (std::isnan(t_ref_)) t_ref_ = d.t;
+  const long turns = std::lround((d.t - t_ref_) / period_s_);
+  const int k = static_cast<int>(((turns % cfg_.teeth) + cfg_.teeth) % cfg_.teeth);
+  Tooth& th = teeth_[static_cast<size_t>(k)];
+  const CalibrationCurve& c = cfg_.curve;
+  const long at = std::lround(d.t * cfg_.sample_rate_hz);
+  if (d.share < c.ShareLo()) th.deep_t = d.t;  // in further than the curve reaches
+  if (d.share >= c.ShareLo() && d.share <= c.ShareHi()) {
+    const double x = c.IntrusionAt(d.share);
+    Fit f;
+    if (th.extremes.n >= 3 && th.extremes.Line(cfg_.band_mm, feed_mm_s_, dir_, &f) &&
+        f.inliers >= 3 && std::abs(x - (f.a + f.b * d.t)) > cfg_.band_mm) {
+      Reject(Rejected::kOutsideBand, at);
+      return;
+    }
+    th.extremes.Push(d.t, x);
+  }
+  if (d.width_s > 0 && d.width_s < 0.5 * period_s_) AddWidth(&th, d);
+  UpdatePrediction();
+}
+
+// y = cos(half the dip's angle) = (x_w - axis) / r falls with the axis at the feed over r.
+// A width goes into the regression's sums when it leaves the tooth's ring of the last widths
+// as one of the ring's line's, within kWidthBand: a dip a drop crossed, or whose fall a drop
+// began, is left out.
+void BeamProcessor::AddWidth(Tooth* th, const Dip& d) {
+  const double y = std::cos(M_PI * cfg_.rpm / 60 * d.width_s), tt = d.t - t_ref_;
+  Ring& r = th->widths;
+  Fit f;
+  if (r.n == kRing && r.Line(kWidthBand, 0, dir_, &f) && f.inliers >= 4) {
+    const double t0 = r.t[static_cast<size_t>(r.head)], y0 = r.x[static_cast<size_t>(r.head)];
+    if (std::abs(y0 - (f.a + f.b * t0)) <= kWidthBand)
+      th->st += t0, th->sy += y0, th->stt += t0 * t0, th->sty += t0 * y0, ++th->width_count;
+  }
+  r.Push(tt, y);
+}
+
+// The leading tooth (the furthest in now, among those with a line at the feed through two
+// extremes or more) triggers once its line holds `fit_min` extremes within `fit_tol_mm`: when
+// it crosses the threshold. A tooth ahead with too few extremes yet (drops spoiled its dips)
+// holds the trigger back rather than let a shorter tooth fire it.
+void BeamProcessor::UpdatePrediction() {
+  const double now = n_ / cfg_.sample_rate_hz;
+  double best = -1e300;
+  Fit lead;
+  int lead_k = -1;
+  for (int k = 0; k < cfg_.teeth; ++k) {
+    Fit f;
+    if (!teeth_[static_cast<size_t>(k)].extremes.Line(cfg_.band_mm, feed_mm_s_, dir_, &f)) continue;
+    if (f.a + f.b * now > best) best = f.a + f.b * now, lead = f, lead_k = k;
+  }
+  due_t_ = kNaN, due_tooth_ = lead_k;
+  if (lead_k < 0 || lead.inliers < cfg_.fit_min || lead.rms > cfg_.fit_tol_mm) return;
+  // A tooth that went in further than the curve reaches within the turns a line needs is
+  // ahead of, or not yet comparable with, the leader (leaving the beam, the longest tooth
+  // comes onto the curve last): wait for its line.
+  for (int k = 0; k < cfg_.teeth; ++k)
+    if (k != lead_k &&
+        now - teeth_[static_cast<size_t>(k)].deep_t < (cfg_.fit_min + 1) * cfg_.teeth * period_s_)
+      return;
+  due_t_ = (x_threshold_ - lead.a) / lead.b, due_extremes_ = lead.inliers;
+}
+
+// Not turning: the threshold's crossing, its slope against the curve's at the feed, the hold.
+void BeamProcessor::PinStep(double y, double t) {
+  const int m = std::min(kSlopeMax, static_cast<int>(0.001 * cfg_.sample_rate_hz));
+  const double then = slope_ring_[static_cast<size_t>(slope_n_ % m)];
+  slope_ring_[static_cast<size_t>(slope_n_ % m)] = y;
+  ++slope_n_;
+  const double th = cfg_.threshold_share;
+  const bool beyond = cfg_.entering ? y < th : y >= th;
+  if (cross_t_ >= 0 && !Triggered() && !beyond) {
+    Reject(Rejected::kNotHeld, n_);
+    cross_t_ = -1;
+  }
+  const bool was_beyond = cfg_.entering ? prev_ < th : prev_ >= th;
+  if (cross_t_ >= 0 || Triggered() || !beyond || was_beyond || slope_n_ <= m) return;
+  const CalibrationCurve& c = cfg_.curve;
+  const double x = x_threshold_;
+  const double expected = (c.c[1] + x * (2 * c.c[2] + 3 * x * c.c[3])) * dir_ * feed_mm_s_;
+  const double measured = (y - then) * cfg_.sample_rate_hz / m;
+  if (std::abs(measured) > 3 * std::abs(expected) + 2 * cfg_.hysteresis_share * 1000 / m) {
+    Reject(Rejected::kTooSteep, n_);
+    return;
+  }
+  cross_t_ = Cross(prev_t_, prev_, t, y, th);
+}
+
+void BeamProcessor::Reject(Rejected r, long sample) {
+  ++rejection_count_[static_cast<size_t>(r)];
+  recent_[static_cast<size_t>(recent_n_ % 16)] = {sample, r};
+  ++recent_n_;
+}
+
+std::array<Rejection, 16> BeamProcessor::RecentRejections(int* count) const {
+  std::array<Rejection, 16> out{};
+  *count = std::min(recent_n_, 16);
+  for (int i = 0; i < *count; ++i)
+    out[static_cast<size_t>(i)] = recent_[static_cast<size_t>((recent_n_ - *count + i) % 16)];
+  return out;
+}
+
+int BeamProcessor::LeadingTooth() const { return due_tooth_; }
+
+double BeamProcessor::ToothRadiusMm() const {
+  if (due_tooth_ < 0) return kNaN;
+  const Tooth& th = teeth_[static_cast<size_t>(due_tooth_)];
+  double st = th.st, sy = th.sy, stt = th.stt, sty = th.sty, n = th.width_count;
+  Fit f;  // and the widths still in the ring, on its line
+  if (th.widths.Line(kWidthBand, 0, dir_, &f))
+    for (int i = 0; i < th.widths.n; ++i) {
+      const double t = th.widths.t[static_cast<size_t>(i)], y = th.widths.x[static_cast<size_t>(i)];
+      if (std::abs(y - (f.a + f.b * t)) > kWidthBand) continue;
+      st += t, sy += y, stt += t * t, sty += t * y, ++n;
+    }
+  const double den = n * stt - st * st;
+  if (n < 3 || !(den > 0)) return kNaN;
+  const double slope = (n * sty - st * sy) / den;  // of cos(half the dip's angle)
+  return slope != 0 ? -dir_ * feed_mm_s_ / slope : kNaN;
+}
+
+double BeamProcessor::ToothLagMm(int k) const {
+  if (due_tooth_ < 0 || k < 0 || k >= cfg_.teeth) return kNaN;
+  const Tooth& lead = teeth_[static_cast<size_t>(due_tooth_)];
+  const Tooth& other = teeth_[static_cast<size_t>(k)];
+  Fit f0, f1;
+  if (!lead.extremes.Line(cfg_.band_mm, feed_mm_s_, dir_, &f0) ||
+      !other.extremes.Line(cfg_.band_mm, feed_mm_s_, dir_, &f1))
+    return kNaN;
+  const double t = lead.extremes.LastT();
+  return (f0.a + f0.b * t) - (f1.a + f1.b * t);
+}
+
+}  // namespace mlp::setter

@@ -1,0 +1,134 @@
+#include "mlp/setter/calibration_curve.h"
+
+#include "mlp/probe_fw/json_fields.h"
+#include "mlp/setter/beam_signal.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+#include <nlohmann/json.hpp>
+
+namespace mlp::setter {
+namespace {
+
+[[noreturn]] void Fail(const std::string& what) { throw SetterError("calibration curve: " + what); }
+
+constexpr double kShareHi = 0.9, kShareLo = 0.1;  // the span fitted
+
+double Median(std::vector<float> v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+double CalibrationCurve::Share(double x) const { return c[0] + x * (c[1] + x * (c[2] + x * c[3])); }
+
+double CalibrationCurve::IntrusionAt(double share) const {
+  // The curve falls over [lo, hi]: bisection, then two Newton steps.
+  if (share >= Share(lo_mm)) return lo_mm;
+  if (share <= Share(hi_mm)) return hi_mm;
+  double a = lo_mm, b = hi_mm;
+  for (int i = 0; i < 40; ++i) {
+    const double m = (a + b) / 2;
+    (Share(m) > share ? a : b) = m;
+  }
+  double x = (a + b) / 2;
+  for (int i = 0; i < 2; ++i) {
+    const double slope = c[1] + x * (2 * c[2] + 3 * x * c[3]);
+    if (slope < 0) x = std::clamp(x - (Share(x) - share) / slope, lo_mm, hi_mm);
+  }
+  return x;
+}
+
+CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
+                                  double fs,
+                                  double feed_mm_min,
+                                  bool entering) {
+  const auto clear_n = static_cast<size_t>(0.02 * fs);
+  if (!(fs > 0) || !(feed_mm_min > 0) || volts.size() < 4 * clear_n)
+    Fail("needs a sample rate, a feed and at least 80 ms of signal");
+  CalibrationCurve cur;
+  cur.clear_v = entering ? Median({volts.begin(), volts.begin() + static_cast<long>(clear_n)})
+                         : Median({volts.end() - static_cast<long>(clear_n), volts.end()});
+  if (!(cur.clear_v > 0)) Fail("the beam is dark before the pin");
+  // Shares in time order as the pin goes in (a leaving pin read backwards).
+  std::vector<double> share(volts.size());
+  for (size_t i = 0; i < volts.size(); ++i)
+    share[entering ? i : volts.size() - 1 - i] = volts[i] / cur.clear_v;
+  // A 9-sample average against the noise: the half-light crossing on it (interpolated), and
+  // the transition round it (from 95 % to 5 %) as the span that is fitted: a drop elsewhere
+  // stays out.
+  std::vector<double> avg(share.size(), 1.0);
+  for (size_t i = 4; i + 4 < share.size(); ++i) {
+    double sum = 0;
+    for (size_t k = i - 4; k <= i + 4; ++k) sum += share[k];
+    avg[i] = sum / 9;
+  }
+  size_t cross = 0;
+  while (cross + 1 < avg.size() && !(avg[cross] >= 0.5 && avg[cross + 1] < 0.5)) ++cross;
+  if (cross + 1 >= avg.size()) Fail("the pin never blocked half the beam");
+  const double t50 =
+      static_cast<double>(cross) + (avg[cross] - 0.5) / (avg[cross] - avg[cross + 1]);
+  size_t first = cross, last = cross;
+  while (first > 0 && avg[first - 1] < 0.95) --first;
+  while (last + 1 < avg.size() && avg[last + 1] > 0.05) ++last;
+  const double mm_per_sample = feed_mm_min / 60 / fs;
+  std::vector<std::pair<double, double>> pts;  // (x, share)
+  for (size_t i = first; i <= last; ++i)
+    if (share[i] <= kShareHi && share[i] >= kShareLo)
+      pts.emplace_back((static_cast<double>(i) - t50) * mm_per_sample, share[i]);
+  if (pts.size() < 50) Fail("fewer than 50 samples between 90 % and 10 %: feed too fast");
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(pts.size()), 4);
+  Eigen::VectorXd b(static_cast<Eigen::Index>(pts.size()));
+  double lo = 1e300, hi = -1e300;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const double x = pts[i].first;
+    a.row(static_cast<Eigen::Index>(i)) << 1, x, x * x, x * x * x;
+    b(static_cast<Eigen::Index>(i)) = pts[i].second;
+    lo = std::min(lo, x), hi = std::max(hi, x);
+  }
+  const Eigen::Vector4d coef = a.colPivHouseholderQr().solve(b);
+  for (int k = 0; k < 4; ++k) cur.c[k] = coef(k);
+  cur.rms = std::sqrt((a * coef - b).squaredNorm() / static_cast<double>(pts.size()));
+  cur.samples = static_cast<int>(pts.size());
+  // The span: from the first 90 % to the last 10 % crossing of the fitted curve.
+  cur.lo_mm = lo, cur.hi_mm = hi;
+  for (double x = lo; x <= hi; x += (hi - lo) / 200)
+    if (cur.c[1] + x * (2 * cur.c[2] + 3 * x * cur.c[3]) >= 0)
+      Fail("the fitted curve is not falling over its span (a drop during the calibration?)");
+  return cur;
+}
+
+std::string CurveJson(const CalibrationCurve& c) {
+  const nlohmann::ordered_json j = {{"format", "mlprobe-beam-curve/1"},
+                                    {"clear_v", c.clear_v},
+                                    {"lo_mm", c.lo_mm},
+                                    {"hi_mm", c.hi_mm},
+                                    {"cubic", {c.c[0], c.c[1], c.c[2], c.c[3]}},
+                                    {"rms_share", c.rms},
+                                    {"samples", c.samples}};
+  return j.dump(1) + "\n";
+}
+
+CalibrationCurve ParseCurve(const std::string& text) {
+  namespace jf = probe_fw::json_fields;
+  const auto j = jf::ParseDocument<SetterError>(text, "mlprobe-beam-curve/1", "curve");
+  CalibrationCurve c;
+  c.clear_v = jf::Number<SetterError>(j, "clear_v", "curve");
+  c.lo_mm = jf::Number<SetterError>(j, "lo_mm", "curve");
+  c.hi_mm = jf::Number<SetterError>(j, "hi_mm", "curve");
+  if (!j.contains("cubic") || !j.at("cubic").is_array() || j.at("cubic").size() != 4)
+    throw SetterError("curve: cubic must hold 4 numbers");
+  for (int k = 0; k < 4; ++k) {
+    if (!j.at("cubic")[static_cast<size_t>(k)].is_number())
+      throw SetterError("curve: cubic must hold 4 numbers");
+    c.c[k] = j.at("cubic")[static_cast<size_t>(k)].get<double>();
+  }
+  c.rms = jf::NumberOr<SetterError>(j, "rms_share", 0.0, "curve");
+  if (!(c.clear_v > 0) || !(c.hi_mm > c.lo_mm)) throw SetterError("curve: clear_v > 0, hi > lo");
+  return c;
+}
+
+}  // namespace mlp::setter

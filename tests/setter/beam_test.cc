@@ -1,0 +1,197 @@
+// The tool setter's beam signal (seed 003) against the generator's truth: the calibration
+// curve from a pin, the trigger's edge position over seeded runs (the seed's 1500 rpm, 6
+// mm/min: 4 um a turn), the long tooth of a two-tooth tool, no trigger from drops alone,
+// leaving the beam, a pin not turning, the diameter from the dips' widths, bad settings.
+
+#include "mlp/setter/beam_processor.h"
+#include "mlp/setter/beam_signal.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+namespace mlp::setter {
+namespace {
+
+constexpr double kFeedPerRevMm = 0.004;  // 6 mm/min at 1500 rpm: what repeatability must beat
+constexpr double kEdgeTolMm = 0.001;     // each run's edge against the truth
+constexpr double kLagTolMm = 0.001;      // the short tooth's lag against its true 10 um
+constexpr double kRadiusTolMm = 0.015;   // the tooth's radius from the widths (0.5 %)
+
+Motion Approach(double gap_mm, double duration_s, bool entering = true) {
+  Motion m;
+  m.feed_mm_min = 6.0, m.gap_mm = gap_mm, m.duration_s = duration_s, m.entering = entering;
+  return m;
+}
+
+// The curve from a D6 pin driven in from 5 beam radii out, no drops (a calibration is taken
+// with the coolant off).
+CalibrationCurve PinCurve() {
+  ToolInBeam pin;
+  pin.tooth_radius_mm = {3.0};
+  const BeamSignal s = GenerateSignal(BeamModel(), pin, Approach(0.15, 2.5), 1);
+  return CalibrateFromPin(s.volts, s.sample_rate_hz, 6.0, true);
+}
+
+ProcessorConfig Config(const CalibrationCurve& curve, double rpm, int teeth, bool entering) {
+  ProcessorConfig c;
+  c.rpm = rpm, c.teeth = teeth, c.feed_mm_min = 6.0, c.entering = entering, c.curve = curve;
+  return c;
+}
+
+struct Outcome {
+  bool triggered = false;
+  double edge_error_mm = 0, radius_mm = 0, lag_mm = 0;
+  int rejections = 0;
+};
+
+Outcome Process(const BeamSignal& s, const ProcessorConfig& c) {
+  BeamProcessor p(c);
+  for (float v : s.volts) p.Push(v);
+  Outcome r;
+  r.triggered = p.Triggered();
+  r.rejections = p.RejectionCount(Rejected::kOffSchedule) +
+                 p.RejectionCount(Rejected::kOutsideBand) + p.RejectionCount(Rejected::kTooSteep) +
+                 p.RejectionCount(Rejected::kNotHeld);
+  if (!r.triggered) return r;
+  const Trigger& t = p.trigger();
+  // What the control latches at the skip, less the offset: the edge; against the truth.
+  r.edge_error_mm = s.AxisAt(static_cast<double>(t.sample)) - t.edge_offset_mm - s.axis_at_edge_mm;
+  r.radius_mm = p.ToothRadiusMm();
+  for (int k = 0; k < c.teeth; ++k)
+    if (k != p.LeadingTooth()) r.lag_mm = p.ToothLagMm(k);
+  return r;
+}
+
+TEST(BeamSignal, FollowsTheKnifeEdgeAndTheTeeth) {
+  BeamModel b;
+  b.rise = b.ripple = 0;
+  EXPECT_NEAR(Transmission(b, 0.0), 0.5, 1e-12);
+  EXPECT_NEAR(Transmission(b, -0.2), 1.0, 1e-9);
+  EXPECT_NEAR(Transmission(b, 0.2), 0.0, 1e-9);
+  EXPECT_GT(Transmission(BeamModel(), -0.045), 1.005);  // the rise before blocking
+  ToolInBeam tool;
+  tool.rpm = 1500, tool.tooth_radius_mm = {3.0, 3.01};
+  EXPECT_NEAR(tool.Reach(0.0), 3.0, 1e-12);         // tooth 0 along the approach
+  EXPECT_NEAR(tool.Reach(0.02), 3.01, 1e-12);       // half a turn later: the long tooth
+  EXPECT_NEAR(tool.Reach(0.01), 3.0 * 0.6, 1e-12);  // a quarter turn: the core between them
+  ToolInBeam none;
+  EXPECT_THROW(GenerateSignal(BeamModel(), none, Approach(0.1, 1), 1), SetterError);
+}
+
+TEST(BeamCalibration, ThePinGivesACubicThroughTheBeam) {
+  const CalibrationCurve c = PinCurve();
+  std::printf("curve: clear %.4f V, x %.4f..%.4f mm, rms %.4f, x(50 %%) %+.3f um\n", c.clear_v,
+              c.lo_mm, c.hi_mm, c.rms, c.IntrusionAt(0.5) * 1e3);
+  EXPECT_NEAR(c.clear_v, 4.0, 0.01);
+  EXPECT_NEAR(c.Share(0.0), 0.5, 0.01);
+  EXPECT_LT(c.rms, 0.006);  // the cubic through a Gaussian beam's edge, 90 % to 10 %
+  EXPECT_NEAR(c.hi_mm - c.lo_mm, 0.038, 0.004);  // +-0.64 beam radii
+  for (double share : {0.2, 0.5, 0.8}) EXPECT_NEAR(c.Share(c.IntrusionAt(share)), share, 1e-9);
+  const CalibrationCurve back = ParseCurve(CurveJson(c));
+  EXPECT_NEAR(back.Share(0.01), c.Share(0.01), 1e-12);
+  std::vector<float> dark(10000, 0.0f);
+  EXPECT_THROW(CalibrateFromPin(dark, 80000, 6, true), SetterError);
+}
+
+// The seed's case: 1500 rpm, 6 mm/min, 4 um a turn; a two-tooth D6 whose second tooth reaches
+// 10 um further; noise and 10 coolant drops a second; 30 runs, each its own start angle.
+TEST(BeamProcessor, TheEdgeRepeatsFarBetterThanTheFeedPerTurn) {
+  const CalibrationCurve curve = PinCurve();
+  BeamModel beam;
+  beam.drops_per_s = 10;
+  double lo = 1e300, hi = -1e300, sum = 0, sum2 = 0, r_lo = 1e300, r_hi = -1e300;
+  int runs = 0;
+  for (unsigned seed = 1; seed <= 30; ++seed) {
+    ToolInBeam tool;
+    tool.rpm = 1500, tool.tooth_radius_mm = {3.0, 3.01}, tool.start_turn_rad = 0.37 * seed;
+    const BeamSignal s = GenerateSignal(beam, tool, Approach(0.06, 1.2), 100 + seed);
+    const Outcome r = Process(s, Config(curve, 1500, 2, true));
+    ASSERT_TRUE(r.triggered) << "seed " << seed;
+    EXPECT_NEAR(r.edge_error_mm, 0.0, kEdgeTolMm) << "seed " << seed;  // the long tooth's
+    EXPECT_NEAR(r.lag_mm, 0.010, kLagTolMm) << "seed " << seed;
+    EXPECT_NEAR(r.radius_mm, 3.01, kRadiusTolMm) << "seed " << seed;
+    lo = std::min(lo, r.edge_error_mm), hi = std::max(hi, r.edge_error_mm);
+    r_lo = std::min(r_lo, r.radius_mm), r_hi = std::max(r_hi, r.radius_mm);
+    sum += r.edge_error_mm, sum2 += r.edge_error_mm * r.edge_error_mm, ++runs;
+  }
+  const double mean = sum / runs, sd = std::sqrt(sum2 / runs - mean * mean);
+  std::printf(
+      "30 runs: edge error mean %+.3f um, sd %.3f um, range %.3f um (feed a turn 4 um); long "
+      "tooth's radius from the widths %.4f..%.4f mm (true 3.0100)\n",
+      mean * 1e3, sd * 1e3, (hi - lo) * 1e3, r_lo, r_hi);
+  EXPECT_LT(hi - lo, kFeedPerRevMm);
+}
+
+TEST(BeamProcessor, DropsAloneNeverTrigger) {
+  const CalibrationCurve curve = PinCurve();
+  BeamModel beam;
+  beam.drops_per_s = 60;
+  int rejected = 0;
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    ToolInBeam tool;  // 1 mm off: it never reaches the beam in the 2 s
+    tool.rpm = 1500, tool.tooth_radius_mm = {3.0, 3.01};
+    const BeamSignal s = GenerateSignal(beam, tool, Approach(1.0, 2.0), 200 + seed);
+    ASSERT_GT(s.drop_times_s.size(), 60u);
+    const Outcome turning = Process(s, Config(curve, 1500, 2, true));
+    EXPECT_FALSE(turning.triggered) << "seed " << seed;
+    const Outcome still = Process(s, Config(curve, 0, 1, true));  // read as a pin's signal
+    EXPECT_FALSE(still.triggered) << "seed " << seed;
+    rejected += turning.rejections + still.rejections;
+  }
+  std::printf("drops alone: %d rejections in 5 runs, no trigger\n", rejected);
+  EXPECT_GT(rejected, 100);
+}
+
+// Leaving the beam (10 drops a second): the long tooth is the last out, and comes onto the
+// curve last: the short tooth's line must not fire the trigger.
+TEST(BeamProcessor, LeavingTheBeamTriggersOnTheLastTooth) {
+  const CalibrationCurve curve = PinCurve();
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    ToolInBeam tool;
+    tool.rpm = 1500, tool.tooth_radius_mm = {3.01, 3.0}, tool.start_turn_rad = 1.1 * seed;
+    BeamModel beam;
+    beam.drops_per_s = 10;
+    const BeamSignal s = GenerateSignal(beam, tool, Approach(0.06, 1.2, false), 300 + seed);
+    const Outcome r = Process(s, Config(curve, 1500, 2, false));
+    ASSERT_TRUE(r.triggered) << "seed " << seed;
+    EXPECT_NEAR(r.edge_error_mm, 0.0, kEdgeTolMm) << "seed " << seed;
+  }
+}
+
+// A pin not turning, with drops: the crossing's slope and hold tell the drops; the edge where
+// the pin blocks half the light.
+TEST(BeamProcessor, APinNotTurningTriggersAtItsCrossingNotAtADrop) {
+  const CalibrationCurve curve = PinCurve();
+  BeamModel beam;
+  beam.drops_per_s = 20;
+  int rejected = 0;
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    ToolInBeam pin;
+    pin.tooth_radius_mm = {3.0};
+    const BeamSignal s = GenerateSignal(beam, pin, Approach(0.06, 1.2), 400 + seed);
+    const Outcome r = Process(s, Config(curve, 0, 1, true));
+    ASSERT_TRUE(r.triggered) << "seed " << seed;
+    EXPECT_NEAR(r.edge_error_mm, 0.0, kEdgeTolMm) << "seed " << seed;
+    rejected += r.rejections;
+  }
+  std::printf("pin with drops: %d drops rejected before the crossing in 10 runs\n", rejected);
+  EXPECT_GT(rejected, 0);
+}
+
+TEST(BeamProcessor, RefusesSettingsItCannotWorkWith) {
+  const CalibrationCurve curve = PinCurve();
+  ProcessorConfig c = Config(curve, 1500, 2, true);
+  c.teeth = 0;
+  EXPECT_THROW(BeamProcessor{c}, SetterError);
+  c = Config(curve, 1500, 2, true);
+  c.threshold_share = 0.02;  // below the curve's span
+  EXPECT_THROW(BeamProcessor{c}, SetterError);
+  c = Config(CalibrationCurve(), 1500, 2, true);
+  EXPECT_THROW(BeamProcessor{c}, SetterError);
+}
+
+}  // namespace
+}  // namespace mlp::setter
