@@ -27,6 +27,8 @@ constexpr const char* kUsage =
     "  history   list or export the job history (mlp history --help)\n"
     "  tool      tools from their shadow images: strobe plan, virtual camera, measurement\n"
     "            (mlp tool --help; runs mlp-tool beside this program)\n"
+    "  setter    the laser tool setter's beam signal: virtual signal, calibration, trigger\n"
+    "            (mlp setter --help; runs mlp-setter beside this program)\n"
     "  --version print the version\n";
 
 // Replaces this process with `name` from the same folder (mlp-calibrate links Ceres and OpenCV,
@@ -56,6 +58,7 @@ int main(int argc, char** argv) {
   if (args[0] == "calibrate") return RunSibling(argv, "mlp-calibrate");
   if (args[0] == "demo") return RunSibling(argv, "mlp-demo");
   if (args[0] == "tool") return RunSibling(argv, "mlp-tool");
+  if (args[0] == "setter") return RunSibling(argv, "mlp-setter");
   if (args[0] == "fit") {
     return mlp::host::RunFitCommand({args.begin() + 1, args.end()}, std::cout, std::cerr);
   }

@@ -1,0 +1,298 @@
+#include "mlp/host/setter_command.h"
+
+#include "mlp/host/cli.h"
+#include "mlp/setter/beam_processor.h"
+#include "mlp/setter/beam_signal.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace mlp::host {
+namespace {
+
+constexpr int kExitNoResult = 3;
+constexpr const char* kUsage =
+    "usage: mlp setter simulate --out SIGNAL.txt [--rpm R] [--teeth-mm R1,R2,..]\n"
+    "                           [--feed-mm-min F] [--gap-mm G] [--leaving] [--duration-s S]\n"
+    "                           [--drops-per-s D] [--noise-v N] [--sample-rate-hz H] [--seed N]\n"
+    "  the receiver's signal while a pin (--rpm 0, one radius) or a turning tool (a radius per\n"
+    "  tooth) moves into (or out of) the beam; its truth in SIGNAL.txt.truth.json\n"
+    "       mlp setter calibrate --signal PIN.txt --feed-mm-min F [--leaving] --out CURVE.json\n"
+    "                            [--json]\n"
+    "  the calibration curve from a pin's signal (a cubic, mlprobe-beam-curve/1)\n"
+    "       mlp setter process --signal SIGNAL.txt --curve CURVE.json --rpm R --teeth N\n"
+    "                          --feed-mm-min F [--leaving] [--threshold-share S] [--json]\n"
+    "  the signal sample by sample as the setter's DSP: the trigger (the skip signal), the edge\n"
+    "  it implies, the leading tooth's radius from the dips, each tooth's lag, what was rejected\n"
+    "exit codes: 0 done (process: triggered), 2 bad arguments or files, 3 no trigger or no\n"
+    "calibration (the reason is printed), 1 bug\n";
+
+namespace fs = std::filesystem;
+
+struct Flags {
+  std::map<std::string, std::string> values;
+  std::set<std::string> switches;
+  bool Has(const std::string& k) const { return values.count(k) > 0; }
+  const std::string& Text(const std::string& k) const {
+    const auto it = values.find(k);
+    if (it == values.end()) throw UsageError(k + " is required");
+    return it->second;
+  }
+  double Number(const std::string& k, double fallback) const {
+    if (!Has(k)) return fallback;
+    const std::string& v = values.at(k);
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    if (end == v.c_str() || *end != '\0' || !std::isfinite(x))
+      throw UsageError(k + " takes a number, not \"" + v + "\"");
+    return x;
+  }
+};
+
+Flags Parse(const std::vector<std::string>& args, const std::set<std::string>& bare) {
+  Flags f;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (bare.count(args[i])) {
+      f.switches.insert(args[i]);
+      continue;
+    }
+    if (args[i].rfind("--", 0) != 0) throw UsageError("unknown argument " + args[i]);
+    if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
+    f.values[args[i]] = args[i + 1];
+    ++i;
+  }
+  return f;
+}
+
+void Allow(const Flags& f, const std::set<std::string>& known) {
+  for (const auto& [k, v] : f.values)
+    if (!known.count(k)) throw UsageError("unknown argument " + k);
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw UsageError("cannot read " + path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void WriteAtomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << text;
+    if (!out) throw UsageError("cannot write " + tmp);
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw UsageError("cannot write " + path + ": " + ec.message());
+}
+
+// `mlprobe-beam-signal/1`: a header line `# mlprobe-beam-signal/1 sample_rate_hz=H`, then one
+// voltage a line.
+struct SignalFile {
+  double sample_rate_hz = 0;
+  std::vector<float> volts;
+};
+
+SignalFile ReadSignal(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw UsageError("cannot read " + path);
+  SignalFile s;
+  std::string line;
+  if (!std::getline(in, line) || line.rfind("# mlprobe-beam-signal/1 sample_rate_hz=", 0) != 0)
+    throw UsageError(path + ": not a mlprobe-beam-signal/1 file");
+  s.sample_rate_hz = std::atof(line.substr(line.find('=') + 1).c_str());
+  if (!(s.sample_rate_hz > 0)) throw UsageError(path + ": no sample rate");
+  long n = 1;
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.empty() || line[0] == '#') continue;
+    char* end = nullptr;
+    const double v = std::strtod(line.c_str(), &end);
+    if (end == line.c_str() || !std::isfinite(v))
+      throw UsageError(path + ":" + std::to_string(n) + ": not a voltage");
+    s.volts.push_back(static_cast<float>(v));
+  }
+  return s;
+}
+
+std::vector<double> Radii(const std::string& list) {
+  std::vector<double> r;
+  std::stringstream s(list);
+  std::string item;
+  while (std::getline(s, item, ',')) {
+    char* end = nullptr;
+    const double x = std::strtod(item.c_str(), &end);
+    if (end == item.c_str() || *end != '\0' || !(x > 0))
+      throw UsageError("--teeth-mm takes radii > 0 separated by commas, not \"" + list + "\"");
+    r.push_back(x);
+  }
+  return r;
+}
+
+int Simulate(const Flags& f, std::ostream& out) {
+  Allow(f, {"--out", "--rpm", "--teeth-mm", "--feed-mm-min", "--gap-mm", "--duration-s",
+            "--drops-per-s", "--noise-v", "--sample-rate-hz", "--seed"});
+  setter::BeamModel beam;
+  beam.sample_rate_hz = f.Number("--sample-rate-hz", beam.sample_rate_hz);
+  beam.noise_v = f.Number("--noise-v", beam.noise_v);
+  beam.drops_per_s = f.Number("--drops-per-s", 0.0);
+  setter::ToolInBeam tool;
+  tool.rpm = f.Number("--rpm", 0.0);
+  tool.tooth_radius_mm = Radii(f.Has("--teeth-mm") ? f.Text("--teeth-mm") : "3.0");
+  setter::Motion m;
+  m.feed_mm_min = f.Number("--feed-mm-min", m.feed_mm_min);
+  m.gap_mm = f.Number("--gap-mm", m.gap_mm);
+  m.duration_s = f.Number("--duration-s", m.duration_s);
+  m.entering = !f.switches.count("--leaving");
+  const auto seed = static_cast<unsigned>(f.Number("--seed", 1));
+  tool.start_turn_rad = 0.37 * seed;
+  setter::BeamSignal s;
+  try {
+    s = setter::GenerateSignal(beam, tool, m, seed);
+  } catch (const setter::SetterError& e) {
+    throw UsageError(e.what());
+  }
+  std::ostringstream text;
+  text << "# mlprobe-beam-signal/1 sample_rate_hz=" << s.sample_rate_hz << "\n"
+       << std::setprecision(7);
+  for (float v : s.volts) text << v << "\n";
+  const std::string path = f.Text("--out");
+  WriteAtomically(path, text.str());
+  const nlohmann::ordered_json truth = {{"format", "mlprobe-beam-truth/1"},
+                                        {"axis_start_mm", s.axis_start_mm},
+                                        {"axis_feed_mm_per_sample", s.axis_feed_mm_per_sample},
+                                        {"axis_at_edge_mm", s.axis_at_edge_mm},
+                                        {"drop_times_s", s.drop_times_s}};
+  WriteAtomically(path + ".truth.json", truth.dump(1) + "\n");
+  out << s.volts.size() << " samples at " << s.sample_rate_hz << " Hz in " << path << " ("
+      << s.drop_times_s.size() << " drops; truth in " << path << ".truth.json)\n";
+  return kExitOk;
+}
+
+int Calibrate(const Flags& f, std::ostream& out) {
+  Allow(f, {"--signal", "--feed-mm-min", "--out"});
+  const SignalFile s = ReadSignal(f.Text("--signal"));
+  const setter::CalibrationCurve c = setter::CalibrateFromPin(
+      s.volts, s.sample_rate_hz, f.Number("--feed-mm-min", 0.0), !f.switches.count("--leaving"));
+  WriteAtomically(f.Text("--out"), setter::CurveJson(c));
+  if (f.switches.count("--json")) {
+    out << nlohmann::json::parse(setter::CurveJson(c)).dump() << "\n";
+    return kExitOk;
+  }
+  out << std::fixed << std::setprecision(4) << "calibration curve: clear " << c.clear_v
+      << " V, a cubic over " << c.lo_mm * 1e3 << " .. " << c.hi_mm * 1e3
+      << " um of intrusion (90 % to 10 %), rms " << c.rms * 100 << " % of clear over " << c.samples
+      << " samples\n  written to " << f.Text("--out") << "\n";
+  return kExitOk;
+}
+
+int Process(const Flags& f, std::ostream& out, std::ostream& err) {
+  Allow(f, {"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min", "--threshold-share"});
+  const SignalFile s = ReadSignal(f.Text("--signal"));
+  setter::ProcessorConfig c;
+  c.sample_rate_hz = s.sample_rate_hz;
+  c.rpm = f.Number("--rpm", 0.0);
+  c.teeth = static_cast<int>(f.Number("--teeth", 1));
+  c.feed_mm_min = f.Number("--feed-mm-min", 0.0);
+  c.entering = !f.switches.count("--leaving");
+  c.threshold_share = f.Number("--threshold-share", c.threshold_share);
+  try {
+    c.curve = setter::ParseCurve(ReadText(f.Text("--curve")));
+  } catch (const setter::SetterError& e) {
+    throw UsageError(f.Text("--curve") + ": " + e.what());
+  }
+  std::unique_ptr<setter::BeamProcessor> p;
+  try {
+    p = std::make_unique<setter::BeamProcessor>(c);
+  } catch (const setter::SetterError& e) {
+    throw UsageError(e.what());
+  }
+  for (float v : s.volts) p->Push(v);
+  int shown = 0;
+  const auto recent = p->RecentRejections(&shown);
+  nlohmann::ordered_json rejected = nlohmann::ordered_json::array();
+  for (int i = 0; i < shown; ++i)
+    rejected.push_back({{"sample", recent[static_cast<size_t>(i)].sample},
+                        {"reason", setter::ToString(recent[static_cast<size_t>(i)].reason)}});
+  nlohmann::ordered_json counts = nlohmann::ordered_json::object();
+  for (auto r : {setter::Rejected::kOffSchedule, setter::Rejected::kOutsideBand,
+                 setter::Rejected::kTooSteep, setter::Rejected::kNotHeld})
+    counts[setter::ToString(r)] = p->RejectionCount(r);
+  nlohmann::ordered_json j = {{"samples", p->Samples()}, {"triggered", p->Triggered()}};
+  const setter::Trigger& t = p->trigger();
+  const double radius = p->ToothRadiusMm();
+  if (p->Triggered()) {
+    j["trigger_sample"] = t.sample;
+    j["trigger_time_s"] = t.time_s;
+    j["threshold_time_s"] = t.threshold_time_s;
+    j["edge_offset_mm"] = t.edge_offset_mm;
+    j["tooth"] = t.tooth;
+    j["extremes"] = t.extremes;
+  }
+  j["diameter_mm"] = std::isfinite(radius) ? nlohmann::ordered_json(2 * radius) : nullptr;
+  nlohmann::ordered_json lags = nlohmann::ordered_json::array();
+  for (int k = 0; k < c.teeth; ++k) {
+    const double lag = p->ToothLagMm(k);
+    lags.push_back(std::isfinite(lag) ? nlohmann::ordered_json(lag) : nullptr);
+  }
+  j["tooth_lag_mm"] = lags;
+  j["rejections"] = counts;
+  j["recent_rejections"] = rejected;
+  const int code = p->Triggered() ? kExitOk : kExitNoResult;
+  if (!p->Triggered()) err << "mlp setter: no trigger in " << p->Samples() << " samples\n";
+  if (f.switches.count("--json")) {
+    out << j.dump() << "\n";
+    return code;
+  }
+  if (p->Triggered())
+    out << std::fixed << std::setprecision(6) << "trigger at sample " << t.sample << " ("
+        << t.time_s << " s): tooth " << t.tooth << "'s line (" << t.extremes
+        << " extremes) crossed at " << t.threshold_time_s << " s; the edge is the latched "
+        << "position less " << std::setprecision(4) << t.edge_offset_mm * 1e3 << " um\n";
+  if (std::isfinite(radius))
+    out << std::fixed << std::setprecision(4) << "  diameter from the dips' widths " << 2 * radius
+        << " mm\n";
+  for (int k = 0; k < c.teeth; ++k)
+    if (std::isfinite(p->ToothLagMm(k)) && k != p->LeadingTooth())
+      out << std::setprecision(2) << "  tooth " << k << " reaches " << p->ToothLagMm(k) * 1e3
+          << " um less\n";
+  for (const auto& [reason, n] : counts.items())
+    if (n.get<int>() > 0) out << "  rejected " << n.get<int>() << "x: " << reason << "\n";
+  return code;
+}
+
+}  // namespace
+
+int RunSetterCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  try {
+    if (!args.empty() && (args[0] == "--help" || args[0] == "-h")) {
+      out << kUsage;
+      return kExitOk;
+    }
+    if (args.empty()) throw UsageError("expected: mlp setter simulate, calibrate or process");
+    const Flags f = Parse({args.begin() + 1, args.end()}, {"--json", "--leaving"});
+    if (args[0] == "simulate") return Simulate(f, out);
+    if (args[0] == "calibrate") return Calibrate(f, out);
+    if (args[0] == "process") return Process(f, out, err);
+    throw UsageError("expected: mlp setter simulate, calibrate or process");
+  } catch (const UsageError& e) {
+    err << "mlp setter: " << e.what() << "\n" << kUsage;
+    return kExitBadInput;
+  } catch (const setter::SetterError& e) {
+    err << "mlp setter: " << e.what() << "\n";
+    return kExitNoResult;
+  }
+}
+
+}  // namespace mlp::host
