@@ -6,30 +6,48 @@
 namespace mlp::geometry {
 namespace {
 
-// The first step from below to at/above `level` along a line of n samples, refined to the
-// centroid of the grey steps over the 7 steps around it (contour.h says why); -1 if there is
-// no crossing.
+// The crossing between samples k and k + 1 of a line of n (`at` already signed so that it
+// rises through `level` there), refined to the centroid of the grey steps over the 7 steps
+// around it (contour.h says why).
+template <typename At>
+double Refine(const At& at, int k, int n, double level) {
+  // Signed steps: noise in the flat tails then adds nothing on average.
+  double sum = 0, moment = 0, rising = 0;
+  for (int j = std::max(0, k - 3); j <= std::min(n - 2, k + 3); ++j) {
+    const double rise = at(j + 1) - at(j);
+    sum += rise, moment += rise * (j + 0.5), rising += std::max(rise, 0.0);
+  }
+  // Another edge inside the window (a thin gap of light before a drop, a second shadow):
+  // its opposite steps cancel the rise and the centroid runs off. The crossing between the
+  // two samples then (biased by hundredths of a pixel, but it stays on its edge).
+  if (!(sum > 0.8 * rising)) return k + (level - at(k)) / (at(k + 1) - at(k));
+  return moment / sum;
+}
+
+// The first step from below to at/above `level` along a line of n samples, refined; -1 if
+// there is no crossing.
 double FirstCrossing(
     const GreyView& im, double level, int n, int fixed, bool along_row, bool falling = false) {
   // A falling edge is a rising one of the negated image about the level.
   const double sign = falling ? -1.0 : 1.0;
   const auto at = [&](int k) { return sign * (along_row ? im.At(k, fixed) : im.At(fixed, k)); };
   level *= sign;
-  for (int k = 0; k + 1 < n; ++k) {
-    if (!(at(k) < level && at(k + 1) >= level)) continue;
-    // Signed steps: noise in the flat tails then adds nothing on average.
-    double sum = 0, moment = 0, rising = 0;
-    for (int j = std::max(0, k - 3); j <= std::min(n - 2, k + 3); ++j) {
-      const double rise = at(j + 1) - at(j);
-      sum += rise, moment += rise * (j + 0.5), rising += std::max(rise, 0.0);
-    }
-    // Another edge inside the window (a thin gap of light before a drop, a second shadow):
-    // its opposite steps cancel the rise and the centroid runs off. The crossing between the
-    // two samples then (biased by hundredths of a pixel, but it stays on its edge).
-    if (!(sum > 0.8 * rising)) return k + (level - at(k)) / (at(k + 1) - at(k));
-    return moment / sum;
-  }
+  for (int k = 0; k + 1 < n; ++k)
+    if (at(k) < level && at(k + 1) >= level) return Refine(at, k, n, level);
   return -1.0;
+}
+
+// Every crossing of `level` along a line, either way, refined; appended as (u, v).
+void LineCrossings(
+    const GreyView& im, double level, int n, int fixed, bool along_row, std::vector<Vec2>* out) {
+  const auto raw = [&](int k) { return along_row ? im.At(k, fixed) : im.At(fixed, k); };
+  for (int k = 0; k + 1 < n; ++k) {
+    const bool below = raw(k) < level, next_below = raw(k + 1) < level;
+    if (below == next_below) continue;
+    const double sign = below ? 1.0 : -1.0;
+    const double c = Refine([&](int j) { return sign * raw(j); }, k, n, sign * level);
+    out->push_back(along_row ? Vec2(c, fixed) : Vec2(fixed, c));
+  }
 }
 
 Points2 ToPoints(const std::vector<Vec2>& v) {
@@ -53,6 +71,13 @@ Points2 RowCrossings(const GreyView& im, double level, bool falling) {
     const double u = FirstCrossing(im, level, im.width, v, true, falling);
     if (u >= 0) out.emplace_back(u, v);
   }
+  return ToPoints(out);
+}
+
+Points2 AllCrossings(const GreyView& im, double level) {
+  std::vector<Vec2> out;
+  for (int v = 0; v < im.height; ++v) LineCrossings(im, level, im.width, v, true, &out);
+  for (int u = 0; u < im.width; ++u) LineCrossings(im, level, im.height, u, false, &out);
   return ToPoints(out);
 }
 

@@ -39,5 +39,10 @@ Points2 RowCrossings(const GreyView& image, double level, bool falling = false);
 /// Each column's first crossing from below `level` to at or above it, scanning down from the
 /// top (row 0): (u, v) with v sub-pixel.
 Points2 ColumnCrossings(const GreyView& image, double level);
+/// Every crossing of `level`, either way, along every row (u sub-pixel) and every column (v
+/// sub-pixel): points on the iso-line of a silhouette of any shape (a contour across the image,
+/// steep or flat), unordered; a place where the line is neither steep nor flat is found by
+/// both a row and a column.
+Points2 AllCrossings(const GreyView& image, double level);
 
 }  // namespace mlp::geometry
