@@ -1,0 +1,54 @@
+#pragma once
+/// @file Back-lit frames of a workpiece being ground to a curve (seed 001), synthetic with
+/// their truth. A telecentric camera sees the silhouette (the material dark on the back-light);
+/// frames are taken with the reciprocating wheel at its top, out of view. The material is the
+/// previous pass's (the nominal profile plus `stock_mm` outwards) less every disc the wheel's
+/// nose has swept: a round nose of radius R whose real centre is the NC's C moved by the
+/// machine's error (an offset; wear makes the nose smaller; an offset inwards over-cuts).
+///
+/// Image: x = origin_x + u mm_per_px, y = origin_y - v mm_per_px for pixel centres (u, v):
+/// y up, the material below the profile.
+
+#include "mlp/geometry/profile2d.h"
+#include "mlp/geometry/types.h"
+
+#include <cstdint>
+#include <stdexcept>
+#include <vector>
+
+namespace mlp::grind {
+
+class GrindError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct GrindCamera {
+  int width_px = 1024, height_px = 768;
+  double mm_per_px = 0.005;
+  double origin_x_mm = 0.0, origin_y_mm = 3.84;  ///< the top-left pixel's centre
+  double psf_sigma_px = 0.7;
+  double bright = 210, dark = 25, noise_sigma = 2.0;
+  geometry::Vec2 ToMm(const geometry::Vec2& px) const {
+    return {origin_x_mm + px.x() * mm_per_px, origin_y_mm - px.y() * mm_per_px};
+  }
+  geometry::Vec2 ToPx(const geometry::Vec2& mm) const {
+    return {(mm.x() - origin_x_mm) / mm_per_px, (origin_y_mm - mm.y()) / mm_per_px};
+  }
+  void Validate() const;  ///< throws GrindError naming the field
+};
+
+/// Where the wheel's nose really was for a stroke.
+struct WheelStroke {
+  geometry::Vec2 center_mm = geometry::Vec2::Zero();
+  double radius_mm = 0.0;
+};
+
+/// The material left: the nominal plus `stock_mm` less the strokes' discs.
+std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,
+                                           double stock_mm,
+                                           const std::vector<WheelStroke>& strokes,
+                                           const GrindCamera& camera,
+                                           unsigned seed);
+
+}  // namespace mlp::grind

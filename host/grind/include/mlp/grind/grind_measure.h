@@ -1,0 +1,70 @@
+#pragma once
+/// @file The profile error at one cutting point during curve grinding (seed 001).
+///
+/// The NC gives the theoretical wheel-nose centre C and cutting point Mi (Mi on the nominal,
+/// C = Mi + R n). From the frame after the stroke:
+/// 1. the actual contour: every sub-pixel crossing of the half grey level (geometry/contour.h)
+///    near Mi, sorted along the nominal;
+/// 2. Mr, the contour on the line C-Mi: the seed's directed search (from the contour point
+///    nearest Mi, along the contour while the distance to the line falls; stop once it grows
+///    under one pixel), then a line through the contour points within 3 px of there
+///    intersected with C-Mi (sub-pixel);
+/// 3. d = |Mr - Mi|: good when d <= e; else under-feed (material left, Mr between C and Mi) or
+///    over-feed (over-cut, Mr beyond Mi);
+/// 4. under-feed: where the wheel really was, from the frames before and after the stroke:
+///    the after-contour's points that were inside the material before (the edge of the
+///    region the stroke removed: the real nose's arc); for directions within +-90 deg of the
+///    profile normal, each point's distance along it to the theoretical nose circle; the
+///    direction with the smallest spread is the error's, its mean distance the size (0.5 deg
+///    steps, then 0.01 deg). No such points (the wheel did not cut): the normal and the
+///    excess d. When no shift explains the arc (its spread over 1 um: the nose is worn
+///    smaller), a circle through the edge instead: its centre's shift plus its lost radius
+///    along the normal is the error;
+/// 5. the compensation the motion controller receives: under-feed, the wheel moved back by
+///    the error found (towards the material); over-feed, along the normal away from it by
+///    the over-cut + 2 e (retract safely).
+
+#include "mlp/geometry/contour.h"
+#include "mlp/geometry/profile2d.h"
+#include "mlp/grind/grind_frame.h"
+
+#include <string>
+
+namespace mlp::grind {
+
+enum class Feed { kGood, kUnderFeed, kOverFeed };
+const char* ToString(Feed f);
+
+struct PointResult {
+  Feed feed = Feed::kGood;
+  geometry::Vec2 mr_mm = geometry::Vec2::Zero();  ///< the actual contour on C-Mi
+  double d_mm = 0.0;                              ///< |Mr - Mi|
+  /// Under-feed: the wheel's error found (unit direction, size); otherwise the normal and d.
+  geometry::Vec2 error_dir = geometry::Vec2::UnitY();
+  double error_mm = 0.0;
+  bool wheel_cut = true;   ///< under-feed: the stroke removed material (else normal + d)
+  int edge_points = 0;     ///< on the removed region's edge
+  double spread_mm = 0.0;  ///< their distances' spread at the direction found (or the circle's rms)
+  /// The nose's radius when a shift did not explain its arc (spread over 1 um: worn, or not
+  /// round) and a circle was fitted through the edge; 0 otherwise.
+  double nose_radius_mm = 0.0;
+  geometry::Vec2 compensation_mm = geometry::Vec2::Zero();  ///< for the motion controller
+};
+
+struct PointInput {
+  geometry::GreyView before, after;
+  geometry::Vec2 c_mm, mi_mm;  ///< the NC's wheel-nose centre and cutting point
+};
+
+/// Throws GrindError when the frame shows no contour on the line C-Mi (or the frames do not
+/// match the camera).
+PointResult MeasurePoint(const PointInput& in,
+                         const geometry::Profile2& nominal,
+                         const GrindCamera& camera,
+                         double wheel_radius_mm,
+                         double limit_mm);
+
+/// Half way between a frame's shadow and light (its 2nd and 98th percentiles).
+double HalfLevel(const geometry::GreyView& image);
+
+}  // namespace mlp::grind

@@ -1,0 +1,114 @@
+#include "mlp/grind/grind_frame.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+namespace mlp::grind {
+namespace {
+
+using geometry::Vec2;
+
+constexpr int kSub = 8;  // sub-samples a side in pixels on the boundary, jittered (stratified)
+
+// Negative inside the material: the stock region's signed distance and each disc's, combined
+// (max: inside the stock and outside every disc). Each term is 1-Lipschitz, so |f| bounds the
+// distance to the boundary from below: a pixel whose centre is over 0.75 px from it is whole.
+double Material(const geometry::Profile2& p,
+                double stock,
+                const std::vector<WheelStroke>& s,
+                const Vec2& x) {
+  double f = p.Closest(x).signed_distance - stock;
+  for (const WheelStroke& w : s) f = std::max(f, w.radius_mm - (x - w.center_mm).norm());
+  return f;
+}
+
+void Blur(std::vector<double>* img, int w, int h, double sigma) {
+  if (sigma <= 0) return;
+  const int r = static_cast<int>(std::ceil(3 * sigma));
+  std::vector<double> k(static_cast<size_t>(2 * r + 1));
+  double sum = 0;
+  for (int i = -r; i <= r; ++i)
+    sum += k[static_cast<size_t>(i + r)] = std::exp(-0.5 * i * i / (sigma * sigma));
+  for (double& x : k) x /= sum;
+  std::vector<double> tmp(img->size());
+  for (int pass = 0; pass < 2; ++pass) {
+    const std::vector<double>& src = pass == 0 ? *img : tmp;
+    std::vector<double>& dst = pass == 0 ? tmp : *img;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        double s = 0;
+        for (int i = -r; i <= r; ++i) {
+          const int xx = pass == 0 ? std::clamp(x + i, 0, w - 1) : x;
+          const int yy = pass == 0 ? y : std::clamp(y + i, 0, h - 1);
+          s += k[static_cast<size_t>(i + r)] * src[static_cast<size_t>(yy * w + xx)];
+        }
+        dst[static_cast<size_t>(y * w + x)] = s;
+      }
+  }
+}
+
+}  // namespace
+
+void GrindCamera::Validate() const {
+  if (width_px < 16 || height_px < 16 || width_px > 8192 || height_px > 8192)
+    throw GrindError("grind camera: the image must be 16..8192 px each way");
+  if (!(mm_per_px > 0) || !(bright > dark) || !(noise_sigma >= 0) || !(psf_sigma_px >= 0))
+    throw GrindError("grind camera: mm_per_px > 0, bright > dark, noise and blur >= 0");
+}
+
+std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,
+                                           double stock_mm,
+                                           const std::vector<WheelStroke>& strokes,
+                                           const GrindCamera& c,
+                                           unsigned seed) {
+  c.Validate();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0, 1);
+  const auto n = static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px);
+  std::vector<double> cover(n);
+  const double whole = 0.75 * c.mm_per_px;
+  // Blocks of kBlock x kBlock pixels whose middle is further from the boundary than the
+  // block's half diagonal are one state throughout (f is 1-Lipschitz): most of the image.
+  constexpr int kBlock = 8;
+  const double block_reach = (kBlock / std::sqrt(2.0) + 1) * c.mm_per_px;
+  std::vector<signed char> block_state(
+      static_cast<size_t>((c.width_px / kBlock + 1) * (c.height_px / kBlock + 1)), 0);
+  const int blocks_across = c.width_px / kBlock + 1;
+  for (int by = 0; by * kBlock < c.height_px; ++by)
+    for (int bx = 0; bx * kBlock < c.width_px; ++bx) {
+      const Vec2 mid(bx * kBlock + (kBlock - 1) / 2.0, by * kBlock + (kBlock - 1) / 2.0);
+      const double f = Material(nominal, stock_mm, strokes, c.ToMm(mid));
+      block_state[static_cast<size_t>(by * blocks_across + bx)] = f < -block_reach  ? 1
+                                                                  : f > block_reach ? -1
+                                                                                    : 0;
+    }
+  for (int v = 0; v < c.height_px; ++v)
+    for (int u = 0; u < c.width_px; ++u) {
+      const signed char state =
+          block_state[static_cast<size_t>((v / kBlock) * blocks_across + u / kBlock)];
+      const double f =
+          state != 0 ? state * -1.0 : Material(nominal, stock_mm, strokes, c.ToMm({u, v}));
+      double share = f < -whole ? 1.0 : 0.0;
+      if (std::abs(f) <= whole) {
+        int inside = 0;
+        for (int i = 0; i < kSub; ++i)
+          for (int j = 0; j < kSub; ++j) {
+            const Vec2 q(u - 0.5 + (i + unit(rng)) / kSub, v - 0.5 + (j + unit(rng)) / kSub);
+            inside += Material(nominal, stock_mm, strokes, c.ToMm(q)) < 0;
+          }
+        share = static_cast<double>(inside) / (kSub * kSub);
+      }
+      cover[static_cast<size_t>(v) * static_cast<size_t>(c.width_px) + static_cast<size_t>(u)] =
+          c.bright - (c.bright - c.dark) * share;
+    }
+  Blur(&cover, c.width_px, c.height_px, c.psf_sigma_px);
+  std::normal_distribution<double> noise(0, c.noise_sigma);
+  std::vector<std::uint8_t> px(n);
+  for (size_t i = 0; i < n; ++i)
+    px[i] = static_cast<std::uint8_t>(
+        std::clamp(std::lround(cover[i] + (c.noise_sigma > 0 ? noise(rng) : 0.0)), 0L, 255L));
+  return px;
+}
+
+}  // namespace mlp::grind

@@ -1,0 +1,170 @@
+#include "mlp/grind/grind_job.h"
+
+#include "mlp/probe_fw/json_fields.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include <nlohmann/json.hpp>
+
+namespace mlp::grind {
+namespace {
+
+using geometry::Vec2;
+namespace jf = probe_fw::json_fields;
+
+Vec2 Pair(const nlohmann::json& j, const std::string& where) {
+  if (!j.is_array() || j.size() != 2 || !j[0].is_number() || !j[1].is_number())
+    throw GrindError(where + " must be [x, y] in mm");
+  return {j[0].get<double>(), j[1].get<double>()};
+}
+
+nlohmann::json Pair(const Vec2& v) { return {v.x(), v.y()}; }
+
+// Where the line from C along u meets the real nose (centre C + offset, radius r'): the far
+// root (the side towards the material).
+double OnRealNose(const Vec2& offset, const Vec2& u, double r_real) {
+  const double ud = u.dot(offset);
+  return ud + std::sqrt(ud * ud - offset.squaredNorm() + r_real * r_real);
+}
+
+}  // namespace
+
+std::vector<geometry::ProfileSegment> DemoProfile() {
+  const double s = std::sqrt(0.5);
+  const Vec2 a(0.05, 2.0), b(1.5, 2.0), c1(1.5, 1.2);
+  const Vec2 arc1_end = c1 + 0.8 * Vec2(s, s);
+  const Vec2 flank_end = arc1_end + 0.8 * Vec2(s, -s);
+  const Vec2 c2 = flank_end + 1.5 * Vec2(s, s);
+  const Vec2 arc2_end = c2 + 1.5 * Vec2(0, -1);
+  return {{a, b, false, Vec2::Zero(), true},
+          {b, arc1_end, true, c1, false},
+          {arc1_end, flank_end, false, Vec2::Zero(), true},
+          {flank_end, arc2_end, true, c2, true},
+          {arc2_end, Vec2(5.0, arc2_end.y()), false, Vec2::Zero(), true}};
+}
+
+std::vector<ErrorCase> SweepCases(
+    const geometry::Profile2& p, double r, double e, int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::vector<ErrorCase> cases;
+  while (static_cast<int>(cases.size()) < n) {
+    const int kind = static_cast<int>(cases.size()) % 4;
+    ErrorCase c;
+    c.s_mm = 0.4 + (p.Length() - 0.8) * unit(rng);
+    const geometry::ProfileFoot f = p.At(c.s_mm);
+    const Vec2 t(f.normal.y(), -f.normal.x());  // along the profile
+    const double size = (1.5 + 3.5 * unit(rng)) * e, side = (2 * unit(rng) - 1);
+    if (kind == 0) c.offset_mm = f.normal * (0.4 * e * side) + t * (e * (2 * unit(rng) - 1));
+    if (kind == 1) c.offset_mm = f.normal * size + t * (3 * e * side);
+    if (kind == 2) c.offset_mm = -f.normal * size + t * (2 * e * side);
+    if (kind == 3) c.wear_mm = size;
+    c.mi_mm = f.point, c.c_mm = f.point + r * f.normal;
+    const double t_real = OnRealNose(c.offset_mm, -f.normal, r - c.wear_mm);
+    c.d_mm = std::abs(t_real - r);
+    if (std::abs(c.d_mm - e) < 0.2 * e) continue;  // too near the limit to be a fair case
+    c.feed = c.d_mm <= e ? Feed::kGood : t_real < r ? Feed::kUnderFeed : Feed::kOverFeed;
+    c.error_dir = c.wear_mm > 0 ? f.normal : Vec2(c.offset_mm.normalized());
+    c.error_mm = c.wear_mm > 0 ? c.wear_mm : c.offset_mm.norm();
+    cases.push_back(c);
+  }
+  return cases;
+}
+
+void RenderCase(const geometry::Profile2& nominal,
+                const GrindJob& job,
+                const ErrorCase& c,
+                unsigned seed,
+                std::vector<std::uint8_t>* before,
+                std::vector<std::uint8_t>* after) {
+  *before = RenderGrindFrame(nominal, job.stock_mm, {}, job.camera, seed);
+  const WheelStroke stroke{c.c_mm + c.offset_mm, job.wheel_radius_mm - c.wear_mm};
+  *after = RenderGrindFrame(nominal, job.stock_mm, {stroke}, job.camera, seed + 1);
+}
+
+void WritePgm(const std::string& path, int w, int h, const std::vector<std::uint8_t>& px) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    out << "P5\n" << w << " " << h << "\n255\n";
+    out.write(reinterpret_cast<const char*>(px.data()), static_cast<std::streamsize>(px.size()));
+    if (!out) throw GrindError("cannot write " + tmp);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw GrindError("cannot write " + path + ": " + ec.message());
+}
+
+GrindJob ParseJob(const std::string& text) {
+  const auto j = jf::ParseDocument<GrindError>(text, "mlprobe-grind/1", "grind job");
+  GrindJob g;
+  const auto& cam = jf::Object<GrindError>(j, "camera", "grind job");
+  g.camera.width_px = jf::Integer<GrindError>(cam, "width_px", "camera");
+  g.camera.height_px = jf::Integer<GrindError>(cam, "height_px", "camera");
+  g.camera.mm_per_px = jf::Number<GrindError>(cam, "mm_per_px", "camera");
+  g.camera.origin_x_mm = jf::Number<GrindError>(cam, "origin_x_mm", "camera");
+  g.camera.origin_y_mm = jf::Number<GrindError>(cam, "origin_y_mm", "camera");
+  g.camera.Validate();
+  g.wheel_radius_mm = jf::Number<GrindError>(j, "wheel_radius_mm", "grind job");
+  g.limit_mm = jf::Number<GrindError>(j, "limit_mm", "grind job");
+  g.stock_mm = jf::NumberOr<GrindError>(j, "stock_mm", g.stock_mm, "grind job");
+  if (!(g.wheel_radius_mm > 0) || !(g.limit_mm > 0)) throw GrindError("grind job: R, e > 0");
+  if (!j.contains("profile") || !j.at("profile").is_array())
+    throw GrindError("grind job: profile must list segments");
+  for (size_t k = 0; k < j.at("profile").size(); ++k) {
+    const auto& s = j.at("profile")[k];
+    const std::string w = "profile[" + std::to_string(k) + "]";
+    geometry::ProfileSegment seg;
+    seg.start = Pair(s.value("start", nlohmann::json()), w + ".start");
+    seg.end = Pair(s.value("end", nlohmann::json()), w + ".end");
+    seg.arc = s.contains("center");
+    if (seg.arc) {
+      seg.center = Pair(s.at("center"), w + ".center");
+      seg.ccw = jf::FlagOr<GrindError>(s, "ccw", true, w);
+    }
+    g.profile.push_back(seg);
+  }
+  if (!j.contains("points") || !j.at("points").is_array())
+    throw GrindError("grind job: points must list the cutting points");
+  for (size_t k = 0; k < j.at("points").size(); ++k) {
+    const auto& p = j.at("points")[k];
+    const std::string w = "points[" + std::to_string(k) + "]";
+    g.points.push_back({jf::Text<GrindError>(p, "before", w), jf::Text<GrindError>(p, "after", w),
+                        Pair(p.value("c_mm", nlohmann::json()), w + ".c_mm"),
+                        Pair(p.value("mi_mm", nlohmann::json()), w + ".mi_mm")});
+  }
+  return g;
+}
+
+std::string JobJson(const GrindJob& g) {
+  nlohmann::ordered_json profile = nlohmann::ordered_json::array();
+  for (const auto& s : g.profile) {
+    nlohmann::ordered_json seg = {{"start", Pair(s.start)}, {"end", Pair(s.end)}};
+    if (s.arc) seg["center"] = Pair(s.center), seg["ccw"] = s.ccw;
+    profile.push_back(seg);
+  }
+  nlohmann::ordered_json points = nlohmann::ordered_json::array();
+  for (const auto& p : g.points)
+    points.push_back({{"before", p.before},
+                      {"after", p.after},
+                      {"c_mm", Pair(p.c_mm)},
+                      {"mi_mm", Pair(p.mi_mm)}});
+  const nlohmann::ordered_json j = {{"format", "mlprobe-grind/1"},
+                                    {"camera",
+                                     {{"width_px", g.camera.width_px},
+                                      {"height_px", g.camera.height_px},
+                                      {"mm_per_px", g.camera.mm_per_px},
+                                      {"origin_x_mm", g.camera.origin_x_mm},
+                                      {"origin_y_mm", g.camera.origin_y_mm}}},
+                                    {"wheel_radius_mm", g.wheel_radius_mm},
+                                    {"limit_mm", g.limit_mm},
+                                    {"stock_mm", g.stock_mm},
+                                    {"profile", profile},
+                                    {"points", points}};
+  return j.dump(1) + "\n";
+}
+
+}  // namespace mlp::grind
