@@ -29,6 +29,8 @@ constexpr const char* kUsage =
     "            (mlp tool --help; runs mlp-tool beside this program)\n"
     "  setter    the laser tool setter's beam signal: virtual signal, calibration, trigger\n"
     "            (mlp setter --help; runs mlp-setter beside this program)\n"
+    "  grind     profile error while grinding, from back-lit frames: compensation vectors\n"
+    "            (mlp grind --help; runs mlp-grind beside this program)\n"
     "  --version print the version\n";
 
 // Replaces this process with `name` from the same folder (mlp-calibrate links Ceres and OpenCV,
@@ -59,6 +61,7 @@ int main(int argc, char** argv) {
   if (args[0] == "demo") return RunSibling(argv, "mlp-demo");
   if (args[0] == "tool") return RunSibling(argv, "mlp-tool");
   if (args[0] == "setter") return RunSibling(argv, "mlp-setter");
+  if (args[0] == "grind") return RunSibling(argv, "mlp-grind");
   if (args[0] == "fit") {
     return mlp::host::RunFitCommand({args.begin() + 1, args.end()}, std::cout, std::cerr);
   }

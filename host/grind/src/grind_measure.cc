@@ -171,6 +171,7 @@ PointResult MeasurePoint(const PointInput& in,
   const std::vector<ContourPoint> pts = Contour(in.after, cam, nominal, in.mi_mm, 1.2 * r);
   if (pts.size() < 10) Fail("no contour near Mi");
   PointResult res;
+  for (const ContourPoint& q : pts) res.contour_mm.push_back(q.p);
   const double t = ContourOnLine(pts, in.c_mm, u, in.mi_mm, cam.mm_per_px);
   const double ti = (in.mi_mm - in.c_mm).norm();
   res.mr_mm = in.c_mm + t * u;

@@ -29,6 +29,7 @@
 #include "mlp/grind/grind_frame.h"
 
 #include <string>
+#include <vector>
 
 namespace mlp::grind {
 
@@ -49,6 +50,7 @@ struct PointResult {
   /// round) and a circle was fitted through the edge; 0 otherwise.
   double nose_radius_mm = 0.0;
   geometry::Vec2 compensation_mm = geometry::Vec2::Zero();  ///< for the motion controller
+  std::vector<geometry::Vec2> contour_mm;  ///< the actual contour near Mi (for pictures)
 };
 
 struct PointInput {

@@ -1,0 +1,239 @@
+#include "mlp/host/grind_command.h"
+
+#include "mlp/grind/grind_job.h"
+#include "mlp/host/cli.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <map>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace mlp::host {
+namespace {
+
+using geometry::Vec2;
+namespace fs = std::filesystem;
+
+constexpr int kExitCannotMeasure = 3;
+constexpr double kVectorScale = 20;  // the picture's vectors, times their length
+constexpr const char* kUsage =
+    "usage: mlp grind render --out DIR [--cases N] [--seed S] [--limit-mm E]\n"
+    "  back-lit frames of the demo profile ground with a seeded sweep of machine errors (N\n"
+    "  cutting points: none, offset out, offset in, worn nose in turn): DIR/job.json (what\n"
+    "  the measurement reads: camera, profile, wheel, limit, per point its frames and the NC's\n"
+    "  C and Mi), the frames, DIR/truth.json\n"
+    "       mlp grind measure --job DIR/job.json [--png FILE.png] [--json]\n"
+    "  per cutting point: good / under-feed / over-feed, d = |Mr - Mi|, the wheel's error and\n"
+    "  the compensation vector for the motion controller; the picture: the nominal, each\n"
+    "  point's actual contour, its error and compensation (x20)\n"
+    "exit codes: 0 done, 2 bad arguments or files, 3 a point could not be measured (why), 1 bug\n";
+
+std::map<std::string, std::string> Flags(const std::vector<std::string>& args, bool* json) {
+  std::map<std::string, std::string> f;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--json") {
+      *json = true;
+      continue;
+    }
+    if (args[i].rfind("--", 0) != 0 || i + 1 >= args.size())
+      throw UsageError("unknown argument or missing value: " + args[i]);
+    f[args[i]] = args[i + 1];
+    ++i;
+  }
+  return f;
+}
+
+double Num(const std::map<std::string, std::string>& f, const std::string& k, double fallback) {
+  const auto it = f.find(k);
+  if (it == f.end()) return fallback;
+  char* end = nullptr;
+  const double x = std::strtod(it->second.c_str(), &end);
+  if (end == it->second.c_str() || *end != '\0' || !std::isfinite(x))
+    throw UsageError(k + " takes a number, not \"" + it->second + "\"");
+  return x;
+}
+
+nlohmann::json Pair(const Vec2& v) { return {v.x(), v.y()}; }
+
+int Render(const std::map<std::string, std::string>& f, std::ostream& out, std::ostream& err) {
+  for (const auto& [k, v] : f)
+    if (k != "--out" && k != "--cases" && k != "--seed" && k != "--limit-mm")
+      throw UsageError("unknown argument " + k);
+  if (!f.count("--out")) throw UsageError("mlp grind render needs --out");
+  const std::string dir = f.at("--out");
+  const int n = static_cast<int>(Num(f, "--cases", 8));
+  if (n < 1 || n > 200) throw UsageError("--cases: 1..200");
+  const auto seed = static_cast<unsigned>(Num(f, "--seed", 7));
+  grind::GrindJob job;
+  job.profile = grind::DemoProfile();
+  job.limit_mm = Num(f, "--limit-mm", job.limit_mm);
+  const geometry::Profile2 p(job.profile);
+  const auto cases = grind::SweepCases(p, job.wheel_radius_mm, job.limit_mm, n, seed);
+  fs::create_directories(dir);
+  nlohmann::ordered_json truth = nlohmann::ordered_json::array();
+  for (size_t i = 0; i < cases.size(); ++i) {
+    err << "mlp grind: rendering point " << i + 1 << " of " << cases.size() << "\n";
+    std::vector<std::uint8_t> before, after;
+    grind::RenderCase(p, job, cases[i], seed * 1000 + 2 * static_cast<unsigned>(i), &before,
+                      &after);
+    char b[32], a[32];
+    std::snprintf(b, sizeof b, "point_%02zu_before.pgm", i);
+    std::snprintf(a, sizeof a, "point_%02zu_after.pgm", i);
+    grind::WritePgm((fs::path(dir) / b).string(), job.camera.width_px, job.camera.height_px,
+                    before);
+    grind::WritePgm((fs::path(dir) / a).string(), job.camera.width_px, job.camera.height_px, after);
+    job.points.push_back({b, a, cases[i].c_mm, cases[i].mi_mm});
+    const auto& c = cases[i];
+    truth.push_back({{"feed", grind::ToString(c.feed)},
+                     {"d_mm", c.d_mm},
+                     {"offset_mm", Pair(c.offset_mm)},
+                     {"wear_mm", c.wear_mm},
+                     {"error_dir", Pair(c.error_dir)},
+                     {"error_mm", c.error_mm}});
+  }
+  std::ofstream((fs::path(dir) / "job.json").string()) << grind::JobJson(job);
+  std::ofstream((fs::path(dir) / "truth.json").string())
+      << nlohmann::ordered_json{{"format", "mlprobe-grind-truth/1"}, {"points", truth}}.dump(1)
+      << "\n";
+  out << cases.size() << " cutting points in " << dir << " (job.json, truth.json)\n";
+  return kExitOk;
+}
+
+std::vector<std::uint8_t> ReadGrey(const std::string& path, const grind::GrindCamera& c) {
+  const cv::Mat g = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  if (g.empty() || g.cols != c.width_px || g.rows != c.height_px)
+    throw UsageError("cannot read " + path + " as a " + std::to_string(c.width_px) + " x " +
+                     std::to_string(c.height_px) + " grey image");
+  return {g.begin<std::uint8_t>(), g.end<std::uint8_t>()};
+}
+
+void Picture(const std::string& path,
+             const grind::GrindJob& job,
+             const geometry::Profile2& p,
+             const std::vector<grind::PointResult>& results) {
+  const grind::GrindCamera& c = job.camera;
+  cv::Mat img(c.height_px, c.width_px, CV_8UC3, cv::Scalar(255, 255, 255));
+  const auto px = [&](const Vec2& mm) {
+    const Vec2 q = c.ToPx(mm);
+    return cv::Point2d(q.x(), q.y());
+  };
+  std::vector<cv::Point> nominal;
+  for (double s = 0; s <= p.Length(); s += 0.005) nominal.push_back(px(p.At(s).point));
+  cv::polylines(img, nominal, false, cv::Scalar(0, 160, 0), 1, cv::LINE_AA);
+  const cv::Scalar colour[] = {{120, 120, 120}, {200, 80, 0}, {0, 0, 220}};  // good, under, over
+  for (size_t i = 0; i < results.size(); ++i) {
+    const auto& r = results[i];
+    for (const Vec2& q : r.contour_mm) cv::circle(img, px(q), 0, cv::Scalar(40, 40, 40), -1);
+    const Vec2 mi = job.points[i].mi_mm;
+    const cv::Scalar col = colour[static_cast<int>(r.feed)];
+    cv::arrowedLine(img, px(mi), px(mi + kVectorScale * (r.mr_mm - mi)), col, 2, cv::LINE_AA);
+    if (r.compensation_mm.norm() > 0)
+      cv::arrowedLine(img, px(mi), px(mi + kVectorScale * r.compensation_mm),
+                      cv::Scalar(0, 140, 255), 1, cv::LINE_AA);
+    cv::putText(img, std::to_string(i), px(mi) + cv::Point2d(6, 18), cv::FONT_HERSHEY_SIMPLEX, 0.45,
+                col, 1, cv::LINE_AA);
+  }
+  cv::putText(img,
+              "nominal (green), actual contour (dark), Mr - Mi (grey good, blue under-feed, "
+              "red over-feed) and compensation (orange), vectors x20",
+              {10, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.42, {0, 0, 0}, 1, cv::LINE_AA);
+  if (!cv::imwrite(path, img)) throw UsageError("cannot write " + path);
+}
+
+int Measure(const std::map<std::string, std::string>& f, bool json, std::ostream& out) {
+  for (const auto& [k, v] : f)
+    if (k != "--job" && k != "--png") throw UsageError("unknown argument " + k);
+  if (!f.count("--job")) throw UsageError("mlp grind measure needs --job");
+  std::ifstream in(f.at("--job"));
+  if (!in) throw UsageError("cannot read " + f.at("--job"));
+  std::ostringstream text;
+  text << in.rdbuf();
+  grind::GrindJob job;
+  std::unique_ptr<geometry::Profile2> p;
+  try {
+    job = grind::ParseJob(text.str());
+    p = std::make_unique<geometry::Profile2>(job.profile);
+  } catch (const std::exception& e) {
+    throw UsageError(f.at("--job") + ": " + e.what());
+  }
+  const fs::path dir = fs::path(f.at("--job")).parent_path();
+  std::vector<grind::PointResult> results;
+  for (const auto& pt : job.points) {
+    const auto before = ReadGrey((dir / pt.before).string(), job.camera);
+    const auto after = ReadGrey((dir / pt.after).string(), job.camera);
+    const grind::PointInput input{{before.data(), job.camera.width_px, job.camera.height_px},
+                                  {after.data(), job.camera.width_px, job.camera.height_px},
+                                  pt.c_mm,
+                                  pt.mi_mm};
+    results.push_back(
+        grind::MeasurePoint(input, *p, job.camera, job.wheel_radius_mm, job.limit_mm));
+  }
+  if (f.count("--png")) Picture(f.at("--png"), job, *p, results);
+  nlohmann::ordered_json points = nlohmann::ordered_json::array();
+  std::map<std::string, int> counts;
+  for (const auto& r : results) {
+    ++counts[grind::ToString(r.feed)];
+    points.push_back({{"feed", grind::ToString(r.feed)},
+                      {"d_mm", r.d_mm},
+                      {"mr_mm", Pair(r.mr_mm)},
+                      {"error_dir", Pair(r.error_dir)},
+                      {"error_mm", r.error_mm},
+                      {"wheel_cut", r.wheel_cut},
+                      {"edge_points", r.edge_points},
+                      {"nose_radius_mm", r.nose_radius_mm},
+                      {"compensation_mm", Pair(r.compensation_mm)}});
+  }
+  if (json) {
+    out << nlohmann::ordered_json{{"limit_mm", job.limit_mm}, {"points", points}}.dump() << "\n";
+    return kExitOk;
+  }
+  out << std::fixed << "limit e " << std::setprecision(1) << job.limit_mm * 1e3 << " um; "
+      << results.size() << " points: " << counts["good"] << " good, " << counts["under-feed"]
+      << " under-feed, " << counts["over-feed"] << " over-feed\n";
+  for (size_t i = 0; i < results.size(); ++i) {
+    const auto& r = results[i];
+    out << "  " << std::setw(2) << i << " " << std::setw(10) << grind::ToString(r.feed) << "  d "
+        << std::setw(6) << std::setprecision(2) << r.d_mm * 1e3 << " um";
+    if (r.feed == grind::Feed::kUnderFeed)
+      out << "  wheel off by " << r.error_mm * 1e3 << " um at "
+          << std::atan2(r.error_dir.y(), r.error_dir.x()) * 180 / M_PI << " deg"
+          << (r.wheel_cut ? "" : " (did not cut)");
+    if (r.compensation_mm.norm() > 0)
+      out << "  compensation (" << r.compensation_mm.x() * 1e3 << ", "
+          << r.compensation_mm.y() * 1e3 << ") um";
+    out << "\n";
+  }
+  if (f.count("--png")) out << "  picture: " << f.at("--png") << "\n";
+  return kExitOk;
+}
+
+}  // namespace
+
+int RunGrindCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  try {
+    if (!args.empty() && (args[0] == "--help" || args[0] == "-h")) {
+      out << kUsage;
+      return kExitOk;
+    }
+    if (args.empty() || (args[0] != "render" && args[0] != "measure"))
+      throw UsageError("expected: mlp grind render or measure ...");
+    bool json = false;
+    const auto f = Flags({args.begin() + 1, args.end()}, &json);
+    return args[0] == "render" ? Render(f, out, err) : Measure(f, json, out);
+  } catch (const UsageError& e) {
+    err << "mlp grind: " << e.what() << "\n" << kUsage;
+    return kExitBadInput;
+  } catch (const grind::GrindError& e) {
+    err << "mlp grind: " << e.what() << "\n";
+    return kExitCannotMeasure;
+  }
+}
+
+}  // namespace mlp::host
