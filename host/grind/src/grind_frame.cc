@@ -1,5 +1,7 @@
 #include "mlp/grind/grind_frame.h"
 
+#include "mlp/grey_image/grey_image.h"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -21,31 +23,6 @@ double Material(const geometry::Profile2& p,
   double f = p.Closest(x).signed_distance - stock;
   for (const WheelStroke& w : s) f = std::max(f, w.radius_mm - (x - w.center_mm).norm());
   return f;
-}
-
-void Blur(std::vector<double>* img, int w, int h, double sigma) {
-  if (sigma <= 0) return;
-  const int r = static_cast<int>(std::ceil(3 * sigma));
-  std::vector<double> k(static_cast<size_t>(2 * r + 1));
-  double sum = 0;
-  for (int i = -r; i <= r; ++i)
-    sum += k[static_cast<size_t>(i + r)] = std::exp(-0.5 * i * i / (sigma * sigma));
-  for (double& x : k) x /= sum;
-  std::vector<double> tmp(img->size());
-  for (int pass = 0; pass < 2; ++pass) {
-    const std::vector<double>& src = pass == 0 ? *img : tmp;
-    std::vector<double>& dst = pass == 0 ? tmp : *img;
-    for (int y = 0; y < h; ++y)
-      for (int x = 0; x < w; ++x) {
-        double s = 0;
-        for (int i = -r; i <= r; ++i) {
-          const int xx = pass == 0 ? std::clamp(x + i, 0, w - 1) : x;
-          const int yy = pass == 0 ? y : std::clamp(y + i, 0, h - 1);
-          s += k[static_cast<size_t>(i + r)] * src[static_cast<size_t>(yy * w + xx)];
-        }
-        dst[static_cast<size_t>(y * w + x)] = s;
-      }
-  }
 }
 
 }  // namespace
@@ -102,7 +79,7 @@ std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,
       cover[static_cast<size_t>(v) * static_cast<size_t>(c.width_px) + static_cast<size_t>(u)] =
           c.bright - (c.bright - c.dark) * share;
     }
-  Blur(&cover, c.width_px, c.height_px, c.psf_sigma_px);
+  grey_image::GaussianBlur(&cover, c.width_px, c.height_px, c.psf_sigma_px);
   std::normal_distribution<double> noise(0, c.noise_sigma);
   std::vector<std::uint8_t> px(n);
   for (size_t i = 0; i < n; ++i)

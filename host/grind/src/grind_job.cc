@@ -1,5 +1,6 @@
 #include "mlp/grind/grind_job.h"
 
+#include "mlp/grey_image/grey_image.h"
 #include "mlp/probe_fw/json_fields.h"
 
 #include <cmath>
@@ -86,16 +87,11 @@ void RenderCase(const geometry::Profile2& nominal,
 }
 
 void WritePgm(const std::string& path, int w, int h, const std::vector<std::uint8_t>& px) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    out << "P5\n" << w << " " << h << "\n255\n";
-    out.write(reinterpret_cast<const char*>(px.data()), static_cast<std::streamsize>(px.size()));
-    if (!out) throw GrindError("cannot write " + tmp);
+  try {
+    grey_image::WritePgm(path, w, h, px);
+  } catch (const std::runtime_error& e) {
+    throw GrindError(e.what());
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw GrindError("cannot write " + path + ": " + ec.message());
 }
 
 GrindJob ParseJob(const std::string& text) {

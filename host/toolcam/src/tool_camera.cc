@@ -1,5 +1,7 @@
 #include "mlp/toolcam/tool_camera.h"
 
+#include "mlp/grey_image/grey_image.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -110,45 +112,6 @@ std::vector<double> Coverage(const ToolDescription& t,
   return cover;
 }
 
-// Separable Gaussian blur (the optics' point spread), edges clamped.
-void Blur(std::vector<double>* img, int w, int h, double sigma) {
-  if (sigma <= 0) return;
-  const int r = static_cast<int>(std::ceil(3 * sigma));
-  std::vector<double> k(static_cast<size_t>(2 * r + 1));
-  double sum = 0;
-  for (int i = -r; i <= r; ++i)
-    sum += k[static_cast<size_t>(i + r)] = std::exp(-0.5 * i * i / (sigma * sigma));
-  for (double& x : k) x /= sum;
-  std::vector<double> tmp(img->size());
-  const auto at = [&](const std::vector<double>& a, int x, int y) {
-    return a[static_cast<size_t>(std::clamp(y, 0, h - 1) * w + std::clamp(x, 0, w - 1))];
-  };
-  // Along rows, then down columns; away from the borders without the clamping.
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      double s = 0;
-      if (x >= r && x < w - r) {
-        const double* row = img->data() + static_cast<size_t>(y * w + x - r);
-        for (int i = 0; i <= 2 * r; ++i) s += k[static_cast<size_t>(i)] * row[i];
-      } else {
-        for (int i = -r; i <= r; ++i) s += k[static_cast<size_t>(i + r)] * at(*img, x + i, y);
-      }
-      tmp[static_cast<size_t>(y * w + x)] = s;
-    }
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      double s = 0;
-      if (y >= r && y < h - r) {
-        const double* col = tmp.data() + static_cast<size_t>((y - r) * w + x);
-        for (int i = 0; i <= 2 * r; ++i)
-          s += k[static_cast<size_t>(i)] * col[static_cast<size_t>(i * w)];
-      } else {
-        for (int i = -r; i <= r; ++i) s += k[static_cast<size_t>(i + r)] * at(tmp, x, y + i);
-      }
-      (*img)[static_cast<size_t>(y * w + x)] = s;
-    }
-}
-
 // Keys' cubic convolution weights (a = -0.5) for a sample at fraction f past the second of
 // four: reproduces quadratics, so a blurred edge moves by far less than under bilinear
 // resampling, whose error is periodic in the sub-pixel phase and, along an edge turned by a
@@ -238,7 +201,7 @@ ToolFrame RenderToolFrame(const ToolDescription& tool,
   canvas.axis_u_px += margin, canvas.tip_v_px += margin;
   std::vector<double> img = Coverage(tool, canvas, turn_rad, blur_rad, f.drops, rng);
   for (double& x : img) x = c.bright - (c.bright - c.dark) * x;
-  Blur(&img, canvas.width_px, canvas.height_px, c.psf_sigma_px);
+  grey_image::GaussianBlur(&img, canvas.width_px, canvas.height_px, c.psf_sigma_px);
   img = Resample(img, c, margin);
   std::normal_distribution<double> noise(0, c.noise_sigma);
   f.pixels.resize(img.size());
@@ -249,16 +212,11 @@ ToolFrame RenderToolFrame(const ToolDescription& tool,
 }
 
 void WritePgm(const std::string& path, int w, int h, const std::vector<std::uint8_t>& px) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    out << "P5\n" << w << " " << h << "\n255\n";
-    out.write(reinterpret_cast<const char*>(px.data()), static_cast<std::streamsize>(px.size()));
-    if (!out) Fail("cannot write " + tmp);
+  try {
+    grey_image::WritePgm(path, w, h, px);
+  } catch (const std::runtime_error& e) {
+    Fail(e.what());
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) Fail("cannot write " + path + ": " + ec.message());
 }
 
 int RenderToolSequence(const ToolDescription& tool,
