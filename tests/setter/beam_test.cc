@@ -125,6 +125,27 @@ TEST(BeamProcessor, TheEdgeRepeatsFarBetterThanTheFeedPerTurn) {
   EXPECT_LT(hi - lo, kFeedPerRevMm);
 }
 
+// The ends of the setters' sample rates (45 and 96 kHz): the same edge.
+TEST(BeamProcessor, HoldsAcrossTheSampleRates) {
+  for (const double fs : {45000.0, 96000.0}) {
+    BeamModel beam;
+    beam.sample_rate_hz = fs;
+    ToolInBeam pin;
+    pin.tooth_radius_mm = {3.0};
+    const BeamSignal p = GenerateSignal(beam, pin, Approach(0.15, 2.5), 1);
+    ProcessorConfig c = Config(CalibrateFromPin(p.volts, fs, 6.0, true), 1500, 2, true);
+    c.sample_rate_hz = fs;
+    beam.drops_per_s = 10;
+    for (unsigned seed = 1; seed <= 5; ++seed) {
+      ToolInBeam tool;
+      tool.rpm = 1500, tool.tooth_radius_mm = {3.0, 3.01}, tool.start_turn_rad = seed;
+      const Outcome r = Process(GenerateSignal(beam, tool, Approach(0.06, 1.2), 50 + seed), c);
+      ASSERT_TRUE(r.triggered) << fs << " Hz, seed " << seed;
+      EXPECT_NEAR(r.edge_error_mm, 0.0, kEdgeTolMm) << fs << " Hz, seed " << seed;
+    }
+  }
+}
+
 TEST(BeamProcessor, DropsAloneNeverTrigger) {
   const CalibrationCurve curve = PinCurve();
   BeamModel beam;
