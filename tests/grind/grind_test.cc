@@ -71,6 +71,42 @@ TEST(Grind, ASeededSweepIsClassifiedAndItsErrorsRecovered) {
       worst_d * 1e3, worst_dir, worst_size * 1e3, worst_comp * 1e3);
 }
 
+// A whole pass: strokes every 0.1 mm along the profile, each overlapping the last, the wheel
+// 30 um off at 80 deg throughout; every 5th point measured from the frames before and after
+// its stroke (only a sliver of the nose's arc is new each time).
+TEST(Grind, OverlappingStrokesOfAWholePassStillShowTheWheelsError) {
+  GrindJob job;
+  job.profile = DemoProfile();
+  const geometry::Profile2 p(job.profile);
+  const Vec2 offset = 0.03 * Vec2(std::cos(80 * M_PI / 180), std::sin(80 * M_PI / 180));
+  std::vector<WheelStroke> strokes;
+  int k = 0, measured = 0;
+  double worst_dir = 0, worst_size = 0;
+  for (double s = 0.3; s < p.Length() - 0.3; s += 0.1, ++k) {
+    const geometry::ProfileFoot f = p.At(s);
+    const Vec2 c = f.point + job.wheel_radius_mm * f.normal;
+    const std::vector<WheelStroke> before = strokes;
+    strokes.push_back({c + offset, job.wheel_radius_mm});
+    if (k % 5 != 0) continue;
+    const auto b = RenderGrindFrame(p, job.stock_mm, before, job.camera, 10 + k);
+    const auto a = RenderGrindFrame(p, job.stock_mm, strokes, job.camera, 11 + k);
+    const PointInput in{{b.data(), job.camera.width_px, job.camera.height_px},
+                        {a.data(), job.camera.width_px, job.camera.height_px},
+                        c,
+                        f.point};
+    const PointResult r = MeasurePoint(in, p, job.camera, job.wheel_radius_mm, job.limit_mm);
+    ASSERT_EQ(r.feed, Feed::kUnderFeed) << "s " << s;
+    EXPECT_LT(AngleDeg(r.error_dir, offset), kDirTolDeg) << "s " << s;
+    EXPECT_NEAR(r.error_mm, offset.norm(), kSizeTolMm) << "s " << s;
+    worst_dir = std::max(worst_dir, AngleDeg(r.error_dir, offset));
+    worst_size = std::max(worst_size, std::abs(r.error_mm - offset.norm()));
+    ++measured;
+  }
+  std::printf("a whole pass, %d points measured: direction within %.2f deg, size within %.2f um\n",
+              measured, worst_dir, worst_size * 1e3);
+  EXPECT_GE(measured, 9);
+}
+
 // A stroke 0.2 mm out (more than the 0.15 mm of stock): nothing removed; an under-feed by the
 // stock, along the normal.
 TEST(Grind, AStrokeThatDidNotCutGivesTheNormalAndTheExcess) {
