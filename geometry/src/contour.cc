@@ -1,6 +1,7 @@
 #include "mlp/geometry/contour.h"
 
 #include <algorithm>
+#include <array>
 #include <vector>
 
 namespace mlp::geometry {
@@ -57,6 +58,20 @@ Points2 ToPoints(const std::vector<Vec2>& v) {
 }
 
 }  // namespace
+
+double HalfLevel(const GreyView& im) {
+  std::array<long, 256> histogram{};
+  for (int v = 0; v < im.height; ++v)
+    for (int u = 0; u < im.width; ++u) ++histogram[static_cast<size_t>(im.At(u, v))];
+  const double total = static_cast<double>(im.width) * im.height;
+  const auto percentile = [&](double share) {
+    long seen = 0;
+    for (int g = 0; g < 256; ++g)
+      if ((seen += histogram[static_cast<size_t>(g)]) >= share * total) return g;
+    return 255;
+  };
+  return (percentile(0.02) + percentile(0.98)) / 2.0;
+}
 
 GreyView GreyView::Window(int u0, int v0, int w, int h) const {
   const int u_lo = std::clamp(u0, 0, width), v_lo = std::clamp(v0, 0, height);

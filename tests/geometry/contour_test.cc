@@ -100,6 +100,17 @@ TEST(Contour, AllCrossingsTraceAShapeOfAnyKind) {
   EXPECT_LT(worst, 0.5);  // where a line grazes the circle its crossing is shallow
 }
 
+// The level between shadow and light from the image: its 2nd and 98th percentiles' middle,
+// whatever a few outliers (a speck of dust at 0, a glint at 255) do.
+TEST(Contour, HalfLevelSitsBetweenShadowAndLight) {
+  std::vector<std::uint8_t> px(100 * 100, 210);
+  std::fill(px.begin(), px.begin() + 4000, 25);
+  px[5000] = 0, px[6000] = 255;
+  const GreyView im{px.data(), 100, 100};
+  EXPECT_DOUBLE_EQ(HalfLevel(im), (25 + 210) / 2.0);
+  EXPECT_DOUBLE_EQ(HalfLevel(im.Window(0, 50, 100, 50)), 210.0);  // light only
+}
+
 TEST(Contour, NoCrossingNoPoint) {
   const std::vector<std::uint8_t> dark(100, 20);
   EXPECT_EQ(RowCrossings({dark.data(), 10, 10}, kLevel).cols(), 0);

@@ -25,7 +25,7 @@ std::vector<ContourPoint> Contour(const geometry::GreyView& im,
                                   const geometry::Profile2& nominal,
                                   const Vec2& near,
                                   double radius) {
-  const geometry::Points2 px = geometry::AllCrossings(im, HalfLevel(im));
+  const geometry::Points2 px = geometry::AllCrossings(im, geometry::HalfLevel(im));
   std::vector<ContourPoint> out;
   for (Eigen::Index i = 0; i < px.cols(); ++i) {
     const Vec2 p = c.ToMm(px.col(i));
@@ -143,20 +143,6 @@ const char* ToString(Feed f) {
   return "?";
 }
 
-double HalfLevel(const geometry::GreyView& im) {
-  std::array<long, 256> histogram{};
-  for (int v = 0; v < im.height; ++v)
-    for (int u = 0; u < im.width; ++u) ++histogram[static_cast<size_t>(im.At(u, v))];
-  const double total = static_cast<double>(im.width) * im.height;
-  const auto percentile = [&](double share) {
-    long seen = 0;
-    for (int g = 0; g < 256; ++g)
-      if ((seen += histogram[static_cast<size_t>(g)]) >= share * total) return g;
-    return 255;
-  };
-  return (percentile(0.02) + percentile(0.98)) / 2.0;
-}
-
 PointResult MeasurePoint(const PointInput& in,
                          const geometry::Profile2& nominal,
                          const GrindCamera& cam,
@@ -183,7 +169,7 @@ PointResult MeasurePoint(const PointInput& in,
   // The removed region's edge: contour points after that were material before: the before
   // frame there (bilinear, at the point itself) darker than its level by 40 % of the grey
   // range, about 0.8 px inside the old edge (a point on the untouched stock reads the level).
-  const double before_level = HalfLevel(in.before) - 0.4 * (cam.bright - cam.dark);
+  const double before_level = geometry::HalfLevel(in.before) - 0.4 * (cam.bright - cam.dark);
   std::vector<Vec2> edge;
   for (const ContourPoint& q : pts) {
     const Vec2 px = cam.ToPx(q.p);

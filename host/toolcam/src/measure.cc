@@ -328,16 +328,8 @@ Vec2 Undistort(const Vec2& px, const ToolCameraModel& c) {
 }
 
 double ShadowLevel(const std::vector<std::uint8_t>& pixels) {
-  std::array<int, 256> histogram{};
-  for (std::uint8_t p : pixels) ++histogram[p];
-  const auto percentile = [&](double share) {
-    long seen = 0;
-    for (int v = 0; v < 256; ++v)
-      if ((seen += histogram[static_cast<size_t>(v)]) >= share * static_cast<double>(pixels.size()))
-        return v;
-    return 255;
-  };
-  return (percentile(0.02) + percentile(0.98)) / 2.0;
+  // The whole frame as one row: the level only counts the greys.
+  return geometry::HalfLevel({pixels.data(), static_cast<int>(pixels.size()), 1});
 }
 
 Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCameraModel& c) {

@@ -32,6 +32,11 @@ struct GreyView {
   GreyView Window(int u0, int v0, int w, int h) const;
 };
 
+/// Half way between a silhouette image's shadow and its back-light: the mean of its 2nd and 98th
+/// percentile grey (a light source ages and a camera's gain drifts, so the level comes from
+/// the image itself, not a constant).
+double HalfLevel(const GreyView& image);
+
 /// Each row's first crossing from below `level` to at or above it, scanning from the left
 /// (column 0): (u, v) with u sub-pixel; a row with no crossing adds nothing. `falling`: the
 /// first crossing from at or above to below instead (a shadow's left edge on a light ground).

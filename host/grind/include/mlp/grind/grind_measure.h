@@ -66,7 +66,4 @@ PointResult MeasurePoint(const PointInput& in,
                          double wheel_radius_mm,
                          double limit_mm);
 
-/// Half way between a frame's shadow and light (its 2nd and 98th percentiles).
-double HalfLevel(const geometry::GreyView& image);
-
 }  // namespace mlp::grind
