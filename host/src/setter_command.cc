@@ -1,6 +1,7 @@
 #include "mlp/host/setter_command.h"
 
 #include "mlp/host/cli.h"
+#include "mlp/nc/tool_table.h"
 #include "mlp/setter/beam_processor.h"
 #include "mlp/setter/beam_signal.h"
 
@@ -85,16 +86,13 @@ std::string ReadText(const std::string& path) {
   return s.str();
 }
 
+// Whole or not at all (the nc layer's writer: temporary file, fsync, rename).
 void WriteAtomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << text;
-    if (!out) throw UsageError("cannot write " + tmp);
+  try {
+    nc::WriteFileAtomically(path, text);
+  } catch (const std::runtime_error& e) {
+    throw UsageError(std::string("cannot write ") + path + ": " + e.what());
   }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw UsageError("cannot write " + path + ": " + ec.message());
 }
 
 // `mlprobe-beam-signal/1`: a header line `# mlprobe-beam-signal/1 sample_rate_hz=H`, then one
