@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Builds the link's libFuzzer target with clang (-fsanitize=fuzzer,address,undefined) and runs
-# it for SECONDS (default 20: what CI runs; run it for hours by hand). The corpus is kept in
-# build-fuzz/corpus between runs. Exit 0 only when no crash, leak or sanitizer report was found.
+# Builds the link's libFuzzer target and the job socket's request parser target with clang (-fsanitize=fuzzer,address,undefined) and runs
+# each for SECONDS (default 20: what CI runs; run them for hours by hand). The corpora are kept
+# in build-fuzz/corpus and build-fuzz/corpus-requests between runs. Exit 0 only when no crash, leak or sanitizer report was found.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-20}
@@ -12,3 +12,9 @@ clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-reco
   -lcrypto -lzstd -o "$out/link_frame_fuzz"
 "$out/link_frame_fuzz" -max_total_time="$seconds" -max_len=4096 -rss_limit_mb=1024 \
   -print_final_stats=1 "$out/corpus" 2>&1 | tail -n 12
+mkdir -p "$out/corpus-requests"
+clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
+  -Ihost/service/include host/service/src/request_json.cc tests/fuzz/job_request_fuzz.cc \
+  -o "$out/job_request_fuzz"
+"$out/job_request_fuzz" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=1024 \
+  -print_final_stats=1 "$out/corpus-requests" 2>&1 | tail -n 12

@@ -5,6 +5,7 @@
 #include "mlp/history/history.h"
 #include "mlp/host/cli.h"
 #include "mlp/service/hostd.h"
+#include "mlp/service/request_json.h"
 
 #include <csignal>
 #include <iostream>
@@ -13,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 #include <pthread.h>
+#include <sys/resource.h>
 
 namespace {
 
@@ -26,9 +28,21 @@ std::mutex log_m;
 
 void Log(const std::string& level, const std::string& message) {
   const std::lock_guard lock(log_m);
-  std::cerr
-      << nlohmann::json{{"time", mlp::history::UtcNow()}, {"level", level}, {"msg", message}}.dump()
-      << std::endl;
+  // DumpSafe: a message may quote a peer's bytes that are not UTF-8 (a serial, a file name).
+  std::cerr << mlp::service::DumpSafe(
+                   {{"time", mlp::history::UtcNow()}, {"level", level}, {"msg", message}})
+            << std::endl;
+}
+
+// The soft limit on open files up to the hard one: each job-socket client and probe costs a
+// descriptor, and the usual soft 1024 is what ran out under a flood (the caps in JobServer and
+// the link stay far below the hard limit systemd's LimitNOFILE sets).
+void RaiseFileLimit() {
+  rlimit l{};
+  if (getrlimit(RLIMIT_NOFILE, &l) == 0 && l.rlim_cur < l.rlim_max) {
+    l.rlim_cur = l.rlim_max;
+    setrlimit(RLIMIT_NOFILE, &l);
+  }
 }
 
 }  // namespace
@@ -46,6 +60,8 @@ int main(int argc, char** argv) {
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
   std::signal(SIGPIPE, SIG_IGN);  // a client that hangs up must not kill the service
+  std::signal(SIGXFSZ, SIG_IGN);  // a file-size limit is a write error (EFBIG), not death
+  RaiseFileLimit();
   try {
     mlp::service::Hostd hostd(mlp::service::LoadHostdConfig(args[1]),
                               [](const std::string& m) { Log("info", m); });

@@ -2,6 +2,7 @@
 
 #include "mlp/host/cli.h"
 #include "mlp/service/job_client.h"
+#include "mlp/service/request_json.h"
 
 #include <cstdlib>
 #include <fstream>
@@ -72,6 +73,24 @@ void PrintStatus(const json& s, std::ostream& out) {
   }
 }
 
+// The request file's text, or stdin's; refused unread beyond what the host would take (a file of
+// gigabytes must not fill the client's memory before the host refuses it).
+std::string ReadRequestText(const std::string& file) {
+  std::ifstream in;
+  if (file != "-") {
+    in.open(file, std::ios::binary);
+    if (!in) throw UsageError("cannot read " + file);
+  }
+  std::istream& from = file == "-" ? std::cin : in;
+  std::string text(service::kMaxRequestBytes + 1, '\0');
+  from.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(from.gcount()));
+  if (text.size() > service::kMaxRequestBytes)
+    throw UsageError(file + " is longer than " + std::to_string(service::kMaxRequestBytes) +
+                     " bytes: not a request");
+  return text;
+}
+
 template <class F>
 int Guarded(const char* usage, std::ostream& err, F f) {
   try {
@@ -92,7 +111,7 @@ int RunStatusCommand(const std::vector<std::string>& args, std::ostream& out, st
     const Options o = Parse(args, false);
     const json s = service::SendRequest(o.socket, {{"op", "status"}}, kStatusTimeoutMs);
     if (o.json)
-      out << s.dump(2) << "\n";
+      out << service::DumpSafe(s, 2) << "\n";
     else
       PrintStatus(s, out);
     return kExitOk;
@@ -102,23 +121,15 @@ int RunStatusCommand(const std::vector<std::string>& args, std::ostream& out, st
 int RunRequestCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   return Guarded("usage: mlp request [--socket PATH] [--timeout S] FILE|-\n", err, [&]() -> int {
     const Options o = Parse(args, true);
-    std::stringstream text;
-    if (o.file == "-") {
-      text << std::cin.rdbuf();
-    } else {
-      std::ifstream in(o.file);
-      if (!in) throw UsageError("cannot read " + o.file);
-      text << in.rdbuf();
-    }
     json request;
     try {
-      request = json::parse(text.str());
-    } catch (const json::parse_error& e) {
-      throw UsageError(o.file + " is not JSON: " + e.what());
+      request = service::ParseRequest(ReadRequestText(o.file));
+    } catch (const service::RequestParseError& e) {
+      throw UsageError(o.file + ": " + e.what());
     }
     const json reply =
         service::SendRequest(o.socket, request, static_cast<int>(o.timeout_s * 1000));
-    out << reply.dump(2) << "\n";
+    out << service::DumpSafe(reply, 2) << "\n";
     const std::string status = reply.value("status", "");
     if (reply.contains("error")) err << "mlp: " << reply.at("error").get<std::string>() << "\n";
     if (status == "out_of_tolerance") return kExitOutOfTolerance;

@@ -131,7 +131,7 @@ TEST(History, RefusesAFileFromANewerProgramOrNotADatabase) {
   { History h(db.string()); }
   {
     SQLite::Database raw(db.string(), SQLite::OPEN_READWRITE);
-    raw.exec("UPDATE meta SET value = '2' WHERE key = 'schema_version'");
+    raw.exec("UPDATE meta SET value = '99' WHERE key = 'schema_version'");
   }
   try {
     History h(db.string());

@@ -40,10 +40,14 @@ constexpr int kLinkPort = 17431;  // each test that runs a probe link has its ow
 // A child process with its stderr in a file; SIGTERM and wait on destruction.
 class Child {
  public:
-  Child(const std::vector<std::string>& argv, const fs::path& log) {
+  /// `in_child`: run in the child before exec (e.g. to lower its resource limits).
+  Child(const std::vector<std::string>& argv,
+        const fs::path& log,
+        const std::function<void()>& in_child = {}) {
     pid_ = fork();
     if (pid_ == 0) {
       std::freopen(log.c_str(), "w", stderr);
+      if (in_child) in_child();
       std::vector<char*> a;
       for (const auto& s : argv) a.push_back(const_cast<char*>(s.c_str()));
       a.push_back(nullptr);
@@ -52,6 +56,8 @@ class Child {
     }
   }
   ~Child() { Stop(); }
+  /// True while the process runs (not exited, not killed).
+  bool Alive() const { return pid_ > 0 && waitpid(pid_, nullptr, WNOHANG) == 0; }
   /// SIGTERM (graceful) by default; SIGKILL is a crash.
   int Stop(int signal = SIGTERM) {
     if (pid_ <= 0) return exit_code_;

@@ -4,15 +4,19 @@
 #include <cstdio>
 #include <ctime>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include <SQLiteCpp/SQLiteCpp.h>
+#include <sys/stat.h>
 
 namespace mlp::history {
 namespace {
 
 using json = nlohmann::json;
-constexpr int kSchemaVersion = 1;
+// 2: jobs.request_id (idempotency key), offset_writes.state (intent before the write, written
+// after it), meta job_id_floor.
+constexpr int kSchemaVersion = 2;
 // Another process (mlp history reading while the host writes) holds the lock briefly.
 constexpr int kBusyTimeoutMs = 5000;
 
@@ -22,7 +26,7 @@ CREATE TABLE IF NOT EXISTS jobs (
   id INTEGER PRIMARY KEY,
   machine TEXT NOT NULL, kind TEXT NOT NULL, probe_serial TEXT NOT NULL,
   calibration_id TEXT NOT NULL, request TEXT NOT NULL, status TEXT NOT NULL,
-  reply TEXT, timings_ms TEXT, started_utc TEXT NOT NULL, finished_utc TEXT);
+  reply TEXT, timings_ms TEXT, started_utc TEXT NOT NULL, finished_utc TEXT, request_id TEXT);
 CREATE INDEX IF NOT EXISTS jobs_started ON jobs (started_utc);
 CREATE TABLE IF NOT EXISTS captures (
   id INTEGER PRIMARY KEY, job_id INTEGER NOT NULL REFERENCES jobs (id),
@@ -34,10 +38,29 @@ CREATE TABLE IF NOT EXISTS results (
 CREATE TABLE IF NOT EXISTS offset_writes (
   id INTEGER PRIMARY KEY, job_id INTEGER NOT NULL REFERENCES jobs (id),
   adapter TEXT NOT NULL, target TEXT NOT NULL, before TEXT NOT NULL, after TEXT NOT NULL,
-  written_utc TEXT NOT NULL);
+  written_utc TEXT NOT NULL, state TEXT NOT NULL DEFAULT 'written');
+)sql";
+// Version 1 files gain the columns of version 2 (a v1 offset write was recorded after it
+// happened: 'written').
+constexpr const char* kMigrateV1 = R"sql(
+ALTER TABLE jobs ADD COLUMN request_id TEXT;
+ALTER TABLE offset_writes ADD COLUMN state TEXT NOT NULL DEFAULT 'written';
+)sql";
+constexpr const char* kIndexes = R"sql(
+CREATE INDEX IF NOT EXISTS jobs_request ON jobs (machine, request_id);
 )sql";
 
 [[noreturn]] void Fail(const std::string& what) { throw HistoryError(what); }
+
+std::optional<std::pair<dev_t, ino_t>> FileIdentity(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return std::nullopt;
+  return std::pair{st.st_dev, st.st_ino};
+}
+
+// Stored JSON text: bytes that are not UTF-8 (quoted from a peer in an error) become U+FFFD
+// rather than making the row unwritable.
+std::string Text(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
 
 json ParseStored(const std::string& text) { return text.empty() ? json() : json::parse(text); }
 
@@ -86,6 +109,7 @@ std::string UtcNow() {
 struct History::Impl {
   std::string path;
   SQLite::Database db;
+  std::optional<std::pair<dev_t, ino_t>> identity;  // the file opened, to notice its removal
   explicit Impl(const std::string& p)
       : path(p), db(p, SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE, kBusyTimeoutMs) {}
 
@@ -131,11 +155,14 @@ History::History(const std::string& path) {
       if (v > kSchemaVersion)
         Fail("history " + path + ": schema version " + std::to_string(v) +
              " is newer than this program's " + std::to_string(kSchemaVersion));
-    } else {
-      impl_->db.exec("INSERT INTO meta VALUES ('schema_version', '" +
-                     std::to_string(kSchemaVersion) + "')");
+      if (v == 1) impl_->db.exec(kMigrateV1);
     }
+    q.reset();
+    impl_->db.exec("INSERT OR REPLACE INTO meta VALUES ('schema_version', '" +
+                   std::to_string(kSchemaVersion) + "')");
+    impl_->db.exec(kIndexes);
     t.commit();
+    impl_->identity = FileIdentity(path);
   } catch (const SQLite::Exception& e) {
     Fail("history " + path + ": " + e.what());
   }
@@ -143,16 +170,44 @@ History::History(const std::string& path) {
 
 History::~History() = default;
 
-std::int64_t History::StartJob(const JobStart& s) {
+void History::CheckFile() const {
+  if (FileIdentity(impl_->path) != impl_->identity)
+    Fail("history " + impl_->path +
+         " was removed or replaced while the host ran: no job is recorded, so none runs "
+         "until mlp-hostd is restarted");
+}
+
+void History::SetJobIdFloor(std::int64_t floor) {
   try {
     SQLite::Statement q(impl_->db,
-                        "INSERT INTO jobs (machine, kind, probe_serial, calibration_id, request, "
-                        "status, started_utc) VALUES (?, ?, ?, ?, ?, ?, ?)");
+                        "INSERT OR REPLACE INTO meta VALUES ('job_id_floor', "
+                        "MAX(?, COALESCE((SELECT CAST(value AS INTEGER) FROM meta "
+                        "WHERE key = 'job_id_floor'), 0)))");
+    q.bind(1, floor);
+    q.exec();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+}
+
+std::int64_t History::StartJob(const JobStart& s) {
+  CheckFile();
+  try {
+    // The id follows the last job, and never falls below the floor: a new history in a data
+    // folder that holds an earlier one's clouds and reports must not write over them.
+    SQLite::Statement q(
+        impl_->db,
+        "INSERT INTO jobs (id, machine, kind, probe_serial, calibration_id, request, "
+        "status, started_utc, request_id) VALUES (MAX(COALESCE((SELECT MAX(id) "
+        "FROM jobs), 0) + 1, COALESCE((SELECT CAST(value AS INTEGER) FROM meta "
+        "WHERE key = 'job_id_floor'), 1)), ?, ?, ?, ?, ?, ?, ?, ?)");
+    q.bind(8, s.request_id);
+    if (s.request_id.empty()) q.bind(8);
     q.bind(1, s.machine);
     q.bind(2, s.kind);
     q.bind(3, s.probe_serial);
     q.bind(4, s.calibration_id);
-    q.bind(5, s.request.dump());
+    q.bind(5, Text(s.request));
     q.bind(6, ToString(JobStatus::kRunning));
     q.bind(7, UtcNow());
     q.exec();
@@ -168,7 +223,7 @@ void History::AddCapture(std::int64_t job, const CaptureRow& r) {
                              "cloud_sha256, points) VALUES (?, ?, ?, ?, ?, ?)",
                              [&](SQLite::Statement& q) {
                                q.bind(2, r.capture_id);
-                               q.bind(3, r.pose.dump());
+                               q.bind(3, Text(r.pose));
                                q.bind(4, r.cloud_path);
                                q.bind(5, r.cloud_sha256);
                                q.bind(6, r.points);
@@ -180,22 +235,141 @@ void History::AddResult(std::int64_t job, const ResultRow& r) {
       job, "INSERT INTO results (job_id, feature, fit, decision) VALUES (?, ?, ?, ?)",
       [&](SQLite::Statement& q) {
         q.bind(2, r.feature);
-        q.bind(3, r.fit.dump());
-        q.bind(4, r.decision.dump());
+        q.bind(3, Text(r.fit));
+        q.bind(4, Text(r.decision));
       });
 }
 
 void History::AddOffsetWrite(std::int64_t job, const OffsetWriteRow& r) {
   impl_->InsertForRunningJob(job,
                              "INSERT INTO offset_writes (job_id, adapter, target, before, after, "
-                             "written_utc) VALUES (?, ?, ?, ?, ?, ?)",
+                             "written_utc, state) VALUES (?, ?, ?, ?, ?, ?, ?)",
                              [&](SQLite::Statement& q) {
                                q.bind(2, r.adapter);
                                q.bind(3, r.target);
-                               q.bind(4, r.before.dump());
-                               q.bind(5, r.after.dump());
+                               q.bind(4, Text(r.before));
+                               q.bind(5, Text(r.after));
                                q.bind(6, UtcNow());
+                               q.bind(7, r.state);
                              });
+}
+
+void History::AddWriteIntents(std::int64_t job,
+                              const std::vector<OffsetWriteRow>& rows,
+                              const json& reply_so_far) {
+  CheckFile();
+  try {
+    // This commit must survive a power cut too: it is what tells the next start that the
+    // controller may have been changed (SQLite: FULL syncs the WAL at each commit).
+    impl_->db.exec("PRAGMA synchronous = FULL");
+    {
+      SQLite::Transaction t(impl_->db);
+      impl_->RequireRunning(job);
+      for (const OffsetWriteRow& r : rows) {
+        SQLite::Statement q(impl_->db,
+                            "INSERT INTO offset_writes (job_id, adapter, target, before, after, "
+                            "written_utc, state) VALUES (?, ?, ?, ?, ?, ?, 'intent')");
+        q.bind(1, job);
+        q.bind(2, r.adapter);
+        q.bind(3, r.target);
+        q.bind(4, Text(r.before));
+        q.bind(5, Text(r.after));
+        q.bind(6, UtcNow());
+        q.exec();
+      }
+      SQLite::Statement u(impl_->db, "UPDATE jobs SET reply = ? WHERE id = ?");
+      u.bind(1, Text(reply_so_far));
+      u.bind(2, job);
+      u.exec();
+      t.commit();
+    }
+    impl_->db.exec("PRAGMA synchronous = NORMAL");
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+}
+
+void History::MarkWritesDone(std::int64_t job) {
+  try {
+    SQLite::Statement q(impl_->db,
+                        "UPDATE offset_writes SET state = 'written', written_utc = ? "
+                        "WHERE job_id = ? AND state = 'intent'");
+    q.bind(1, UtcNow());
+    q.bind(2, job);
+    q.exec();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+}
+
+std::vector<InterruptedWrite> History::InterruptedWrites() const {
+  std::vector<InterruptedWrite> out;
+  try {
+    SQLite::Statement q(impl_->db,
+                        "SELECT id, machine, COALESCE(reply, '') FROM jobs WHERE status = "
+                        "'running' AND id IN (SELECT job_id FROM offset_writes WHERE state = "
+                        "'intent') ORDER BY id");
+    while (q.executeStep()) {
+      InterruptedWrite w{q.getColumn(0).getInt64(),
+                         q.getColumn(1).getString(),
+                         ParseStored(q.getColumn(2).getString()),
+                         {}};
+      SQLite::Statement r(impl_->db,
+                          "SELECT adapter, target, before, after FROM offset_writes "
+                          "WHERE job_id = ? AND state = 'intent' ORDER BY id");
+      r.bind(1, w.job);
+      while (r.executeStep())
+        w.writes.push_back({r.getColumn(0).getString(), r.getColumn(1).getString(),
+                            ParseStored(r.getColumn(2).getString()),
+                            ParseStored(r.getColumn(3).getString()), "intent"});
+      out.push_back(std::move(w));
+    }
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+  return out;
+}
+
+void History::SettleInterrupted(std::int64_t job,
+                                bool written,
+                                JobStatus status,
+                                const json& reply) {
+  try {
+    SQLite::Transaction t(impl_->db);
+    SQLite::Statement q(impl_->db,
+                        "UPDATE offset_writes SET state = ? WHERE job_id = ? AND state = 'intent'");
+    q.bind(1, written ? "written" : "not_written");
+    q.bind(2, job);
+    q.exec();
+    SQLite::Statement u(impl_->db,
+                        "UPDATE jobs SET status = ?, reply = ?, finished_utc = ? "
+                        "WHERE id = ? AND status = 'running'");
+    u.bind(1, ToString(status));
+    u.bind(2, Text(reply));
+    u.bind(3, UtcNow());
+    u.bind(4, job);
+    u.exec();
+    t.commit();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+}
+
+std::optional<EarlierRequest> History::FindRequest(const std::string& machine,
+                                                   const std::string& request_id) const {
+  try {
+    SQLite::Statement q(impl_->db,
+                        "SELECT id, status, COALESCE(reply, ''), EXISTS (SELECT 1 FROM "
+                        "offset_writes w WHERE w.job_id = jobs.id AND w.state != 'not_written') "
+                        "FROM jobs WHERE machine = ? AND request_id = ? ORDER BY id DESC LIMIT 1");
+    q.bind(1, machine);
+    q.bind(2, request_id);
+    if (!q.executeStep()) return std::nullopt;
+    return EarlierRequest{q.getColumn(0).getInt64(), JobStatusFrom(q.getColumn(1).getString()),
+                          ParseStored(q.getColumn(2).getString()), q.getColumn(3).getInt() != 0};
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
 }
 
 void History::FinishJob(std::int64_t job,
@@ -210,8 +384,8 @@ void History::FinishJob(std::int64_t job,
                         "UPDATE jobs SET status = ?, reply = ?, timings_ms = ?, finished_utc = ? "
                         "WHERE id = ?");
     q.bind(1, ToString(status));
-    q.bind(2, reply.dump());
-    q.bind(3, timings_ms.dump());
+    q.bind(2, Text(reply));
+    q.bind(3, Text(timings_ms));
     q.bind(4, UtcNow());
     q.bind(5, job);
     q.exec();
@@ -230,7 +404,7 @@ std::vector<std::int64_t> History::CloseInterruptedJobs(const std::string& reaso
     SQLite::Statement u(impl_->db,
                         "UPDATE jobs SET status = 'failed', reply = ?, finished_utc = ? "
                         "WHERE status = 'running'");
-    u.bind(1, json{{"error", reason}}.dump());
+    u.bind(1, Text(json{{"error", reason}}));
     u.bind(2, UtcNow());
     u.exec();
     t.commit();
@@ -335,15 +509,16 @@ json History::ExportJob(std::int64_t job) const {
                               {"decision", ParseStored(r.getColumn(2).getString())}});
     j["offset_writes"] = json::array();
     SQLite::Statement w(impl_->db,
-                        "SELECT adapter, target, before, after, written_utc FROM offset_writes "
-                        "WHERE job_id = ? ORDER BY id");
+                        "SELECT adapter, target, before, after, written_utc, state FROM "
+                        "offset_writes WHERE job_id = ? ORDER BY id");
     w.bind(1, job);
     while (w.executeStep())
       j["offset_writes"].push_back({{"adapter", w.getColumn(0).getString()},
                                     {"target", w.getColumn(1).getString()},
                                     {"before", ParseStored(w.getColumn(2).getString())},
                                     {"after", ParseStored(w.getColumn(3).getString())},
-                                    {"written_utc", w.getColumn(4).getString()}});
+                                    {"written_utc", w.getColumn(4).getString()},
+                                    {"state", w.getColumn(5).getString()}});
     return j;
   } catch (const SQLite::Exception& e) {
     Fail("history " + impl_->path + ": " + e.what());

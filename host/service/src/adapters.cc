@@ -1,7 +1,9 @@
 #include "mlp/service/adapters.h"
 
 #include "mlp/nc/tool_table.h"
+#include "mlp/service/request_json.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -55,6 +57,45 @@ nc::ToolOffsetChange ResolveToolChange(const ControllerConfig& c,
   return t;
 }
 
+std::string ControllerFile(const ControllerConfig& c,
+                           const std::string& machine,
+                           std::int64_t job) {
+  const std::string stem = machine + "-job" + std::to_string(job);
+  const fs::path dir(c.result_dir);
+  if (c.kind == ControllerConfig::Kind::kLinuxCnc) return (dir / "mlp_result.ngc").string();
+  if (c.kind == ControllerConfig::Kind::kFanucStyle) return (dir / (stem + ".nc")).string();
+  return (dir / (stem + ".json")).string();
+}
+
+bool WritesReachedController(const ControllerConfig& c,
+                             const std::string& machine,
+                             std::int64_t job,
+                             const nlohmann::json& tool_changes) {
+  try {
+    if (c.kind == ControllerConfig::Kind::kLinuxCnc && c.write_tool_table &&
+        !tool_changes.empty()) {
+      const nc::ToolTable table = nc::LoadToolTable(c.tool_table);
+      for (const auto& t : tool_changes) {
+        const auto tool = table.Find(t.at("tool").get<int>());
+        const bool length = t.at("length").get<bool>();
+        if (!tool) return false;
+        const double now_mm = length ? tool->Get('Z') : tool->Get('D') / 2.0;
+        // The table holds 4+ decimals; a value written is read back within 1e-6 mm.
+        if (std::abs(now_mm - t.at("after_mm").get<double>()) > 1e-6) return false;
+      }
+      return true;
+    }
+    std::ifstream in(ControllerFile(c, machine, job));
+    const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    const std::string header = c.kind == ControllerConfig::Kind::kFiles
+                                   ? "\"job_id\": " + std::to_string(job) + ","
+                                   : "mlprobe job " + std::to_string(job) + ":";
+    return text.find(header) != std::string::npos;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
 std::vector<std::string> WriteResult(const ControllerConfig& c,
                                      const std::string& machine,
                                      std::int64_t job,
@@ -84,7 +125,7 @@ std::vector<std::string> WriteResult(const ControllerConfig& c,
     files.push_back(p.string());
   }
   const fs::path json_path = dir / (stem + ".json");
-  nc::WriteFileAtomically(json_path.string(), result.dump(2) + "\n");
+  nc::WriteFileAtomically(json_path.string(), DumpSafe(result, 2) + "\n");
   files.push_back(json_path.string());
   AppendCsv(dir / "results.csv", result);
   files.push_back((dir / "results.csv").string());

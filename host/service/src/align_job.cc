@@ -150,15 +150,16 @@ json RunAlignJob(JobContext& ctx, const json& r) {
     out.work.push_back(w);
     if (mc.controller.kind == ControllerConfig::Kind::kLinuxCnc)
       out.named = {{"status", 0.0}, {"rotation", wo.rotation_z_deg}};
-    reply["files"] = WriteResult(mc.controller, mc.name, job, out, reply);
-    ctx.history.AddOffsetWrite(
-        job, {mc.name + ":" + reply["files"].at(0).get<std::string>(),
-              nc::WorkOffsetName(mc.controller.kind == ControllerConfig::Kind::kFanucStyle
-                                     ? mc.controller.map.dialect
-                                     : nc::Dialect::kLinuxCnc,
-                                 index),
-              json(),
-              {{"origin_mm", JsonVec(wo.origin_mm)}, {"rotation_z_deg", wo.rotation_z_deg}}});
+    reply["status"] = "done";  // what the job is, should a stop come before it is recorded
+    reply["files"] = WriteToController(
+        ctx, job, out, reply,
+        {{"",
+          nc::WorkOffsetName(mc.controller.kind == ControllerConfig::Kind::kFanucStyle
+                                 ? mc.controller.map.dialect
+                                 : nc::Dialect::kLinuxCnc,
+                             index),
+          json(),
+          {{"origin_mm", JsonVec(wo.origin_mm)}, {"rotation_z_deg", wo.rotation_z_deg}}}});
     return run.Finish(history::JobStatus::kDone, true);
   } catch (const std::exception& e) {
     return run.Fail(e);

@@ -18,6 +18,7 @@ struct CaptureBroker::Impl {
   std::mutex m;
   std::condition_variable cv;
   std::map<std::string, Pending> pending;  // by capture id
+  bool stopping = false;                   // guarded by m
   std::unique_ptr<link::HostLink> host;
 
   void OnCloud(const link::LinkCloud& c) {
@@ -54,6 +55,11 @@ CaptureBroker::CaptureBroker(link::HostLinkConfig config, link::Log log)
 CaptureBroker::~CaptureBroker() { Stop(); }
 
 void CaptureBroker::Start() { impl_->host->Start(); }
+void CaptureBroker::FailWaiting() {
+  std::lock_guard lock(impl_->m);
+  impl_->stopping = true;
+  impl_->cv.notify_all();
+}
 void CaptureBroker::Stop() { impl_->host->Stop(); }
 std::uint16_t CaptureBroker::Port() const { return impl_->host->Port(); }
 
@@ -71,6 +77,8 @@ link::LinkCloud CaptureBroker::Capture(const std::string& serial,
   Impl& s = *impl_;
   {
     std::lock_guard lock(s.m);
+    if (s.stopping)
+      throw CaptureError(CaptureError::Kind::kBadRequest, "the host is stopping: no capture");
     if (!s.pending.emplace(request.capture_id, Pending{}).second)
       throw CaptureError(CaptureError::Kind::kBadRequest,
                          "capture id " + request.capture_id + " is already in flight");
@@ -98,7 +106,7 @@ link::LinkCloud CaptureBroker::Capture(const std::string& serial,
   Pending& p = s.pending.at(request.capture_id);
   // A probe that drops off the link keeps its cloud and resends it when it is back (a Wi-Fi
   // glitch costs no capture), so a drop is waited out up to the timeout like a slow capture.
-  if (!s.cv.wait_for(lock, timeout, [&] { return p.cloud || p.error; })) {
+  if (!s.cv.wait_for(lock, timeout, [&] { return p.cloud || p.error || s.stopping; })) {
     lock.unlock();
     const auto on_link = s.host->ConnectedProbes();
     const bool connected = std::find(on_link.begin(), on_link.end(), serial) != on_link.end();
@@ -110,6 +118,9 @@ link::LinkCloud CaptureBroker::Capture(const std::string& serial,
             : "probe " + serial + " dropped off the link during capture " + request.capture_id +
                   " and was not back" + within + ": take the capture again");
   }
+  if (!p.cloud && !p.error)
+    throw CaptureError(CaptureError::Kind::kTimeout,
+                       "the host is stopping: capture " + request.capture_id + " abandoned");
   if (p.error)
     throw CaptureError(
         CaptureError::Kind::kProbeError,

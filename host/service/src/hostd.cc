@@ -5,9 +5,11 @@
 #include "mlp/link/transport.h"
 #include "mlp/probe_fw/cloud_file.h"
 #include "mlp/probe_fw/json_fields.h"
+#include "mlp/service/adapters.h"
 #include "mlp/service/capture_broker.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <functional>
@@ -28,6 +30,33 @@ class RequestError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// The first job number that no file of the data folder uses yet: clouds/<N>/ and
+// reports/<machine>-job<N>.svg of an earlier history must never be written over.
+std::int64_t NextFreeJobNumber(const HostdConfig& c) {
+  std::int64_t highest = 0;
+  const auto number = [](const std::string& digits) -> std::int64_t {
+    if (digits.empty() || digits.size() > 15 ||
+        digits.find_first_not_of("0123456789") != std::string::npos)
+      return 0;
+    return std::stoll(digits);
+  };
+  std::error_code ec;
+  for (fs::directory_iterator it(c.CloudDir(), ec), end; !ec && it != end; it.increment(ec))
+    highest = std::max(highest, number(it->path().filename().string()));
+  ec.clear();
+  std::vector<std::string> named = {c.ReportDir()};  // <machine>-job<N>.svg / .json / .nc
+  for (const MachineConfig& m : c.machines) named.push_back(m.controller.result_dir);
+  for (const std::string& dir : named) {
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+      const std::string stem = it->path().stem().string();
+      const auto at = stem.rfind("-job");
+      if (at != std::string::npos) highest = std::max(highest, number(stem.substr(at + 4)));
+    }
+    ec.clear();
+  }
+  return highest + 1;
+}
+
 std::array<double, 16> RowMajor(const geometry::Pose3& p) {
   std::array<double, 16> m{};
   for (int r = 0; r < 4; ++r)
@@ -47,9 +76,11 @@ link::CaptureRequest ParseCapture(const json& j, const std::string& capture_id) 
   std::uint16_t* aoi[4] = {&r.aoi_x0, &r.aoi_y0, &r.aoi_width, &r.aoi_height};
   for (int k = 0; k < 4; ++k) {
     const json& v = j.at("aoi")[static_cast<size_t>(k)];
-    if (!v.is_number_integer() || v.get<int>() < 0 || v.get<int>() > 65535)
+    // Compared as 64 bits: 2^32 + 874 is out of range, not 874.
+    if (!v.is_number_integer() || v.get<std::int64_t>() < 0 || v.get<std::int64_t>() > 65535 ||
+        (v.is_number_unsigned() && v.get<std::uint64_t>() > 65535))
       throw RequestError("request.aoi must hold whole numbers 0..65535");
-    *aoi[k] = static_cast<std::uint16_t>(v.get<int>());
+    *aoi[k] = static_cast<std::uint16_t>(v.get<std::int64_t>());
   }
   if (!j.contains("columns") || !j.at("columns").is_array() || j.at("columns").size() != 3)
     throw RequestError("request.columns must be [first, last, step] projector columns");
@@ -74,6 +105,7 @@ struct Hostd::Impl {
   std::map<std::string, std::unique_ptr<std::timed_mutex>> machine_locks;
   std::mutex busy_m;
   std::map<std::string, std::string> busy;  // machine -> what it runs
+  std::atomic<bool> history_lost{false};
 
   Impl(HostdConfig c, Log l)
       : config(std::move(c)),
@@ -93,10 +125,14 @@ struct Hostd::Impl {
     broker = std::make_unique<CaptureBroker>(link_config, log);
     for (const MachineConfig& m : config.machines)
       machine_locks[m.name] = std::make_unique<std::timed_mutex>();
+    history.SetJobIdFloor(NextFreeJobNumber(config));
+    RemoveTemporaries();
+    SettleInterruptedWrites();
     for (auto id : history.CloseInterruptedJobs("the host stopped while the job ran"))
       log("history: job " + std::to_string(id) + " was left running by the last run: failed");
     server.Handle("status", [this](const json&) { return Status(); });
-    server.Handle("capture", [this](const json& r) {
+    for (const MachineConfig& m : config.machines) server.AddLane(m.name);
+    server.HandleInLane("capture", [this](const json& r) {
       return RunOnMachine(
           r, [this](const MachineConfig& m, const json& req) { return Capture(m, req); });
     });
@@ -108,12 +144,69 @@ struct Hostd::Impl {
         {"calibrate", &RunCalibrateJob},
         {"recheck", &RunRecheckJob}};
     for (const auto& [op, run] : jobs) {
-      server.Handle(op, [this, run = run](const json& r) {
+      server.HandleInLane(op, [this, run = run](const json& r) {
         return RunOnMachine(r, [&](const MachineConfig& m, const json& req) {
           JobContext ctx{config, m, history, log};
           return run(ctx, req);
         });
       });
+    }
+  }
+
+  // Temporary files of writes a stop cut short ("<dir>/.<name>.mlp-tmp", "<cloud>.ply.tmp"):
+  // never the real files, which are renamed into place whole.
+  void RemoveTemporaries() {
+    std::vector<fs::path> dirs = {config.data_dir};
+    for (const MachineConfig& m : config.machines) {
+      dirs.push_back(m.controller.result_dir);
+      if (!m.controller.tool_table.empty())
+        dirs.push_back(fs::path(m.controller.tool_table).parent_path());
+    }
+    for (const fs::path& dir : dirs) {
+      std::error_code ec;
+      for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        const bool ours = (name.size() > 9 && name.ends_with(".mlp-tmp") && name[0] == '.') ||
+                          name.ends_with(".ply.tmp");
+        if (!ours || !it->is_regular_file()) continue;
+        std::error_code rm;
+        fs::remove(it->path(), rm);
+        log("removed " + it->path().string() + ", left by a write that a stop cut short");
+      }
+    }
+  }
+
+  // A job killed between announcing its writes and confirming them: the controller's state
+  // decides how it is recorded (docs/HOSTD.md, "Stops and repeats").
+  void SettleInterruptedWrites() {
+    for (const history::InterruptedWrite& w : history.InterruptedWrites()) {
+      const MachineConfig* m = config.Machine(w.machine);
+      json tools = json::array();
+      const json& u = w.reply.contains("update") ? w.reply.at("update") : json();
+      if (u.is_object() && u.contains("after_mm") && u.at("after_mm").is_number())
+        tools.push_back({{"tool", u.at("offset")},
+                         {"length", u.at("register").get<std::string>().rfind("length", 0) == 0},
+                         {"after_mm", u.at("after_mm")}});
+      const bool written =
+          m != nullptr && WritesReachedController(m->controller, w.machine, w.job, tools);
+      json reply = w.reply;
+      history::JobStatus status = history::JobStatus::kFailed;
+      if (written) {
+        reply["ok"] = true;
+        reply["note"] =
+            "the host stopped after writing to the controller; found written at the next start";
+        status = history::JobStatusFrom(reply.value("status", "done"));
+      } else {
+        reply["ok"] = false;
+        reply["status"] = "failed";
+        reply["error"] =
+            "the host stopped before its write reached the controller: nothing written";
+      }
+      history.SettleInterrupted(w.job, written, status, reply);
+      log("history: job " + std::to_string(w.job) + " on " + w.machine +
+          " was stopped during its write to the controller: " +
+          (written ? "the write is there, recorded as " + history::ToString(status)
+                   : std::string("the write is not there, recorded as failed")));
     }
   }
 
@@ -147,7 +240,19 @@ struct Hostd::Impl {
             {"probe_link_port", broker->Port()},
             {"probes", probes},
             {"machines", machines},
-            {"history", config.HistoryFile()}};
+            {"history", config.HistoryFile()},
+            {"history_ok", HistoryOk()}};
+  }
+
+  // False (and logged once) when the history file was removed or replaced under the host.
+  bool HistoryOk() {
+    try {
+      history.CheckFile();
+      return true;
+    } catch (const history::HistoryError& e) {
+      if (!history_lost.exchange(true)) log(std::string("error: ") + e.what());
+      return false;
+    }
   }
 
   using Job = std::function<json(const MachineConfig&, const json&)>;
@@ -163,6 +268,13 @@ struct Hostd::Impl {
               {"status", "failed"},
               {"error", "machine " + name + " is busy with another job"}};
     std::lock_guard held(lock, std::adopt_lock);
+    if (!HistoryOk())
+      return {{"ok", false},
+              {"status", "failed"},
+              {"error", "the history " + config.HistoryFile() +
+                            " was removed or replaced while the host ran: no job runs until "
+                            "mlp-hostd is restarted"}};
+    if (auto earlier = Repeated(*m, request)) return *earlier;
     {
       std::lock_guard b(busy_m);
       busy[name] = request.at("op").get<std::string>();
@@ -176,6 +288,24 @@ struct Hostd::Impl {
       }
     } idle{*this, name};
     return job(*m, request);
+  }
+
+  // A request whose request_id this machine has seen: the earlier job's reply when that job
+  // succeeded or touched the controller (a retry after a lost reply must not compensate
+  // twice); nothing, so that it runs again, when it failed or was refused before any write.
+  std::optional<json> Repeated(const MachineConfig& m, const json& request) {
+    const std::string id = RequestId(request);
+    if (id.empty()) return std::nullopt;
+    const auto earlier = history.FindRequest(m.name, id);
+    if (!earlier) return std::nullopt;
+    const bool succeeded = earlier->reply.value("ok", false);
+    if (!earlier->wrote && !succeeded) return std::nullopt;
+    json reply = earlier->reply;
+    reply["repeated"] = true;
+    reply["earlier_job"] = earlier->job;
+    log("request " + id + " on " + m.name + " was carried out by job " +
+        std::to_string(earlier->job) + ": answered with its reply, nothing run again");
+    return reply;
   }
 
   // Where a capture's time went: the probe's frames and firmware (durations on its own clock),
@@ -193,11 +323,13 @@ struct Hostd::Impl {
 
   json Capture(const MachineConfig& m, const json& request) {
     const auto t0 = Clock::now();
-    const std::int64_t job = history.StartJob({m.name, "capture", m.probe_serial, "", request});
+    const std::string name = request.contains("capture_id")
+                                 ? jf::Text<RequestError>(request, "capture_id", "request")
+                                 : std::string("c1");
+    CheckSafeName(name, "request.capture_id");
+    const std::int64_t job =
+        history.StartJob({m.name, "capture", m.probe_serial, "", request, RequestId(request)});
     try {
-      const std::string name = request.contains("capture_id")
-                                   ? jf::Text<RequestError>(request, "capture_id", "request")
-                                   : std::string("c1");
       const std::string id = m.name + "-" + std::to_string(job) + "-" + name;
       const link::CaptureRequest cr = ParseCapture(request, id);
       const auto sent = Clock::now();
@@ -208,6 +340,10 @@ struct Hostd::Impl {
       const fs::path dir = fs::path(config.CloudDir()) / std::to_string(job);
       fs::create_directories(dir);
       const std::string path = (dir / (name + ".ply")).string();
+      if (fs::exists(path))  // the history and the data folder disagree: keep the older file
+        throw std::runtime_error("the cloud file " + path +
+                                 " exists already (a history that restarted its job numbers?): "
+                                 "not written over");
       probe_fw::WriteCloudPly(
           path, cloud.xyz, cloud.quality,
           {cloud.probe_serial, cloud.calibration_id, cloud.capture_id, cloud.mcs_from_flange});
@@ -224,13 +360,17 @@ struct Hostd::Impl {
                           {"cloud_sha256", sha},
                           {"probe_calibration_id", cloud.calibration_id},
                           {"timings_ms", timings}};
-      history.FinishJob(job, history::JobStatus::kDone, reply, timings);
+      history.FinishJob(job, history::JobStatus::kDone, reply, timings);  // throws: failed
       return reply;
     } catch (const std::exception& e) {
-      const json reply = {
-          {"ok", false}, {"status", "failed"}, {"job_id", job}, {"error", e.what()}};
-      history.FinishJob(job, history::JobStatus::kFailed, reply, {{"total", Ms(t0)}});
+      json reply = {{"ok", false}, {"status", "failed"}, {"job_id", job}, {"error", e.what()}};
       log("job " + std::to_string(job) + " (capture on " + m.name + ") failed: " + e.what());
+      try {
+        history.FinishJob(job, history::JobStatus::kFailed, reply, {{"total", Ms(t0)}});
+      } catch (const std::exception& h) {
+        reply["history_error"] = h.what();
+        log("job " + std::to_string(job) + " is not recorded as failed: " + h.what());
+      }
       return reply;
     }
   }
@@ -249,6 +389,7 @@ void Hostd::Start() {
 }
 
 void Hostd::Stop() {
+  impl_->broker->FailWaiting();
   impl_->server.Stop();
   impl_->broker->Stop();
 }

@@ -4,8 +4,16 @@
 #include "mlp/history/file_hash.h"
 #include "mlp/probe_fw/cloud_file.h"
 #include "mlp/probe_fw/json_fields.h"
+#include "mlp/service/adapters.h"
 
+#include <algorithm>
+#include <cctype>
 #include <ctime>
+#include <filesystem>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 namespace mlp::service {
 
@@ -29,7 +37,8 @@ JobRun::JobRun(JobContext& c, const std::string& k, const json& request)
       calibration(
           calib::CalibrationStore(c.config.CalibrationDir()).Latest(c.machine.probe_serial)) {
   job = ctx.history.StartJob({ctx.machine.name, kind, ctx.machine.probe_serial,
-                              calibration ? calibration->calibration_id : "", request});
+                              calibration ? calibration->calibration_id : "", request,
+                              RequestId(request)});
   reply = {{"job_id", job}, {"machine", ctx.machine.name}};
 }
 
@@ -44,7 +53,15 @@ json JobRun::Finish(history::JobStatus status, bool ok) {
   reply["ok"] = ok;
   reply["status"] = history::ToString(status);
   reply["host_ms"] = Ms(started);  // the stored clouds to the decision written
-  ctx.history.FinishJob(job, status, reply, {{"total", reply["host_ms"]}});
+  try {
+    ctx.history.FinishJob(job, status, reply, {{"total", reply["host_ms"]}});
+  } catch (const std::exception& e) {
+    // The job's outcome stands (what was written was written); the history could not take it
+    // (a full disk, a removed file). Said in the reply and the log; the next start closes it.
+    reply["history_error"] = e.what();
+    ctx.log("job " + std::to_string(job) + " (" + kind + " on " + ctx.machine.name + ") ended " +
+            history::ToString(status) + " but is not recorded: " + e.what());
+  }
   return reply;
 }
 
@@ -53,6 +70,76 @@ json JobRun::Fail(const std::exception& e) {
   ctx.log("job " + std::to_string(job) + " (" + kind + " on " + ctx.machine.name +
           ") failed: " + e.what());
   return Finish(history::JobStatus::kFailed, false);
+}
+
+std::vector<std::string> WriteToController(JobContext& ctx,
+                                           std::int64_t job,
+                                           const nc::NcResult& out,
+                                           const json& reply,
+                                           std::vector<history::OffsetWriteRow> rows) {
+  const ControllerConfig& c = ctx.machine.controller;
+  for (auto& r : rows)
+    r.adapter = ctx.machine.name + ":" + ControllerFile(c, ctx.machine.name, job);
+  ctx.history.AddWriteIntents(job, rows, reply);
+  const std::vector<std::string> files = WriteResult(c, ctx.machine.name, job, out, reply);
+  ctx.history.MarkWritesDone(job);
+  return files;
+}
+
+std::string RequestId(const json& r) {
+  if (!r.contains("request_id")) return "";
+  const std::string id = jf::Text<JobInputError>(r, "request_id", "request");
+  const bool printable =
+      std::all_of(id.begin(), id.end(), [](char c) { return c >= ' ' && c < 0x7f; });
+  if (id.empty() || id.size() > 128 || !printable)
+    throw JobInputError("request.request_id must be 1 to 128 printable ASCII characters");
+  return id;
+}
+
+void CheckSafeName(const std::string& name, const std::string& field) {
+  const bool ok =
+      !name.empty() && name.size() <= 64 && name[0] != '.' &&
+      std::all_of(name.begin(), name.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
+      });
+  if (!ok)
+    throw JobInputError(field +
+                        " must be 1 to 64 letters, digits, '.', '_' or '-', not starting with '.'");
+}
+
+std::string ReadDataFile(const std::string& data_dir,
+                         const std::string& name,
+                         const std::string& field,
+                         std::size_t max_bytes) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path root = fs::weakly_canonical(data_dir, ec);
+  const fs::path real = fs::weakly_canonical(fs::path(data_dir) / name, ec);
+  const auto [in_root, in_real] = std::mismatch(root.begin(), root.end(), real.begin(), real.end());
+  if (ec || in_root != root.end() || in_real == real.end())
+    throw JobInputError(field + ": " + name + " is not a file inside the data folder " + data_dir);
+  // O_NONBLOCK: opening a FIFO must not wait for a writer; fstat then refuses it.
+  const int fd = ::open(real.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) throw JobInputError(field + ": cannot read " + name);
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
+    throw JobInputError(field + ": " + name + " is not a regular file");
+  if (static_cast<std::size_t>(st.st_size) > max_bytes)
+    throw JobInputError(field + ": " + name + " is " + std::to_string(st.st_size) +
+                        " bytes; at most " + std::to_string(max_bytes) + " are read");
+  std::string text(static_cast<std::size_t>(st.st_size), '\0');
+  std::size_t got = 0;
+  while (got < text.size()) {
+    const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
+    if (n <= 0) break;
+    got += static_cast<std::size_t>(n);
+  }
+  text.resize(got);
+  return text;
 }
 
 jobs::BoreNominal ParseBoreNominal(const json& n, const std::string& w) {

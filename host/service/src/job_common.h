@@ -6,6 +6,7 @@
 #include "mlp/geometry/types.h"
 #include "mlp/history/history.h"
 #include "mlp/jobs/feature.h"
+#include "mlp/nc/nc_output.h"
 #include "mlp/service/config.h"
 #include "mlp/service/job_server.h"
 
@@ -91,6 +92,32 @@ Evidence LoadCaptures(JobContext& ctx,
                       const nlohmann::json& capture_jobs,
                       const geometry::Pose3& flange_from_probe,
                       std::int64_t job);
+
+/// The job's changes to the controller, made safe against a stop at any moment: announced in
+/// the history first (durably, with the reply so far), then written (WriteResult), then
+/// confirmed. `rows`: the offsets changed (their adapter is filled in here). Returns the files.
+std::vector<std::string> WriteToController(JobContext& ctx,
+                                           std::int64_t job,
+                                           const nc::NcResult& out,
+                                           const nlohmann::json& reply,
+                                           std::vector<history::OffsetWriteRow> rows);
+
+/// A request's idempotency key ("request_id": 1 to 128 printable ASCII characters), or "".
+/// Throws JobInputError for a malformed one.
+std::string RequestId(const nlohmann::json& request);
+
+/// Throws JobInputError unless `name` can be a file name of the host's own (a capture's name):
+/// 1 to 64 of A-Z a-z 0-9 . _ -, not starting with a dot. Nothing a client sends may lead a
+/// file outside its folder.
+void CheckSafeName(const std::string& name, const std::string& field);
+
+/// The text of a file a request names (relative to `data_dir`, and inside it after symbolic
+/// links are resolved), at most `max_bytes`, a regular file only (a FIFO or device would block
+/// or never end). Throws JobInputError naming `field`.
+std::string ReadDataFile(const std::string& data_dir,
+                         const std::string& name,
+                         const std::string& field,
+                         std::size_t max_bytes);
 
 /// `{"op": "measure", ...}` and `{"op": "align", ...}` (docs/HOSTD.md). Always answer; the
 /// status says how the job ended. Nothing reaches the controller unless every check passed.

@@ -119,6 +119,7 @@ Measured Face(const json& r, const Evidence& ev) {
   m.size = f.height_mm;
   m.spec = Spec(r, "tolerance", 0.0, "mm");
   m.change_per_error = -1.0;  // a face proud by e: the tool is e shorter than its offset says
+  m.moves_length = true;
   m.fields = FaceFields(f);
   m.fields["flatness_mm"] = f.flatness_mm;
   m.fields["trimmed"] = f.trimmed;
@@ -228,6 +229,7 @@ Measured Step(const json& r, const Evidence& ev) {
   m.size = s.height_mm;
   m.spec = Spec(r, "tolerance", jf::Number<JobInputError>(j, "height_mm", kNom), "mm");
   m.change_per_error = -1.0;  // face B cut by the tool to correct: proud by e, e shorter
+  m.moves_length = true;
   m.fields = {{"height_mm", s.height_mm},
               {"parallelism_deg", s.parallelism_deg},
               {"face_a", FaceFields(s.a)},
@@ -354,16 +356,15 @@ Measured Ellipse(const json& r, const Evidence& ev, bool inside) {
   return m;
 }
 
+// A vector point file (x y z i j k a line, ~60 bytes) of a million points, at most.
+constexpr std::size_t kMaxVectorPointsBytes = 64u << 20;
+
 jobs::SurfaceNominal SurfaceNominalOf(const json& j, const std::string& data_dir) {
   jobs::SurfaceNominal n;
   if (j.contains("vector_points_file")) {
-    std::filesystem::path p(jf::Text<JobInputError>(j, "vector_points_file", kNom));
-    if (p.is_relative()) p = std::filesystem::path(data_dir) / p;
-    std::ifstream in(p);
-    if (!in) throw JobInputError("request.nominal.vector_points_file: cannot read " + p.string());
-    std::ostringstream text;
-    text << in.rdbuf();
-    n = jobs::ParseVectorPoints(text.str());
+    n = jobs::ParseVectorPoints(
+        ReadDataFile(data_dir, jf::Text<JobInputError>(j, "vector_points_file", kNom),
+                     "request.nominal.vector_points_file", kMaxVectorPointsBytes));
   } else if (j.contains("points") && j.at("points").is_array()) {
     std::ostringstream text;
     for (const auto& row : j.at("points")) {

@@ -27,6 +27,8 @@ struct Measured {
   /// Offset change per unit of size error; nullopt: the feature moves no offset (an angle, a
   /// bolt circle, a surface profile), and an update asked for is refused as input.
   std::optional<double> change_per_error;
+  /// The offset it moves: a length (a face's height, a step) or else a radius (a size across).
+  bool moves_length = false;
   nlohmann::json fields;
   jobs::FitEvidence fe;
   /// Other tolerances of the job that were exceeded (flatness, true position, the second size

@@ -43,6 +43,12 @@ jobs::Feedback ParseUpdate(const json& r, const Measured& ms) {
   const std::string w = "request.update";
   f.offset_number = jf::Integer<JobInputError>(u, "offset", w);
   f.reg = RegisterOf(jf::Text<JobInputError>(u, "register", w));
+  const bool length_register =
+      f.reg == nc::ToolRegister::kLengthGeometry || f.reg == nc::ToolRegister::kLengthWear;
+  if (length_register != ms.moves_length)
+    throw JobInputError("request.update.register: a " + ms.feature + " moves a tool's " +
+                        (ms.moves_length ? "length" : "radius") + ", not its " +
+                        (length_register ? "length" : "radius"));
   f.percent = jf::NumberOr<JobInputError>(u, "percent", f.percent, w);
   f.null_band_mm = jf::NumberOr<JobInputError>(u, "null_band_mm", f.null_band_mm, w);
   f.upper_limit_mm = jf::NumberOr<JobInputError>(u, "upper_limit_mm", f.upper_limit_mm, w);
@@ -233,19 +239,19 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
     if (jf::FlagOr<JobInputError>(r, "report", true, "request"))
       reply["report"] = WriteReport(ctx, job, ms, d, reply);
     if (d.verdict == jobs::Verdict::kUpperLimitExceeded) reply["alarm"] = d.reason;
-    reply["files"] = WriteResult(m.controller, m.name, job, out, reply);
+    std::vector<history::OffsetWriteRow> rows;
     for (const auto& t : out.tools)
-      ctx.history.AddOffsetWrite(
-          job, {m.name + ":" + reply["files"].at(0).get<std::string>(),
-                "offset " + std::to_string(t.tool) + " " + nc::ToString(t.reg),
-                t.incremental ? json() : json(t.before_mm),
-                t.incremental ? json{{"change_mm", t.after_mm - t.before_mm}} : json(t.after_mm)});
+      rows.push_back(
+          {"", "offset " + std::to_string(t.tool) + " " + nc::ToString(t.reg),
+           t.incremental ? json() : json(t.before_mm),
+           t.incremental ? json{{"change_mm", t.after_mm - t.before_mm}} : json(t.after_mm)});
     for (const auto& w : out.work)
-      ctx.history.AddOffsetWrite(job,
-                                 {m.name + ":" + reply["files"].at(0).get<std::string>(),
-                                  "work offset " + std::to_string(w.index),
-                                  json(),
-                                  {{"shift_mm", {w.after_mm[0], w.after_mm[1], w.after_mm[2]}}}});
+      rows.push_back({"",
+                      "work offset " + std::to_string(w.index),
+                      json(),
+                      {{"shift_mm", {w.after_mm[0], w.after_mm[1], w.after_mm[2]}}}});
+    reply["status"] = in_tolerance ? "in_tolerance" : "out_of_tolerance";  // if a stop comes
+    reply["files"] = WriteToController(ctx, job, out, reply, std::move(rows));
     return run.Finish(
         in_tolerance ? history::JobStatus::kInTolerance : history::JobStatus::kOutOfTolerance,
         true);

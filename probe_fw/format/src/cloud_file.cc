@@ -59,7 +59,13 @@ void WriteCloudPly(const std::string& path,
       PutFloat(out, xyz[3 * i + 2]);
       PutFloat(out, quality[i]);
     }
-    if (!out) throw CloudFileError("cloud: cannot write " + tmp);
+    out.flush();
+    if (!out) {  // a full disk: no half file left behind
+      out.close();
+      std::error_code ignored;
+      std::filesystem::remove(tmp, ignored);
+      throw CloudFileError("cloud: cannot write " + tmp + " (disk full?)");
+    }
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);

@@ -1,6 +1,8 @@
 #include "mlp/link/auth.h"
 
+#include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -153,6 +155,22 @@ Frame HostHandshake::OnHello(const Frame& hello) {
   serial_ = r.String(kMaxSerial);
   const std::uint8_t* nonce = r.Take(kNonceBytes);
   r.ExpectEnd();
+  // A serial is printable ASCII: anything else is refused before it reaches a log line, a
+  // file name or a JSON reply (bytes that are not UTF-8 made the host's logger throw).
+  const bool printable =
+      !serial_.empty() &&
+      std::all_of(serial_.begin(), serial_.end(), [](char c) { return c > ' ' && c < 0x7f; });
+  if (!printable) {
+    std::string shown;
+    for (unsigned char c : serial_.substr(0, 16)) {
+      char hex[4];
+      std::snprintf(hex, sizeof hex, "%02x", c);
+      shown += hex;
+    }
+    serial_.clear();
+    throw LinkError(LinkFault::kMalformedPayload,
+                    "serial is not printable ASCII (hex " + shown + ")");
+  }
   if (lowest > kLinkVersion || highest < kLinkVersion) {
     throw LinkError(LinkFault::kUnsupportedVersion,
                     "probe " + serial_ + " speaks versions " + std::to_string(lowest) + ".." +

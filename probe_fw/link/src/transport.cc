@@ -21,6 +21,19 @@ using asio::awaitable;
 using asio::use_awaitable;
 using asio::ip::tcp;
 using Clock = std::chrono::steady_clock;
+// An accept that failed (no file descriptors left) is tried again this often.
+constexpr Millis kAcceptRetry{100};
+
+// Counts like events; Due() is true for the first and every 1000th: a flood of hostile
+// connections must not become a flood of log lines.
+class Throttled {
+ public:
+  bool Due() { return count_++ % 1000 == 0; }
+  std::uint64_t Count() const { return count_; }
+
+ private:
+  std::uint64_t count_ = 0;
+};
 
 // One TCP connection: the socket, its parser, and the time of the last byte received.
 struct Conn {
@@ -36,6 +49,9 @@ struct Conn {
   Parser parser;
   Clock::time_point last_rx = Clock::now();
   Millis idle{3000};  // the watchdog's limit: the handshake's, then the session's
+  // The handshake's end, at the latest, whatever arrives meanwhile: a peer trickling a byte
+  // now and then must not hold a connection (slow loris). Cleared once authenticated.
+  Clock::time_point deadline = Clock::time_point::max();
   bool alive = true;
   std::deque<Bytes> outbox;  // serialized frames waiting for the writer
 
@@ -78,7 +94,8 @@ awaitable<void> Watchdog(std::shared_ptr<Conn> c) {
     t.expires_after(Millis(20));
     boost::system::error_code ec;
     co_await t.async_wait(asio::redirect_error(use_awaitable, ec));
-    if (Clock::now() - c->last_rx > c->idle) c->Close();
+    const auto now = Clock::now();
+    if (now - c->last_rx > c->idle || now > c->deadline) c->Close();
   }
 }
 
@@ -134,7 +151,9 @@ struct HostLink::Impl {
   HostLinkStats stats;
   std::unordered_set<std::string> seen;
   std::deque<std::string> seen_order;
-  std::size_t active = 0;
+  std::size_t active = 0;                       // io thread only
+  std::deque<std::weak_ptr<Conn>> handshaking;  // io thread only; oldest first
+  Throttled refused, evicted, duplicate;
   // The authenticated connection of each probe (io thread only); `names` and `statuses` mirror
   // what other threads may ask about.
   struct Registered {
@@ -145,13 +164,22 @@ struct HostLink::Impl {
   mutable std::mutex probes_mutex;
   std::set<std::string> names;
   std::map<std::string, ProbeStatus> statuses;
-
-  void Register(const std::string& serial, Registered r) {
+  // A probe that reconnects before its old connection timed out replaces it; but while the old
+  // one is demonstrably alive (a frame within two heartbeats), the newcomer is refused: two
+  // probes given one serial would otherwise throw each other out for ever.
+  void Register(const std::string& serial, Registered r, const std::string& who) {
     const auto old = connected.find(serial);
     if (old != connected.end()) {
-      // The probe reconnected before the old connection timed out: the new one is the truth.
-      log("link: probe " + serial + " reconnected, its older connection is closed");
-      old->second.conn->Close();
+      Conn& was = *old->second.conn;
+      if (was.alive && Clock::now() - was.last_rx < 2 * cfg.heartbeat) {
+        if (duplicate.Due())
+          SafeLog("link: " + who + " refused: probe " + serial +
+                  " is connected and alive already (two probes with one serial? " +
+                  std::to_string(duplicate.Count()) + " such refusals)");
+        throw LinkError(LinkFault::kProtocol, "serial " + serial + " is connected already");
+      }
+      SafeLog("link: probe " + serial + " reconnected, its older connection is closed");
+      was.Close();
     }
     connected[serial] = std::move(r);
     std::lock_guard lock(probes_mutex);
@@ -220,28 +248,76 @@ struct HostLink::Impl {
     return true;
   }
 
+  // Never ends while the host runs: an accept that fails (no file descriptors left) is tried
+  // again shortly, so the link comes back by itself when the load goes.
   awaitable<void> Accept() {
-    while (true) {
-      tcp::socket socket = co_await acceptor->async_accept(use_awaitable);
+    bool failing = false;
+    while (running) {
+      boost::system::error_code ec;
+      tcp::socket socket = co_await acceptor->async_accept(asio::redirect_error(use_awaitable, ec));
+      if (ec == asio::error::operation_aborted) co_return;
+      if (ec) {
+        if (!failing) SafeLog("link: accept failed (" + ec.message() + "): retrying");
+        failing = true;
+        asio::steady_timer pause(io, kAcceptRetry);
+        co_await pause.async_wait(asio::redirect_error(use_awaitable, ec));
+        continue;
+      }
+      if (failing) SafeLog("link: accepting again");
+      failing = false;
       Count(&HostLinkStats::connections);
       if (active >= cfg.max_connections) {
-        log("link: refused a connection: " + std::to_string(active) + " probes connected already");
+        if (refused.Due())
+          SafeLog("link: refused a connection: " + std::to_string(active) +
+                  " connections open already (" + std::to_string(refused.Count()) + " so far)");
         continue;  // the socket closes here
       }
       auto conn = std::make_shared<Conn>(std::move(socket));
       conn->NoDelay();
+      AdmitHandshake(conn);
       asio::co_spawn(io, Serve(conn), asio::detached);
+    }
+  }
+
+  // At most max_handshakes peers may be between connecting and authenticating; a new one
+  // closes the oldest. An honest probe's handshake takes one round trip, so peers that
+  // connect and say nothing cannot keep it out.
+  void AdmitHandshake(const std::shared_ptr<Conn>& c) {
+    std::erase_if(handshaking, [](const std::weak_ptr<Conn>& w) {
+      const auto p = w.lock();
+      return !p || !p->alive || p->deadline == Clock::time_point::max();
+    });
+    if (handshaking.size() >= cfg.max_handshakes) {
+      if (const auto oldest = handshaking.front().lock()) oldest->Close();
+      handshaking.pop_front();
+      if (evicted.Due())
+        SafeLog("link: " + std::to_string(cfg.max_handshakes) +
+                " peers were still in their handshake: closed the oldest (" +
+                std::to_string(evicted.Count()) + " so far)");
+    }
+    c->idle = cfg.handshake_timeout;
+    c->deadline = Clock::now() + cfg.handshake_timeout;
+    c->parser.SetMaxPayload(kMaxHandshakePayloadBytes);
+    handshaking.push_back(c);
+  }
+
+  // A log line must never throw out of the link's thread (a handler that threw skipped the
+  // clean-up that frees a connection slot).
+  void SafeLog(const std::string& line) noexcept {
+    try {
+      log(line);
+    } catch (...) {
     }
   }
 
   awaitable<void> Serve(std::shared_ptr<Conn> c) {
     ++active;
-    std::string who = "unauthenticated peer", serial;
+    std::string serial, from, who;
     try {
       boost::system::error_code ec;
       const auto remote = c->socket.remote_endpoint(ec);
-      if (!ec) who += " " + remote.address().to_string();
-      c->idle = cfg.handshake_timeout;
+      if (!ec) from = " from " + remote.address().to_string() + ":" + std::to_string(remote.port());
+      who = "unauthenticated peer" + from;
       asio::co_spawn(io, Watchdog(c), asio::detached);
       HostHandshake hs([this](const std::string& serial) -> std::optional<Key> {
         const auto it = cfg.probes.find(serial);
@@ -251,15 +327,18 @@ struct HostLink::Impl {
       // One co_await per statement: GCC 12 mishandles temporaries of nested co_await expressions.
       const Frame hello = co_await ReadFrame(c);
       Frame challenge = hs.OnHello(hello);
+      who = "peer claiming serial " + hs.serial() + from;
       co_await WriteNow(c, std::move(challenge));
       const Frame auth = co_await ReadFrame(c);
       hs.OnAuth(auth);
-      who = "probe " + hs.serial();
+      who = "probe " + hs.serial() + from;
       Count(&HostLinkStats::authenticated);
       auto session = std::make_shared<Session>(hs.TakeSession());
-      c->idle = cfg.idle_timeout;
+      Register(hs.serial(), {c, session}, who);
       serial = hs.serial();
-      Register(serial, {c, session});
+      c->idle = cfg.idle_timeout;
+      c->deadline = Clock::time_point::max();
+      c->parser.SetMaxPayload(kMaxPayloadBytes);
       std::function<void()> no_refill;
       asio::co_spawn(io, Writer(c, session, cfg.heartbeat, no_refill), asio::detached);
       while (c->alive) {
@@ -269,10 +348,15 @@ struct HostLink::Impl {
       }
     } catch (const LinkError& e) {
       Count(&HostLinkStats::rejected);
-      log("link: rejected " + who + ": " + e.what());
+      SafeLog("link: rejected " + who + ": " + e.what());
     } catch (const std::exception& e) {
-      log("link: " + who + " disconnected (" + e.what() + ")");
+      SafeLog("link: " + who + " disconnected (" + e.what() + ")");
+    } catch (...) {
+      SafeLog("link: " + who + " disconnected");
     }
+    // Reached however the connection ended (SafeLog never throws): the slot is given back. (A
+    // destructor-based guard would be neater, but GCC 12 destroys coroutine locals twice when
+    // an exception leaves a co_await: seen as a double free.)
     c->Close();
     if (!serial.empty()) Unregister(serial, c);
     --active;
@@ -504,6 +588,7 @@ struct ProbeLink::Impl {
         c->NoDelay();
         c->last_rx = Clock::now();
         c->idle = cfg.idle_timeout;
+        c->parser.SetMaxPayload(kMaxHandshakePayloadBytes);  // until the host proved its key
         asio::co_spawn(io, Watchdog(c), asio::detached);
         ProbeHandshake hs(cfg.serial, cfg.key);
         // Named locals only around co_await inside this try block: GCC 12 destroys temporaries
@@ -514,6 +599,7 @@ struct ProbeLink::Impl {
         Frame auth = hs.OnChallenge(challenge);
         co_await WriteNow(c, std::move(auth));
         auto session = std::make_shared<Session>(hs.TakeSession());
+        c->parser.SetMaxPayload(kMaxPayloadBytes);
         backoff = cfg.backoff_min;
         std::uint64_t number = 0;
         std::size_t pending = 0;

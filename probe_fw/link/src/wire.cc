@@ -109,9 +109,9 @@ bool Parser::Next(Frame* frame) {
   if (!KnownType(p[6]))
     throw LinkError(LinkFault::kUnknownType, "message type " + std::to_string(p[6]));
   const std::uint64_t length = Load(p + 16, 4);
-  if (length > kMaxPayloadBytes) {
+  if (length > max_payload_) {
     throw LinkError(LinkFault::kOversize, "payload length " + std::to_string(length) + " exceeds " +
-                                              std::to_string(kMaxPayloadBytes));
+                                              std::to_string(max_payload_));
   }
   const bool tagged = p[7] & kTagged;
   if (p[7] & ~kTagged) throw LinkError(LinkFault::kProtocol, "unknown flags");

@@ -28,7 +28,8 @@ JobStatus JobStatusFrom(const std::string& text);  ///< throws HistoryError
 
 struct JobStart {
   std::string machine, kind, probe_serial, calibration_id;
-  nlohmann::json request;  ///< as received
+  nlohmann::json request;    ///< as received
+  std::string request_id{};  ///< the client's idempotency key, or empty
 };
 
 struct CaptureRow {
@@ -48,6 +49,24 @@ struct OffsetWriteRow {
   std::string adapter;  ///< "linuxcnc-tool-table", "fanuc-snippet", ...
   std::string target;   ///< "tool 12 radius wear", "G54"
   nlohmann::json before, after;
+  /// "intent" (about to be written), "written", "not_written" (found so after a stop)
+  std::string state = "written";
+};
+
+/// A request seen before under the same idempotency key on the same machine.
+struct EarlierRequest {
+  std::int64_t job = 0;
+  JobStatus status = JobStatus::kRunning;
+  nlohmann::json reply;
+  bool wrote = false;  ///< it wrote, or was about to write, to the controller
+};
+
+/// A job the host left running with writes it had announced (intent) but not confirmed.
+struct InterruptedWrite {
+  std::int64_t job = 0;
+  std::string machine;
+  nlohmann::json reply;  ///< the reply as it stood before the write
+  std::vector<OffsetWriteRow> writes;
 };
 
 struct JobSummary {
@@ -63,7 +82,7 @@ struct JobFilter {
 
 class History {
  public:
-  /// Opens or creates the file (schema version 1; a newer schema is refused, an older one
+  /// Opens or creates the file (schema version 2; a newer schema is refused, an older one
   /// migrated). Throws HistoryError naming the file.
   explicit History(const std::string& path);
   ~History();
@@ -79,6 +98,31 @@ class History {
                  JobStatus status,
                  const nlohmann::json& reply,
                  const nlohmann::json& timings_ms);
+  /// The writes a job is about to make, recorded durably (synchronous commit) with its reply so
+  /// far, before anything reaches the controller: a host killed during the write leaves them as
+  /// intents for the next start to settle (InterruptedWrites, SettleInterrupted).
+  void AddWriteIntents(std::int64_t job,
+                       const std::vector<OffsetWriteRow>& rows,
+                       const nlohmann::json& reply_so_far);
+  /// The job's announced writes reached the controller.
+  void MarkWritesDone(std::int64_t job);
+  /// Running jobs with announced writes (a host stopped between intent and done).
+  std::vector<InterruptedWrite> InterruptedWrites() const;
+  /// Closes such a job as the controller shows it: its intents become "written" or
+  /// "not_written", the job `status` with `reply`.
+  void SettleInterrupted(std::int64_t job,
+                         bool written,
+                         JobStatus status,
+                         const nlohmann::json& reply);
+  /// The newest job on `machine` whose request carried `request_id`.
+  std::optional<EarlierRequest> FindRequest(const std::string& machine,
+                                            const std::string& request_id) const;
+  /// Job ids from now on are at least `floor` (a new history in a data folder holding an
+  /// earlier history's clouds and reports continues after them).
+  void SetJobIdFloor(std::int64_t floor);
+  /// Throws HistoryError when the file opened is no longer at its path (removed or replaced
+  /// while the host ran): jobs must not run unrecorded. StartJob checks it.
+  void CheckFile() const;
   /// Jobs still "running" (a host that stopped mid-job leaves them): closed as failed with
   /// `reason` on start-up; returns their ids.
   std::vector<std::int64_t> CloseInterruptedJobs(const std::string& reason);

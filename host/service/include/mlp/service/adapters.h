@@ -36,4 +36,17 @@ std::vector<std::string> WriteResult(const ControllerConfig& c,
                                      const nc::NcResult& nc_result,
                                      const nlohmann::json& result);
 
+/// The file that carries job `job`'s changes to the controller (written first by WriteResult):
+/// LinuxCNC `mlp_result.ngc`, Fanuc-style `<machine>-job<N>.nc`, files `<machine>-job<N>.json`.
+std::string ControllerFile(const ControllerConfig& c, const std::string& machine, std::int64_t job);
+
+/// After a stop between a job's announced writes and their confirmation: did they reach the
+/// controller? LinuxCNC with the host writing the tool table: every tool's value there equals
+/// its `after`. Otherwise: the controller file carries this job's header. Never throws (an
+/// unreadable file means not written).
+bool WritesReachedController(const ControllerConfig& c,
+                             const std::string& machine,
+                             std::int64_t job,
+                             const nlohmann::json& tool_changes);
+
 }  // namespace mlp::service

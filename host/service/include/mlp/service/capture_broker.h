@@ -30,6 +30,9 @@ class CaptureBroker {
   ~CaptureBroker();
   void Start();  ///< binds the probe link; throws link::LinkError when it cannot
   void Stop();
+  /// Captures waiting now fail at once ("the host is stopping"), and new ones are refused: a
+  /// stop does not wait out capture timeouts.
+  void FailWaiting();
   std::uint16_t Port() const;
 
   /// Thread-safe; blocks the calling job until the cloud for `request.capture_id` arrives.

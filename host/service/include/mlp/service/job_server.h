@@ -1,9 +1,19 @@
 #pragma once
 /// @file The macro side's door: a local (Unix-domain) stream socket taking one request per
 /// connection, a JSON object on one line, and answering with one JSON line (docs/HOSTD.md).
-/// Handlers run on a worker pool, so a status query is answered while a job waits for its
-/// capture. Malformed requests get {"ok": false, "error": ...}; the server keeps serving.
+///
+/// Work is bounded against a hostile or broken client (docs/HOSTD.md, "Limits"): open
+/// connections are capped, a client has a deadline to send its line and to take its reply, a
+/// request is at most kMaxRequestBytes and kMaxRequestDepth deep, and an accept that fails
+/// (no file descriptors left) is retried, so the socket recovers when the load goes.
+///
+/// Requests run in lanes so that nobody waits behind a busy machine: `status` and other quick
+/// ops on a small pool of their own; each machine's jobs in that machine's lane (one running,
+/// a few waiting: more are refused at once as busy). A lane is named by the request's
+/// "machine"; a request naming no known lane runs with the quick ops (its handler says what is
+/// wrong). Malformed requests get {"ok": false, "error": ...}; the server keeps serving.
 
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
@@ -15,16 +25,31 @@ namespace mlp::service {
 using Log = std::function<void(const std::string& line)>;
 using Handler = std::function<nlohmann::json(const nlohmann::json& request)>;
 
+struct JobServerLimits {
+  /// Connections open at once; a connection beyond them is answered "too many connections".
+  std::size_t max_connections = 64;
+  /// From the connection to its request line, and from the reply ready to it taken: a client
+  /// that trickles bytes or never reads is cut off after this.
+  std::chrono::milliseconds client_timeout{10000};
+  /// Jobs of one machine waiting behind its running one; more are refused at once as busy.
+  std::size_t lane_waiting = 4;
+  /// Threads answering the quick ops (status, and requests that fail before any work).
+  int quick_workers = 2;
+};
+
 class JobServer {
  public:
-  /// `workers`: requests handled at once (jobs of different machines run in parallel).
-  JobServer(std::string socket_path, Log log, int workers = 4);
+  explicit JobServer(std::string socket_path, Log log, JobServerLimits limits = {});
   ~JobServer();
-  /// Before Start: the handler of requests whose "op" is `op`. A handler's exception becomes
-  /// {"ok": false, "error": what()}.
+  /// Before Start: the handler of requests whose "op" is `op`, run on the quick pool (it must
+  /// not block on a machine). A handler's exception becomes {"ok": false, "error": what()}.
   void Handle(const std::string& op, Handler handler);
-  /// Binds the socket (mode 0660; a stale socket file left by a crashed host is replaced, a live
-  /// one is not: throws std::runtime_error naming the path) and starts serving.
+  /// Before Start: the handler of a machine's op, run in the lane the request's "machine" names.
+  void HandleInLane(const std::string& op, Handler handler);
+  /// Before Start: a lane (a machine).
+  void AddLane(const std::string& name);
+  /// Binds the socket (mode 0660). A stale socket left by a crashed host is replaced; a live
+  /// one, or a path that is not a socket, is not: throws std::runtime_error naming the path.
   void Start();
   /// Stops accepting, lets running handlers finish, removes the socket file.
   void Stop();

@@ -5,6 +5,8 @@
 #include "mlp/geometry/types.h"
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -39,12 +41,21 @@ bool FlagOr(const json& j, const char* key, bool fallback, const std::string& wh
   return j.at(key).get<bool>();
 }
 
+/// A whole number that fits an int: 4294967308 is refused, never read as 12 (a 64-bit value
+/// cut to 32 bits once named tool 12 instead of refusing).
 template <class Error>
 int Integer(const json& j, const char* key, const std::string& where) {
   if (!j.contains(key) || !j.at(key).is_number_integer()) {
     Fail<Error>(where + "." + key + " must be an integer");
   }
-  return j.at(key).get<int>();
+  const json& v = j.at(key);
+  constexpr auto kMax = std::numeric_limits<int>::max();
+  constexpr auto kMin = std::numeric_limits<int>::min();
+  const bool fits = v.is_number_unsigned()
+                        ? v.get<std::uint64_t>() <= std::uint64_t{kMax}
+                        : v.get<std::int64_t>() >= kMin && v.get<std::int64_t>() <= kMax;
+  if (!fits) Fail<Error>(where + "." + key + " is out of range");
+  return static_cast<int>(v.get<std::int64_t>());
 }
 
 template <class Error>

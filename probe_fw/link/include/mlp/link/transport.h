@@ -32,10 +32,15 @@ struct HostLinkConfig {
   std::string bind_address = "127.0.0.1";
   std::uint16_t port = 0;             ///< 0: any free port (see HostLink::Port)
   std::map<std::string, Key> probes;  ///< the known probe serials and their keys
+  /// From connecting to authenticated, at most, however the bytes trickle in.
   Millis handshake_timeout{3000};
   Millis idle_timeout{3000};  ///< no frame for this long: the connection is dropped
   Millis heartbeat{500};
-  std::size_t max_connections = 16;
+  /// Connections open at once (a bound on file descriptors): the probes' sessions and the
+  /// handshakes in progress; more are closed at once.
+  std::size_t max_connections = 64;
+  /// Peers in their handshake at once; a new one closes the oldest (docs/LINK.md, "Limits").
+  std::size_t max_handshakes = 8;
   std::size_t remembered_captures = 1u << 20;  ///< capture ids kept for de-duplication
 };
 

@@ -24,6 +24,9 @@ constexpr std::size_t kCrcBytes = 4;
 constexpr std::size_t kTagBytes = 32;
 /// Largest payload accepted: a 2048 x 1536 sensor's worth of points at 16 bytes each is 50 MB.
 constexpr std::uint32_t kMaxPayloadBytes = 64u << 20;
+/// Largest payload accepted before the peer has authenticated: a HELLO, CHALLENGE or AUTH is
+/// under 200 bytes. An unauthenticated peer must not make the host allocate a cloud's worth.
+constexpr std::uint32_t kMaxHandshakePayloadBytes = 1024;
 /// Capture ids, serials and calibration ids, at most.
 constexpr std::size_t kMaxIdBytes = 256;
 
@@ -95,10 +98,14 @@ class Parser {
   /// connection).
   bool Next(Frame* frame);
   std::size_t Buffered() const { return buffer_.size() - start_; }
+  /// The largest payload taken (kMaxPayloadBytes unless lowered, e.g. to
+  /// kMaxHandshakePayloadBytes before authentication); a larger one is kOversize.
+  void SetMaxPayload(std::uint32_t bytes) { max_payload_ = bytes; }
 
  private:
   Bytes buffer_;
   std::size_t start_ = 0;
+  std::uint32_t max_payload_ = kMaxPayloadBytes;
 };
 
 /// Little-endian writers and a bounds-checked reader for payloads.

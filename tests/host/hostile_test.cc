@@ -1,0 +1,471 @@
+// A hostile but fair peer and client against a running mlp-hostd (issue 24): real processes,
+// real sockets on loopback, bounded in connections and time. Each attack is one the host once
+// failed: lock-out, crash, descriptor exhaustion, path traversal, double compensation, slow
+// loris, pre-authentication memory, head-of-line blocking, a lost history, a socket path that
+// is a file, 64-bit truncation, a full disk.
+
+#include "mlp/history/history.h"
+#include "mlp/link/transport.h"
+
+#include <atomic>
+#include <cmath>
+#include <future>
+#include <thread>
+#include <utility>  // before Asio (Boost 1.74 needs std::exchange)
+
+#include "hostd_site.h"
+#include <boost/asio.hpp>
+#include <sys/resource.h>
+#include <sys/stat.h>
+
+namespace mlp {
+namespace {
+
+namespace asio = boost::asio;
+namespace fs = std::filesystem;
+using test::Child;
+using test::kHostd;
+using test::kProbe;
+using test::kScene;
+using test::kSim;
+using test::Site;
+using json = nlohmann::json;
+using namespace std::chrono_literals;
+
+constexpr int kLinkAttackPort = 17450;  // each test here has its own probe link port
+constexpr int kRequestAttackPort = 17451;
+constexpr int kFloodPort = 17452;
+constexpr int kPathPort = 17453;
+constexpr int kRepeatPort = 17454;
+constexpr int kSettlePort = 17455;
+constexpr int kQueuePort = 17456;
+constexpr int kDiskPort = 17457;
+constexpr int kHostileClients = 16;  // as many as the tester used
+
+std::string Log(const Site& site) { return test::ReadText(site.dir / "hostd.log"); }
+
+Child StartHostd(const Site& site, const std::function<void()>& in_child = {}) {
+  Child c({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log",
+          in_child);
+  EXPECT_TRUE(site.WaitFor([&] { return fs::exists(site.socket); })) << Log(site);
+  return c;
+}
+
+Child StartProbe(const Site& site, int port) {
+  return Child({kSim, "serve", "--probe", kProbe, "--scene", kScene, "--port", std::to_string(port),
+                "--key", (site.dir / "probe.key").string()},
+               site.dir / "sim.log");
+}
+
+void EditConfig(const Site& site, const std::function<void(json&)>& edit) {
+  json c = json::parse(test::ReadText(site.dir / "hostd.json"));
+  edit(c);
+  std::ofstream(site.dir / "hostd.json") << c.dump(1);
+}
+
+// Raw bytes to the job socket, the reply line back ("" if the host closed without one).
+std::string RawRequest(const Site& site, const std::string& bytes) {
+  asio::io_context io;
+  asio::local::stream_protocol::socket s(io);
+  s.connect(asio::local::stream_protocol::endpoint(site.socket));
+  boost::system::error_code ec;
+  asio::write(s, asio::buffer(bytes), ec);
+  asio::streambuf b;
+  asio::read_until(s, b, '\n', ec);
+  return {asio::buffers_begin(b.data()), asio::buffers_end(b.data())};
+}
+
+bool StatusOk(const Site& site) {
+  const auto s = site.Mlp("status --json");
+  return s.exit_code == 0 && json::parse(s.out).at("ok") == true;
+}
+
+// A HELLO frame as a probe sends it, with any serial.
+link::Bytes Hello(const std::string& serial) {
+  link::Frame f;
+  f.type = link::MessageType::kHello;
+  link::PutU16(&f.payload, link::kLinkVersion);
+  link::PutU16(&f.payload, link::kLinkVersion);
+  link::PutString(&f.payload, serial);
+  f.payload.resize(f.payload.size() + 32, 0x5a);  // the nonce
+  return link::Serialize(f);
+}
+
+std::unique_ptr<asio::ip::tcp::socket> Connect(asio::io_context& io, int port) {
+  auto s = std::make_unique<asio::ip::tcp::socket>(io);
+  s->connect({asio::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port)});
+  return s;
+}
+
+// True when the host closed the connection (a read ends with EOF or reset).
+bool ClosedByHost(asio::ip::tcp::socket& s) {
+  std::uint8_t b[4096];
+  boost::system::error_code ec;
+  for (int i = 0; i < 64 && !ec; ++i) s.read_some(asio::buffer(b), ec);
+  return bool(ec);
+}
+
+// Issue 24 items 1, 6, 7 and the low "two probes with one serial": none of these peers keeps
+// the honest probe out, none leaks a slot, each is logged with what it did.
+TEST(HostileLink, PeersCannotLockTheProbeOut) {
+  Site site("hostile_link", kLinkAttackPort);
+  Child hostd = StartHostd(site);
+  asio::io_context io;
+  // Item 1: HELLOs whose serial is not UTF-8, more than there are slots.
+  for (int i = 0; i < kHostileClients + 4; ++i) {
+    auto s = Connect(io, kLinkAttackPort);
+    asio::write(*s, asio::buffer(Hello("\xff\xfe\xfd\xfc")));
+    EXPECT_TRUE(ClosedByHost(*s)) << "peer " << i;
+  }
+  // Item 7: a 64 MiB HELLO is refused at its header, before the host allocates it.
+  for (int i = 0; i < 4; ++i) {
+    auto s = Connect(io, kLinkAttackPort);
+    link::Bytes big = Hello("MLP-REF-0001");
+    big[16] = 0, big[17] = 0, big[18] = 0, big[19] = 4;  // payload length 64 MiB
+    big.resize(link::kHeaderBytes + 4096);
+    boost::system::error_code ec;
+    asio::write(*s, asio::buffer(big), ec);
+    EXPECT_TRUE(ClosedByHost(*s)) << "big hello " << i;
+  }
+  // Item 6: peers trickling a byte at a time, for longer than the handshake may take.
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> trickle;
+  for (int i = 0; i < kHostileClients; ++i) {
+    trickle.emplace_back([&] {
+      asio::io_context own;
+      const link::Bytes hello = Hello("MLP-REF-0001");  // valid bytes, one every 200 ms
+      while (!stop) {  // reconnects when the host cuts it off, as an attacker would
+        auto s = Connect(own, kLinkAttackPort);
+        boost::system::error_code ec;
+        for (std::size_t k = 0; k < hello.size() && !stop && !ec; ++k) {
+          asio::write(*s, asio::buffer(&hello[k], 1), ec);
+          std::this_thread::sleep_for(200ms);
+        }
+      }
+    });
+  }
+  // The honest probe gets in while all of that goes on.
+  Child probe = StartProbe(site, kLinkAttackPort);
+  const bool connected = test::ProbeConnected(site);
+  stop = true;
+  for (auto& t : trickle) t.join();
+  EXPECT_TRUE(connected) << Log(site);
+  // A second probe with the same serial is refused while the first is alive, not swapped in.
+  {
+    Child twin = StartProbe(site, kLinkAttackPort);
+    ASSERT_TRUE(site.WaitFor([&] { return Log(site).find("two probes") != std::string::npos; }));
+  }
+  EXPECT_TRUE(test::ProbeConnected(site));
+  const std::string log = Log(site);
+  EXPECT_NE(log.find("serial is not printable ASCII (hex fffefdfc)"), std::string::npos) << log;
+  EXPECT_NE(log.find("exceeds 1024"), std::string::npos) << log;
+  EXPECT_NE(log.find("from 127.0.0.1:"), std::string::npos) << log;  // who it was
+  EXPECT_TRUE(hostd.Alive());
+}
+
+// Issue 24 item 2, the low items on sizes and the client, item 11 for the AOI: one line never
+// kills the service; every defect gets a JSON reason.
+TEST(HostileClient, NoRequestLineKillsTheService) {
+  Site site("hostile_request", kRequestAttackPort);
+  Child hostd = StartHostd(site);
+  const auto error_of = [&](const std::string& line) {
+    const std::string reply = RawRequest(site, line);
+    EXPECT_FALSE(reply.empty()) << "no reply to " << line.substr(0, 80);
+    const json j = json::parse(reply.empty() ? "{}" : reply);
+    EXPECT_EQ(j.value("ok", true), false) << reply;
+    return j.value("error", std::string());
+  };
+  EXPECT_NE(error_of("{\"op\": \"status\", \"x\": \"\xff\"}\n").find("not JSON"),
+            std::string::npos);
+  EXPECT_NE(error_of("{\"op\": \"status\", \"x\": 1e400}\n").find("out of range"),
+            std::string::npos);
+  for (int depth : {60000, 100000}) {
+    const std::string deep =
+        "{\"op\": \"measure\", \"machine\": \"vmc-1\", \"captures\": " + std::string(depth, '[') +
+        std::string(depth, ']') + "}\n";
+    EXPECT_NE(error_of(deep).find("nests deeper than 32"), std::string::npos);
+  }
+  EXPECT_NE(error_of(std::string(2u << 20, ' ') + "\n").find("longer than 1048576 bytes"),
+            std::string::npos);
+  // 2^32 + 874 is out of range, not 874.
+  const std::string aoi = error_of(
+      "{\"op\": \"capture\", \"machine\": \"vmc-1\", \"capture_id\": \"a\", \"mcs_from_flange\": "
+      "{\"translation_mm\": [0, 0, 0], \"rotation_vector_rad\": [0, 0, 0]}, \"aoi\": "
+      "[4294968170, 0, 10, 10], \"columns\": [0, 10, 1]}\n");
+  EXPECT_NE(aoi.find("request.aoi must hold whole numbers 0..65535"), std::string::npos) << aoi;
+  EXPECT_TRUE(StatusOk(site));
+  EXPECT_TRUE(hostd.Alive());
+  // The macro's client: a bad file is bad input (2), not a crash or a failed job (7).
+  std::ofstream(site.dir / "deep.json") << std::string(100000, '[') << std::string(100000, ']');
+  std::ofstream(site.dir / "huge.json") << "{\"op\": \"status\", \"n\": 1e400}";
+  EXPECT_EQ(site.Mlp("request " + (site.dir / "deep.json").string()).exit_code, 2);
+  EXPECT_EQ(site.Mlp("request " + (site.dir / "huge.json").string()).exit_code, 2);
+  EXPECT_EQ(hostd.Stop(), 0);
+  // Item 10: a job_socket that names a regular file: refused, the file untouched.
+  std::ofstream(site.dir / "precious.txt") << "keep me";
+  EditConfig(site, [](json& c) { c["job_socket"] = "precious.txt"; });
+  Child refused({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "refused.log");
+  EXPECT_EQ(refused.Stop(0), 2);  // signal 0: wait for its own exit
+  EXPECT_EQ(test::ReadText(site.dir / "precious.txt"), "keep me");
+  EXPECT_NE(test::ReadText(site.dir / "refused.log").find("is not a socket"), std::string::npos);
+}
+
+// Issue 24 item 3: with the descriptors gone, accepts fail; when the load goes, both the job
+// socket and the probe link accept again (the process would otherwise live on deaf).
+TEST(HostileClient, ListenersComeBackAfterTheDescriptorsRanOut) {
+  Site site("hostile_flood", kFloodPort);
+  constexpr rlim_t kFiles = 48;  // a small limit, reached by a bounded flood
+  Child hostd = StartHostd(site, [] {
+    const rlimit l{kFiles, kFiles};
+    setrlimit(RLIMIT_NOFILE, &l);
+  });
+  {
+    asio::io_context io;
+    std::vector<std::unique_ptr<asio::local::stream_protocol::socket>> idle;
+    std::vector<std::unique_ptr<asio::ip::tcp::socket>> idle_tcp;
+    for (rlim_t i = 0; i < 2 * kFiles; ++i) {
+      idle.push_back(std::make_unique<asio::local::stream_protocol::socket>(io));
+      idle.back()->connect(asio::local::stream_protocol::endpoint(site.socket));
+      idle_tcp.push_back(Connect(io, kFloodPort));
+    }
+    ASSERT_TRUE(site.WaitFor([&] { return Log(site).find("accept failed") != std::string::npos; }))
+        << Log(site);
+  }  // all closed
+  EXPECT_TRUE(site.WaitFor([&] { return StatusOk(site); })) << Log(site);
+  Child probe = StartProbe(site, kFloodPort);
+  EXPECT_TRUE(test::ProbeConnected(site)) << Log(site);
+  EXPECT_NE(Log(site).find("accepting again"), std::string::npos);
+}
+
+json SceneCapture(const std::string& capture_id) {
+  return {{"op", "capture"},
+          {"machine", "vmc-1"},
+          {"capture_id", capture_id},
+          {"mcs_from_flange",
+           {{"translation_mm", {30, 30, 120}}, {"rotation_vector_rad", {M_PI, 0, 0}}}},
+          {"roi", "full"},
+          {"aoi", {924, 668, 200, 200}},
+          {"columns", {480, 560, 2}}};
+}
+
+// Issue 24 item 4: nothing a client sends leads a file outside the data folder, and a FIFO or
+// device named as a nominal cannot block or flood the job.
+TEST(HostileClient, PathsStayInsideTheDataFolder) {
+  Site site("hostile_paths", kPathPort);
+  test::SaveSceneCalibration(site);
+  Child hostd = StartHostd(site);
+  Child probe = StartProbe(site, kPathPort);
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const fs::path outside = site.dir / "outside";
+  for (const std::string& id :
+       std::vector<std::string>{"../../../outside", outside.string(), ".hidden", "a/b"}) {
+    const auto r = site.Mlp("request " + site.Request("escape", SceneCapture(id)));
+    EXPECT_EQ(r.exit_code, 7) << id;
+    EXPECT_NE(r.err.find("request.capture_id must be 1 to 64 letters"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(outside.string() + ".ply"));
+  const auto ok = site.Mlp("request " + site.Request("top", SceneCapture("top")));
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  const std::int64_t capture = json::parse(ok.out).at("job_id");
+  ASSERT_EQ(mkfifo((site.dir / "data" / "nominal.fifo").c_str(), 0600), 0);
+  fs::create_directory_symlink("/etc", site.dir / "data" / "etc");
+  const auto surface = [&](const std::string& file) {
+    json r = {{"op", "measure"},
+              {"machine", "vmc-1"},
+              {"feature", "surface"},
+              {"captures", {capture}},
+              {"nominal", {{"vector_points_file", file}}},
+              {"tolerance", {{"upper_mm", 0.1}, {"lower_mm", 0.1}}}};
+    return site.Mlp("request " + site.Request("surface", r));
+  };
+  for (const std::string f : {"/etc/passwd", "../../etc/passwd", "etc/passwd", "/dev/zero"}) {
+    const auto r = surface(f);
+    EXPECT_EQ(r.exit_code, 7) << f;
+    EXPECT_NE(r.err.find("is not a file inside the data folder"), std::string::npos) << r.err;
+  }
+  const auto fifo = surface("nominal.fifo");
+  EXPECT_EQ(fifo.exit_code, 7);
+  EXPECT_NE(fifo.err.find("is not a regular file"), std::string::npos) << fifo.err;
+  EXPECT_EQ(hostd.Stop(), 0);  // SIGTERM is not held up by anything above
+}
+
+// Issue 24 items 5 and 11 and the low "a bore may update a length register": a request sent
+// again under its request_id compensates once; malformed updates write nothing.
+TEST(HostileClient, ARepeatedRequestCompensatesOnce) {
+  Site site("hostile_repeat", kRepeatPort);
+  EditConfig(site, [](json& c) { c["machines"][1]["controller"]["write_tool_table"] = true; });
+  test::SaveSceneCalibration(site);
+  Child hostd = StartHostd(site);
+  Child probe = StartProbe(site, kRepeatPort);
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const auto captures = test::CaptureBoreWalls(site, "lcnc-1");
+  ASSERT_EQ(captures.size(), 4u);
+  const std::string table_before = test::ReadText(site.dir / "tool.tbl");
+  json measure = test::BoreMeasureJob(captures, 40.010);
+  for (const auto& [field, value, reason] :
+       {std::tuple{"offset", json(4294967308ull), "request.update.offset is out of range"},
+        {"register", json("length_wear"), "a bore moves a tool's radius, not its length"}}) {
+    json bad = measure;
+    bad["update"][field] = value;
+    const auto r = site.Mlp("request " + site.Request("bad", bad));
+    EXPECT_EQ(r.exit_code, 7);
+    EXPECT_NE(r.err.find(reason), std::string::npos) << r.err;
+  }
+  EXPECT_EQ(test::ReadText(site.dir / "tool.tbl"), table_before);
+  measure["request_id"] = "part-0042-bore-A";
+  const auto first = site.Mlp("request " + site.Request("measure", measure));
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  const std::string table_after = test::ReadText(site.dir / "tool.tbl");
+  EXPECT_NE(table_after, table_before);
+  const auto again = site.Mlp("request " + site.Request("measure", measure));
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  const json a = json::parse(again.out), f = json::parse(first.out);
+  EXPECT_EQ(a.at("repeated"), true);
+  EXPECT_EQ(a.at("earlier_job"), f.at("job_id"));
+  EXPECT_EQ(a.at("update"), f.at("update"));
+  EXPECT_EQ(test::ReadText(site.dir / "tool.tbl"), table_after);  // compensated once
+  EXPECT_EQ(hostd.Stop(), 0);
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  const json job = h.ExportJob(f.at("job_id"));
+  ASSERT_EQ(job.at("offset_writes").size(), 1u);
+  EXPECT_EQ(job.at("offset_writes").at(0).at("state"), "written");
+}
+
+// Issue 24 items 5, 9, 12: a host killed between announcing a write and confirming it is
+// recorded as the controller shows; temporaries of cut writes are removed; a new history in a
+// used data folder continues its job numbers; a history removed under the host stops jobs.
+TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
+  Site site("hostile_settle", kSettlePort);
+  EditConfig(site, [](json& c) { c["machines"][1]["controller"]["write_tool_table"] = true; });
+  fs::create_directories(site.dir / "data" / "clouds" / "41");  // an earlier history's job 41
+  fs::create_directories(site.dir / "lcnc");
+  std::ofstream(site.dir / "lcnc" / ".mlp_result.ngc.mlp-tmp") << "half a file";
+  std::ofstream(site.dir / "data" / "clouds" / "41" / "top.ply.tmp") << "half a cloud";
+  // As a host killed in its write leaves it: tool 12's radius 4.999 -> 4.989 announced; the
+  // table shows it written. A second job announced 4.999 -> 4.979 but never wrote.
+  std::int64_t written_job = 0, lost_job = 0;
+  {
+    history::History h((site.dir / "data" / "history.sqlite").string());
+    const auto announce = [&](double after_mm) {
+      const std::int64_t job = h.StartJob({"lcnc-1", "measure", "MLP-REF-0001", "", {}});
+      const json reply = {{"job_id", job},
+                          {"status", "in_tolerance"},
+                          {"update",
+                           {{"offset", 12},
+                            {"register", "radius_geometry"},
+                            {"before_mm", 4.999},
+                            {"after_mm", after_mm}}}};
+      h.AddWriteIntents(job, {{"lcnc-1:tool", "offset 12 radius_geometry", 4.999, after_mm}},
+                        reply);
+      return job;
+    };
+    written_job = announce(4.989);
+    lost_job = announce(4.979);
+  }
+  std::ofstream(site.dir / "tool.tbl") << "T12 P12 Z101.2 D9.978 ;finishing end mill\n";
+  {
+    Child hostd = StartHostd(site);
+    ASSERT_TRUE(StatusOk(site));
+    // A new job's number goes on after the earlier history's clouds/41 (no probe: it fails).
+    const auto next = site.Mlp("request " + site.Request("c", SceneCapture("top")));
+    EXPECT_GE(json::parse(next.out).at("job_id").get<std::int64_t>(), 42) << next.out;
+    EXPECT_EQ(hostd.Stop(), 0);
+  }
+  EXPECT_FALSE(fs::exists(site.dir / "lcnc" / ".mlp_result.ngc.mlp-tmp"));
+  EXPECT_FALSE(fs::exists(site.dir / "data" / "clouds" / "41" / "top.ply.tmp"));
+  {
+    history::History h((site.dir / "data" / "history.sqlite").string());
+    const json w = h.ExportJob(written_job), l = h.ExportJob(lost_job);
+    EXPECT_EQ(w.at("status"), "in_tolerance");
+    EXPECT_EQ(w.at("offset_writes").at(0).at("state"), "written");
+    EXPECT_NE(w.at("reply").at("note").get<std::string>().find("found written"), std::string::npos);
+    EXPECT_EQ(l.at("status"), "failed");
+    EXPECT_EQ(l.at("offset_writes").at(0).at("state"), "not_written");
+  }
+  EXPECT_EQ(test::ReadText(site.dir / "tool.tbl"), "T12 P12 Z101.2 D9.978 ;finishing end mill\n");
+  // Item 9: the history removed under the running host: noticed, jobs refused, logged.
+  Child hostd = StartHostd(site);
+  for (const char* f : {"history.sqlite", "history.sqlite-wal", "history.sqlite-shm"})
+    fs::remove(site.dir / "data" / f);
+  const auto status = site.Mlp("status --json");
+  ASSERT_EQ(status.exit_code, 0);
+  EXPECT_EQ(json::parse(status.out).at("history_ok"), false);
+  const auto refused = site.Mlp("request " + site.Request("c", SceneCapture("top")));
+  EXPECT_EQ(refused.exit_code, 7);
+  EXPECT_NE(refused.err.find("was removed or replaced while the host ran"), std::string::npos)
+      << refused.err;
+  EXPECT_NE(Log(site).find("was removed or replaced"), std::string::npos);
+  EXPECT_EQ(hostd.Stop(), 0);
+}
+
+// Issue 24 item 8: a machine's queue never holds up status or another machine. The probe here
+// authenticates and then never answers a capture (a firmware hung mid-capture).
+TEST(HostileClient, AFullQueueHoldsUpNobodyElse) {
+  Site site("hostile_queue", kQueuePort);
+  EditConfig(site, [](json& c) { c["capture_timeout_s"] = 20; });
+  Child hostd = StartHostd(site);
+  link::ProbeLinkConfig pc;
+  pc.port = kQueuePort;
+  pc.serial = "MLP-REF-0001";
+  pc.key = link::Key{link::Bytes(32, 0xaa)};
+  link::ProbeLink silent(pc, [](const std::string&) {});
+  silent.Start();
+  ASSERT_TRUE(test::ProbeConnected(site));
+  std::vector<std::future<test::ProcessRun>> jobs;
+  constexpr int kQueued = 12;
+  for (int i = 0; i < kQueued; ++i) {
+    const std::string file = site.Request("q" + std::to_string(i), SceneCapture("q"));
+    jobs.push_back(std::async(std::launch::async,
+                              [&site, file] { return site.Mlp("request --timeout 60 " + file); }));
+  }
+  // Those beyond one running and four waiting are refused at once as busy...
+  int busy = 0;
+  for (int polls = 0; busy < kQueued - 5 && polls < 1500; ++polls) {
+    for (auto& j : jobs)
+      if (j.valid() && j.wait_for(0s) == std::future_status::ready)
+        busy += j.get().err.find("is busy: a job runs and 4 wait") != std::string::npos;
+    std::this_thread::sleep_for(10ms);
+  }
+  EXPECT_EQ(busy, kQueued - 5);
+  // ...and meanwhile status and the other machine answer (the client's own 5 s limit).
+  EXPECT_TRUE(StatusOk(site));
+  const auto other =
+      site.Mlp("request " +
+               site.Request("plan", {{"op", "plan"}, {"machine", "lcnc-1"}, {"feature", "face"}}));
+  EXPECT_EQ(other.exit_code, 7);  // answered (the probe has no calibration), not held up
+  EXPECT_NE(other.err.find("no calibration"), std::string::npos) << other.err;
+  // SIGTERM fails the waiting captures at once rather than waiting out their timeouts.
+  EXPECT_EQ(hostd.Stop(), 0);
+  silent.Stop();
+  for (auto& j : jobs)
+    if (j.valid()) {
+      const auto r = j.get();
+      EXPECT_NE(r.err.find("stopping"), std::string::npos) << r.out << r.err;
+    }
+}
+
+// Issue 24 item 12: a disk that fills (here: a file-size limit on the host, EFBIG as ENOSPC
+// would be) fails the job with the reason, logged, closed in the history, nothing half-written.
+TEST(Hostd, AFullDiskFailsTheJobCleanly) {
+  Site site("hostile_disk", kDiskPort);
+  Child hostd = StartHostd(site, [] {
+    const rlimit l{64u << 10, 64u << 10};  // 64 KiB: the history fits, a cloud does not
+    setrlimit(RLIMIT_FSIZE, &l);
+  });
+  Child probe = StartProbe(site, kDiskPort);
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const auto r = site.Mlp("request " + site.Request("top", SceneCapture("top")));
+  EXPECT_EQ(r.exit_code, 7);
+  EXPECT_NE(r.err.find("cannot write"), std::string::npos) << r.err;
+  EXPECT_NE(Log(site).find("failed: cloud: cannot write"), std::string::npos) << Log(site);
+  for (const auto& e : fs::recursive_directory_iterator(site.dir / "data"))
+    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+  EXPECT_TRUE(StatusOk(site));
+  EXPECT_EQ(hostd.Stop(), 0);
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  ASSERT_EQ(h.ListJobs({}).size(), 1u);
+  EXPECT_EQ(h.ListJobs({}).at(0).status, history::JobStatus::kFailed);
+}
+
+}  // namespace
+}  // namespace mlp
