@@ -80,6 +80,9 @@ struct JobServer::Impl {
   std::map<std::string, Handler> quick_handlers, lane_handlers;
   std::map<std::string, std::unique_ptr<Lane>> lanes;
   asio::io_context io;
+  // Keeps io.run() going while every connection waits in a lane (no I/O pending): replies
+  // are posted to it afterwards.
+  asio::executor_work_guard<asio::io_context::executor_type> keep_running{io.get_executor()};
   local::acceptor acceptor{io};
   asio::steady_timer accept_retry{io};
   asio::thread_pool quick;
