@@ -129,6 +129,21 @@ struct History::Impl {
     }
   }
 
+  // One offset write row, inside the caller's transaction.
+  void InsertWrite(std::int64_t job, const OffsetWriteRow& r, const std::string& state) {
+    SQLite::Statement q(db,
+                        "INSERT INTO offset_writes (job_id, adapter, target, before, after, "
+                        "written_utc, state) VALUES (?, ?, ?, ?, ?, ?, ?)");
+    q.bind(1, job);
+    q.bind(2, r.adapter);
+    q.bind(3, r.target);
+    q.bind(4, Text(r.before));
+    q.bind(5, Text(r.after));
+    q.bind(6, UtcNow());
+    q.bind(7, state);
+    q.exec();
+  }
+
   void RequireRunning(std::int64_t job) {
     SQLite::Statement q(db, "SELECT status FROM jobs WHERE id = ?");
     q.bind(1, job);
@@ -241,17 +256,14 @@ void History::AddResult(std::int64_t job, const ResultRow& r) {
 }
 
 void History::AddOffsetWrite(std::int64_t job, const OffsetWriteRow& r) {
-  impl_->InsertForRunningJob(job,
-                             "INSERT INTO offset_writes (job_id, adapter, target, before, after, "
-                             "written_utc, state) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                             [&](SQLite::Statement& q) {
-                               q.bind(2, r.adapter);
-                               q.bind(3, r.target);
-                               q.bind(4, Text(r.before));
-                               q.bind(5, Text(r.after));
-                               q.bind(6, UtcNow());
-                               q.bind(7, r.state);
-                             });
+  try {
+    SQLite::Transaction t(impl_->db);
+    impl_->RequireRunning(job);
+    impl_->InsertWrite(job, r, r.state);
+    t.commit();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
 }
 
 void History::AddWriteIntents(std::int64_t job,
@@ -265,18 +277,7 @@ void History::AddWriteIntents(std::int64_t job,
     {
       SQLite::Transaction t(impl_->db);
       impl_->RequireRunning(job);
-      for (const OffsetWriteRow& r : rows) {
-        SQLite::Statement q(impl_->db,
-                            "INSERT INTO offset_writes (job_id, adapter, target, before, after, "
-                            "written_utc, state) VALUES (?, ?, ?, ?, ?, ?, 'intent')");
-        q.bind(1, job);
-        q.bind(2, r.adapter);
-        q.bind(3, r.target);
-        q.bind(4, Text(r.before));
-        q.bind(5, Text(r.after));
-        q.bind(6, UtcNow());
-        q.exec();
-      }
+      for (const OffsetWriteRow& r : rows) impl_->InsertWrite(job, r, "intent");
       SQLite::Statement u(impl_->db, "UPDATE jobs SET reply = ? WHERE id = ?");
       u.bind(1, Text(reply_so_far));
       u.bind(2, job);
