@@ -42,6 +42,12 @@ TEST(HostdConfig, RelativePathsFollowTheFile) {
   EXPECT_EQ(c.machines[0].controller.result_dir, "/etc/out");
 }
 
+// A whole configuration up to its machines.
+const std::string kHead =
+    R"({"format": "mlprobe-hostd/1", "data_dir": "/d", "job_socket": "/s",
+        "probe_link": {"address": "127.0.0.1", "port": 7000},
+        "probes": [{"serial": "P", "key_file": "/k"}], )";
+
 void ExpectError(const std::string& text, const std::string& needle) {
   try {
     ParseHostdConfig(text, "/etc/h.json");
@@ -52,23 +58,19 @@ void ExpectError(const std::string& text, const std::string& needle) {
 }
 
 TEST(HostdConfig, ErrorsNameTheField) {
-  const std::string head =
-      R"({"format": "mlprobe-hostd/1", "data_dir": "/d", "job_socket": "/s",
-          "probe_link": {"address": "127.0.0.1", "port": 7000},
-          "probes": [{"serial": "P", "key_file": "/k"}], )";
   const std::string machine =
       R"({"name": "m", "probe": "P", "controller": {"kind": "files", "result_dir": "/o"}})";
-  ExpectError(head + R"("machines": []})", "machines must list at least one");
-  ExpectError(head + R"("machines": [)" + machine + "," + machine + "]}", "machines[1].name");
-  ExpectError(head +
+  ExpectError(kHead + R"("machines": []})", "machines must list at least one");
+  ExpectError(kHead + R"("machines": [)" + machine + "," + machine + "]}", "machines[1].name");
+  ExpectError(kHead +
                   R"("machines": [{"name": "m", "probe": "Q", "controller": {"kind": "files",
                   "result_dir": "/o"}}]})",
               "\"Q\" is not one of the probes");
-  ExpectError(head +
+  ExpectError(kHead +
                   R"("machines": [{"name": "m", "probe": "P", "controller": {"kind": "heidenhain",
                   "result_dir": "/o"}}]})",
               "machines[0].controller.kind");
-  ExpectError(head +
+  ExpectError(kHead +
                   R"("machines": [{"name": "m", "probe": "P", "controller": {"kind": "files",
                   "result_dir": "/o"}, "limits": {"max_offset_change_mm": -1}}]})",
               "max_offset_change_mm");
@@ -76,6 +78,51 @@ TEST(HostdConfig, ErrorsNameTheField) {
                   "probe_link": {"address": "x", "port": 70000}})",
               "probe_link.port");
   ExpectError(R"({"format": "mlprobe-hostd/2"})", "format");
+}
+
+// A misspelled field used to be ignored, leaving its default in force without a word.
+TEST(HostdConfig, UnknownFieldsAreRefusedWithTheNearestName) {
+  ExpectError(kHead +
+                  R"("machines": [{"name": "m", "probe": "P", "job_timout_s": 60,
+                  "controller": {"kind": "files", "result_dir": "/o"}}]})",
+              "machines[0].job_timout_s is not a known field (did you mean \"job_timeout_s\"?)");
+  ExpectError(kHead +
+                  R"("machines": [{"name": "m", "probe": "P", "controller": {"kind": "files",
+                  "result_dir": "/o"}, "limits": {"max_rms": 0.01}}]})",
+              "limits.max_rms is not a known field (did you mean \"max_rms_mm\"?)");
+  ExpectError(kHead +
+                  R"("machines": [{"name": "m", "probe": "P", "controller": {"kind": "linuxcnc",
+                  "result_dir": "/o", "tool_table": "/t", "write_tool_tabel": true}}]})",
+              "did you mean \"write_tool_table\"");
+  ExpectError(kHead + R"("machines": [], "colour": "red"})",
+              "config.colour is not a known field");  // nothing near: no hint
+  // A flag that is not a flag is refused, never read as false.
+  ExpectError(kHead +
+                  R"("machines": [{"name": "m", "probe": "P", "controller": {"kind": "fanuc",
+                  "result_dir": "/o", "use_variables": "yes"}}]})",
+              "use_variables must be true or false");
+  // A comment is allowed anywhere.
+  EXPECT_NO_THROW(
+      ParseHostdConfig(kHead + R"("machines": [{"name": "m", "probe": "P", "comment": "cell 3",
+               "controller": {"kind": "files", "result_dir": "/o"}}]})",
+                       "/etc/h.json"));
+}
+
+// 1e308 s once overflowed the wait's conversion to a negative duration.
+TEST(HostdConfig, TimeoutsAreBounded) {
+  const std::string machines =
+      R"("machines": [{"name": "m", "probe": "P", "controller": {"kind": "files",
+         "result_dir": "/o"}}]})";
+  ExpectError(kHead + R"("capture_timeout_s": 1e308, )" + machines,
+              "capture_timeout_s must be at most 86400 s");
+  ExpectError(kHead +
+                  R"("machines": [{"name": "m", "probe": "P", "job_timeout_s": 86401,
+                  "controller": {"kind": "files", "result_dir": "/o"}}]})",
+              "job_timeout_s must be at most 86400 s");
+  ExpectError(kHead + R"("capture_timeout_s": 1e400, )" + machines, "not valid JSON");
+  const HostdConfig c =
+      ParseHostdConfig(kHead + R"("capture_timeout_s": 86400, )" + machines, "/etc/h.json");
+  EXPECT_EQ(c.capture_timeout_s, 86400.0);
 }
 
 }  // namespace

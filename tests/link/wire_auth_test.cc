@@ -11,6 +11,8 @@
 #include "link_test_util.h"
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 namespace mlp::link {
 namespace {
@@ -168,6 +170,53 @@ TEST(Auth, KeyFilesMustBeOwnerOnly) {
   std::ofstream(path) << "abcd";
   EXPECT_THROW(LoadKeyFile(path.string()), LinkError);  // too short
   std::filesystem::remove(path);
+}
+
+std::string KeyFileError(const std::string& path) {
+  try {
+    LoadKeyFile(path);
+  } catch (const LinkError& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+// An unreadable key file was reported as "must hold 32 bytes", sending the operator to the
+// key's contents instead of its permissions.
+TEST(Auth, AKeyFileThatCannotBeReadSaysSo) {
+  const auto dir = std::filesystem::temp_directory_path() / "mlp_link_key_dir";
+  std::filesystem::create_directories(dir);
+  chmod(dir.c_str(), 0711);  // others may pass through to the file, not list
+  EXPECT_NE(KeyFileError(dir.string()).find("is not a regular file"), std::string::npos);
+  const auto key = dir / "k.key";
+  std::ofstream(key) << std::string(64, 'a') << "\n";
+  chmod(key.c_str(), 0600);
+  // Read as another user (the service's user is not root): root reads any file, so the test
+  // drops to "nobody" in a child when it runs as root.
+  int pipe_fd[2];
+  ASSERT_EQ(pipe(pipe_fd), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    if (geteuid() == 0 && setuid(65534) != 0) _exit(3);
+    if (geteuid() != 0) chmod(key.c_str(), 0);  // the owner cannot read it either now
+    const std::string message = KeyFileError(key.string());
+    const ssize_t n = write(pipe_fd[1], message.data(), message.size());
+    _exit(n == static_cast<ssize_t>(message.size()) ? 0 : 4);
+  }
+  close(pipe_fd[1]);
+  std::string message(512, '\0');
+  const ssize_t n = read(pipe_fd[0], message.data(), message.size());
+  close(pipe_fd[0]);
+  int status = 0;
+  waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+  message.resize(n > 0 ? n : 0);
+  EXPECT_NE(message.find("cannot read key file"), std::string::npos) << message;
+  EXPECT_NE(message.find("Permission denied"), std::string::npos) << message;
+  std::ofstream(key) << std::string(10000, 'a');
+  EXPECT_NE(KeyFileError(key.string()).find("too large"), std::string::npos);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -308,21 +308,24 @@ std::vector<InterruptedWrite> History::InterruptedWrites() const {
   try {
     SQLite::Statement q(impl_->db,
                         "SELECT id, machine, COALESCE(reply, '') FROM jobs WHERE status = "
-                        "'running' AND id IN (SELECT job_id FROM offset_writes WHERE state = "
-                        "'intent') ORDER BY id");
+                        "'running' AND id IN (SELECT job_id FROM offset_writes WHERE state IN "
+                        "('intent', 'written')) ORDER BY id");
     while (q.executeStep()) {
       InterruptedWrite w{q.getColumn(0).getInt64(),
                          q.getColumn(1).getString(),
                          ParseStored(q.getColumn(2).getString()),
-                         {}};
+                         {},
+                         true};
       SQLite::Statement r(impl_->db,
-                          "SELECT adapter, target, before, after FROM offset_writes "
-                          "WHERE job_id = ? AND state = 'intent' ORDER BY id");
+                          "SELECT adapter, target, before, after, state FROM offset_writes "
+                          "WHERE job_id = ? AND state IN ('intent', 'written') ORDER BY id");
       r.bind(1, w.job);
-      while (r.executeStep())
+      while (r.executeStep()) {
         w.writes.push_back({r.getColumn(0).getString(), r.getColumn(1).getString(),
                             ParseStored(r.getColumn(2).getString()),
-                            ParseStored(r.getColumn(3).getString()), "intent"});
+                            ParseStored(r.getColumn(3).getString()), r.getColumn(4).getString()});
+        w.confirmed = w.confirmed && w.writes.back().state == "written";
+      }
       out.push_back(std::move(w));
     }
   } catch (const SQLite::Exception& e) {

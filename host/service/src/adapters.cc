@@ -87,10 +87,11 @@ bool WritesReachedController(const ControllerConfig& c,
     }
     std::ifstream in(ControllerFile(c, machine, job));
     const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    const std::string header = c.kind == ControllerConfig::Kind::kFiles
-                                   ? "\"job_id\": " + std::to_string(job) + ","
-                                   : "mlprobe job " + std::to_string(job) + ":";
-    return text.find(header) != std::string::npos;
+    if (c.kind == ControllerConfig::Kind::kFiles) {  // the result JSON names its job
+      const auto result = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+      return result.is_object() && result.value("job_id", std::int64_t{-1}) == job;
+    }
+    return text.find("mlprobe job " + std::to_string(job) + ":") != std::string::npos;
   } catch (const std::exception&) {
     return false;
   }

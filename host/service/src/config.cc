@@ -33,6 +33,21 @@ struct Reader {
     if (!(v > 0)) Fail(w + "." + key, "must be > 0");
     return v;
   }
+  /// A wait [s]: more than a day is a typo, and 1e308 s once overflowed to a negative wait.
+  double Seconds(const json& j, const char* key, double fallback, const std::string& w) const {
+    const double v = Positive(j, key, fallback, w);
+    if (v > kMaxWaitS) Fail(w + "." + key, "must be at most " + std::to_string(kMaxWaitS) + " s");
+    return v;
+  }
+  bool Flag(const json& j, const char* key, const std::string& w) const {
+    return jf::FlagOr<ConfigError>(j, key, false, Where(w));
+  }
+  void OnlyKnown(const json& j,
+                 std::initializer_list<std::string_view> known,
+                 const std::string& w) const {
+    jf::OnlyKnownFields<ConfigError>(j, known, Where(w));
+  }
+  static constexpr int kMaxWaitS = 86400;
 };
 
 jobs::PlausibilityLimits ParseLimits(const Reader& r, const json& m, const std::string& w) {
@@ -40,6 +55,11 @@ jobs::PlausibilityLimits ParseLimits(const Reader& r, const json& m, const std::
   if (!m.contains("limits")) return l;
   const json& j = jf::Object<ConfigError>(m, "limits", r.Where(w));
   const std::string lw = w + ".limits";
+  r.OnlyKnown(
+      j,
+      {"min_points", "min_arc_span_deg", "min_area_mm2", "max_rms_mm", "max_calibration_age_h",
+       "max_offset_change_mm", "max_work_shift_mm", "max_tilt_deg"},
+      lw);
   l.min_points = static_cast<int>(r.Positive(j, "min_points", l.min_points, lw));
   l.min_arc_span_deg = jf::NumberOr<ConfigError>(j, "min_arc_span_deg", l.min_arc_span_deg, lw);
   l.min_area_mm2 = jf::NumberOr<ConfigError>(j, "min_area_mm2", l.min_area_mm2, lw);
@@ -58,15 +78,19 @@ ControllerConfig ParseController(const Reader& r, const json& m, const std::stri
   ControllerConfig c;
   c.result_dir = r.Path(j, "result_dir", cw);
   if (kind == "linuxcnc") {
+    r.OnlyKnown(j, {"kind", "result_dir", "tool_table", "write_tool_table", "comment"}, cw);
     c.kind = ControllerConfig::Kind::kLinuxCnc;
     c.tool_table = r.Path(j, "tool_table", cw);
-    c.write_tool_table = j.contains("write_tool_table") && j.at("write_tool_table").is_boolean() &&
-                         j.at("write_tool_table").get<bool>();
+    c.write_tool_table = r.Flag(j, "write_tool_table", cw);
   } else if (kind == "fanuc" || kind == "haas" || kind == "syntec") {
+    r.OnlyKnown(j,
+                {"kind", "result_dir", "use_variables", "length_geometry_var", "length_wear_var",
+                 "radius_geometry_var", "radius_wear_var", "max_offset", "work_var",
+                 "extended_work_var", "rotation_var", "radius_as_diameter", "comment"},
+                cw);
     c.kind = ControllerConfig::Kind::kFanucStyle;
     c.map = kind == "fanuc" ? nc::FanucMap() : kind == "haas" ? nc::HaasMap() : nc::SyntecMap();
-    c.map.use_variables = j.contains("use_variables") && j.at("use_variables").is_boolean() &&
-                          j.at("use_variables").get<bool>();
+    c.map.use_variables = r.Flag(j, "use_variables", cw);
     // Per-machine overrides of the preset's variable map (docs/HOSTD.md).
     for (auto [key, field] : {std::pair{"length_geometry_var", &nc::NcMap::length_geometry_var},
                               {"length_wear_var", &nc::NcMap::length_wear_var},
@@ -79,9 +103,9 @@ ControllerConfig ParseController(const Reader& r, const json& m, const std::stri
       if (j.contains(key)) c.map.*field = jf::Integer<ConfigError>(j, key, r.Where(cw));
     }
     if (j.contains("radius_as_diameter"))
-      c.map.radius_as_diameter =
-          j.at("radius_as_diameter").is_boolean() && j.at("radius_as_diameter").get<bool>();
+      c.map.radius_as_diameter = r.Flag(j, "radius_as_diameter", cw);
   } else if (kind == "files") {
+    r.OnlyKnown(j, {"kind", "result_dir", "comment"}, cw);
     c.kind = ControllerConfig::Kind::kFiles;
   } else {
     r.Fail(cw + ".kind", "must be linuxcnc, fanuc, haas, syntec or files, not \"" + kind + "\"");
@@ -100,12 +124,17 @@ const MachineConfig* HostdConfig::Machine(const std::string& name) const {
 HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
   const Reader r{path, fs::absolute(path).parent_path()};
   const json j = jf::ParseDocument<ConfigError>(text, kFormat, path);
+  r.OnlyKnown(j,
+              {"format", "comment", "data_dir", "job_socket", "capture_timeout_s", "probe_link",
+               "probes", "machines"},
+              "config");
   HostdConfig c;
   c.path = path;
   c.data_dir = r.Path(j, "data_dir", "config");
   c.job_socket = r.Path(j, "job_socket", "config");
-  c.capture_timeout_s = r.Positive(j, "capture_timeout_s", c.capture_timeout_s, "config");
+  c.capture_timeout_s = r.Seconds(j, "capture_timeout_s", c.capture_timeout_s, "config");
   const json& link = jf::Object<ConfigError>(j, "probe_link", r.Where("config"));
+  r.OnlyKnown(link, {"address", "port", "comment"}, "probe_link");
   c.link_address = jf::Text<ConfigError>(link, "address", r.Where("probe_link"));
   const int port = jf::Integer<ConfigError>(link, "port", r.Where("probe_link"));
   if (port < 1 || port > 65535) r.Fail("probe_link.port", "must be 1..65535");
@@ -116,6 +145,8 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
   for (size_t i = 0; i < j.at("probes").size(); ++i) {
     const std::string w = "probes[" + std::to_string(i) + "]";
     const json& p = j.at("probes")[i];
+    if (!p.is_object()) r.Fail(w, "must be an object");
+    r.OnlyKnown(p, {"serial", "key_file", "model_file", "comment"}, w);
     ProbeEntry e{jf::Text<ConfigError>(p, "serial", r.Where(w)), r.Path(p, "key_file", w), ""};
     if (p.contains("model_file")) e.model_file = r.Path(p, "model_file", w);
     if (!serials.insert(e.serial).second) r.Fail(w + ".serial", "is listed twice");
@@ -126,6 +157,8 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
   for (size_t i = 0; i < j.at("machines").size(); ++i) {
     const std::string w = "machines[" + std::to_string(i) + "]";
     const json& m = j.at("machines")[i];
+    if (!m.is_object()) r.Fail(w, "must be an object");
+    r.OnlyKnown(m, {"name", "probe", "controller", "limits", "job_timeout_s", "comment"}, w);
     MachineConfig mc;
     mc.name = jf::Text<ConfigError>(m, "name", r.Where(w));
     if (!names.insert(mc.name).second) r.Fail(w + ".name", "is listed twice");
@@ -134,7 +167,7 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
       r.Fail(w + ".probe", "\"" + mc.probe_serial + "\" is not one of the probes");
     mc.controller = ParseController(r, m, w);
     mc.limits = ParseLimits(r, m, w);
-    mc.job_timeout_s = r.Positive(m, "job_timeout_s", mc.job_timeout_s, w);
+    mc.job_timeout_s = r.Seconds(m, "job_timeout_s", mc.job_timeout_s, w);
     c.machines.push_back(mc);
   }
   return c;

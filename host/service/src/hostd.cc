@@ -187,14 +187,18 @@ struct Hostd::Impl {
         tools.push_back({{"tool", u.at("offset")},
                          {"length", u.at("register").get<std::string>().rfind("length", 0) == 0},
                          {"after_mm", u.at("after_mm")}});
+      // Confirmed writes are the controller's too: never "failed", never run again.
       const bool written =
-          m != nullptr && WritesReachedController(m->controller, w.machine, w.job, tools);
+          w.confirmed ||
+          (m != nullptr && WritesReachedController(m->controller, w.machine, w.job, tools));
       json reply = w.reply;
       history::JobStatus status = history::JobStatus::kFailed;
       if (written) {
         reply["ok"] = true;
-        reply["note"] =
-            "the host stopped after writing to the controller; found written at the next start";
+        reply["note"] = w.confirmed ? "the host stopped after its write to the controller was "
+                                      "confirmed, before the job was closed"
+                                    : "the host stopped after writing to the controller; found "
+                                      "written at the next start";
         status = history::JobStatusFrom(reply.value("status", "done"));
       } else {
         reply["ok"] = false;
@@ -204,7 +208,8 @@ struct Hostd::Impl {
       }
       history.SettleInterrupted(w.job, written, status, reply);
       log("history: job " + std::to_string(w.job) + " on " + w.machine +
-          " was stopped during its write to the controller: " +
+          (w.confirmed ? " was stopped after its write to the controller: "
+                       : " was stopped during its write to the controller: ") +
           (written ? "the write is there, recorded as " + history::ToString(status)
                    : std::string("the write is not there, recorded as failed")));
     }

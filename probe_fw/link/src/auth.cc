@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -60,13 +61,26 @@ Bytes Hmac(const Bytes& key, const Bytes& message) {
 Key LoadKeyFile(const std::string& path) {
   struct stat st {};
   if (stat(path.c_str(), &st) != 0) throw LinkError(LinkFault::kAuthFailed, "no key file " + path);
+  if (!S_ISREG(st.st_mode)) {
+    throw LinkError(LinkFault::kAuthFailed, "key file " + path + " is not a regular file");
+  }
   if (st.st_mode & 077) {
     throw LinkError(LinkFault::kAuthFailed,
                     "key file " + path + " is readable by group or others (chmod 600 it)");
   }
+  constexpr off_t kMaxKeyFileBytes = 4096;  // a key is 64..a few hundred hex digits
+  if (st.st_size > kMaxKeyFileBytes) {
+    throw LinkError(LinkFault::kAuthFailed, "key file " + path + " is too large for a key (" +
+                                                std::to_string(st.st_size) + " bytes)");
+  }
   std::ifstream in(path);
+  const int open_errno = errno;
   std::stringstream text;
-  text << in.rdbuf();
+  if (in) text << in.rdbuf();
+  if (!in || in.bad()) {  // not "must hold 32 bytes": the file was never read
+    throw LinkError(LinkFault::kAuthFailed,
+                    "cannot read key file " + path + " (" + std::strerror(open_errno) + ")");
+  }
   std::string hex;
   for (char c : text.str()) {
     if (std::isspace(static_cast<unsigned char>(c))) continue;

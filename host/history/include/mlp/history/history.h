@@ -61,12 +61,14 @@ struct EarlierRequest {
   bool wrote = false;  ///< it wrote, or was about to write, to the controller
 };
 
-/// A job the host left running with writes it had announced (intent) but not confirmed.
+/// A job the host left running with writes it had announced: not yet confirmed (intents), or
+/// confirmed while the job itself was never closed (killed between the write and the close).
 struct InterruptedWrite {
   std::int64_t job = 0;
   std::string machine;
   nlohmann::json reply;  ///< the reply as it stood before the write
   std::vector<OffsetWriteRow> writes;
+  bool confirmed = false;  ///< every write already recorded as written (no intent left)
 };
 
 struct JobSummary {
@@ -106,7 +108,8 @@ class History {
                        const nlohmann::json& reply_so_far);
   /// The job's announced writes reached the controller.
   void MarkWritesDone(std::int64_t job);
-  /// Running jobs with announced writes (a host stopped between intent and done).
+  /// Running jobs with announced writes (a host stopped between intent and done, or between
+  /// done and the job's close).
   std::vector<InterruptedWrite> InterruptedWrites() const;
   /// Closes such a job as the controller shows it: its intents become "written" or
   /// "not_written", the job `status` with `reply`.

@@ -4,10 +4,15 @@
 
 #include "mlp/geometry/types.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <initializer_list>
 #include <limits>
+#include <numeric>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -108,13 +113,52 @@ inline nlohmann::ordered_json PoseToJson(const geometry::Pose3& pose) {
           {"rotation_vector_rad", {r.x(), r.y(), r.z()}}};
 }
 
+/// Levenshtein distance (insert, delete, substitute: 1 each), for "did you mean" hints. Written
+/// here because no library the project uses offers it and field names are a few letters long.
+inline std::size_t EditDistance(std::string_view a, std::string_view b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  std::iota(row.begin(), row.end(), std::size_t{0});
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t k = 1; k <= b.size(); ++k) {
+      const std::size_t above = row[k];
+      row[k] = std::min({row[k] + 1, row[k - 1] + 1, diagonal + (a[i - 1] != b[k - 1])});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+/// Refuses any field of object `j` not in `known`: a misspelled key ("job_timout_s") would
+/// otherwise be ignored and its default used without a word. Names the nearest known field.
+template <class Error>
+void OnlyKnownFields(const json& j,
+                     std::initializer_list<std::string_view> known,
+                     const std::string& where) {
+  for (const auto& item : j.items()) {
+    const std::string& key = item.key();
+    if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+    std::string_view nearest;
+    std::size_t best = std::numeric_limits<std::size_t>::max();
+    for (std::string_view k : known) {
+      const std::size_t d = EditDistance(key, k);
+      if (d < best) best = d, nearest = k;
+    }
+    std::string hint;
+    if (best <= std::max<std::size_t>(3, key.size() / 3))
+      hint = " (did you mean \"" + std::string(nearest) + "\"?)";
+    Fail<Error>(where + "." + key + " is not a known field" + hint);
+  }
+}
+
 /// Parses text into a JSON object whose "format" is `format`; throws Error otherwise.
 template <class Error>
 json ParseDocument(const std::string& text, const std::string& format, const std::string& what) {
   json j;
   try {
     j = json::parse(text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse_error, or out_of_range for 1e400
     Fail<Error>(what + ": not valid JSON (" + e.what() + ")");
   }
   if (!j.is_object()) Fail<Error>(what + ": the document must be a JSON object");
