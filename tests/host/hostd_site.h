@@ -10,6 +10,7 @@
 #include "mlp/sim/scene.h"
 
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -167,6 +168,18 @@ inline std::vector<std::int64_t> CaptureSceneViews(const Site& site,
 // (the scene's bore_wall_* captures) on `machine`: their capture job ids.
 inline std::vector<std::int64_t> CaptureBoreWalls(const Site& site, const std::string& machine) {
   return CaptureSceneViews(site, machine, kScene, "bore_wall");
+}
+
+// A capture of the sample block's top face on vmc-1 (probe straight down, 120 mm above).
+inline json TopFaceCapture(const std::string& capture_id = "top") {
+  return {{"op", "capture"},
+          {"machine", "vmc-1"},
+          {"capture_id", capture_id},
+          {"mcs_from_flange",
+           {{"translation_mm", {30, 30, 120}}, {"rotation_vector_rad", {M_PI, 0, 0}}}},
+          {"roi", "full"},
+          {"aoi", {924, 668, 200, 200}},
+          {"columns", {480, 560, 2}}};
 }
 
 // Measure the sample bore on lcnc-1 against `nominal_mm` +-0.02, updating tool 12's radius wear

@@ -40,17 +40,6 @@ constexpr int kCalibratePort = 17435;               // the hand-eye test's probe
 constexpr double kHandEyeTranslationTolMm = 0.002;  // issue 5: M within 2 um
 constexpr double kHandEyeRotationTolArcsec = 5.0;   // and 5 arcsec
 
-json TopFaceCapture() {
-  return {{"op", "capture"},
-          {"machine", "vmc-1"},
-          {"capture_id", "top"},
-          {"mcs_from_flange",
-           {{"translation_mm", {30, 30, 120}}, {"rotation_vector_rad", {M_PI, 0, 0}}}},
-          {"roi", "full"},
-          {"aoi", {924, 668, 200, 200}},
-          {"columns", {480, 560, 2}}};
-}
-
 TEST(Hostd, CapturesThroughTheServiceAndRefusesWithReasons) {
   Site site("capture");
   Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
@@ -59,7 +48,7 @@ TEST(Hostd, CapturesThroughTheServiceAndRefusesWithReasons) {
   auto status = site.Mlp("status --json");
   ASSERT_EQ(status.exit_code, 0) << status.err;
   EXPECT_EQ(json::parse(status.out).at("probes").at(0).at("connected"), false);
-  const std::string capture = site.Request("capture", TopFaceCapture());
+  const std::string capture = site.Request("capture", test::TopFaceCapture());
   auto offline = site.Mlp("request " + capture);
   EXPECT_EQ(offline.exit_code, 7);
   EXPECT_NE(offline.err.find("not connected"), std::string::npos) << offline.err;
@@ -96,17 +85,17 @@ TEST(Hostd, CapturesThroughTheServiceAndRefusesWithReasons) {
   EXPECT_EQ(uncalibrated.exit_code, 7);
   EXPECT_NE(uncalibrated.err.find("has no calibration"), std::string::npos) << uncalibrated.err;
   // Bad requests: named reasons, exit codes, nothing captured.
-  json bad = TopFaceCapture();
+  json bad = test::TopFaceCapture();
   bad["machine"] = "vmc-9";
   auto r = site.Mlp("request " + site.Request("bad1", bad));
   EXPECT_EQ(r.exit_code, 7);
   EXPECT_NE(r.err.find("no machine \"vmc-9\""), std::string::npos) << r.err;
-  bad = TopFaceCapture();
+  bad = test::TopFaceCapture();
   bad["aoi"] = {1, 2, 3};
   r = site.Mlp("request " + site.Request("bad2", bad));
   EXPECT_EQ(r.exit_code, 7);
   EXPECT_NE(r.err.find("request.aoi"), std::string::npos) << r.err;
-  bad = TopFaceCapture();
+  bad = test::TopFaceCapture();
   bad["roi"] = "hole:1024,768";  // the probe finds no hole on the flat face
   r = site.Mlp("request " + site.Request("bad3", bad));
   EXPECT_EQ(r.exit_code, 7);
@@ -401,7 +390,7 @@ TEST(Hostd, AJobCutOffByACrashIsClosedAtTheNextStart) {
               site.dir / "sim.log");
   ASSERT_TRUE(test::ProbeConnected(site));
   // A long capture: every column of the projector (a few seconds of rendering).
-  json slow = TopFaceCapture();
+  json slow = test::TopFaceCapture();
   slow["columns"] = {0, 1023, 1};
   std::thread macro([&] {
     const auto r = site.Mlp("request " + site.Request("slow", slow));
@@ -414,7 +403,7 @@ TEST(Hostd, AJobCutOffByACrashIsClosedAtTheNextStart) {
       std::vector<std::string>{kHostd, "--config", (site.dir / "hostd.json").string()},
       site.dir / "hostd2.log");
   ASSERT_TRUE(test::ProbeConnected(site));
-  const auto ok = site.Mlp("request " + site.Request("after", TopFaceCapture()));
+  const auto ok = site.Mlp("request " + site.Request("after", test::TopFaceCapture()));
   EXPECT_EQ(ok.exit_code, 0) << ok.err;
   history::History h((site.dir / "data" / "history.sqlite").string());
   const json first = h.ExportJob(h.ListJobs({}).front().id);
@@ -464,7 +453,7 @@ TEST(Hostd, StaleCalibrationTamperedCloudAndALinkDropWriteNothing) {
 
   // The probe goes down half way through a long capture (every projector column) and does not
   // come back: the capture fails once the timeout has passed, saying so; no cloud is stored.
-  json slow = TopFaceCapture();
+  json slow = test::TopFaceCapture();
   slow["columns"] = {0, 1023, 1};
   std::thread macro([&] {
     const auto r = site.Mlp("request " + site.Request("drop", slow));

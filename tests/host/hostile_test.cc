@@ -250,17 +250,6 @@ TEST(HostileClient, ListenersComeBackAfterTheDescriptorsRanOut) {
   EXPECT_NE(Log(site).find("accepting again"), std::string::npos);
 }
 
-json SceneCapture(const std::string& capture_id) {
-  return {{"op", "capture"},
-          {"machine", "vmc-1"},
-          {"capture_id", capture_id},
-          {"mcs_from_flange",
-           {{"translation_mm", {30, 30, 120}}, {"rotation_vector_rad", {M_PI, 0, 0}}}},
-          {"roi", "full"},
-          {"aoi", {924, 668, 200, 200}},
-          {"columns", {480, 560, 2}}};
-}
-
 // Issue 24 item 4: nothing a client sends leads a file outside the data folder, and a FIFO or
 // device named as a nominal cannot block or flood the job.
 TEST(HostileClient, PathsStayInsideTheDataFolder) {
@@ -272,12 +261,12 @@ TEST(HostileClient, PathsStayInsideTheDataFolder) {
   const fs::path outside = site.dir / "outside";
   for (const std::string& id :
        std::vector<std::string>{"../../../outside", outside.string(), ".hidden", "a/b"}) {
-    const auto r = site.Mlp("request " + site.Request("escape", SceneCapture(id)));
+    const auto r = site.Mlp("request " + site.Request("escape", test::TopFaceCapture(id)));
     EXPECT_EQ(r.exit_code, 7) << id;
     EXPECT_NE(r.err.find("request.capture_id must be 1 to 64 letters"), std::string::npos) << r.err;
   }
   EXPECT_FALSE(fs::exists(outside.string() + ".ply"));
-  const auto ok = site.Mlp("request " + site.Request("top", SceneCapture("top")));
+  const auto ok = site.Mlp("request " + site.Request("top", test::TopFaceCapture("top")));
   ASSERT_EQ(ok.exit_code, 0) << ok.err;
   const std::int64_t capture = json::parse(ok.out).at("job_id");
   ASSERT_EQ(mkfifo((site.dir / "data" / "nominal.fifo").c_str(), 0600), 0);
@@ -390,7 +379,7 @@ TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
     Child hostd = StartHostd(site);
     ASSERT_TRUE(StatusOk(site));
     // A new job's number goes on after the earlier history's clouds/41 (no probe: it fails).
-    const auto next = site.Mlp("request " + site.Request("c", SceneCapture("top")));
+    const auto next = site.Mlp("request " + site.Request("c", test::TopFaceCapture("top")));
     EXPECT_GE(json::parse(next.out).at("job_id").get<std::int64_t>(), 42) << next.out;
     EXPECT_EQ(hostd.Stop(), 0);
   }
@@ -418,7 +407,7 @@ TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
   const auto status = site.Mlp("status --json");
   ASSERT_EQ(status.exit_code, 0);
   EXPECT_EQ(json::parse(status.out).at("history_ok"), false);
-  const auto refused = site.Mlp("request " + site.Request("c", SceneCapture("top")));
+  const auto refused = site.Mlp("request " + site.Request("c", test::TopFaceCapture("top")));
   EXPECT_EQ(refused.exit_code, 7);
   EXPECT_NE(refused.err.find("was removed or replaced while the host ran"), std::string::npos)
       << refused.err;
@@ -535,7 +524,7 @@ TEST(HostileClient, AFullQueueHoldsUpNobodyElse) {
   std::vector<std::future<test::ProcessRun>> jobs;
   constexpr int kQueued = 12;
   for (int i = 0; i < kQueued; ++i) {
-    const std::string file = site.Request("q" + std::to_string(i), SceneCapture("q"));
+    const std::string file = site.Request("q" + std::to_string(i), test::TopFaceCapture("q"));
     jobs.push_back(std::async(std::launch::async,
                               [&site, file] { return site.Mlp("request --timeout 60 " + file); }));
   }
@@ -575,7 +564,7 @@ TEST(Hostd, AFullDiskFailsTheJobCleanly) {
   });
   Child probe = StartProbe(site, kDiskPort);
   ASSERT_TRUE(test::ProbeConnected(site));
-  const auto r = site.Mlp("request " + site.Request("top", SceneCapture("top")));
+  const auto r = site.Mlp("request " + site.Request("top", test::TopFaceCapture("top")));
   EXPECT_EQ(r.exit_code, 7);
   EXPECT_NE(r.err.find("cannot write"), std::string::npos) << r.err;
   EXPECT_NE(Log(site).find("failed: cloud: cannot write"), std::string::npos) << Log(site);
