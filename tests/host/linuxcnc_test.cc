@@ -5,6 +5,9 @@
 // with a readable message and changes nothing. Checked through LinuxCNC's stat channel.
 
 #include "mlp/history/history.h"
+#include "mlp/link/transport.h"
+
+#include <future>
 
 #include "hostd_site.h"
 
@@ -20,9 +23,11 @@ using namespace std::chrono_literals;
 
 const std::string kConfig = std::string(MLP_SOURCE_DIR) + "/samples/linuxcnc/mlprobe-sim";
 const std::string kDriver = std::string(MLP_SOURCE_DIR) + "/tests/linuxcnc/lcnc.py";
-constexpr int kPort = 17433;       // this test's probe link
-constexpr int kAlignPort = 17438;  // the alignment test's
-constexpr int kPosePort = 17440;   // the controller-pose test's
+constexpr int kPort = 17433;              // this test's probe link
+constexpr int kAlignPort = 17438;         // the alignment test's
+constexpr int kPosePort = 17440;          // the controller-pose test's
+constexpr int kDriftPort = 17459;         // the moved-capture test's
+constexpr double kDisturbanceMm = 0.005;  // 5x the M-code's 1 um pose drift limit
 constexpr double kFaceHeightTolMm = 0.001;
 constexpr double kExactMm = 1e-6;        // LinuxCNC keeps doubles; our G10 lines carry 0.1 um
 constexpr double kRoundingMm = 0.00005;  // half the 0.1 um step of the G10 values
@@ -41,16 +46,21 @@ class LinuxCnc {
     std::system(("cd " + config.string() + " && env " + env_ +
                  " setsid linuxcnc -r mlprobe-sim.ini > linuxcnc.log 2>&1 &")
                     .c_str());
-    for (int i = 0; i < 200 && !fs::exists(config / "home" / ".tool.mmap"); ++i)
+    // Up when the tool table's shared map exists: 1-3 s idle; a busy machine gets a minute.
+    for (int i = 0; i < 1200 && !fs::exists(config / "home" / ".tool.mmap"); ++i)
       std::this_thread::sleep_for(50ms);
   }
   ~LinuxCnc() {
     std::ofstream(config_ / "display.stop") << "";
     // LinuxCNC cleans up once its display exits: wait so the next test can start one.
-    for (int i = 0; i < 200 && RunProcess("pgrep -x milltask").exit_code == 0; ++i)
+    for (int i = 0; i < 1200 && RunProcess("pgrep -x milltask").exit_code == 0; ++i)
       std::this_thread::sleep_for(50ms);
   }
   bool Up() const { return fs::exists(config_ / "home" / ".tool.mmap"); }
+  /// halcmd on the running machine (as the M-codes call it).
+  test::ProcessRun Hal(const std::string& args) const {
+    return RunProcess("env " + env_ + " halcmd " + args);
+  }
   json Run(const std::string& program) const {
     const fs::path p = config_ / "program.ngc";
     std::ofstream(p) << program;
@@ -264,6 +274,93 @@ TEST(LinuxCnc, CapturesAtTheControllersPoseAndMeasuresByName) {
   EXPECT_NE(refused.at("errors").dump().find("orient the spindle"), std::string::npos)
       << refused.dump();
   EXPECT_EQ(h.ListJobs({}).size(), 4u);
+}
+
+// Issue 23: a capture whose pose moved while its frames were taken is refused. A test-only HAL
+// block adds an offset to X's position feedback. The probe here is the test's own link: when
+// the capture request reaches it (the M-code has read the pose before), the test moves X's
+// feedback by kDisturbanceMm and only then answers with a cloud, so the pose after the frames
+// differs. The M-code rejects the capture on the host and stops the program; the capture can
+// never be used.
+TEST(LinuxCnc, ACaptureTakenWhileTheMachineMovedIsRejected) {
+  ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0);
+  Site site("linuxcnc_drift", kDriftPort);
+  const fs::path config = LinuxCncSite(site, test::kDemoPlate);
+  std::ofstream(config / "disturb.hal")
+      << "# test only: an offset on X's position feedback, set by the test during a capture\n"
+         "unlinkp joint.0.motor-pos-fb\n"
+         "loadrt sum2 names=mlp_disturb_x\n"
+         "addf mlp_disturb_x servo-thread\n"
+         "net Xpos => mlp_disturb_x.in0\n"
+         "net mlp-x-fb mlp_disturb_x.out => joint.0.motor-pos-fb\n";
+  std::string ini = test::ReadText(config / "mlprobe-sim.ini");
+  const std::string hal_line = "HALFILE = orient_sim.hal\n";
+  ASSERT_NE(ini.find(hal_line), std::string::npos);
+  ini.replace(ini.find(hal_line), hal_line.size(), hal_line + "HALFILE = disturb.hal\n");
+  std::ofstream(config / "mlprobe-sim.ini") << ini;
+  Child hostd({test::kHostd, "--config", (site.dir / "hostd.json").string()},
+              site.dir / "hostd.log");
+  link::ProbeLinkConfig pc;
+  pc.port = kDriftPort;
+  pc.serial = "MLP-REF-0001";
+  pc.key = link::Key{link::Bytes(32, 0xaa)};  // the site's probe.key
+  link::ProbeLink probe(pc, [](const std::string&) {});
+  probe.Start();
+  ASSERT_TRUE(test::ProbeConnected(site));
+  std::ofstream(config / "jobs" / "1.json")
+      << json{{"op", "capture"}, {"machine", "lcnc-1"},         {"capture_id", "top_1"},
+              {"roi", "full"},   {"aoi", {924, 668, 200, 200}}, {"columns", {480, 560, 2}}}
+             .dump();
+  LinuxCnc cnc(config, site.socket);
+  ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
+  std::future<json> program = std::async(std::launch::async, [&] {
+    return cnc.Run("G21 G90\nG53 G0 X330 Y115\nG53 G0 Z-155\nM19 R90\nM101 P1\nM66 E0 L0\nM2\n");
+  });
+  // The event, not a delay: the capture request at the probe.
+  const auto request = probe.NextRequest(std::chrono::seconds(60));
+  ASSERT_TRUE(request.has_value());
+  const auto setp = cnc.Hal("setp mlp_disturb_x.in1 " + std::to_string(kDisturbanceMm));
+  ASSERT_EQ(setp.exit_code, 0) << setp.err;
+  link::LinkCloud cloud;  // a patch of the plate's top face, 120 mm below the camera
+  cloud.capture_id = request->capture_id;
+  cloud.probe_serial = pc.serial;
+  cloud.mcs_from_flange = request->mcs_from_flange;
+  for (int i = 0; i < 100; ++i) {
+    cloud.xyz.insert(cloud.xyz.end(), {double(i % 10), double(i / 10), 120.0});
+    cloud.quality.push_back(1.0f);
+  }
+  ASSERT_EQ(probe.Submit(cloud), link::SubmitResult::kQueued);
+  const json after = program.get();
+  EXPECT_NE(after.at("errors").dump().find("the machine moved 0.0050 mm during capture top_1"),
+            std::string::npos)
+      << after.dump();
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  const auto jobs = h.ListJobs({});
+  ASSERT_EQ(jobs.size(), 1u);
+  const json capture = h.ExportJob(jobs.front().id);
+  EXPECT_EQ(capture.at("status"), "failed");
+  EXPECT_NE(capture.at("reply").at("error").get<std::string>().find("rejected by the controller"),
+            std::string::npos);
+  // Never used, by name or by id; a second rejection finds no finished capture.
+  const json measure = {{"op", "measure"},
+                        {"machine", "lcnc-1"},
+                        {"feature", "face"},
+                        {"captures", {"top_1"}},
+                        {"nominal", {{"point_mm", {250, 120, -310}}, {"normal", {0, 0, 1}}}},
+                        {"tolerance", {{"upper_mm", 0.01}, {"lower_mm", 0.01}}}};
+  const auto by_name = site.Mlp("request " + site.Request("m", measure));
+  EXPECT_EQ(by_name.exit_code, 7);
+  EXPECT_NE(by_name.err.find("failed: take it again"), std::string::npos) << by_name.err;
+  json by_id = measure;
+  by_id["captures"] = {jobs.front().id};
+  const auto r = site.Mlp("request " + site.Request("m", by_id));
+  EXPECT_NE(r.err.find("is not a finished capture"), std::string::npos) << r.err;
+  const auto again = site.Mlp("request " + site.Request("r", {{"op", "reject_capture"},
+                                                              {"machine", "lcnc-1"},
+                                                              {"job_id", jobs.front().id},
+                                                              {"reason", "again"}}));
+  EXPECT_EQ(again.exit_code, 7);
+  EXPECT_NE(again.err.find("is no finished capture on lcnc-1"), std::string::npos) << again.err;
 }
 
 }  // namespace

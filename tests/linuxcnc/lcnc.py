@@ -61,15 +61,17 @@ def run(program, timeout_s):
     if not all(stat.homed[:3]):
         command.home(-1)
         command.wait_complete()
-        if not wait(stat, lambda: all(stat.homed[:3]), 10):
+        if not wait(stat, lambda: all(stat.homed[:3]), 60):  # instant in sim; 60 s under load
             raise SystemExit("not homed")
     drain(channel)
     command.mode(linuxcnc.MODE_AUTO)
     command.wait_complete()
     command.program_open(program)
     command.auto(linuxcnc.AUTO_RUN, 0)
-    # The interpreter leaves idle when the program starts; wait for that, then for the end.
-    wait(stat, lambda: stat.interp_state != linuxcnc.INTERP_IDLE, 2)
+    # Task acknowledges the run once it has set the interpreter reading: from then on "idle"
+    # means the program ended (no guess at how long it takes to start on a busy machine).
+    if command.wait_complete(60) == -1:
+        raise SystemExit("LinuxCNC did not take the run command within 60 s")
     ended = wait(stat, lambda: stat.interp_state == linuxcnc.INTERP_IDLE and stat.queue == 0,
                  timeout_s)
     time.sleep(0.2)  # the error channel's last message

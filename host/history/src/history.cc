@@ -399,6 +399,24 @@ void History::FinishJob(std::int64_t job,
   }
 }
 
+bool History::RejectCapture(const std::string& machine,
+                            std::int64_t job,
+                            const std::string& reason) {
+  CheckFile();
+  try {
+    SQLite::Statement u(impl_->db,
+                        "UPDATE jobs SET status = 'failed', reply = json_set(COALESCE(reply, "
+                        "'{}'), '$.ok', json('false'), '$.status', 'failed', '$.error', ?) "
+                        "WHERE id = ? AND machine = ? AND kind = 'capture' AND status = 'done'");
+    u.bind(1, reason);
+    u.bind(2, job);
+    u.bind(3, machine);
+    return u.exec() == 1;
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+}
+
 std::vector<std::int64_t> History::CloseInterruptedJobs(const std::string& reason) {
   std::vector<std::int64_t> ids;
   try {

@@ -7,6 +7,7 @@
 #include "mlp/probe_fw/json_fields.h"
 #include "mlp/service/adapters.h"
 #include "mlp/service/capture_broker.h"
+#include "mlp/service/request_json.h"
 
 #include <algorithm>
 #include <atomic>
@@ -135,6 +136,10 @@ struct Hostd::Impl {
     server.HandleInLane("capture", [this](const json& r) {
       return RunOnMachine(
           r, [this](const MachineConfig& m, const json& req) { return Capture(m, req); });
+    });
+    server.HandleInLane("reject_capture", [this](const json& r) {
+      return RunOnMachine(
+          r, [this](const MachineConfig& m, const json& req) { return RejectCapture(m, req); });
     });
     // Jobs on stored captures: the same context, one machine at a time.
     const std::pair<const char*, json (*)(JobContext&, const json&)> jobs[] = {
@@ -324,6 +329,20 @@ struct Hostd::Impl {
             {"link", std::max(0.0, round_trip_ms - frames_ms - firmware_ms)},
             {"host", total_ms - round_trip_ms},
             {"total", total_ms}};
+  }
+
+  // The macro saw the machine move while a capture's frames were taken (its pose after the
+  // frames differs from the pose it sent): that capture must never be used.
+  json RejectCapture(const MachineConfig& m, const json& request) {
+    const std::int64_t job = jf::Integer<RequestError>(request, "job_id", "request");
+    std::string reason = jf::Text<RequestError>(request, "reason", "request");
+    constexpr std::size_t kMaxReason = 300;
+    if (reason.size() > kMaxReason) reason.resize(kMaxReason);
+    if (!history.RejectCapture(m.name, job, "rejected by the controller: " + reason))
+      throw RequestError("job " + std::to_string(job) + " is no finished capture on " + m.name);
+    log("capture job " + std::to_string(job) + " on " + m.name +
+        " rejected by the controller: " + DumpSafe(json(reason)));
+    return {{"ok", true}, {"status", "done"}, {"job_id", job}, {"rejected", true}};
   }
 
   json Capture(const MachineConfig& m, const json& request) {

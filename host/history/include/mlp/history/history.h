@@ -108,6 +108,10 @@ class History {
                        const nlohmann::json& reply_so_far);
   /// The job's announced writes reached the controller.
   void MarkWritesDone(std::int64_t job);
+  /// Marks a finished capture of `machine` failed with `reason` (the controller saw the
+  /// machine move while its frames were taken): no job may use it, by id or by name, and an
+  /// older capture of its name never stands in. False when `job` is no finished capture there.
+  bool RejectCapture(const std::string& machine, std::int64_t job, const std::string& reason);
   /// Running jobs with announced writes (a host stopped between intent and done, or between
   /// done and the job's close).
   std::vector<InterruptedWrite> InterruptedWrites() const;
