@@ -1,6 +1,7 @@
 #pragma once
 // Running the project's programs as real processes in tests: stdout and stderr captured apart.
 
+#include <atomic>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -20,7 +21,7 @@ struct ProcessRun {
 /// Runs `command` with /bin/sh; stderr goes through a temporary file (a second pipe would need
 /// a poll loop to avoid dead-locking on a full buffer).
 inline ProcessRun RunProcess(const std::string& command) {
-  static int counter = 0;
+  static std::atomic<int> counter{0};  // tests run processes from several threads at once
   const std::filesystem::path err_file =
       std::filesystem::temp_directory_path() /
       ("mlp_test_stderr_" + std::to_string(getpid()) + "_" + std::to_string(counter++));

@@ -18,7 +18,9 @@ using namespace link::testing;
 using namespace std::chrono_literals;
 
 constexpr auto kRenderTimeout = 60s;  // a 160 x 160 px capture renders in well under a second
-constexpr auto kSilentTimeout = 300ms;
+// Long enough for the test's second request to reach the broker while the first waits, on a
+// busy machine too.
+constexpr auto kSilentTimeout = 3s;
 
 CaptureError::Kind KindOf(const std::function<void()>& f) {
   try {
@@ -87,7 +89,8 @@ TEST(CaptureBroker, SilentProbesTimeOutAndLateCloudsAreDropped) {
   auto waiting = std::async(std::launch::async, [&] {
     return KindOf([&] { broker.Capture("VP-2", TopRequest(*probe, "slow", 0), kSilentTimeout); });
   });
-  std::this_thread::sleep_for(50ms);
+  // The event, not a delay: the first request reached the probe, so the broker holds it.
+  ASSERT_TRUE(silent.NextRequest(30s).has_value());
   // The same capture id again while the first waits: refused, the first is not disturbed.
   EXPECT_EQ(KindOf([&] { broker.Capture("VP-2", TopRequest(*probe, "slow", 0), 1s); }),
             CaptureError::Kind::kBadRequest);

@@ -120,10 +120,13 @@ struct Site {
     std::ofstream(p) << j.dump();
     return p.string();
   }
+  /// Polls `ok` every 20 ms for up to a minute: events take 0.1-2 s on an idle machine; the
+  /// bound is generous so that a busy machine (scripts/test-under-load.sh) passes too.
   bool WaitFor(const std::function<bool()>& ok) const {
-    for (int i = 0; i < 500; ++i, std::this_thread::sleep_for(20ms))
+    const auto deadline = std::chrono::steady_clock::now() + 60s;
+    for (; std::chrono::steady_clock::now() < deadline; std::this_thread::sleep_for(20ms))
       if (ok()) return true;
-    return false;
+    return ok();
   }
 };
 
@@ -141,6 +144,19 @@ inline bool ProbeConnected(const Site& site) {
   return site.WaitFor([&] {
     const auto s = site.Mlp("status --json");
     return s.exit_code == 0 && json::parse(s.out).at("probes").at(0).at("connected") == true;
+  });
+}
+
+// Waits until the service reports `machine` running `op` (the event a test that interrupts a
+// job needs, rather than a delay that a busy machine outlasts).
+inline bool MachineRuns(const Site& site, const std::string& machine, const std::string& op) {
+  return site.WaitFor([&] {
+    const auto s = site.Mlp("status --json");
+    if (s.exit_code != 0) return false;
+    const json status = json::parse(s.out);  // not in the loop's head: it would dangle
+    for (const json& m : status.at("machines"))
+      if (m.at("name") == machine && m.at("running") == op) return true;
+    return false;
   });
 }
 

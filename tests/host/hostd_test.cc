@@ -396,7 +396,7 @@ TEST(Hostd, AJobCutOffByACrashIsClosedAtTheNextStart) {
     const auto r = site.Mlp("request " + site.Request("slow", slow));
     EXPECT_EQ(r.exit_code, 7);  // the host went away under it
   });
-  std::this_thread::sleep_for(1000ms);
+  EXPECT_TRUE(test::MachineRuns(site, "vmc-1", "capture"));  // (the thread is joined below)
   hostd->Stop(SIGKILL);
   macro.join();
   hostd = std::make_unique<Child>(
@@ -460,7 +460,7 @@ TEST(Hostd, StaleCalibrationTamperedCloudAndALinkDropWriteNothing) {
     EXPECT_EQ(r.exit_code, 7);
     EXPECT_NE(r.err.find("dropped off the link during capture"), std::string::npos) << r.err;
   });
-  std::this_thread::sleep_for(500ms);
+  EXPECT_TRUE(test::MachineRuns(site, "vmc-1", "capture"));  // (the thread is joined below)
   probe->Stop(SIGKILL);
   macro.join();
   const auto jobs = h.ListJobs({});

@@ -45,10 +45,11 @@ std::string RawExchange(const std::string& path, const std::string& bytes) {
 TEST(JobServer, AnswersStatusWhileAJobIsBusy) {
   const std::string path = SocketPath("busy.sock");
   JobServer server(path, [](const std::string&) {});
-  std::promise<void> release;
+  std::promise<void> release, entered;
   auto released = release.get_future().share();
   server.Handle("status", [](const json&) { return json{{"ok", true}, {"state", "idle"}}; });
-  server.Handle("job", [released](const json& r) {
+  server.Handle("job", [released, &entered](const json& r) {
+    entered.set_value();
     released.wait();  // a job waiting for its capture
     return json{{"ok", true}, {"machine", r.at("machine")}};
   });
@@ -59,7 +60,7 @@ TEST(JobServer, AnswersStatusWhileAJobIsBusy) {
   auto job = std::async(std::launch::async, [&] {
     return SendRequest(path, {{"op", "job"}, {"machine", "vmc-1"}}, kReplyTimeoutMs);
   });
-  std::this_thread::sleep_for(50ms);
+  entered.get_future().wait();  // the job holds its handler now
   EXPECT_EQ(SendRequest(path, {{"op", "status"}}, kReplyTimeoutMs).at("state"), "idle");
   release.set_value();
   EXPECT_EQ(job.get().at("machine"), "vmc-1");
@@ -120,12 +121,15 @@ TEST(JobServer, TheClientSaysWhenTheHostIsNotRunning) {
   // A host that takes too long: the client gives up after its timeout.
   const std::string path = SocketPath("slow.sock");
   JobServer server(path, [](const std::string&) {});
-  server.Handle("slow", [](const json&) {
-    std::this_thread::sleep_for(500ms);
+  std::promise<void> gave_up;
+  auto client_gave_up = gave_up.get_future().share();
+  server.Handle("slow", [client_gave_up](const json&) {
+    client_gave_up.wait();  // answers only after the client has given up, however slow it is
     return json{{"ok", true}};
   });
   server.Start();
   EXPECT_THROW(SendRequest(path, {{"op", "slow"}}, 100), std::runtime_error);
+  gave_up.set_value();
   server.Stop();
 }
 
