@@ -21,6 +21,6 @@ for run in $(seq 1 "$runs"); do
     echo "test-under-load: run $run FAILED after $(($(date +%s) - start)) s (build/under-load-$run.log)" >&2
     exit 1
   fi
-  echo "test-under-load: run $run passed in $(($(date +%s) - start)) s ($(grep -o '[0-9]* tests passed.*' "build/under-load-$run.log"))"
+  echo "test-under-load: run $run passed in $(($(date +%s) - start)) s ($(grep -o '[0-9]*% tests passed.*' "build/under-load-$run.log"))"
 done
 echo "test-under-load: all $runs runs passed under load"
