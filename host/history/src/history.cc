@@ -144,6 +144,23 @@ struct History::Impl {
     q.exec();
   }
 
+  /// Closes a running job (no-op on one already closed): its final status, reply and, unless
+  /// null, timings.
+  void CloseJob(std::int64_t job, JobStatus status, const json& reply, const json* timings_ms) {
+    SQLite::Statement u(db,
+                        "UPDATE jobs SET status = ?, reply = ?, timings_ms = COALESCE(?, "
+                        "timings_ms), finished_utc = ? WHERE id = ? AND status = 'running'");
+    u.bind(1, ToString(status));
+    u.bind(2, Text(reply));
+    if (timings_ms == nullptr)
+      u.bind(3);  // keep what the job has
+    else
+      u.bind(3, Text(*timings_ms));
+    u.bind(4, UtcNow());
+    u.bind(5, job);
+    u.exec();
+  }
+
   void RequireRunning(std::int64_t job) {
     SQLite::Statement q(db, "SELECT status FROM jobs WHERE id = ?");
     q.bind(1, job);
@@ -345,14 +362,7 @@ void History::SettleInterrupted(std::int64_t job,
     q.bind(1, written ? "written" : "not_written");
     q.bind(2, job);
     q.exec();
-    SQLite::Statement u(impl_->db,
-                        "UPDATE jobs SET status = ?, reply = ?, finished_utc = ? "
-                        "WHERE id = ? AND status = 'running'");
-    u.bind(1, ToString(status));
-    u.bind(2, Text(reply));
-    u.bind(3, UtcNow());
-    u.bind(4, job);
-    u.exec();
+    impl_->CloseJob(job, status, reply, nullptr);
     t.commit();
   } catch (const SQLite::Exception& e) {
     Fail("history " + impl_->path + ": " + e.what());
@@ -384,15 +394,7 @@ void History::FinishJob(std::int64_t job,
   try {
     SQLite::Transaction t(impl_->db);
     impl_->RequireRunning(job);
-    SQLite::Statement q(impl_->db,
-                        "UPDATE jobs SET status = ?, reply = ?, timings_ms = ?, finished_utc = ? "
-                        "WHERE id = ?");
-    q.bind(1, ToString(status));
-    q.bind(2, Text(reply));
-    q.bind(3, Text(timings_ms));
-    q.bind(4, UtcNow());
-    q.bind(5, job);
-    q.exec();
+    impl_->CloseJob(job, status, reply, &timings_ms);
     t.commit();
   } catch (const SQLite::Exception& e) {
     Fail("history " + impl_->path + ": " + e.what());
