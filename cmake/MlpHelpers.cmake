@@ -34,3 +34,17 @@ function(mlp_add_test module name)
                        PROPERTIES ENVIRONMENT "MLP_SHARED_DATA=${MLP_SHARED_DATA_DIR}"
                                   TIMEOUT 300 ${lock})
 endfunction()
+
+# mlp_import_opencv_modules(<module>...): imported targets opencv_<module> from the headers and
+# shared libraries alone. The firmware's sysroot holds only the OpenCV modules it runs with,
+# and Debian's OpenCVConfig.cmake (in libopencv-dev) insists on every module being there.
+function(mlp_import_opencv_modules)
+  find_path(MLP_OPENCV_INCLUDE_DIR opencv2/core.hpp PATH_SUFFIXES opencv4 REQUIRED)
+  foreach(module IN LISTS ARGN)
+    find_library(MLP_OPENCV_${module}_LIBRARY opencv_${module} REQUIRED)
+    add_library(opencv_${module} SHARED IMPORTED GLOBAL)
+    set_target_properties(opencv_${module} PROPERTIES
+      IMPORTED_LOCATION "${MLP_OPENCV_${module}_LIBRARY}"
+      INTERFACE_INCLUDE_DIRECTORIES "${MLP_OPENCV_INCLUDE_DIR}")
+  endforeach()
+endfunction()

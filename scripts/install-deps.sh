@@ -13,10 +13,17 @@ packages=(
   libboost-dev libboost-system-dev nlohmann-json3-dev
   libssl-dev libsqlite3-dev libsqlitecpp-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  g++-aarch64-linux-gnu  # the firmware portability check (scripts/check-arm64.sh)
+  g++-aarch64-linux-gnu qemu-user  # the firmware for the probe's board (scripts/build-arm64.sh)
   linuxcnc-uspace  # the real controller for the LinuxCNC adapter tests and demo
   clang libclang-rt-14-dev  # the libFuzzer targets (scripts/fuzz-link.sh)
 )
+# The probe board's arm64 packages are downloaded and extracted into a sysroot, never installed
+# (scripts/arm64-sysroot.sh): apt only needs their lists.
+if ! dpkg --print-foreign-architectures | grep -qx arm64; then
+  echo "install-deps: adding the arm64 architecture to apt's lists (for the probe's sysroot)"
+  dpkg --add-architecture arm64
+  apt-get update -qq
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

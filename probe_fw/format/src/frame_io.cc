@@ -7,7 +7,7 @@
 #include <fstream>
 #include <sstream>
 
-#include <opencv2/imgcodecs.hpp>
+#include "png_io.h"
 
 namespace mlp::probe_fw {
 namespace {
@@ -74,36 +74,14 @@ void WriteImage(const Frame& f, const std::string& path) {
   const std::string ext = Extension(path);
   if (ext == ".pgm") return WritePgm(f, path);
   if (ext != ".png") Fail(path + ": use .pgm or .png");
-  cv::Mat image(f.aoi.height, f.aoi.width, f.bit_depth > 8 ? CV_16UC1 : CV_8UC1);
-  for (int y = 0; y < f.aoi.height; ++y) {
-    for (int x = 0; x < f.aoi.width; ++x) {
-      if (f.bit_depth > 8)
-        image.at<std::uint16_t>(y, x) = f.At(x, y);
-      else
-        image.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(f.At(x, y));
-    }
-  }
-  if (!cv::imwrite(path, image)) Fail("cannot write " + path);
+  WritePng(f, path);
 }
 
 void ReadImage(const std::string& path, Frame* f) {
   const std::string ext = Extension(path);
   if (ext == ".pgm") return ReadPgm(path, f);
   if (ext != ".png") Fail(path + ": use .pgm or .png");
-  const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (image.empty()) Fail("cannot read " + path);
-  if (image.channels() != 1) Fail(path + ": not a grey image");
-  f->aoi.width = image.cols, f->aoi.height = image.rows;
-  f->pixels.resize(static_cast<size_t>(image.cols) * static_cast<size_t>(image.rows));
-  const bool wide = image.depth() == CV_16U;
-  if (!wide && image.depth() != CV_8U) Fail(path + ": 8 or 16 bit grey expected");
-  for (int y = 0; y < image.rows; ++y) {
-    for (int x = 0; x < image.cols; ++x) {
-      f->pixels[static_cast<size_t>(y) * image.cols + x] =
-          wide ? image.at<std::uint16_t>(y, x) : image.at<std::uint8_t>(y, x);
-    }
-  }
-  if (!wide) f->bit_depth = 8;
+  ReadPng(path, f);
 }
 
 void WriteCaptureDir(const std::string& dir,

@@ -1,6 +1,6 @@
 #pragma once
 /// @file Frames on disk: single images (PGM written and read by hand, 8 or 16 bit; PNG through
-/// OpenCV) and a capture directory: `frames.json` (format mlprobe-frames/1, docs/FRAMES.md)
+/// libpng) and a capture directory: `frames.json` (format mlprobe-frames/1, docs/FRAMES.md)
 /// listing each image with its AOI and projector column.
 
 #include "mlp/probe_fw/frame.h"
