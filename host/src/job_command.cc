@@ -63,7 +63,8 @@ void PrintStatus(const json& s, std::ostream& out) {
     if (p.contains("battery_percent"))
       out << ", battery " << p.at("battery_percent").get<int>() << " %, " << std::setprecision(1)
           << p.value("temperature_c", 0.0) << " C, buffer " << p.value("buffer_used", 0) << "/"
-          << p.value("buffer_capacity", 0);
+          << p.value("buffer_capacity", 0) << ", frames dropped " << p.value("frames_dropped", 0)
+          << (p.value("last_error", "").empty() ? "" : ", last error " + p.value("last_error", ""));
     out << "\n";
   }
   for (const auto& m : s.value("machines", json::array())) {

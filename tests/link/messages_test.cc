@@ -35,12 +35,14 @@ TEST(Messages, RoundTripsAreExact) {
   EXPECT_EQ(back.column_step, r.column_step);
   EXPECT_EQ(SweepFrames(r), 401u);
 
-  const ProbeStatus s{17, 41.5, 3, 64, kStatusBusy};
+  const ProbeStatus s{17, 41.5, 3, 64, kStatusBusy, 12, 3};
   const ProbeStatus sb = DecodeStatus(Encode(s));
   EXPECT_EQ(sb.battery_percent, 17);
   EXPECT_EQ(sb.temperature_c, 41.5);
   EXPECT_EQ(sb.buffer_used, 3u);
   EXPECT_EQ(sb.flags, kStatusBusy);
+  EXPECT_EQ(sb.frames_dropped, 12u);
+  EXPECT_EQ(sb.last_error, 3);
 
   const ProbeError e{ProbeErrorCode::kBufferFull, "job-7/bore-1", "64 clouds wait"};
   const ProbeError eb = DecodeError(Encode(e));
@@ -78,6 +80,10 @@ TEST(Messages, OutOfRangeStatusAndErrorsAreRefused) {
   EXPECT_EQ(FaultOf([] { Encode(ProbeStatus{50, 200, 0, 1, 0}); }), LinkFault::kMalformedPayload);
   EXPECT_EQ(FaultOf([] { Encode(ProbeStatus{50, 25, 5, 4, 0}); }), LinkFault::kMalformedPayload);
   EXPECT_EQ(FaultOf([] { Encode(ProbeStatus{50, 25, 0, 4, 0x80}); }), LinkFault::kMalformedPayload);
+  EXPECT_EQ(FaultOf([] {
+              Encode(ProbeStatus{50, 25, 0, 4, 0, 0, 7});
+            }),
+            LinkFault::kMalformedPayload);  // no such error code
   EXPECT_EQ(FaultOf([] {
               Encode(ProbeError{static_cast<ProbeErrorCode>(99), "", ""});
             }),

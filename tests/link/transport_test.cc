@@ -205,9 +205,9 @@ TEST(Transport, HostilePeersAreRejectedWithAReasonAndTheHostStaysUp) {
       [&](const std::string& l) { inbox.Log(l); });
   host.Start();
   SendRaw(host.Port(), Bytes{'G', 'E', 'T', ' ', '/', '\n'});
-  Bytes v2 = HelloFrom("P-1", 1);
-  v2[4] = 2;
-  SendRaw(host.Port(), v2);
+  Bytes newer = HelloFrom("P-1", 1);
+  newer[4] = kLinkVersion + 1;
+  SendRaw(host.Port(), newer);
   Bytes huge = HelloFrom("P-1", 1);
   huge[19] = 0x7f;
   SendRaw(host.Port(), huge);

@@ -52,9 +52,14 @@ inline CaptureRequest TopRequest(const sim::VirtualProbe& probe,
 struct VirtualProbeNode {
   VirtualProbeNode(std::shared_ptr<const sim::VirtualProbe> p, ProbeLinkConfig cfg)
       : probe(std::move(p)),
+        projector(probe->model().projector.columns - 1.0),
         link(cfg, [](const std::string&) {}),
-        agent(probe->model(), &link, sim::MakeVirtualCamera(probe, 3), [](const std::string&) {}) {
-    link.SetStatusSource([] { return ProbeStatus{87, 36.5, 0, 0, 0}; });
+        agent(probe->model(),
+              &link,
+              sim::MakeVirtualCamera(probe, 3, projector),
+              &projector,
+              [](const std::string&) {}) {
+    link.SetStatusSource([] { return ProbeStatus{87, 36.5, 0, 0, 0, 0, 0}; });
     link.Start();
     thread = std::thread([this] { agent.Serve(stop); });
   }
@@ -64,6 +69,7 @@ struct VirtualProbeNode {
     link.Stop();
   }
   std::shared_ptr<const sim::VirtualProbe> probe;
+  probe_fw::VirtualProjector projector;
   ProbeLink link;
   probe_fw::ProbeAgent agent;
   std::atomic<bool> stop{false};

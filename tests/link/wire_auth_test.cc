@@ -78,7 +78,7 @@ TEST(Wire, EveryDefectIsTyped) {
   w[0] = 'X';
   EXPECT_EQ(FaultOf([&] { Parse(w); }), LinkFault::kBadMagic);
   w = good;
-  w[4] = 2;  // version 2: a newer probe
+  w[4] = kLinkVersion + 1;  // a newer probe
   EXPECT_EQ(FaultOf([&] { Parse(w); }), LinkFault::kUnsupportedVersion);
   w = good;
   w[6] = 77;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -127,6 +128,97 @@ TEST(ProbeCli, MissingCameraIsExitThreeWithAClearReason) {
   EXPECT_NE(r.out.find("/dev/video-mlp-none"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("No such file or directory"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists("/tmp/mlp_never.ply"));
+}
+
+// The board's unit file (samples/probe_board) as systemd reads it, and its command line run
+// here with its environment file: it parses, refuses a key others may read (exit 2, which the
+// unit does not retry) and, with no camera or mirror driver on this machine, names the missing
+// device (exit 3, retried).
+TEST(ProbeCli, TheBoardsSystemdUnitIsValidAndItsCommandLineRuns) {
+  const fs::path samples = fs::path(MLP_SOURCE_DIR) / "samples" / "probe_board";
+  const fs::path dir = TempDir("unit");
+  fs::create_directories(dir);
+  std::ifstream unit_in(samples / "mlp-fw.service");
+  std::string unit((std::istreambuf_iterator<char>(unit_in)), std::istreambuf_iterator<char>());
+  for (const char* line : {"Restart=on-failure", "RestartPreventExitStatus=2",
+                           "EnvironmentFile=/etc/mlprobe/probe.env"}) {
+    EXPECT_NE(unit.find(std::string("\n") + line + "\n"), std::string::npos) << line;
+  }
+  // Installed paths -> this build and a scratch /etc.
+  const auto replace_all = [](std::string s, const std::string& from, const std::string& to) {
+    for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size()))
+      s.replace(at, from.size(), to);
+    return s;
+  };
+  unit = replace_all(replace_all(unit, "/usr/local/bin/mlp-fw", kFw), "/etc/mlprobe/",
+                     dir.string() + "/");
+  std::ofstream(dir / "mlp-fw.service") << unit;
+  fs::copy_file(samples / "probe.env", dir / "probe.env");
+  fs::copy_file(kProbe, dir / "probe.json");
+  const ProcessRun verify = Exec("systemd-analyze verify " + (dir / "mlp-fw.service").string());
+  EXPECT_EQ(verify.exit_code, 0) << verify.out;
+
+  // ExecStart with the environment file's values, as systemd expands ${NAME}.
+  const size_t exec_at = unit.find("\nExecStart=") + 11;
+  std::string command = unit.substr(exec_at, unit.find('\n', exec_at) - exec_at);
+  std::ifstream env(dir / "probe.env");
+  for (std::string line; std::getline(env, line);) {
+    const size_t eq = line.find('=');
+    if (line.empty() || line[0] == '#' || eq == std::string::npos) continue;
+    command = replace_all(command, "${" + line.substr(0, eq) + "}", line.substr(eq + 1));
+  }
+  ASSERT_EQ(command.find("${"), std::string::npos) << command;
+  std::ofstream(dir / "probe.key") << std::string(64, 'c') << "\n";
+  fs::permissions(dir / "probe.key",
+                  fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
+  ProcessRun r = Exec(command);
+  EXPECT_EQ(r.exit_code, 2) << command << "\n" << r.out;
+  EXPECT_NE(r.out.find("chmod 600"), std::string::npos) << r.out;
+  fs::permissions(dir / "probe.key", fs::perms::owner_read | fs::perms::owner_write);
+  r = Exec(command);
+  EXPECT_EQ(r.exit_code, 3) << command << "\n" << r.out;
+  EXPECT_TRUE(r.out.find("/dev/video0") != std::string::npos ||
+              r.out.find("/dev/spidev0.0") != std::string::npos)
+      << r.out;
+  fs::remove_all(dir);
+}
+
+// `mlp-fw serve` refuses what it cannot run with before it connects: a key file others may read,
+// the board's mirror driver missing (exit 3, named), a recording of another probe.
+TEST(ProbeCli, ServeRefusesABadKeyAMissingBoardAndAForeignRecording) {
+  const fs::path dir = TempDir("serve");
+  ASSERT_EQ(RenderTopFace(dir / "frames", "--aoi 924,668,64,64"), 0);
+  const fs::path key = dir / "probe.key";
+  std::ofstream(key) << std::string(64, 'b') << "\n";
+  fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write | fs::perms::others_read);
+  const std::string serve = kFw + " serve --probe " + kProbe + " --port 17461 --key " +
+                            key.string() + " --frames-from " + (dir / "frames").string();
+  ProcessRun r = Exec(serve);
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("chmod 600"), std::string::npos) << r.out;
+  fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write);
+
+  r = Exec(serve + " --projector board --spi /dev/mlp-no-spi");
+  EXPECT_EQ(r.exit_code, 3) << r.out;
+  EXPECT_NE(r.out.find("/dev/mlp-no-spi"), std::string::npos) << r.out;
+  r = Exec(serve + " --projector board --spi /dev/null");
+  EXPECT_EQ(r.exit_code, 3) << r.out;
+  EXPECT_NE(r.out.find("not an SPI device"), std::string::npos) << r.out;
+
+  r = Exec(serve + " --camera /dev/video0");
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("either --camera or --frames-from"), std::string::npos) << r.out;
+
+  const fs::path other = dir / "other_probe.json";
+  std::ifstream in(kProbe);
+  nlohmann::json model = nlohmann::json::parse(in);
+  model["serial"] = "MLP-OTHER-0002";
+  std::ofstream(other) << model.dump();
+  r = Exec(kFw + " serve --probe " + other.string() + " --port 17461 --key " + key.string() +
+           " --frames-from " + (dir / "frames").string());
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("from probe MLP-REF-0001"), std::string::npos) << r.out;
+  fs::remove_all(dir);
 }
 
 }  // namespace

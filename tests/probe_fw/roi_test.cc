@@ -4,8 +4,7 @@
 #include "mlp/probe_fw/roi.h"
 
 #include "mlp/geometry/fit.h"
-#include "mlp/probe_fw/cli.h"
-#include "mlp/probe_fw/fw_command.h"
+#include "mlp/probe_fw/roi_spec.h"
 #include "mlp/probe_fw/triangulate.h"
 #include "mlp/sim/render.h"
 
@@ -99,9 +98,9 @@ TEST(Roi, FaceMaskStaysOffTheHoleAndHoleMaskHugsTheRim) {
       }
     }
   }
-  EXPECT_THROW(probe_fw::ParseRoi("hole:700,420", kAoi, &r.led), probe_fw::cli::UsageError);
-  EXPECT_THROW(probe_fw::ParseRoi("face:1023,767", kAoi, &r.led), probe_fw::cli::UsageError);
-  EXPECT_THROW(probe_fw::ParseRoi("hole:1023,767", kAoi, nullptr), probe_fw::cli::UsageError);
+  EXPECT_THROW(probe_fw::ParseRoi("hole:700,420", kAoi, &r.led), probe_fw::RoiError);
+  EXPECT_THROW(probe_fw::ParseRoi("face:1023,767", kAoi, &r.led), probe_fw::RoiError);
+  EXPECT_THROW(probe_fw::ParseRoi("hole:1023,767", kAoi, nullptr), probe_fw::RoiError);
 }
 
 }  // namespace

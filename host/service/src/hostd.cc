@@ -232,6 +232,12 @@ struct Hostd::Impl {
         e["temperature_c"] = s->temperature_c;
         e["buffer_used"] = s->buffer_used;
         e["buffer_capacity"] = s->buffer_capacity;
+        e["charging"] = (s->flags & link::kStatusCharging) != 0;
+        e["frames_dropped"] = s->frames_dropped;
+        e["last_error"] =
+            s->last_error == 0
+                ? std::string()
+                : std::string(link::ToString(static_cast<link::ProbeErrorCode>(s->last_error)));
       }
       probes.push_back(e);
     }

@@ -1,10 +1,11 @@
 #include "mlp/probe_fw/agent.h"
 
-#include "mlp/probe_fw/cli.h"
-#include "mlp/probe_fw/fw_command.h"
+#include "mlp/probe_fw/roi_spec.h"
 #include "mlp/probe_fw/triangulate.h"
 
+#include <algorithm>
 #include <chrono>
+#include <thread>
 #include <utility>
 
 namespace mlp::probe_fw {
@@ -20,26 +21,50 @@ constexpr link::Millis kPoll{50};
 
 }  // namespace
 
-ProbeAgent::ProbeAgent(ProbeModel model, link::ProbeLink* link, Camera camera, link::Log log)
-    : model_(std::move(model)), link_(link), camera_(std::move(camera)), log_(std::move(log)) {}
-
-link::LinkCloud ProbeAgent::Capture(const link::CaptureRequest& request) const {
-  link::LinkCloud out;
-  out.first_frame_ns = WallClockNs();  // the acquisition starts as the camera is armed
-  std::unique_ptr<FrameSource> source = camera_(request);
-  std::optional<Frame> led;
-  std::vector<Frame> laser;
-  Frame f;
-  while (source->Next(&f)) {
-    if (f.laser_column < 0.0) {
-      led = std::move(f);
-    } else {
-      laser.push_back(std::move(f));
-    }
+SweepPlan PlanSweep(const link::CaptureRequest& r) {
+  SweepPlan plan;
+  plan.aoi = {r.aoi_x0, r.aoi_y0, r.aoi_width, r.aoi_height};
+  plan.exposure_us = r.exposure_us;
+  if (!(r.column_step > 0.0) || r.last_column < r.first_column) {
+    throw RequestError("the sweep needs first_column <= last_column and column_step > 0");
   }
+  // The link bounds the frame count (kMaxSweepFrames); the renderer numbers columns the same way.
+  const auto steps = static_cast<size_t>((r.last_column - r.first_column) / r.column_step + 1e-9);
+  for (size_t i = 0; i <= steps; ++i) {
+    plan.columns.push_back(r.first_column + static_cast<double>(i) * r.column_step);
+  }
+  return plan;
+}
+
+ProbeAgent::ProbeAgent(
+    ProbeModel model, link::ProbeLink* link, Camera camera, Projector* projector, link::Log log)
+    : model_(std::move(model)),
+      link_(link),
+      camera_(std::move(camera)),
+      projector_(projector),
+      log_(std::move(log)) {}
+
+link::LinkCloud ProbeAgent::Capture(const link::CaptureRequest& request) {
+  link::LinkCloud out;
+  const SweepPlan plan = PlanSweep(request);
+  if (plan.columns.back() > projector_->MaxColumn()) {
+    throw RequestError("the sweep reaches column " + std::to_string(plan.columns.back()) +
+                       "; the mirror reaches " + std::to_string(projector_->MaxColumn()));
+  }
+  out.first_frame_ns = WallClockNs();  // the acquisition starts as the camera is armed
+  std::unique_ptr<FrameGrabber> camera = camera_(request, plan);
+  std::vector<Frame> frames;
+  try {
+    frames = TakeSweep(*projector_, *camera, plan);
+  } catch (...) {
+    dropped_ += camera->Dropped();
+    throw;
+  }
+  dropped_ += camera->Dropped();
   out.last_frame_ns = WallClockNs();
-  if (laser.empty()) throw FrameIoError("the camera delivered no laser frame");
-  const RowMask mask = ParseRoi(request.roi, laser.front().aoi, led ? &*led : nullptr);
+  const std::vector<Frame> laser(std::make_move_iterator(frames.begin() + 1),
+                                 std::make_move_iterator(frames.end()));
+  const RowMask mask = ParseRoi(request.roi, laser.front().aoi, &frames.front());
   StripeCounts counts;
   const std::vector<CloudPoint> cloud = ReconstructSweep(model_, laser, mask, {}, &counts);
   out.capture_id = request.capture_id;
@@ -54,6 +79,13 @@ link::LinkCloud ProbeAgent::Capture(const link::CaptureRequest& request) const {
   }
   out.processed_ns = WallClockNs();
   return out;
+}
+
+void ProbeAgent::Fail(link::ProbeErrorCode code,
+                      const std::string& capture_id,
+                      const std::string& why) {
+  last_error_ = static_cast<std::uint16_t>(code);
+  link_->ReportError({code, capture_id, why});
 }
 
 void ProbeAgent::Handle(const link::CaptureRequest& request) {
@@ -73,19 +105,20 @@ void ProbeAgent::Handle(const link::CaptureRequest& request) {
     points_ -= cloud.size();
     ++refused_;
     if (result == link::SubmitResult::kBufferFull) {
-      link_->ReportError({ProbeErrorCode::kBufferFull, request.capture_id,
-                          "the store-and-forward buffer filled during the capture"});
+      Fail(ProbeErrorCode::kBufferFull, request.capture_id,
+           "the store-and-forward buffer filled during the capture");
     } else {
-      link_->ReportError({ProbeErrorCode::kBadRequest, request.capture_id,
-                          "a cloud of this capture id waits for the host already"});
+      Fail(ProbeErrorCode::kBadRequest, request.capture_id,
+           "a cloud of this capture id waits for the host already");
     }
-  } catch (const cli::UsageError& e) {
+  } catch (const std::invalid_argument& e) {  // RequestError, RoiError: the request
     ++failed_;
-    link_->ReportError({ProbeErrorCode::kBadRequest, request.capture_id, e.what()});
+    Fail(ProbeErrorCode::kBadRequest, request.capture_id, e.what());
   } catch (const std::exception& e) {
-    // Camera faults, and a reconstruction that cannot produce a cloud the link can carry.
+    // Camera and projector faults, and a reconstruction that cannot produce a cloud the link
+    // can carry.
     ++failed_;
-    link_->ReportError({ProbeErrorCode::kCaptureFailed, request.capture_id, e.what()});
+    Fail(ProbeErrorCode::kCaptureFailed, request.capture_id, e.what());
   }
 }
 
@@ -96,6 +129,50 @@ void ProbeAgent::Serve(const std::atomic<bool>& stop) {
   }
 }
 
-AgentStats ProbeAgent::Stats() const { return {captures_, points_, refused_, failed_}; }
+AgentStats ProbeAgent::Stats() const {
+  return {captures_, points_, refused_, failed_, dropped_, last_error_};
+}
+
+AgentStats ServeProbe(const ProbeModel& model,
+                      Camera camera,
+                      Projector* projector,
+                      const ServeOptions& options,
+                      const std::atomic<bool>& stop,
+                      link::Log log) {
+  link::ProbeLink link(options.link, log);
+  ProbeAgent agent(model, &link, std::move(camera), projector, log);
+  link.SetStatusSource([&agent, &options] {
+    const AgentStats stats = agent.Stats();
+    const BoardReading board = options.board ? options.board(stats) : BoardReading{};
+    link::ProbeStatus s;
+    s.battery_percent = board.battery_percent;
+    s.temperature_c = board.temperature_c;
+    s.flags = board.charging ? link::kStatusCharging : 0;
+    s.frames_dropped =
+        static_cast<std::uint32_t>(std::min<std::uint64_t>(stats.frames_dropped, UINT32_MAX));
+    s.last_error = stats.last_error;
+    return s;
+  });
+  link.Start();
+  std::atomic<bool> done{false};
+  std::thread watcher([&] {
+    while (!stop && !done) {
+      if (options.max_captures > 0 && agent.Stats().captures >= options.max_captures &&
+          link.WaitAllAcknowledged(link::Millis(100)))
+        done = true;
+      std::this_thread::sleep_for(link::Millis(50));
+    }
+    done = true;
+  });
+  agent.Serve(done);
+  watcher.join();
+  link.Stop();
+  AgentStats stats = agent.Stats();
+  log("served " + std::to_string(stats.captures) + " captures (" + std::to_string(stats.points) +
+      " points), refused " + std::to_string(stats.refused) + ", failed " +
+      std::to_string(stats.failed) + ", frames dropped " + std::to_string(stats.frames_dropped) +
+      "; " + std::to_string(link.Unacknowledged()) + " clouds not acknowledged");
+  return stats;
+}
 
 }  // namespace mlp::probe_fw

@@ -57,6 +57,7 @@ void Check(const ProbeStatus& s) {
     Bad("temperature outside -40..125 C");
   if (s.buffer_used > s.buffer_capacity) Bad("buffer holds more than its capacity");
   if (s.flags & ~(kStatusBufferFull | kStatusBusy | kStatusCharging)) Bad("unknown status flag");
+  if (s.last_error > 6) Bad("unknown last error code " + std::to_string(s.last_error));
 }
 
 void Check(const ProbeError& e) {
@@ -124,6 +125,8 @@ Bytes Encode(const ProbeStatus& s) {
   PutU32(&b, s.buffer_used);
   PutU32(&b, s.buffer_capacity);
   PutU8(&b, s.flags);
+  PutU32(&b, s.frames_dropped);
+  PutU16(&b, s.last_error);
   return b;
 }
 
@@ -135,6 +138,8 @@ ProbeStatus DecodeStatus(const Bytes& payload) {
   s.buffer_used = in.U32();
   s.buffer_capacity = in.U32();
   s.flags = in.U8();
+  s.frames_dropped = in.U32();
+  s.last_error = in.U16();
   in.ExpectEnd();
   Check(s);
   return s;

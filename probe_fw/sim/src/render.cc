@@ -262,10 +262,12 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
   out.led = make_frame(
       -1.0, 0, [&](size_t i, Gaussian&) { return ambient(pixels[i]) + noise.led_e * led[i]; });
   const double sheet = model_.laser.sheet_halfwidth_cols;
-  std::uint64_t index = 1;
-  for (double column = o.first_column; o.laser_frames && column <= o.last_column + 1e-9;
-       column += o.column_step) {
-    out.laser.push_back(make_frame(column, index++, [&](size_t i, Gaussian& gauss) {
+  // Columns first + i * step, as the firmware plans a sweep (agent.h: PlanSweep).
+  const auto steps =
+      static_cast<std::uint64_t>((o.last_column - o.first_column) / o.column_step + 1e-9);
+  for (std::uint64_t index = 1; o.laser_frames && index <= steps + 1; ++index) {
+    const double column = o.first_column + static_cast<double>(index - 1) * o.column_step;
+    out.laser.push_back(make_frame(column, index, [&](size_t i, Gaussian& gauss) {
       const Pixel& p = pixels[i];
       double e = ambient(p);
       if (!p.lit) return e;

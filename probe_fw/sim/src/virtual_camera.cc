@@ -1,8 +1,5 @@
 #include "mlp/sim/virtual_camera.h"
 
-#include "mlp/probe_fw/cli.h"
-#include "mlp/sim/virtual_source.h"
-
 #include <functional>
 #include <stdexcept>
 
@@ -17,25 +14,30 @@ Pose3 PoseOf(const std::array<double, 16>& h) {
   return p;
 }
 
-probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe, std::uint64_t seed) {
-  return [probe, seed](const link::CaptureRequest& r) {
+probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe,
+                                   std::uint64_t seed,
+                                   const probe_fw::Projector& projector) {
+  return [probe, seed, &projector](const link::CaptureRequest& r, const probe_fw::SweepPlan& plan) {
     Capture capture;
     capture.id = r.capture_id;
     capture.mcs_from_flange = PoseOf(r.mcs_from_flange);
     SweepOptions o;
-    o.aoi = {r.aoi_x0, r.aoi_y0, r.aoi_width, r.aoi_height};
-    o.first_column = r.first_column;
-    o.last_column = r.last_column;
+    o.aoi = plan.aoi;
+    o.first_column = plan.columns.front();
+    o.last_column = plan.columns.back();
     o.column_step = r.column_step;
     o.seed = seed ^ std::hash<std::string>{}(r.capture_id);
-    RenderedCapture frames;
+    RenderedCapture rendered;
     try {
-      frames = probe->Render(capture, o);
+      rendered = probe->Render(capture, o);
     } catch (const std::invalid_argument& e) {
-      throw probe_fw::cli::UsageError(e.what());  // the request, not the camera, is at fault
+      throw probe_fw::RequestError(e.what());  // the request, not the camera, is at fault
     }
-    probe_fw::CaptureMeta meta{probe->model().serial, probe->model().calibration_id, r.capture_id};
-    return MakeVirtualSource(std::move(frames), meta);
+    // The rendered sweep is what the camera sees; the projector the agent drives picks the
+    // frame of each exposure.
+    std::vector<probe_fw::Frame> frames{std::move(rendered.led)};
+    for (probe_fw::Frame& f : rendered.laser) frames.push_back(std::move(f));
+    return probe_fw::MakeRecordedCamera(std::move(frames), projector);
   };
 }
 

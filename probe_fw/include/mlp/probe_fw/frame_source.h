@@ -1,6 +1,6 @@
 #pragma once
-/// @file Where frames come from, behind one interface: a capture directory (replay of recorded
-/// frames), a Linux V4L2 camera (the real probe), or the virtual probe (mlp/sim/virtual_source.h).
+/// @file Frames of one capture, one at a time: a capture directory (recorded frames), or frames
+/// in memory (a sweep the board's camera took: sweep.h; a capture the virtual probe rendered).
 
 #include "mlp/probe_fw/frame.h"
 #include "mlp/probe_fw/frame_io.h"
@@ -22,14 +22,7 @@ class FrameSource {
 /// Frames listed in <dir>/frames.json, read one at a time.
 std::unique_ptr<FrameSource> OpenDirectorySource(const std::string& dir);
 
-/// A V4L2 camera (8-bit GREY or 16-bit Y16, memory-mapped streaming). `laser_columns` holds the
-/// projector column the MEMS driver lit for each successive frame (negative: the LED frame);
-/// the capture ends after that many frames. Throws FrameIoError naming the device and the
-/// reason when there is no such camera or it cannot deliver the format.
-std::unique_ptr<FrameSource> OpenV4l2Source(const std::string& device,
-                                            const Aoi& aoi,
-                                            int bit_depth,
-                                            std::vector<double> laser_columns,
-                                            CaptureMeta meta);
+/// Frames already in memory (a sweep just taken, a rendered capture), in their order.
+std::unique_ptr<FrameSource> MakeFrameList(std::vector<Frame> frames, CaptureMeta meta);
 
 }  // namespace mlp::probe_fw

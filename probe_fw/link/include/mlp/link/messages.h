@@ -40,7 +40,9 @@ struct ProbeStatus {
   double temperature_c = 25.0;         ///< board temperature, -40..125
   std::uint32_t buffer_used = 0;       ///< clouds waiting for the host's acknowledgement
   std::uint32_t buffer_capacity = 0;
-  std::uint8_t flags = 0;  ///< StatusFlags
+  std::uint8_t flags = 0;            ///< StatusFlags
+  std::uint32_t frames_dropped = 0;  ///< by the camera since the probe started
+  std::uint16_t last_error = 0;      ///< ProbeErrorCode of the last failed request, 0: none
 };
 
 enum class ProbeErrorCode : std::uint16_t {

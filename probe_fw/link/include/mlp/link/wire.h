@@ -18,7 +18,7 @@ namespace mlp::link {
 
 using Bytes = std::vector<std::uint8_t>;
 
-constexpr std::uint16_t kLinkVersion = 1;
+constexpr std::uint16_t kLinkVersion = 2;  // 2: STATUS carries frames dropped and the last error
 constexpr std::size_t kHeaderBytes = 20;
 constexpr std::size_t kCrcBytes = 4;
 constexpr std::size_t kTagBytes = 32;

@@ -12,8 +12,12 @@
 namespace mlp::sim {
 
 /// Noise is seeded from `seed` and the capture id, so a repeated request renders the same
-/// frames. The exposure is not modelled (the renderer's signal level is the nominal one).
-probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe, std::uint64_t seed);
+/// frames. The exposure is not modelled (the renderer's signal level is the nominal one). The
+/// camera looks at `projector` (a VirtualProjector the agent drives), which must outlive it:
+/// each grab is the rendered frame of what the projector lights.
+probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe,
+                                   std::uint64_t seed,
+                                   const probe_fw::Projector& projector);
 
 /// H of a request as a pose.
 Pose3 PoseOf(const std::array<double, 16>& row_major);

@@ -3,14 +3,14 @@
 // reconstructed from rendered frames.
 
 #include "mlp/probe_fw/agent.h"
-#include "mlp/probe_fw/cli.h"
 #include "mlp/sim/scene.h"
-#include "mlp/sim/sim_command.h"
 #include "mlp/sim/virtual_camera.h"
 
 #include <atomic>
 #include <csignal>
-#include <thread>
+
+#include "cli.h"
+#include "sim_command.h"
 
 namespace mlp::sim {
 namespace {
@@ -33,46 +33,35 @@ int RunServeCommand(const std::vector<std::string>& args, std::ostream& out) {
                                                     LoadScene(o.Required("--scene")));
   const double port = o.Number("--port", 0.0);
   if (!(port >= 1.0 && port <= 65535.0)) throw UsageError("--port must be 1..65535");
-  link::ProbeLinkConfig cfg;
-  cfg.host = o.Get("--host", "127.0.0.1");
-  cfg.port = static_cast<std::uint16_t>(port);
-  cfg.serial = probe->model().serial;
-  cfg.key = link::LoadKeyFile(o.Required("--key"));
-  cfg.buffer_clouds = static_cast<std::size_t>(o.Number("--buffer", 64));
-  const double max_captures = o.Number("--captures", 0.0);  // 0: serve until a signal
+  probe_fw::ServeOptions options;
+  options.link.host = o.Get("--host", "127.0.0.1");
+  options.link.port = static_cast<std::uint16_t>(port);
+  options.link.serial = probe->model().serial;
+  options.link.key = link::LoadKeyFile(o.Required("--key"));
+  options.link.buffer_clouds = static_cast<std::size_t>(o.Number("--buffer", 64));
+  options.max_captures =
+      static_cast<std::uint64_t>(o.Number("--captures", 0.0));  // 0: until a signal
+  options.board = [](const probe_fw::AgentStats& stats) {
+    probe_fw::BoardReading r;
+    const double used = kBatteryPerCapture * static_cast<double>(stats.captures);
+    r.battery_percent = static_cast<std::uint8_t>(std::max(0.0, 100.0 - used));
+    r.temperature_c = kBoardTemperatureC;
+    return r;
+  };
   link::Log log = [&out](const std::string& line) { out << line << "\n" << std::flush; };
-  link::ProbeLink link(cfg, log);
-  probe_fw::ProbeAgent agent(
-      probe->model(), &link,
-      MakeVirtualCamera(probe, static_cast<std::uint64_t>(o.Number("--seed", 1))), log);
-  link.SetStatusSource([&agent] {
-    link::ProbeStatus s;
-    const double used = kBatteryPerCapture * static_cast<double>(agent.Stats().captures);
-    s.battery_percent = static_cast<std::uint8_t>(std::max(0.0, 100.0 - used));
-    s.temperature_c = kBoardTemperatureC;
-    return s;
-  });
+  // The same agent as the board's (mlp-fw serve), with the virtual mirror and camera plugged in.
+  probe_fw::VirtualProjector projector(probe->model().projector.columns - 1.0);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
-  out << "mlp-sim: virtual probe " << cfg.serial << " serving " << cfg.host << ":" << cfg.port
-      << "\n"
+  out << "mlp-sim: virtual probe " << options.link.serial << " serving " << options.link.host << ":"
+      << options.link.port << "\n"
       << std::flush;
-  link.Start();
-  std::thread watcher([&] {
-    while (!g_stop) {
-      if (max_captures > 0 && agent.Stats().captures >= max_captures &&
-          link.WaitAllAcknowledged(link::Millis(100)))
-        g_stop = true;
-      std::this_thread::sleep_for(link::Millis(50));
-    }
-  });
-  agent.Serve(g_stop);
-  watcher.join();
-  link.Stop();
-  const probe_fw::AgentStats s = agent.Stats();
+  const probe_fw::AgentStats s = probe_fw::ServeProbe(
+      probe->model(),
+      MakeVirtualCamera(probe, static_cast<std::uint64_t>(o.Number("--seed", 1)), projector),
+      &projector, options, g_stop, log);
   out << "mlp-sim: served " << s.captures << " captures (" << s.points << " points), refused "
-      << s.refused << ", failed " << s.failed << "; " << link.Unacknowledged()
-      << " clouds not acknowledged\n";
+      << s.refused << ", failed " << s.failed << "\n";
   return probe_fw::cli::kExitOk;
 }
 

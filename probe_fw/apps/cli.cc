@@ -1,4 +1,6 @@
-#include "mlp/probe_fw/cli.h"
+#include "cli.h"
+
+#include "mlp/probe_fw/roi_spec.h"
 
 #include <cmath>
 #include <sstream>
@@ -47,15 +49,11 @@ double Options::Number(const std::string& name, double fallback) const {
 }
 
 Aoi ParseAoi(const std::string& text) {
-  std::istringstream in(text);
-  Aoi a;
-  char c1 = 0, c2 = 0, c3 = 0;
-  if (!(in >> a.x0 >> c1 >> a.y0 >> c2 >> a.width >> c3 >> a.height) || c1 != ',' || c2 != ',' ||
-      c3 != ',' || !(in >> std::ws).eof() || a.x0 < 0 || a.y0 < 0 || a.width <= 0 ||
-      a.height <= 0) {
-    throw UsageError("an AOI is x0,y0,width,height in pixels, got '" + text + "'");
+  try {
+    return probe_fw::ParseAoi(text);
+  } catch (const RoiError& e) {
+    throw UsageError(e.what());
   }
-  return a;
 }
 
 }  // namespace mlp::probe_fw::cli

@@ -1,19 +1,23 @@
-#include "mlp/probe_fw/fw_command.h"
+#include "fw_command.h"
 
-#include "mlp/probe_fw/cli.h"
 #include "mlp/probe_fw/cloud_io.h"
 #include "mlp/probe_fw/frame_source.h"
 #include "mlp/probe_fw/probe_model.h"
-#include "mlp/probe_fw/roi.h"
+#include "mlp/probe_fw/roi_spec.h"
 #include "mlp/probe_fw/stripe.h"
 #include "mlp/probe_fw/stripe_file.h"
+#include "mlp/probe_fw/sweep.h"
 #include "mlp/probe_fw/triangulate.h"
 
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <memory>
 #include <optional>
 
+#include "board.h"
+#include "cli.h"
 #include <nlohmann/json.hpp>
 #include <unistd.h>
 
@@ -25,14 +29,25 @@ using cli::UsageError;
 constexpr const char* kUsage =
     "usage: mlp-fw run --probe PROBE_FILE --frames DIR --roi ROI_SPEC --out CLOUD.ply [--json]\n"
     "       mlp-fw run --probe PROBE_FILE --camera /dev/videoN --aoi X0,Y0,W,H\n"
-    "                  --columns FIRST:LAST:STEP --roi ROI_SPEC --out CLOUD.ply [--json]\n"
+    "                  --columns FIRST:LAST:STEP [--exposure-us US] [BOARD OPTIONS]\n"
+    "                  --roi ROI_SPEC --out CLOUD.ply [--json]\n"
     "       mlp-fw stripes --frames DIR --out STRIPES.json [--roi ROI_SPEC] [--json]\n"
+    "       mlp-fw serve --probe PROBE_FILE --port N --key KEY_FILE [--host ADDRESS]\n"
+    "                    (--camera /dev/videoN | --frames-from DIR) [--projector board|virtual]\n"
+    "                    [--buffer CLOUDS] [--captures N] [BOARD OPTIONS]\n"
+    "  serve     the probe's main loop: connects to the host's probe link and answers capture\n"
+    "            requests until SIGINT/SIGTERM (or N captures acknowledged); --frames-from\n"
+    "            answers from a recorded capture (lit by the virtual projector by default)\n"
+    "  BOARD OPTIONS  --spi DEV --gpio-chip DEV --laser-line N --led-line N (the projector's\n"
+    "            drivers); serve also --battery DIR --thermal FILE (sysfs readings for the "
+    "status)\n"
     "  ROI_SPEC  full | rect:X0,Y0,W,H | hole:X,Y | edge:X,Y | face:X,Y (sensor pixels; hole,\n"
     "            edge and face are found on the LED frame from the hint X,Y: docs/CLI.md)\n"
     "  stripes   calibration mode: the stripe centres with the projector column lit, not\n"
     "            triangulated (needs no probe model; default ROI full)\n"
     "  --json    print the summary as JSON\n"
-    "exit codes: 0 cloud written, 2 bad arguments or input, 3 camera missing or failed, 1 bug\n";
+    "exit codes: 0 cloud written (serve: stopped), 2 bad arguments or input, 3 camera or\n"
+    "            projector missing or failed, 1 bug\n";
 
 std::vector<double> ParseColumns(const std::string& text) {
   double first = 0, last = 0, step = 0;
@@ -41,17 +56,31 @@ std::vector<double> ParseColumns(const std::string& text) {
       c1 != ':' || c2 != ':' || !(step > 0.0) || last < first || (last - first) / step > 100000) {
     throw UsageError("--columns is FIRST:LAST:STEP with STEP > 0, got '" + text + "'");
   }
-  std::vector<double> columns{-1.0};  // the LED frame comes first
-  for (double c = first; c <= last + 1e-9; c += step) columns.push_back(c);
+  // first + i * step, as the agent plans a sweep and the virtual probe renders one.
+  std::vector<double> columns;
+  const auto steps = static_cast<size_t>((last - first) / step + 1e-9);
+  for (size_t i = 0; i <= steps; ++i) columns.push_back(first + static_cast<double>(i) * step);
   return columns;
+}
+
+// The board's camera and projector: the sweep as the agent takes it (sweep.h), replayed as a
+// source of frames.
+std::unique_ptr<FrameSource> SweepWithCamera(const cli::Options& o, const ProbeModel& probe) {
+  SweepPlan plan;
+  plan.aoi = cli::ParseAoi(o.Required("--aoi"));
+  plan.exposure_us = o.Number("--exposure-us", 100.0);
+  plan.columns = ParseColumns(o.Required("--columns"));
+  // The camera first: it is the device the command line names, the projector's have defaults.
+  const auto camera = OpenV4l2Camera(o.Required("--camera"), plan, probe.camera.bit_depth);
+  const auto projector = OpenBoardProjector(o, probe);
+  return MakeFrameList(TakeSweep(*projector, *camera, plan),
+                       {probe.serial, probe.calibration_id, "camera"});
 }
 
 std::unique_ptr<FrameSource> OpenSource(const cli::Options& o, const ProbeModel& probe) {
   if (o.Has("--frames") == o.Has("--camera")) throw UsageError("give either --frames or --camera");
   if (o.Has("--frames")) return OpenDirectorySource(o.Required("--frames"));
-  return OpenV4l2Source(o.Required("--camera"), cli::ParseAoi(o.Required("--aoi")),
-                        probe.camera.bit_depth, ParseColumns(o.Required("--columns")),
-                        {probe.serial, probe.calibration_id, "camera"});
+  return SweepWithCamera(o, probe);
 }
 
 struct Summary {
@@ -126,7 +155,8 @@ CaptureFrames ReadAll(FrameSource& source, Summary* s, std::ostream& err) {
 
 int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const cli::Options o(args,
-                       {"--probe", "--frames", "--camera", "--aoi", "--columns", "--roi", "--out"},
+                       {"--probe", "--frames", "--camera", "--aoi", "--columns", "--exposure-us",
+                        "--roi", "--out", "--spi", "--gpio-chip", "--laser-line", "--led-line"},
                        {"--json"});
   const auto start = std::chrono::steady_clock::now();
   const ProbeModel probe = LoadProbeModel(o.Required("--probe"));
@@ -183,83 +213,106 @@ int Stripes(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   return cli::kExitOk;
 }
 
-// "X,Y" in sensor pixels.
-Vec2 ParseHint(const std::string& text, const std::string& spec) {
-  double x = 0, y = 0;
-  char comma = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%lf%c%lf%c", &x, &comma, &y, &extra) != 3 || comma != ',') {
-    throw UsageError("the hint of " + spec + " is X,Y in sensor pixels");
+std::atomic<bool> g_stop{false};
+extern "C" void OnSignal(int) { g_stop = true; }
+
+// A recorded capture as the camera's view: requests must ask for its window and its columns.
+Camera RecordedView(const std::string& dir, const ProbeModel& probe, const Projector& projector) {
+  std::vector<Frame> frames;
+  const auto source = OpenDirectorySource(dir);
+  if (source->Meta().probe_serial != probe.serial) {
+    throw UsageError("the frames in " + dir + " are from probe " + source->Meta().probe_serial +
+                     ", the model is for " + probe.serial);
   }
-  return {x, y};
+  Frame f;
+  while (source->Next(&f)) frames.push_back(std::move(f));
+  if (frames.empty()) throw UsageError(dir + " holds no frame");
+  return [frames, &projector](const link::CaptureRequest&, const SweepPlan& plan) {
+    const Aoi& a = frames.back().aoi;
+    if (plan.aoi.x0 != a.x0 || plan.aoi.y0 != a.y0 || plan.aoi.width != a.width ||
+        plan.aoi.height != a.height) {
+      throw RequestError("the recorded capture's window is " + std::to_string(a.width) + " x " +
+                         std::to_string(a.height) + " at " + std::to_string(a.x0) + "," +
+                         std::to_string(a.y0) + "; the request asks for another");
+    }
+    return MakeRecordedCamera(frames, projector);
+  };
 }
 
-// Hole ROI: from 0.6 of the rim radius (the wall seen inside the rim) to 20 px outside it (the
-// face around the rim).
-constexpr double kHoleInner = 0.6;
-constexpr double kHoleOuterPx = 20.0;
-// Edge ROI: edge points within 60 px of the hint make the line; the ROI is a band of +-20 px.
-constexpr double kEdgeSearchPx = 60.0;
-constexpr double kEdgeBandPx = 20.0;
-// Face ROI: eroded so that stripe windows (+-6 px) stay on the face.
-constexpr int kFaceErodePx = 6;
+int RunServe(const std::vector<std::string>& args, std::ostream& out) {
+  const cli::Options o(args,
+                       {"--probe", "--host", "--port", "--key", "--camera", "--frames-from",
+                        "--projector", "--buffer", "--captures", "--spi", "--gpio-chip",
+                        "--laser-line", "--led-line", "--battery", "--thermal"},
+                       {});
+  const ProbeModel probe = LoadProbeModel(o.Required("--probe"));
+  if (o.Has("--frames-from") == o.Has("--camera")) {
+    throw UsageError("give either --camera or --frames-from");
+  }
+  const double port = o.Number("--port", 0.0);
+  if (!(port >= 1.0 && port <= 65535.0)) throw UsageError("--port must be 1..65535");
+  const double buffer = o.Number("--buffer", 64), captures = o.Number("--captures", 0);
+  if (!(buffer >= 1 && buffer <= 4096)) throw UsageError("--buffer must be 1..4096 clouds");
+  if (!(captures >= 0 && captures <= 1e9)) throw UsageError("--captures must be 0..1e9");
+  ServeOptions options;
+  options.link.host = o.Get("--host", "127.0.0.1");
+  options.link.port = static_cast<std::uint16_t>(port);
+  options.link.serial = probe.serial;
+  options.link.key = link::LoadKeyFile(o.Required("--key"));
+  options.link.buffer_clouds = static_cast<std::size_t>(buffer);
+  options.max_captures = static_cast<std::uint64_t>(captures);
+  link::Log log = [&out](const std::string& line) {
+    out << "mlp-fw: " << line << "\n" << std::flush;
+  };
+  options.board = BoardReadings(o, log);
+  const std::string kind = o.Get("--projector", o.Has("--camera") ? "board" : "virtual");
+  if (kind != "board" && kind != "virtual") throw UsageError("--projector is board or virtual");
+  // A camera missing at start is a device fault (exit 3, a service manager retries), not a
+  // failure of every request that comes.
+  if (o.Has("--camera")) CheckV4l2Camera(o.Required("--camera"));
+  const std::unique_ptr<Projector> projector =
+      kind == "board" ? OpenBoardProjector(o, probe)
+                      : std::make_unique<VirtualProjector>(probe.projector.columns - 1.0);
+  Camera camera;
+  if (o.Has("--camera")) {
+    camera = [device = o.Required("--camera"), depth = probe.camera.bit_depth](
+                 const link::CaptureRequest&, const SweepPlan& plan) {
+      return OpenV4l2Camera(device, plan, depth);
+    };
+  } else {
+    camera = RecordedView(o.Required("--frames-from"), probe, *projector);
+  }
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  out << "mlp-fw: probe " << probe.serial << " (" << kind << " projector) serving "
+      << options.link.host << ":" << options.link.port << "\n"
+      << std::flush;
+  ServeProbe(probe, std::move(camera), projector.get(), options, g_stop, log);
+  return cli::kExitOk;
+}
 
 }  // namespace
 
-RowMask ParseRoi(const std::string& spec, const Aoi& aoi, const Frame* led) {
-  if (spec == "full") return RowMask::Full(aoi);
-  const bool hole = spec.rfind("hole:", 0) == 0, face = spec.rfind("face:", 0) == 0;
-  const bool edge = spec.rfind("edge:", 0) == 0;
-  if (hole || face || edge) {
-    if (led == nullptr) throw UsageError(spec + " needs the LED frame, and the capture has none");
-    if (led->aoi.x0 != aoi.x0 || led->aoi.y0 != aoi.y0 || led->aoi.width != aoi.width ||
-        led->aoi.height != aoi.height) {
-      throw UsageError("the LED frame's AOI differs from the laser frames'");
-    }
-    const Vec2 hint = ParseHint(spec.substr(5), spec);
-    RowMask m;
-    if (hole) {
-      const auto found = FindHole(*led, hint, 10.0, 2.0 * std::max(aoi.width, aoi.height));
-      if (!found) throw UsageError("no hole around " + spec.substr(5) + " in the LED frame");
-      m = AnnulusMask(aoi, found->center_px, kHoleInner * found->radius_px,
-                      found->radius_px + kHoleOuterPx);
-    } else if (edge) {
-      const auto found = FindLineEdge(*led, hint, kEdgeSearchPx);
-      if (!found) throw UsageError("no straight edge near " + spec.substr(5) + " in the LED frame");
-      m = BandMask(aoi, found->point_px, found->direction, kEdgeBandPx);
-    } else {
-      m = FaceMask(*led, hint, kFaceErodePx);
-    }
-    if (m.PixelCount() == 0) throw UsageError("the ROI " + spec + " holds no pixel of the AOI");
-    return m;
-  }
-  if (spec.rfind("rect:", 0) == 0) {
-    const Aoi r = cli::ParseAoi(spec.substr(5));
-    RowMask m;
-    m.aoi = aoi;
-    m.rows.resize(static_cast<size_t>(aoi.height));
-    const int b = std::max(0, r.x0 - aoi.x0), e = std::min(aoi.width, r.x0 + r.width - aoi.x0);
-    size_t pixels = 0;
-    for (int y = std::max(0, r.y0 - aoi.y0); y < std::min(aoi.height, r.y0 + r.height - aoi.y0);
-         ++y) {
-      if (e > b)
-        m.rows[static_cast<size_t>(y)].push_back({b, e}), pixels += static_cast<size_t>(e - b);
-    }
-    if (pixels == 0) throw UsageError("the ROI " + spec + " does not overlap the frames' AOI");
-    return m;
-  }
-  throw UsageError("ROI_SPEC is full or rect:X0,Y0,W,H, got '" + spec + "'");
-}
-
 int RunFwCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  if (args.empty() || (args[0] != "run" && args[0] != "stripes")) {
+  if (args.empty() || (args[0] != "run" && args[0] != "stripes" && args[0] != "serve")) {
     (args.empty() || args[0] == "--help" ? out : err) << kUsage;
     return !args.empty() && args[0] == "--help" ? cli::kExitOk : cli::kExitBadInput;
   }
   try {
     const std::vector<std::string> rest(args.begin() + 1, args.end());
+    if (args[0] == "serve") return RunServe(rest, out);
     return args[0] == "run" ? Run(rest, out, err) : Stripes(rest, out, err);
   } catch (const UsageError& e) {
     err << "mlp-fw: " << e.what() << "\n" << kUsage;
+    return cli::kExitBadInput;
+  } catch (const RoiError& e) {
+    err << "mlp-fw: " << e.what() << "\n";
+    return cli::kExitBadInput;
+  } catch (const ProjectorError& e) {
+    err << "mlp-fw: " << e.what() << "\n";
+    return cli::kExitNoDevice;
+  } catch (const link::LinkError& e) {  // the key file: missing, unreadable, others may read it
+    err << "mlp-fw: " << e.what() << "\n";
     return cli::kExitBadInput;
   } catch (const ProbeModelError& e) {
     err << "mlp-fw: " << e.what() << "\n";

@@ -1,5 +1,6 @@
 #pragma once
-/// @file Command-line plumbing of the probe programs (mlp-fw, mlp-sim): options of the form
+/// @file Command-line plumbing of the probe programs (mlp-fw, mlp-sim; linked into programs
+/// only, never into a library): options of the form
 /// `--name value` and `--flag`, and the exit codes they share with `mlp` (docs/CLI.md).
 
 #include "mlp/probe_fw/frame.h"
@@ -40,7 +41,7 @@ class Options {
   std::set<std::string> flags_;
 };
 
-/// "x0,y0,width,height" in sensor pixels.
+/// "x0,y0,width,height" in sensor pixels (probe_fw::ParseAoi, its RoiError as UsageError).
 Aoi ParseAoi(const std::string& text);
 
 }  // namespace mlp::probe_fw::cli

@@ -1,7 +1,6 @@
-#include "mlp/sim/sim_command.h"
+#include "sim_command.h"
 
 #include "mlp/link/wire.h"
-#include "mlp/probe_fw/cli.h"
 #include "mlp/probe_fw/cloud_io.h"
 #include "mlp/probe_fw/frame_io.h"
 #include "mlp/probe_fw/json_fields.h"
@@ -10,6 +9,8 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+
+#include "cli.h"
 
 namespace mlp::sim {
 namespace {
