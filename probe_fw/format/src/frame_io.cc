@@ -54,15 +54,17 @@ void ReadPgm(const std::string& path, Frame* f) {
   f->aoi.width = w, f->aoi.height = h;
   f->bit_depth = std::max(8, static_cast<int>(std::ceil(std::log2(maxval + 1.0))));
   f->pixels.resize(static_cast<size_t>(w) * static_cast<size_t>(h));
-  for (auto& v : f->pixels) {
-    if (maxval < 256) {
-      v = static_cast<std::uint8_t>(in.get());
-    } else {
-      const int hi = in.get(), lo = in.get();
-      v = static_cast<std::uint16_t>((hi << 8) | lo);
-    }
-  }
+  // The raster in one read (per-byte istream::get cost 60 instructions a pixel, more than the
+  // stripe extraction): 1 byte per pixel, or 2 big-endian bytes when maxval > 255 (netpbm).
+  const size_t bytes_per_pixel = maxval < 256 ? 1 : 2;
+  std::vector<unsigned char> raster(f->pixels.size() * bytes_per_pixel);
+  in.read(reinterpret_cast<char*>(raster.data()), static_cast<std::streamsize>(raster.size()));
   if (!in) Fail(path + ": truncated PGM");
+  for (size_t i = 0; i < f->pixels.size(); ++i) {
+    f->pixels[i] = bytes_per_pixel == 1
+                       ? raster[i]
+                       : static_cast<std::uint16_t>((raster[2 * i] << 8) | raster[2 * i + 1]);
+  }
 }
 
 }  // namespace
