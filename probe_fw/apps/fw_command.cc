@@ -106,7 +106,8 @@ void Print(const Summary& s,
                                  {{"weak", s.counts.weak},
                                   {"saturated", s.counts.saturated},
                                   {"double_peak", s.counts.double_peak},
-                                  {"too_wide", s.counts.too_wide}}},
+                                  {"too_wide", s.counts.too_wide},
+                                  {"indirect", s.counts.indirect}}},
                                 {"probe_serial", meta.probe_serial},
                                 {"capture_id", meta.capture_id},
                                 {"seconds", s.seconds}};
@@ -118,7 +119,7 @@ void Print(const Summary& s,
       << "\n"
       << "  rejected stripes: " << s.counts.weak << " weak, " << s.counts.saturated
       << " saturated, " << s.counts.double_peak << " double-peaked, " << s.counts.too_wide
-      << " too wide\n"
+      << " too wide, " << s.counts.indirect << " indirect light (reflections)\n"
       << "  probe " << meta.probe_serial << ", capture " << meta.capture_id << ", " << s.seconds
       << " s\n";
 }

@@ -1,5 +1,7 @@
 #include "mlp/probe_fw/triangulate.h"
 
+#include "mlp/probe_fw/ghost.h"
+
 #include <cmath>
 #include <stdexcept>
 
@@ -24,22 +26,31 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
                                          const RowMask& mask,
                                          const StripeOptions& options,
                                          StripeCounts* counts) {
-  std::vector<CloudPoint> cloud;
+  // The whole sweep's stripe centres first: indirect light is told by the sweep, not a frame.
+  std::vector<SweepObservation> seen;
   std::vector<StripePoint> stripe;
+  int index = 0;
   for (const Frame& frame : laser_frames) {
     if (!frame.IsLaser()) continue;
     stripe.clear();
     ExtractStripe(frame, mask, options, &stripe, counts);
-    for (const StripePoint& s : stripe) {
-      CloudPoint p;
-      p.point_in_probe = Triangulate(model, s.x_px, s.y_px, frame.laser_column);
-      if (!(p.point_in_probe.z() > 0.0)) continue;  // behind the camera: not a real surface
-      p.quality = s.quality;
-      p.x_px = s.x_px;
-      p.y_px = s.y_px;
-      p.column = frame.laser_column;
-      cloud.push_back(p);
-    }
+    for (const StripePoint& s : stripe) seen.push_back({s, frame.laser_column, index, false});
+    ++index;
+  }
+  const std::size_t indirect = RejectIndirectLight(&seen, GhostOptions{});
+  counts->indirect += indirect;
+  counts->points -= indirect;
+  std::vector<CloudPoint> cloud;
+  for (const SweepObservation& o : seen) {
+    if (o.indirect) continue;
+    CloudPoint p;
+    p.point_in_probe = Triangulate(model, o.stripe.x_px, o.stripe.y_px, o.column);
+    if (!(p.point_in_probe.z() > 0.0)) continue;  // behind the camera: not a real surface
+    p.quality = o.stripe.quality;
+    p.x_px = o.stripe.x_px;
+    p.y_px = o.stripe.y_px;
+    p.column = o.column;
+    cloud.push_back(p);
   }
   return cloud;
 }

@@ -30,7 +30,7 @@ struct StripeOptions {
   double min_amplitude_dn = 20.0;  ///< peak above background needed for a candidate
   int window_half_px = 4;          ///< centroid window half-width (~3 sigma of a 3-5 px stripe)
   int max_width_px = 12;           ///< wider runs above half maximum are not a laser stripe
-  double double_peak_ratio = 0.5;  ///< a second peak above this fraction of the first rejects
+  double double_peak_ratio = 0.3;  ///< a second peak above this fraction of the first rejects
 };
 
 struct StripePoint {
@@ -43,6 +43,8 @@ struct StripePoint {
 struct StripeCounts {
   std::uint64_t rows = 0, points = 0, weak = 0, saturated = 0, double_peak = 0, too_wide = 0;
   std::uint64_t cut = 0;  ///< window not inside the ROI: cut by its edge
+  /// Light that left the light plane (a reflection), told by the sweep (ghost.h): not points.
+  std::uint64_t indirect = 0;
 };
 
 /// Appends the stripe centres found in `frame` within `mask` to `out`.

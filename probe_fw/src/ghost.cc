@@ -1,0 +1,181 @@
+#include "mlp/probe_fw/ghost.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace mlp::probe_fw {
+namespace {
+
+// One row's observations linked through the sweep: indices into the observations, frame order.
+using Trace = std::vector<std::size_t>;
+
+// Where trace `t` should be in `frame`: its last centre moved on at its last step's speed (a
+// stripe on one surface moves smoothly through the sweep; a reflection moves differently).
+double Predicted(const std::vector<SweepObservation>& obs, const Trace& t, int frame) {
+  const SweepObservation& last = obs[t.back()];
+  if (t.size() < 2) return last.stripe.x_px;
+  const SweepObservation& before = obs[t[t.size() - 2]];
+  const double px_per_frame =
+      (last.stripe.x_px - before.stripe.x_px) / static_cast<double>(last.frame - before.frame);
+  return last.stripe.x_px + px_per_frame * (frame - last.frame);
+}
+
+// Links the observations of one frame to the traces whose last member is in the frame before
+// (or the one before that: a frame may have lost the stripe): the closest pairs first, each
+// trace and observation once (a reflection near the stripe must not steal its trace). Close
+// means within the gate of a trace's last centre while it has one member, within `track_px`
+// of its motion's prediction after that. The rest start traces.
+void LinkFrame(const std::vector<SweepObservation>& obs,
+               const std::vector<std::size_t>& frame_members,
+               const GhostOptions& o,
+               std::vector<Trace>* traces) {
+  struct Pair {
+    double px;
+    std::size_t member, trace;
+  };
+  std::vector<Pair> pairs;
+  for (std::size_t m : frame_members) {
+    for (std::size_t t = 0; t < traces->size(); ++t) {
+      const Trace& trace = (*traces)[t];
+      const int gap = obs[m].frame - obs[trace.back()].frame;
+      if (gap < 1 || gap > 2) continue;
+      const double px = std::abs(obs[m].stripe.x_px - Predicted(obs, trace, obs[m].frame));
+      if (px <= (trace.size() < 2 ? o.link_gate_px : o.track_px)) pairs.push_back({px, m, t});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.px < b.px; });
+  std::vector<bool> trace_taken(traces->size(), false);
+  std::vector<std::size_t> linked;
+  for (const Pair& p : pairs) {
+    if (trace_taken[p.trace] || std::find(linked.begin(), linked.end(), p.member) != linked.end())
+      continue;
+    trace_taken[p.trace] = true;
+    linked.push_back(p.member);
+    (*traces)[p.trace].push_back(p.member);
+  }
+  for (std::size_t m : frame_members) {
+    if (std::find(linked.begin(), linked.end(), m) == linked.end()) traces->push_back({m});
+  }
+}
+
+// One row's traces; `row` is sorted by frame.
+std::vector<Trace> LinkRow(const std::vector<SweepObservation>& obs,
+                           const std::vector<std::size_t>& row,
+                           const GhostOptions& o) {
+  std::vector<Trace> traces;
+  for (std::size_t begin = 0; begin < row.size();) {
+    std::size_t end = begin;
+    while (end < row.size() && obs[row[end]].frame == obs[row[begin]].frame) ++end;
+    LinkFrame(obs,
+              {row.begin() + static_cast<std::ptrdiff_t>(begin),
+               row.begin() + static_cast<std::ptrdiff_t>(end)},
+              o, &traces);
+    begin = end;
+  }
+  return traces;
+}
+
+// Members of `b` on pixels that `a` crossed at a column more than `columns` away (the column at
+// which `a` crossed a pixel is interpolated between its members on either side).
+std::size_t Conflicts(const std::vector<SweepObservation>& obs,
+                      const Trace& a,
+                      const Trace& b,
+                      double columns) {
+  std::size_t n = 0;
+  for (std::size_t j : b) {
+    const double x = obs[j].stripe.x_px;
+    for (std::size_t k = 0; k + 1 < a.size(); ++k) {
+      const SweepObservation &p = obs[a[k]], &q = obs[a[k + 1]];
+      const double lo = std::min(p.stripe.x_px, q.stripe.x_px);
+      const double hi = std::max(p.stripe.x_px, q.stripe.x_px);
+      if (x < lo || x > hi) continue;
+      const double t = hi > lo ? (x - p.stripe.x_px) / (q.stripe.x_px - p.stripe.x_px) : 0.5;
+      if (std::abs(obs[j].column - (p.column + t * (q.column - p.column))) > columns) {
+        ++n;
+        break;
+      }
+    }
+  }
+  return n;
+}
+
+double MedianAmplitude(const std::vector<SweepObservation>& obs, const Trace& t) {
+  std::vector<double> a;
+  for (std::size_t i : t) a.push_back(obs[i].stripe.amplitude_dn);
+  std::nth_element(a.begin(), a.begin() + static_cast<std::ptrdiff_t>(a.size() / 2), a.end());
+  return a[a.size() / 2];
+}
+
+// Which of two conflicting traces is indirect light: the clearly weaker one; else a blip
+// against a trace several times longer (noise above the threshold, not a reflection); else
+// both, since neither can be told apart.
+void Resolve(const std::vector<SweepObservation>& obs,
+             const std::vector<Trace>& traces,
+             std::size_t i,
+             std::size_t j,
+             const GhostOptions& o,
+             std::vector<bool>* lost) {
+  constexpr std::size_t kLonger = 3;
+  const double si = MedianAmplitude(obs, traces[i]), sj = MedianAmplitude(obs, traces[j]);
+  const std::size_t ni = traces[i].size(), nj = traces[j].size();
+  if (si >= o.dominance * sj || ni >= kLonger * nj) {
+    (*lost)[j] = true;
+  } else if (sj >= o.dominance * si || nj >= kLonger * ni) {
+    (*lost)[i] = true;
+  } else {
+    (*lost)[i] = (*lost)[j] = true;
+  }
+}
+
+// One row: marks the members of traces that lose a conflict; returns how many it marked.
+std::size_t RejectInRow(std::vector<SweepObservation>* observations,
+                        const std::vector<std::size_t>& row,
+                        const GhostOptions& o) {
+  std::vector<SweepObservation>& obs = *observations;
+  const std::vector<Trace> traces = LinkRow(obs, row, o);
+  std::vector<bool> lost(traces.size(), false);
+  for (std::size_t i = 0; i < traces.size(); ++i) {
+    for (std::size_t j = i + 1; j < traces.size(); ++j) {
+      if (Conflicts(obs, traces[i], traces[j], o.same_ray_columns) +
+              Conflicts(obs, traces[j], traces[i], o.same_ray_columns) >
+          0) {
+        Resolve(obs, traces, i, j, o, &lost);
+      }
+    }
+  }
+  std::size_t marked = 0;
+  for (std::size_t t = 0; t < traces.size(); ++t) {
+    if (!lost[t]) continue;
+    for (std::size_t i : traces[t]) obs[i].indirect = true;
+    marked += traces[t].size();
+  }
+  return marked;
+}
+
+}  // namespace
+
+std::size_t RejectIndirectLight(std::vector<SweepObservation>* observations,
+                                const GhostOptions& options) {
+  const std::vector<SweepObservation>& obs = *observations;
+  std::vector<std::size_t> order(obs.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    if (obs[a].stripe.y_px != obs[b].stripe.y_px) return obs[a].stripe.y_px < obs[b].stripe.y_px;
+    if (obs[a].frame != obs[b].frame) return obs[a].frame < obs[b].frame;
+    return obs[a].stripe.x_px < obs[b].stripe.x_px;
+  });
+  std::size_t marked = 0;
+  for (std::size_t begin = 0; begin < order.size();) {
+    std::size_t end = begin;
+    while (end < order.size() && obs[order[end]].stripe.y_px == obs[order[begin]].stripe.y_px)
+      ++end;
+    const std::vector<std::size_t> row(order.begin() + static_cast<std::ptrdiff_t>(begin),
+                                       order.begin() + static_cast<std::ptrdiff_t>(end));
+    marked += RejectInRow(observations, row, options);
+    begin = end;
+  }
+  return marked;
+}
+
+}  // namespace mlp::probe_fw
