@@ -12,9 +12,13 @@ using Trace = std::vector<std::size_t>;
 
 // Where trace `t` should be in `frame`: its last centre moved on at its last step's speed (a
 // stripe on one surface moves smoothly through the sweep; a reflection moves differently).
-double Predicted(const std::vector<SweepObservation>& obs, const Trace& t, int frame) {
+// A trace of one member moves at the row's typical speed.
+double Predicted(const std::vector<SweepObservation>& obs,
+                 const Trace& t,
+                 int frame,
+                 double row_px_per_frame) {
   const SweepObservation& last = obs[t.back()];
-  if (t.size() < 2) return last.stripe.x_px;
+  if (t.size() < 2) return last.stripe.x_px + row_px_per_frame * (frame - last.frame);
   const SweepObservation& before = obs[t[t.size() - 2]];
   const double px_per_frame =
       (last.stripe.x_px - before.stripe.x_px) / static_cast<double>(last.frame - before.frame);
@@ -29,6 +33,7 @@ double Predicted(const std::vector<SweepObservation>& obs, const Trace& t, int f
 void LinkFrame(const std::vector<SweepObservation>& obs,
                const std::vector<std::size_t>& frame_members,
                const GhostOptions& o,
+               double row_px_per_frame,
                std::vector<Trace>* traces) {
   struct Pair {
     double px;
@@ -40,7 +45,8 @@ void LinkFrame(const std::vector<SweepObservation>& obs,
       const Trace& trace = (*traces)[t];
       const int gap = obs[m].frame - obs[trace.back()].frame;
       if (gap < 1 || gap > 2) continue;
-      const double px = std::abs(obs[m].stripe.x_px - Predicted(obs, trace, obs[m].frame));
+      const double px =
+          std::abs(obs[m].stripe.x_px - Predicted(obs, trace, obs[m].frame, row_px_per_frame));
       if (px <= (trace.size() < 2 ? o.link_gate_px : o.track_px)) pairs.push_back({px, m, t});
     }
   }
@@ -59,10 +65,33 @@ void LinkFrame(const std::vector<SweepObservation>& obs,
   }
 }
 
+// How far the stripe moves on this row from one frame to the next [px], as most of its centres
+// say: the median over each centre's nearest centre in the next frame (within the gate). The
+// direct stripe is the brighter and usually the more often found, so it sets the median.
+double RowSpeed(const std::vector<SweepObservation>& obs,
+                const std::vector<std::size_t>& row,
+                double gate_px) {
+  std::vector<double> steps;
+  for (std::size_t a = 0; a < row.size(); ++a) {
+    double best = gate_px + 1.0, step = 0.0;
+    for (std::size_t b = a + 1; b < row.size() && obs[row[b]].frame <= obs[row[a]].frame + 1; ++b) {
+      if (obs[row[b]].frame != obs[row[a]].frame + 1) continue;
+      const double d = obs[row[b]].stripe.x_px - obs[row[a]].stripe.x_px;
+      if (std::abs(d) < best) best = std::abs(d), step = d;
+    }
+    if (best <= gate_px) steps.push_back(step);
+  }
+  if (steps.empty()) return 0.0;
+  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2),
+                   steps.end());
+  return steps[steps.size() / 2];
+}
+
 // One row's traces; `row` is sorted by frame.
 std::vector<Trace> LinkRow(const std::vector<SweepObservation>& obs,
                            const std::vector<std::size_t>& row,
                            const GhostOptions& o) {
+  const double speed = RowSpeed(obs, row, o.link_gate_px);
   std::vector<Trace> traces;
   for (std::size_t begin = 0; begin < row.size();) {
     std::size_t end = begin;
@@ -70,7 +99,7 @@ std::vector<Trace> LinkRow(const std::vector<SweepObservation>& obs,
     LinkFrame(obs,
               {row.begin() + static_cast<std::ptrdiff_t>(begin),
                row.begin() + static_cast<std::ptrdiff_t>(end)},
-              o, &traces);
+              o, speed, &traces);
     begin = end;
   }
   return traces;
