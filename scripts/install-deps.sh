@@ -14,6 +14,7 @@ packages=(
   libssl-dev libsqlite3-dev libsqlitecpp-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   g++-aarch64-linux-gnu qemu-user  # the firmware for the probe's board (scripts/build-arm64.sh)
+  systemd valgrind  # systemd-analyze checks the board's unit; scripts/count-fw-instructions.sh
   linuxcnc-uspace  # the real controller for the LinuxCNC adapter tests and demo
   clang libclang-rt-14-dev  # the libFuzzer targets (scripts/fuzz-link.sh)
 )
