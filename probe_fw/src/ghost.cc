@@ -25,11 +25,11 @@ double Predicted(const std::vector<SweepObservation>& obs,
   return last.stripe.x_px + px_per_frame * (frame - last.frame);
 }
 
-// Links the observations of one frame to the traces whose last member is in the frame before
-// (or the one before that: a frame may have lost the stripe): the closest pairs first, each
-// trace and observation once (a reflection near the stripe must not steal its trace). Close
-// means within the gate of a trace's last centre while it has one member, within `track_px`
-// of its motion's prediction after that. The rest start traces.
+// Links the observations of one frame to the traces whose last member is at most
+// `max_gap_frames` before (frames may lose the stripe: speckle, a ghost beside it): the closest
+// pairs first, each trace and observation once (a reflection near the stripe must not steal its
+// trace). Close means within the gate of a trace's last centre while it has one member, within
+// `track_px` of its motion's prediction after that. The rest start traces.
 void LinkFrame(const std::vector<SweepObservation>& obs,
                const std::vector<std::size_t>& frame_members,
                const GhostOptions& o,
@@ -44,10 +44,11 @@ void LinkFrame(const std::vector<SweepObservation>& obs,
     for (std::size_t t = 0; t < traces->size(); ++t) {
       const Trace& trace = (*traces)[t];
       const int gap = obs[m].frame - obs[trace.back()].frame;
-      if (gap < 1 || gap > 2) continue;
+      if (gap < 1 || gap > o.max_gap_frames) continue;
       const double px =
           std::abs(obs[m].stripe.x_px - Predicted(obs, trace, obs[m].frame, row_px_per_frame));
-      if (px <= (trace.size() < 2 ? o.link_gate_px : o.track_px)) pairs.push_back({px, m, t});
+      if (px <= (trace.size() < 2 ? o.link_gate_px : o.track_px * std::sqrt(gap)))
+        pairs.push_back({px, m, t});
     }
   }
   std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.px < b.px; });

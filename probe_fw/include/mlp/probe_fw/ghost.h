@@ -25,13 +25,18 @@ struct SweepObservation {
 };
 
 struct GhostOptions {
-  /// Observations of one row in consecutive frames (one frame may be missing) belong to one
+  /// Observations of one row in nearby frames (see max_gap_frames) belong to one
   /// trace when their centres are this close [px]. Wider than a stripe's travel per frame
   /// (~3 px at 2 columns for the reference probe), narrower than the double-peak window.
   double link_gate_px = 12.0;
   /// Once a trace has moved, the next centre must be this close to where its motion predicts
-  /// [px]: a reflection crossing the stripe moves at another speed and is not taken on.
+  /// [px, times the square root of the frames bridged]: a reflection crossing the stripe moves
+  /// at another speed and is
+  /// not taken on.
   double track_px = 2.0;
+  /// A trace carries on across this many frames without the stripe (speckle drops it, the
+  /// double-peak test drops it where a ghost is beside it); its motion bridges the gap.
+  int max_gap_frames = 4;
   /// A pixel ray lit at two columns more than this far apart saw one of them indirectly. The
   /// sheet lights a point over about +-1.5 columns.
   double same_ray_columns = 4.0;
