@@ -107,6 +107,7 @@ void Print(const Summary& s,
                                   {"saturated", s.counts.saturated},
                                   {"double_peak", s.counts.double_peak},
                                   {"too_wide", s.counts.too_wide},
+                                  {"cut", s.counts.cut},
                                   {"indirect", s.counts.indirect}}},
                                 {"probe_serial", meta.probe_serial},
                                 {"capture_id", meta.capture_id},
@@ -119,7 +120,8 @@ void Print(const Summary& s,
       << "\n"
       << "  rejected stripes: " << s.counts.weak << " weak, " << s.counts.saturated
       << " saturated, " << s.counts.double_peak << " double-peaked, " << s.counts.too_wide
-      << " too wide, " << s.counts.indirect << " indirect light (reflections)\n"
+      << " too wide, " << s.counts.cut << " cut by the ROI, " << s.counts.indirect
+      << " indirect light (reflections)\n"
       << "  probe " << meta.probe_serial << ", capture " << meta.capture_id << ", " << s.seconds
       << " s\n";
 }
@@ -195,9 +197,10 @@ int Stripes(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       ParseRoi(o.Get("--roi", "full"), frames.laser[0].aoi, frames.led ? &*frames.led : nullptr);
   StripeFile file{meta.probe_serial, meta.capture_id, {}};
   std::vector<StripePoint> found;
+  StripeExtractor extractor(mask, StripeOptions{});
   for (const Frame& l : frames.laser) {
     found.clear();
-    ExtractStripe(l, mask, StripeOptions{}, &found, &s.counts);
+    extractor.Extract(l, &found, &s.counts);
     for (const StripePoint& p : found)
       file.points.push_back({p.x_px, p.y_px, l.laser_column, p.quality});
   }

@@ -18,11 +18,11 @@ double Predicted(const std::vector<SweepObservation>& obs,
                  int frame,
                  double row_px_per_frame) {
   const SweepObservation& last = obs[t.back()];
-  if (t.size() < 2) return last.stripe.x_px + row_px_per_frame * (frame - last.frame);
+  if (t.size() < 2) return last.stripe.Along() + row_px_per_frame * (frame - last.frame);
   const SweepObservation& before = obs[t[t.size() - 2]];
-  const double px_per_frame =
-      (last.stripe.x_px - before.stripe.x_px) / static_cast<double>(last.frame - before.frame);
-  return last.stripe.x_px + px_per_frame * (frame - last.frame);
+  const double px_per_frame = (last.stripe.Along() - before.stripe.Along()) /
+                              static_cast<double>(last.frame - before.frame);
+  return last.stripe.Along() + px_per_frame * (frame - last.frame);
 }
 
 // Links the observations of one frame to the traces whose last member is at most
@@ -46,7 +46,7 @@ void LinkFrame(const std::vector<SweepObservation>& obs,
       const int gap = obs[m].frame - obs[trace.back()].frame;
       if (gap < 1 || gap > o.max_gap_frames) continue;
       const double px =
-          std::abs(obs[m].stripe.x_px - Predicted(obs, trace, obs[m].frame, row_px_per_frame));
+          std::abs(obs[m].stripe.Along() - Predicted(obs, trace, obs[m].frame, row_px_per_frame));
       if (px <= (trace.size() < 2 ? o.link_gate_px : o.track_px * std::sqrt(gap)))
         pairs.push_back({px, m, t});
     }
@@ -77,7 +77,7 @@ double RowSpeed(const std::vector<SweepObservation>& obs,
     double best = gate_px + 1.0, step = 0.0;
     for (std::size_t b = a + 1; b < row.size() && obs[row[b]].frame <= obs[row[a]].frame + 1; ++b) {
       if (obs[row[b]].frame != obs[row[a]].frame + 1) continue;
-      const double d = obs[row[b]].stripe.x_px - obs[row[a]].stripe.x_px;
+      const double d = obs[row[b]].stripe.Along() - obs[row[a]].stripe.Along();
       if (std::abs(d) < best) best = std::abs(d), step = d;
     }
     if (best <= gate_px) steps.push_back(step);
@@ -114,13 +114,14 @@ std::size_t Conflicts(const std::vector<SweepObservation>& obs,
                       double columns) {
   std::size_t n = 0;
   for (std::size_t j : b) {
-    const double x = obs[j].stripe.x_px;
+    const double x = obs[j].stripe.Along();
     for (std::size_t k = 0; k + 1 < a.size(); ++k) {
       const SweepObservation &p = obs[a[k]], &q = obs[a[k + 1]];
-      const double lo = std::min(p.stripe.x_px, q.stripe.x_px);
-      const double hi = std::max(p.stripe.x_px, q.stripe.x_px);
+      const double lo = std::min(p.stripe.Along(), q.stripe.Along());
+      const double hi = std::max(p.stripe.Along(), q.stripe.Along());
       if (x < lo || x > hi) continue;
-      const double t = hi > lo ? (x - p.stripe.x_px) / (q.stripe.x_px - p.stripe.x_px) : 0.5;
+      const double t =
+          hi > lo ? (x - p.stripe.Along()) / (q.stripe.Along() - p.stripe.Along()) : 0.5;
       if (std::abs(obs[j].column - (p.column + t * (q.column - p.column))) > columns) {
         ++n;
         break;
@@ -190,16 +191,21 @@ std::size_t RejectIndirectLight(std::vector<SweepObservation>* observations,
   const std::vector<SweepObservation>& obs = *observations;
   std::vector<std::size_t> order(obs.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
+  // One scan line (a sensor row of the row scan, a column of the column scan) at a time.
+  const auto same_line = [&](std::size_t a, std::size_t b) {
+    return obs[a].stripe.axis == obs[b].stripe.axis && obs[a].stripe.Line() == obs[b].stripe.Line();
+  };
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    if (obs[a].stripe.y_px != obs[b].stripe.y_px) return obs[a].stripe.y_px < obs[b].stripe.y_px;
+    if (obs[a].stripe.axis != obs[b].stripe.axis) return obs[a].stripe.axis < obs[b].stripe.axis;
+    if (obs[a].stripe.Line() != obs[b].stripe.Line())
+      return obs[a].stripe.Line() < obs[b].stripe.Line();
     if (obs[a].frame != obs[b].frame) return obs[a].frame < obs[b].frame;
-    return obs[a].stripe.x_px < obs[b].stripe.x_px;
+    return obs[a].stripe.Along() < obs[b].stripe.Along();
   });
   std::size_t marked = 0;
   for (std::size_t begin = 0; begin < order.size();) {
     std::size_t end = begin;
-    while (end < order.size() && obs[order[end]].stripe.y_px == obs[order[begin]].stripe.y_px)
-      ++end;
+    while (end < order.size() && same_line(order[end], order[begin])) ++end;
     const std::vector<std::size_t> row(order.begin() + static_cast<std::ptrdiff_t>(begin),
                                        order.begin() + static_cast<std::ptrdiff_t>(end));
     marked += RejectInRow(observations, row, options);

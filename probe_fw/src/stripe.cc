@@ -1,15 +1,46 @@
 #include "mlp/probe_fw/stripe.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 namespace mlp::probe_fw {
 namespace {
 
+// The pixels in scan coordinates: `lines` lines of `length` pixels each, u along a line, v the
+// line: the frame's rows, or the rows of its transpose when scanning the columns.
+struct Raster {
+  const std::uint16_t* pixels;
+  int length, lines;
+  const std::uint16_t* Line(int v) const {
+    return pixels + static_cast<std::size_t>(v) * static_cast<std::size_t>(length);
+  }
+};
+
+// One scan's context: the raster, which axis of the sensor it scans, and where the AOI sits.
+struct Scan {
+  Raster raster;
+  ScanAxis axis;
+  int u0, v0;           // sensor coordinates of the raster's (0, 0) along u and v
+  bool other_axis_too;  // the other axis is scanned as well: the stripe's direction decides
+  // The row scan marks here (per AOI column) where the column scan is wanted: around runs
+  // longer than a stripe is wide, and around centres left to the other axis. Null: no marking.
+  std::vector<std::uint8_t>* wanted = nullptr;
+};
+
+// Marks [begin, end) of the other scan's lines as wanted, widened so that its windows fit.
+void Want(const Scan& scan, int begin, int end, int margin) {
+  if (!scan.wanted) return;
+  const int n = static_cast<int>(scan.wanted->size());
+  for (int i = std::max(0, begin - margin); i < std::min(n, end + margin); ++i)
+    (*scan.wanted)[static_cast<size_t>(i)] = 1;
+}
+
 struct Span {
-  const std::uint16_t* row;  // the AOI row
-  int begin, end;            // [begin, end) in AOI columns
+  const std::uint16_t* row;  // the scan line
+  int begin, end;            // [begin, end) along it
 };
 
 // Mean of the two pixels on each side just outside the centroid window: the local background.
@@ -69,18 +100,70 @@ Verdict Judge(const Span& s, int peak, double bg, int max_level, const StripeOpt
   return Verdict::kPoint;
 }
 
-void ScanSpan(const Span& s,
-              const Frame& f,
-              int y,
-              const StripeOptions& o,
-              std::vector<StripePoint>* out,
-              StripeCounts* counts) {
+// Peak over mean of a profile: about the stripe's length over its width across a stripe, near
+// 1 along it.
+double Peakedness(const double* profile, int n) {
+  double sum = 0.0, peak = 0.0;
+  for (int k = 0; k < n; ++k) sum += profile[k], peak = std::max(peak, profile[k]);
+  return sum > 0.0 ? peak * n / sum : 0.0;
+}
+
+constexpr int kMaxDirectionHalf = 15;
+
+// Whether the stripe through (u, v) crosses this scan's lines more squarely than the other
+// scan's: its light in a square window (above the window's darkest pixel) summed onto the u axis
+// is more peaked than summed onto v. A sum along the stripe averages speckle away, and a second
+// stripe beside it (a reflection) keeps the profile across them peaked, where second moments
+// would call two parallel stripes a blob. Ties belong to the row scan, so a crossing both scans
+// find has exactly one owner.
+bool AcrossThisScan(const Scan& scan, double u, int v, int half_px) {
+  const Raster& r = scan.raster;
+  const int half = std::min(half_px, kMaxDirectionHalf);
+  const int uc = static_cast<int>(std::lround(u));
+  const int j0 = std::max(0, v - half), j1 = std::min(r.lines - 1, v + half);
+  const int i0 = std::max(0, uc - half), i1 = std::min(r.length - 1, uc + half);
+  if (i1 < i0 || j1 < j0) return scan.axis == ScanAxis::kRow;
+  std::uint16_t darkest = 0xffff;
+  for (int j = j0; j <= j1; ++j) {
+    for (int i = i0; i <= i1; ++i) darkest = std::min(darkest, r.Line(j)[i]);
+  }
+  std::array<double, 2 * kMaxDirectionHalf + 1> onto_u{}, onto_v{};
+  for (int j = j0; j <= j1; ++j) {
+    const std::uint16_t* line = r.Line(j);
+    for (int i = i0; i <= i1; ++i) {
+      const double w = line[i] - darkest;
+      onto_u[static_cast<size_t>(i - i0)] += w;
+      onto_v[static_cast<size_t>(j - j0)] += w;
+    }
+  }
+  const double across_u = Peakedness(onto_u.data(), i1 - i0 + 1);
+  const double across_v = Peakedness(onto_v.data(), j1 - j0 + 1);
+  return scan.axis == ScanAxis::kRow ? across_u >= across_v : across_u > across_v;
+}
+
+StripePoint MakePoint(const Scan& scan, double u, int v, double amplitude, int max_level) {
+  StripePoint p;
+  p.axis = scan.axis;
+  const double along = u + scan.u0, line = v + scan.v0;
+  p.x_px = scan.axis == ScanAxis::kRow ? along : line;
+  p.y_px = scan.axis == ScanAxis::kRow ? line : along;
+  p.amplitude_dn = amplitude;
+  p.quality = std::clamp(amplitude / (0.5 * max_level), 0.0, 1.0);
+  return p;
+}
+
+std::uint16_t ScanSpan(const Span& s,
+                       const Scan& scan,
+                       int v,
+                       int max_level,
+                       const StripeOptions& o,
+                       std::vector<StripePoint>* out,
+                       StripeCounts* counts) {
   std::uint16_t lowest = 0xffff;
   for (int x = s.begin; x < s.end; ++x) lowest = std::min(lowest, s.row[x]);
   const double threshold_dn = lowest + o.min_amplitude_dn;
   // Integer threshold: a pixel is a candidate when row[x] >= threshold (same test as the real).
   const int threshold = static_cast<int>(std::ceil(threshold_dn));
-  const int max_level = (1 << f.bit_depth) - 1;
   for (int x = s.begin; x < s.end;) {
     // Most of a row is background: skip it 16 pixels at a time (a vectorised maximum).
     if (x + kSkipBlock <= s.end && BlockMax(s.row + x) < threshold) {
@@ -91,12 +174,17 @@ void ScanSpan(const Span& s,
       ++x;
       continue;
     }
+    const int run_begin = x;
     int run_end = x, peak = x;
     while (run_end < s.end && s.row[run_end] >= threshold) {
       if (s.row[run_end] > s.row[peak]) peak = run_end;
       ++run_end;
     }
     x = run_end;
+    // A run longer than a stripe is wide may be a stripe running along the line: the column
+    // scan is wanted there, with room for its windows (centroid and direction).
+    const int margin = 2 * (o.window_half_px + 2);
+    if (run_end - run_begin > o.max_width_px) Want(scan, run_begin, run_end, margin);
     const double bg = LocalBackground(s, peak, o.window_half_px);
     switch (Judge(s, peak, bg, max_level, o)) {
       case Verdict::kWeak:
@@ -123,16 +211,88 @@ void ScanSpan(const Span& s,
     const int centre = std::clamp(static_cast<int>(std::lround(first)),
                                   s.begin + o.window_half_px + 2, s.end - o.window_half_px - 3);
     const double bg2 = LocalBackground(s, centre, o.window_half_px);
-    const double x_aoi = Centroid(s, centre, o.window_half_px, bg2);
-    const double amplitude = s.row[peak] - bg2;
-    StripePoint p;
-    p.x_px = x_aoi + f.aoi.x0;
-    p.y_px = y + f.aoi.y0;
-    p.amplitude_dn = amplitude;
-    p.quality = std::clamp(amplitude / (0.5 * max_level), 0.0, 1.0);
-    out->push_back(p);
+    const double u = Centroid(s, centre, o.window_half_px, bg2);
+    if (scan.other_axis_too && !AcrossThisScan(scan, u, v, o.window_half_px + 2)) {
+      ++counts->other_axis;
+      const int at = static_cast<int>(std::lround(u));
+      Want(scan, at, at + 1, margin);
+      continue;
+    }
+    out->push_back(MakePoint(scan, u, v, s.row[peak] - bg2, max_level));
     ++counts->points;
   }
+  return lowest;
+}
+
+// Scans every line of the raster; line v is the mask's line `first_line` + v.
+void ScanLines(const Scan& scan,
+               const RowMask& mask,
+               int first_line,
+               int max_level,
+               const StripeOptions& options,
+               std::vector<StripePoint>* out,
+               StripeCounts* counts) {
+  const Raster& r = scan.raster;
+  struct Floor {
+    int begin, end;
+    std::uint16_t lowest;
+  };
+  std::vector<Floor> floors;
+  for (int v = 0; v < r.lines; ++v) {
+    for (const auto& [b, e] : mask.rows[static_cast<size_t>(first_line + v)]) {
+      ++counts->lines;
+      const Span span{r.Line(v), std::max(0, b), std::min(r.length, e)};
+      const std::uint16_t lowest = ScanSpan(span, scan, v, max_level, options, out, counts);
+      if (scan.wanted) floors.push_back({span.begin, span.end, lowest});
+    }
+  }
+  // A stripe lying along a line lifts the whole line: nothing along it stands out, but its floor
+  // stands above the darkest line's. The column scan is wanted across such lines.
+  std::uint16_t darkest = 0xffff;
+  for (const Floor& f : floors) darkest = std::min(darkest, f.lowest);
+  for (const Floor& f : floors) {
+    if (f.lowest >= darkest + options.min_amplitude_dn) Want(scan, f.begin, f.end, 0);
+  }
+}
+
+// out (width x height) = the transpose of in (height x width, rows `in_stride` apart). By hand
+// because OpenCV's cv::transpose takes 3.3 ms on a full 2048 x 1536 16-bit frame here and this
+// 1.4 ms: 8 x 8 blocks gathered into registers and written as whole output rows keep both sides
+// in cache.
+void Transpose(const std::uint16_t* in, int in_stride, int width, int height, std::uint16_t* out) {
+  constexpr int kBlock = 8;
+  const auto at = [](int row, int col, int stride) {
+    return static_cast<std::size_t>(row) * static_cast<std::size_t>(stride) +
+           static_cast<std::size_t>(col);
+  };
+  for (int y0 = 0; y0 < height; y0 += kBlock) {
+    const int rows = std::min(kBlock, height - y0);
+    for (int x0 = 0; x0 < width; x0 += kBlock) {
+      const int cols = std::min(kBlock, width - x0);
+      std::uint16_t block[kBlock][kBlock];
+      for (int i = 0; i < rows; ++i) {
+        for (int j = 0; j < cols; ++j) block[j][i] = in[at(y0 + i, x0 + j, in_stride)];
+      }
+      for (int j = 0; j < cols; ++j) {
+        for (int i = 0; i < rows; ++i) out[at(x0 + j, y0 + i, height)] = block[j][i];
+      }
+    }
+  }
+}
+
+// Rows [begin, end) of a mask's bitmap as spans.
+std::vector<std::pair<int, int>> Spans(const std::uint8_t* bits, int length) {
+  std::vector<std::pair<int, int>> spans;
+  for (int i = 0; i < length;) {
+    if (!bits[i]) {
+      ++i;
+      continue;
+    }
+    const int begin = i;
+    while (i < length && bits[i]) ++i;
+    spans.push_back({begin, i});
+  }
+  return spans;
 }
 
 }  // namespace
@@ -152,23 +312,74 @@ std::size_t RowMask::PixelCount() const {
   return n;
 }
 
+RowMask Transposed(const RowMask& mask) {
+  const int w = mask.aoi.width, h = mask.aoi.height;
+  RowMask t;
+  t.aoi = {mask.aoi.y0, mask.aoi.x0, h, w};
+  std::vector<std::uint8_t> bits(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), 0);
+  for (int y = 0; y < h && y < static_cast<int>(mask.rows.size()); ++y) {
+    for (auto [b, e] : mask.rows[static_cast<size_t>(y)]) {
+      for (int x = std::max(0, b); x < std::min(w, e); ++x)
+        bits[static_cast<std::size_t>(x) * static_cast<std::size_t>(h) + y] = 1;
+    }
+  }
+  t.rows.resize(static_cast<size_t>(w));
+  for (int x = 0; x < w; ++x)
+    t.rows[static_cast<size_t>(x)] = Spans(&bits[static_cast<std::size_t>(x) * h], h);
+  return t;
+}
+
+StripeExtractor::StripeExtractor(const RowMask& mask, const StripeOptions& options)
+    : mask_(mask), options_(options) {
+  if (mask_.rows.size() != static_cast<size_t>(std::max(0, mask_.aoi.height))) {
+    throw std::invalid_argument("stripe: the mask must have one entry per row of its AOI");
+  }
+  if (options_.axes != StripeAxes::kRows) column_mask_ = Transposed(mask_);
+}
+
+void StripeExtractor::Extract(const Frame& frame,
+                              std::vector<StripePoint>* out,
+                              StripeCounts* counts) {
+  const Aoi& a = frame.aoi;
+  if (mask_.aoi.width != a.width || mask_.aoi.height != a.height || mask_.aoi.x0 != a.x0 ||
+      mask_.aoi.y0 != a.y0 ||
+      frame.pixels.size() != static_cast<size_t>(a.width) * static_cast<size_t>(a.height)) {
+    throw std::invalid_argument("stripe: the mask's AOI differs from the frame's");
+  }
+  const int max_level = (1 << frame.bit_depth) - 1;
+  const bool both = options_.axes == StripeAxes::kBoth;
+  // Which columns the column scan reads: all when it runs alone; with both, those the row scan
+  // marked (a stripe running down the image costs the column scan nothing).
+  wanted_.assign(static_cast<size_t>(a.width), options_.axes == StripeAxes::kColumns ? 1 : 0);
+  if (options_.axes != StripeAxes::kColumns) {
+    Scan rows{{frame.pixels.data(), a.width, a.height}, ScanAxis::kRow, a.x0, a.y0, both};
+    if (both) rows.wanted = &wanted_;
+    ScanLines(rows, mask_, 0, max_level, options_, out, counts);
+  }
+  if (options_.axes == StripeAxes::kRows) return;
+  for (int c0 = 0; c0 < a.width;) {
+    if (!wanted_[static_cast<size_t>(c0)]) {
+      ++c0;
+      continue;
+    }
+    int c1 = c0;
+    while (c1 < a.width && wanted_[static_cast<size_t>(c1)]) ++c1;
+    // The band's columns transposed: the column scan's lines in memory order.
+    transposed_.resize(static_cast<size_t>(c1 - c0) * static_cast<size_t>(a.height));
+    Transpose(frame.pixels.data() + c0, a.width, c1 - c0, a.height, transposed_.data());
+    const Scan columns{
+        {transposed_.data(), a.height, c1 - c0}, ScanAxis::kColumn, a.y0, a.x0 + c0, both};
+    ScanLines(columns, column_mask_, c0, max_level, options_, out, counts);
+    c0 = c1;
+  }
+}
+
 void ExtractStripe(const Frame& frame,
                    const RowMask& mask,
                    const StripeOptions& options,
                    std::vector<StripePoint>* out,
                    StripeCounts* counts) {
-  if (mask.aoi.width != frame.aoi.width || mask.aoi.height != frame.aoi.height ||
-      mask.aoi.x0 != frame.aoi.x0 || mask.aoi.y0 != frame.aoi.y0) {
-    throw std::invalid_argument("stripe: the mask's AOI differs from the frame's");
-  }
-  for (int y = 0; y < frame.aoi.height; ++y) {
-    const std::uint16_t* row = frame.pixels.data() + static_cast<size_t>(y) * frame.aoi.width;
-    for (const auto& [b, e] : mask.rows[static_cast<size_t>(y)]) {
-      ++counts->rows;
-      ScanSpan(Span{row, std::max(0, b), std::min(frame.aoi.width, e)}, frame, y, options, out,
-               counts);
-    }
-  }
+  StripeExtractor(mask, options).Extract(frame, out, counts);
 }
 
 }  // namespace mlp::probe_fw

@@ -29,11 +29,12 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
   // The whole sweep's stripe centres first: indirect light is told by the sweep, not a frame.
   std::vector<SweepObservation> seen;
   std::vector<StripePoint> stripe;
+  StripeExtractor extractor(mask, options);
   int index = 0;
   for (const Frame& frame : laser_frames) {
     if (!frame.IsLaser()) continue;
     stripe.clear();
-    ExtractStripe(frame, mask, options, &stripe, counts);
+    extractor.Extract(frame, &stripe, counts);
     for (const StripePoint& s : stripe) seen.push_back({s, frame.laser_column, index, false});
     ++index;
   }
@@ -49,6 +50,7 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
     p.quality = o.stripe.quality;
     p.x_px = o.stripe.x_px;
     p.y_px = o.stripe.y_px;
+    p.axis = o.stripe.axis;
     p.column = o.column;
     cloud.push_back(p);
   }

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -95,9 +96,11 @@ struct Face {
   double h = 0;
 };
 
-// Where the line lit by column u on the face crosses sensor row y: bisection along the 3-D line
-// where the light plane meets the face, on its projection's row coordinate.
-bool StripeColumn(const Probe& p, const Face& face, double u, double y, double* x) {
+// Where the line lit by column u on the face crosses scan line `line` (a sensor row; a sensor
+// column when `on_columns`): bisection along the 3-D line where the light plane meets the face,
+// on its projection's coordinate across the scan lines. `along` is the other coordinate.
+bool StripeCrossing(
+    const Probe& p, const Face& face, double u, double line, bool on_columns, double* along) {
   Vector3d n;
   double d = 0;
   p.projector.Plane(u, &n, &d);
@@ -106,16 +109,17 @@ bool StripeColumn(const Probe& p, const Face& face, double u, double y, double* 
   a.row(0) = n.transpose();
   a.row(1) = face.m.transpose();
   const Vector3d x0 = a.transpose() * (a * a.transpose()).inverse() * Vector2d(d, face.h);
-  const auto row_of = [&](double s) { return p.camera.Project(x0 + s * dir).y() - y; };
+  const int across = on_columns ? 0 : 1;
+  const auto line_of = [&](double s) { return p.camera.Project(x0 + s * dir)[across] - line; };
   double lo = -100, hi = 100;  // mm along the line: beyond any window at 120 mm
-  if (row_of(lo) * row_of(hi) > 0) return false;
+  if (line_of(lo) * line_of(hi) > 0) return false;
   while (hi - lo > 1e-9) {
     const double mid = 0.5 * (lo + hi);
-    (row_of(lo) * row_of(mid) <= 0 ? hi : lo) = mid;
+    (line_of(lo) * line_of(mid) <= 0 ? hi : lo) = mid;
   }
   const Vector3d point = x0 + 0.5 * (lo + hi) * dir;
   if (point.z() <= 0) return false;
-  *x = p.camera.Project(point).x();
+  *along = p.camera.Project(point)[1 - across];
   return true;
 }
 
@@ -128,6 +132,7 @@ struct Look {
   double ghost_ratio = 0;                  // ghost peak / stripe peak; 0: no ghost
   double ghost_offset_px = 40;             // ghost's offset from the stripe mid-sweep
   double ghost_drift_px_per_column = 0.6;  // how that offset changes per column
+  bool along_rows = false;  // the stripe runs along the rows (a probe turned by 90 deg)
 };
 
 // Fully developed speckle (complex Gaussian field low-passed by a Gaussian of sigma_k: the
@@ -172,7 +177,8 @@ double PixelGaussian(double x, double xc, double sigma) {
          (std::erf((x + 0.5 - xc) * k) - std::erf((x - 0.5 - xc) * k));
 }
 
-// The sweep over the window: a frame every 2 columns while the stripe crosses the window.
+// The sweep over the window: a frame every 2 columns while the stripe crosses the window. Scan
+// lines are rows, or columns when the stripe runs along the rows; `along` runs across the stripe.
 std::vector<probe_fw::Frame> RenderSweep(const Probe& p,
                                          const Face& face,
                                          const Look& look,
@@ -180,11 +186,15 @@ std::vector<probe_fw::Frame> RenderSweep(const Probe& p,
   std::mt19937 rng(seed);
   const std::vector<double> speckle = SpeckleField(look, rng);
   std::normal_distribution<double> noise(0.0, look.noise_dn);
+  const bool on_columns = look.along_rows;
+  const int lines = on_columns ? look.width : look.height;
+  const int length = on_columns ? look.height : look.width;
+  const int line0 = on_columns ? look.x0 : look.y0, along0 = on_columns ? look.y0 : look.x0;
   std::vector<double> columns;
-  const double mid_row = look.y0 + 0.5 * look.height;
   for (double u = 0; u < 1024; u += 2) {
-    double x = 0;
-    if (StripeColumn(p, face, u, mid_row, &x) && x > look.x0 + 12 && x < look.x0 + look.width - 12)
+    double a = 0;
+    if (StripeCrossing(p, face, u, line0 + 0.5 * lines, on_columns, &a) && a > along0 + 12 &&
+        a < along0 + length - 12)
       columns.push_back(u);
   }
   const double u_mid = columns.empty() ? 0 : 0.5 * (columns.front() + columns.back());
@@ -194,18 +204,18 @@ std::vector<probe_fw::Frame> RenderSweep(const Probe& p,
     f.aoi = {look.x0, look.y0, look.width, look.height};
     f.laser_column = u;
     f.pixels.resize(static_cast<size_t>(look.width) * look.height);
-    for (int y = 0; y < look.height; ++y) {
-      double xc = -1e9;
-      StripeColumn(p, face, u, look.y0 + y, &xc);
-      const double xg = xc + look.ghost_offset_px + look.ghost_drift_px_per_column * (u - u_mid);
-      for (int x = 0; x < look.width; ++x) {
-        const double sx = look.x0 + x;
-        const double light = PixelGaussian(sx, xc, look.sigma_px) +
-                             look.ghost_ratio * PixelGaussian(sx, xg, look.sigma_px);
-        const double v =
-            look.background_dn + look.peak_dn * light * speckle[y * look.width + x] + noise(rng);
-        f.pixels[y * look.width + x] =
-            static_cast<std::uint16_t>(std::clamp(std::lround(v), 0L, 255L));
+    for (int line = 0; line < lines; ++line) {
+      double ac = -1e9;
+      StripeCrossing(p, face, u, line0 + line, on_columns, &ac);
+      const double ag = ac + look.ghost_offset_px + look.ghost_drift_px_per_column * (u - u_mid);
+      for (int i = 0; i < length; ++i) {
+        const double sa = along0 + i;
+        const size_t at = on_columns ? static_cast<size_t>(i) * look.width + line
+                                     : static_cast<size_t>(line) * look.width + i;
+        const double light = PixelGaussian(sa, ac, look.sigma_px) +
+                             look.ghost_ratio * PixelGaussian(sa, ag, look.sigma_px);
+        const double v = look.background_dn + look.peak_dn * light * speckle[at] + noise(rng);
+        f.pixels[at] = static_cast<std::uint16_t>(std::clamp(std::lround(v), 0L, 255L));
       }
     }
     frames.push_back(std::move(f));
@@ -222,12 +232,13 @@ struct CloudCheck {
 CloudCheck RunFirmware(const Probe& p,
                        const Face& face,
                        const std::vector<probe_fw::Frame>& frames,
-                       const std::string& name) {
+                       const std::string& name,
+                       const std::string& probe_file = kProbeFile) {
   const fs::path dir = fs::temp_directory_path() / ("mlp_independent_" + name);
   fs::remove_all(dir);
   probe_fw::WriteCaptureDir(dir.string(), {p.serial, "nominal-design", name}, frames, ".png");
   const std::string cloud = (dir / "cloud.ply").string();
-  const int status = std::system((kFw + " run --probe " + kProbeFile + " --frames " + dir.string() +
+  const int status = std::system((kFw + " run --probe " + probe_file + " --frames " + dir.string() +
                                   " --roi full --out " + cloud + " > /dev/null")
                                      .c_str());
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << name;
@@ -245,7 +256,8 @@ CloudCheck RunFirmware(const Probe& p,
   c.rms_um = c.points ? std::sqrt(sum2 / static_cast<double>(c.points)) : 0;
   std::printf("%-8s %zu frames: %zu points, %.2f um RMS, %.1f um max, %zu beyond 50 um\n",
               name.c_str(), frames.size(), c.points, c.rms_um, c.max_um, c.beyond_50um);
-  fs::remove_all(dir);
+  // MLP_KEEP_FRAMES=1 keeps the frames and cloud to look at (mlp-fw stripes, an image viewer).
+  if (!std::getenv("MLP_KEEP_FRAMES")) fs::remove_all(dir);
   return c;
 }
 
@@ -319,6 +331,63 @@ TEST(IndependentRenderer, NoReflectionGhostReachesTheCloudWhateverItsMotionOrThe
           << "drift " << drift << ", speckle " << contrast;
     }
   }
+}
+
+}  // namespace
+}  // namespace mlp::test
+
+namespace mlp::test {
+namespace {
+
+// The reference probe with its projector turned by 90 deg about the camera's axis (baseline along
+// y): its stripe runs along the sensor's rows, as on a probe mounted turned or a wall seen
+// edge-on. Written beside the test's frames; the firmware reads it as any probe model.
+std::string TurnedProbeFile() {
+  std::ifstream in(kProbeFile);
+  nlohmann::json j = nlohmann::json::parse(in);
+  auto& pose = j.at("projector").at("camera_from_projector");
+  const auto& r = pose.at("rotation_vector_rad");
+  const Vector3d rv(r[0].get<double>(), r[1].get<double>(), r[2].get<double>());
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(M_PI / 2, Vector3d::UnitZ()).matrix();
+  const Eigen::Matrix3d rotation =
+      turn * (rv.norm() > 0 ? Eigen::AngleAxisd(rv.norm(), rv.normalized()).matrix()
+                            : Eigen::Matrix3d::Identity());
+  const Eigen::AngleAxisd aa(rotation);
+  const Vector3d new_rv = aa.angle() * aa.axis();
+  const auto& t = pose.at("translation_mm");
+  const Vector3d new_t =
+      turn * Vector3d(t[0].get<double>(), t[1].get<double>(), t[2].get<double>());
+  pose["rotation_vector_rad"] = {new_rv.x(), new_rv.y(), new_rv.z()};
+  pose["translation_mm"] = {new_t.x(), new_t.y(), new_t.z()};
+  const fs::path path = fs::temp_directory_path() / "mlp_independent_turned_probe.json";
+  std::ofstream(path) << j.dump(2);
+  return path.string();
+}
+
+TEST(IndependentRenderer, AProbeTurnedBy90DegreesKeepsItsPoints) {
+  const std::string file = TurnedProbeFile();
+  const Probe probe = ReadProbe(file);
+  const Face face = TiltedFace();
+  Look look;
+  look.along_rows = true;
+  const auto frames = RenderSweep(probe, face, look, 31);
+  ASSERT_GT(frames.size(), 20u);
+  const CloudCheck nominal = RunFirmware(probe, face, frames, "turned", file);
+  EXPECT_GT(nominal.points, kMinRowsWithAPoint * look.width * frames.size());
+  EXPECT_LT(nominal.rms_um, kNominalRmsUm);
+  EXPECT_LT(nominal.max_um, kNominalMaxUm);
+  look.speckle_contrast = 0.3;
+  const CloudCheck speckled =
+      RunFirmware(probe, face, RenderSweep(probe, face, look, 32), "turned_speckle", file);
+  EXPECT_GT(speckled.points, kMinRowsWithAPoint * look.width * frames.size());
+  EXPECT_LT(speckled.rms_um, kSpeckleRmsUm);
+  EXPECT_EQ(speckled.beyond_50um, 0u);
+  look.ghost_ratio = 0.5;
+  const CloudCheck ghost =
+      RunFirmware(probe, face, RenderSweep(probe, face, look, 33), "turned_ghost", file);
+  EXPECT_LT(ghost.max_um, kGhostPointUm);
+  EXPECT_GT(ghost.points, kKeptWithGhost * nominal.points);
+  fs::remove(file);
 }
 
 }  // namespace

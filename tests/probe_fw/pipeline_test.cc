@@ -64,8 +64,10 @@ Result RunSweep(const VirtualProbe& probe, bool noise) {
   double ss = 0.0;
   for (size_t i = 0; i < res.cloud.size(); i += 7) {  // every 7th point: bisection is costly
     const CloudPoint& p = res.cloud[i];
+    if (p.axis != probe_fw::ScanAxis::kRow) continue;  // the truth is bisected along a row
     const int x = static_cast<int>(std::lround(p.x_px));
-    const auto truth = probe.TrueStripeCentre(capture, p.column, p.y_px, x - 4, x + 5);
+    const auto truth =
+        probe.TrueStripeCentre(capture, p.column, static_cast<int>(p.y_px), x - 4, x + 5);
     if (!truth) continue;
     ss += (p.x_px - *truth) * (p.x_px - *truth);
     ++res.stripe_checked;

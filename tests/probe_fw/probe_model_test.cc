@@ -135,6 +135,21 @@ TEST(StripeFile, RoundTripKeepsWhatCalibrationNeeds) {
   EXPECT_EQ(g.points[0].column, 612.875);
 }
 
+// A centre found down a column is sub-pixel in y: version 2 stores it so; version 1 files (rows
+// only) still read.
+TEST(StripeFile, ColumnScanCentresAndVersionOneFiles) {
+  const std::string path = ::testing::TempDir() + "/stripes_v2.json";
+  SaveStripeFile({"MLP-T-1", "view02", {{812.0, 640.12345, 300.5, 0.25}}}, path);
+  const StripeFile g = LoadStripeFile(path);
+  ASSERT_EQ(g.points.size(), 1u);
+  EXPECT_EQ(g.points[0].x_px, 812.0);
+  EXPECT_NEAR(g.points[0].y_px, 640.12345, 1e-4);
+  std::ofstream(path)
+      << R"({"format": "mlprobe-stripes/1", "probe_serial": "P", "capture_id": "c", )"
+      << R"("points": [[10.5, 700, 3, 0.5]]})";
+  EXPECT_EQ(LoadStripeFile(path).points[0].y_px, 700.0);
+}
+
 TEST(StripeFile, BadFilesNameTheEntry) {
   const std::string path = ::testing::TempDir() + "/bad_stripes.json";
   const auto expect_error = [&](const std::string& text, const std::string& needle) {
@@ -154,7 +169,7 @@ TEST(StripeFile, BadFilesNameTheEntry) {
   expect_error(head + "[[1, 2, 3, 1.5]]}", "quality");
   expect_error(head + "[[1e300, 2, 3, 0.5]]}", "finite");
   expect_error(head + "7}", "array");
-  expect_error(R"({"format": "mlprobe-stripes/2"})", "format");
+  expect_error(R"({"format": "mlprobe-stripes/3"})", "format");
   EXPECT_THROW(LoadStripeFile(path + ".missing"), StripeFileError);
 }
 

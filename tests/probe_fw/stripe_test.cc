@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include <Eigen/Core>
 #include <gtest/gtest.h>
 
 namespace mlp::probe_fw {
@@ -44,24 +45,28 @@ TEST(Stripe, SubPixelCentresOfCleanStripes) {
   }
 }
 
+// The row scan's reasons, on frames one row high (a column scan there sees runs of one pixel,
+// cut by the frame's edge: it is left out).
 TEST(Stripe, EveryRejectReasonIsCounted) {
   StripeCounts counts;
   std::vector<StripePoint> points;
-  ExtractStripe(Rows({{30.0, 10.0}}), RowMask::Full(Rows({{30.0, 10.0}}).aoi), {}, &points,
+  StripeOptions rows;
+  rows.axes = StripeAxes::kRows;
+  ExtractStripe(Rows({{30.0, 10.0}}), RowMask::Full(Rows({{30.0, 10.0}}).aoi), rows, &points,
                 &counts);
   EXPECT_EQ(counts.weak + counts.points, 0u);  // below threshold: not even a candidate
   const Frame saturated = Rows({{30.0, 200000.0}});
-  ExtractStripe(saturated, RowMask::Full(saturated.aoi), {}, &points, &counts);
+  ExtractStripe(saturated, RowMask::Full(saturated.aoi), rows, &points, &counts);
   EXPECT_EQ(counts.saturated, 1u);
   const Frame twin = Rows({{30.0, 20000.0}}, 35.0, 15000.0);
-  ExtractStripe(twin, RowMask::Full(twin.aoi), {}, &points, &counts);
+  ExtractStripe(twin, RowMask::Full(twin.aoi), rows, &points, &counts);
   EXPECT_EQ(counts.double_peak, 1u);
   const Frame edge = Rows({{2.0, 20000.0}});
-  ExtractStripe(edge, RowMask::Full(edge.aoi), {}, &points, &counts);
+  ExtractStripe(edge, RowMask::Full(edge.aoi), rows, &points, &counts);
   EXPECT_EQ(counts.cut, 1u);
   Frame wide = Rows({{30.0, 0.0}});
   for (int x = 10; x < 40; ++x) wide.pixels[static_cast<size_t>(x)] = 20000;  // a smear
-  ExtractStripe(wide, RowMask::Full(wide.aoi), {}, &points, &counts);
+  ExtractStripe(wide, RowMask::Full(wide.aoi), rows, &points, &counts);
   EXPECT_EQ(counts.too_wide + counts.saturated, 1u);
   EXPECT_TRUE(points.empty());
 }
@@ -75,6 +80,106 @@ TEST(Stripe, OnlyMaskedPixelsAreRead) {
   ExtractStripe(f, mask, {}, &points, &counts);
   ASSERT_EQ(points.size(), 1u);
   EXPECT_EQ(points[0].y_px, 21);
+}
+
+// A straight Gaussian stripe (sigma 1 px across) of 20000 DN on 100 DN, 16 bits, through `centre`
+// at `angle_deg` from the sensor's x axis (0: along the rows, 90: down the image).
+Frame Line(int width, int height, Eigen::Vector2d centre, double angle_deg) {
+  const double a = angle_deg * M_PI / 180.0;
+  const Eigen::Vector2d d(std::cos(a), std::sin(a));
+  Frame f;
+  f.aoi = {5, 7, width, height};
+  f.bit_depth = 16;
+  f.laser_column = 10.0;
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      const Eigen::Vector2d p(x + f.aoi.x0 - centre.x(), y + f.aoi.y0 - centre.y());
+      const double across = p.x() * d.y() - p.y() * d.x();
+      f.pixels.push_back(static_cast<std::uint16_t>(
+          std::round(100.0 + 20000.0 * std::exp(-0.5 * across * across))));
+    }
+  }
+  return f;
+}
+
+TEST(Stripe, AStripeAlongTheRowsIsFoundDownTheColumns) {
+  const Frame f = Line(64, 48, {40.0, 30.3}, 1.0);
+  std::vector<StripePoint> points;
+  StripeCounts counts;
+  ExtractStripe(f, RowMask::Full(f.aoi), {}, &points, &counts);
+  ASSERT_EQ(points.size(), 64u);  // one per sensor column
+  for (const StripePoint& p : points) {
+    EXPECT_EQ(p.axis, ScanAxis::kColumn);
+    EXPECT_EQ(p.x_px, std::round(p.x_px));
+    EXPECT_NEAR(p.y_px, 30.3 + std::tan(M_PI / 180.0) * (p.x_px - 40.0), kCentreTolPx);
+  }
+  // The row scan alone sees the stripe along its rows: at most the rows where the ridge's top
+  // lies in the frame, as a bump of under 1 % of the stripe's light (a poorly conditioned centre).
+  StripeOptions rows;
+  rows.axes = StripeAxes::kRows;
+  points.clear();
+  ExtractStripe(f, RowMask::Full(f.aoi), rows, &points, &counts);
+  EXPECT_LE(points.size(), 2u);
+  for (const StripePoint& p : points) EXPECT_LT(p.amplitude_dn, 0.01 * 20000.0);
+}
+
+// At any angle every scan line the stripe crosses gives one centre on it, from the scan more
+// nearly across the stripe: none twice (both scans), none lost between them. 45 deg itself is
+// a tie either scan may take.
+constexpr double kAngledCentreTolPx = 0.02;  // method error on a point-sampled 16-bit stripe
+constexpr int kEdgePx = 8;                   // the centroid and direction windows fit inside
+
+TEST(Stripe, EachCrossingOnceAtAnyAngle) {
+  for (double angle : {0.0, 15.0, 30.0, 40.0, 50.0, 60.0, 75.0, 90.0, 120.0, 165.0}) {
+    const Eigen::Vector2d centre(5 + 48.4, 7 + 47.7);
+    const Frame f = Line(96, 96, centre, angle);
+    std::vector<StripePoint> points;
+    StripeCounts counts;
+    ExtractStripe(f, RowMask::Full(f.aoi), {}, &points, &counts);
+    const double a = angle * M_PI / 180.0;
+    const bool down_the_image = std::abs(std::sin(a)) > std::abs(std::cos(a));
+    int interior = 0;
+    for (const StripePoint& p : points) {
+      const Eigen::Vector2d r(p.x_px - centre.x(), p.y_px - centre.y());
+      EXPECT_NEAR(r.x() * std::sin(a) - r.y() * std::cos(a), 0.0, kAngledCentreTolPx)
+          << angle << " deg";
+      EXPECT_EQ(p.axis, down_the_image ? ScanAxis::kRow : ScanAxis::kColumn) << angle << " deg";
+      const double line = p.Line() - (down_the_image ? f.aoi.y0 : f.aoi.x0);
+      interior += line >= kEdgePx && line < 96 - kEdgePx;
+    }
+    // Lines of the owning scan inside the edge whose crossing lies in the frame too.
+    int expected = 0;
+    for (int line = kEdgePx; line < 96 - kEdgePx; ++line) {
+      const double v = line + (down_the_image ? f.aoi.y0 : f.aoi.x0);
+      const double along = down_the_image
+                               ? centre.x() + (v - centre.y()) * std::cos(a) / std::sin(a)
+                               : centre.y() + (v - centre.x()) * std::sin(a) / std::cos(a);
+      const double origin = down_the_image ? f.aoi.x0 : f.aoi.y0;
+      expected += along - origin >= kEdgePx && along - origin < 96 - kEdgePx;
+    }
+    EXPECT_GE(interior, expected) << angle << " deg";
+    for (size_t i = 0; i < points.size(); ++i) {
+      for (size_t j = i + 1; j < points.size(); ++j) {
+        EXPECT_GT(std::hypot(points[i].x_px - points[j].x_px, points[i].y_px - points[j].y_px), 0.5)
+            << angle << " deg: the same crossing twice";
+      }
+    }
+  }
+}
+
+TEST(Stripe, TheColumnScanReadsOnlyTheMask) {
+  const Frame f = Line(64, 48, {40.0, 30.0}, 0.0);
+  RowMask mask = RowMask::Full(f.aoi);
+  for (auto& row : mask.rows) row = {{0, 20}};  // columns 20..63 left out
+  const RowMask t = Transposed(mask);
+  ASSERT_EQ(t.rows.size(), 64u);
+  EXPECT_EQ(t.rows[19], (std::vector<std::pair<int, int>>{{0, 48}}));
+  EXPECT_TRUE(t.rows[20].empty());
+  std::vector<StripePoint> points;
+  StripeCounts counts;
+  ExtractStripe(f, mask, {}, &points, &counts);
+  ASSERT_EQ(points.size(), 20u);
+  for (const StripePoint& p : points) EXPECT_LT(p.x_px, f.aoi.x0 + 20);
 }
 
 }  // namespace

@@ -59,8 +59,8 @@ std::uint64_t FrameSeed(std::uint64_t seed, std::uint64_t frame) {
 }
 
 // Mean of exp(-2 (a + b s)^2 / w^2) over s in [-1/2, 1/2]: the laser sheet's Gaussian integrated
-// across the pixel's width along the row, a = column offset at the pixel centre, b = d column /
-// d pixel.
+// across the pixel, a = column offset at the pixel centre, b = how far the column changes across
+// the pixel.
 double PixelAveragedSheet(double a, double b, double w) {
   if (std::abs(a) > 4.0 * w + std::abs(b)) return 0.0;
   if (std::abs(b) < 1e-6 * w) return std::exp(-2.0 * a * a / (w * w));
@@ -217,22 +217,26 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
           Trace(pose, Vec2(o.aoi.x0 + x, o.aoi.y0 + y), o.laser_frames);
     }
   }
-  // d(projector column)/d(pixel) along each row, for the pixel-width integration of the sheet:
-  // the one-sided difference of smaller magnitude, so a depth step (a neighbour on another
-  // surface) does not widen the stripe.
+  // How far the projector column changes across a pixel, for the integration of the sheet over
+  // the pixel's area: d column / d pixel along the row and along the column, each the one-sided
+  // difference of smaller magnitude (a depth step, a neighbour on another surface, must not widen
+  // the stripe), combined as the box of equal variance (hypot): exact for a stripe along either
+  // axis, and the stripe may run any way.
+  const auto step = [&](size_t i, int at, int limit, std::ptrdiff_t stride) {
+    double best = INFINITY;
+    for (int side : {-1, 1}) {
+      const std::ptrdiff_t j = static_cast<std::ptrdiff_t>(i) + side * stride;
+      if (at + side < 0 || at + side >= limit || !pixels[static_cast<size_t>(j)].hit) continue;
+      const double d = pixels[static_cast<size_t>(j)].projector_column - pixels[i].projector_column;
+      if (std::abs(d) < std::abs(best)) best = d;
+    }
+    return std::isfinite(best) ? best : 0.0;
+  };
   std::vector<double> slope(n, 0.0);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x;
-      if (!pixels[i].hit) continue;
-      double best = INFINITY;
-      for (int side : {-1, 1}) {
-        const int xn = x + side;
-        if (xn < 0 || xn >= w || !pixels[i + side].hit) continue;
-        const double s = side * (pixels[i + side].projector_column - pixels[i].projector_column);
-        if (std::abs(s) < std::abs(best)) best = s;
-      }
-      slope[i] = std::isfinite(best) ? best : 0.0;
+      if (pixels[i].hit) slope[i] = std::hypot(step(i, x, w, 1), step(i, y, h, w));
     }
   }
   const auto& noise = model_.noise;

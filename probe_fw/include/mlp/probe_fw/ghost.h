@@ -3,7 +3,9 @@
 /// bore's far wall lit by its near wall) makes a second stripe that triangulates to a surface
 /// that is not there. No single frame can tell it from the stripe; the sweep can. A camera ray
 /// meets the first opaque surface it hits, and the light plane passes that point once: so on
-/// one sensor row, the stripe's centre traces x(column) through the sweep, and two traces that
+/// one scan line (a sensor row, or a column where the stripe runs along the rows), the stripe's
+/// centre traces its position along the line against the column lit through the sweep, and two
+/// traces that
 /// cover the same pixels at columns far apart cannot both be direct light. The weaker trace is
 /// the indirect one (a reflection loses light); when neither is clearly weaker, both are
 /// rejected: a ghost must never reach a cloud, a lost point costs less. Spacetime reasoning

@@ -1,13 +1,23 @@
 #pragma once
-/// @file Sub-pixel centres of the laser stripe in a frame, row by row, inside the ROI mask only.
+/// @file Sub-pixel centres of the laser stripe in a frame, inside the ROI mask only, found across
+/// the stripe whatever its direction: along the rows for a stripe that runs down the image, along
+/// the columns for one that runs along the rows (a wall seen edge-on, a probe mounted turned by
+/// 90 degrees, a fixed line laser across the image).
 ///
 /// Method (Fisher & Naidu, "A comparison of algorithms for subpixel peak detection", 1996: the
-/// centre of mass and Gaussian fits are the most accurate for stripes 3-6 px wide): on each row,
-/// every run of pixels above a threshold is a candidate; its centre is the centre of mass of the
-/// background-subtracted intensities in a window of +-3 sigma around the peak, re-centred once
+/// centre of mass and Gaussian fits are the most accurate for stripes 3-6 px wide): on each scan
+/// line, every run of pixels above a threshold is a candidate; its centre is the centre of mass of
+/// the background-subtracted intensities in a window of +-3 sigma around the peak, re-centred once
 /// (removes the window's truncation bias). Candidates that are saturated, double-peaked
 /// (a reflection beside the stripe), wider than the sheet allows or cut by the ROI's edge are
-/// rejected and counted.
+/// rejected and counted. The centre of mass along a scan line lies on a straight stripe's centre
+/// line at any angle; the scan closer to square across the stripe is the better conditioned, so
+/// where both find a crossing, the stripe's direction decides which keeps it: of its light in a
+/// 13 x 13 px window summed onto the row direction and onto the column direction, the more peaked
+/// profile is the one across the stripe (summing along the stripe averages speckle away). The
+/// column scan reads only the columns where the row scan saw a reason for it: a run longer than
+/// a stripe is wide, a centre left to the columns, or a line lifted as a whole above the darkest
+/// line (a stripe lying along it): a stripe running down the image costs it nothing.
 
 #include "mlp/probe_fw/frame.h"
 
@@ -26,28 +36,67 @@ struct RowMask {
   std::size_t PixelCount() const;
 };
 
+/// Which scan found a centre: along a sensor row (the stripe runs down the image) or along a
+/// sensor column (the stripe runs along the rows).
+enum class ScanAxis : std::uint8_t { kRow, kColumn };
+
+/// Which scans to run. Both by default; one alone reads half the pixels, for a probe whose stripe
+/// runs one way over its whole measuring range.
+enum class StripeAxes : std::uint8_t { kRows, kColumns, kBoth };
+
 struct StripeOptions {
   double min_amplitude_dn = 20.0;  ///< peak above background needed for a candidate
   int window_half_px = 4;          ///< centroid window half-width (~3 sigma of a 3-5 px stripe)
   int max_width_px = 12;           ///< wider runs above half maximum are not a laser stripe
   double double_peak_ratio = 0.3;  ///< a second peak above this fraction of the first rejects
+  StripeAxes axes = StripeAxes::kBoth;
 };
 
 struct StripePoint {
-  double x_px = 0.0;  ///< sensor column (AOI offset added), distorted image
-  int y_px = 0;       ///< sensor row
+  /// Sensor coordinates (AOI offset added), distorted image: sub-pixel across the stripe, the
+  /// scan line's index along it (x_px for a column scan, y_px for a row scan is a whole number).
+  double x_px = 0.0, y_px = 0.0;
+  ScanAxis axis = ScanAxis::kRow;
   double amplitude_dn = 0.0;
   double quality = 0.0;  ///< 0..1: amplitude relative to full scale, lowered by asymmetry
+
+  /// The sensor row (row scan) or column (column scan) the centre was found on.
+  int Line() const { return static_cast<int>(axis == ScanAxis::kRow ? y_px : x_px); }
+  /// The sub-pixel coordinate along that line.
+  double Along() const { return axis == ScanAxis::kRow ? x_px : y_px; }
 };
 
 struct StripeCounts {
-  std::uint64_t rows = 0, points = 0, weak = 0, saturated = 0, double_peak = 0, too_wide = 0;
+  /// lines: scan lines (row and column spans) read.
+  std::uint64_t lines = 0, points = 0, weak = 0, saturated = 0, double_peak = 0, too_wide = 0;
   std::uint64_t cut = 0;  ///< window not inside the ROI: cut by its edge
+  /// Found by both scans and left to the one more nearly across the stripe: not a loss.
+  std::uint64_t other_axis = 0;
   /// Light that left the light plane (a reflection), told by the sweep (ghost.h): not points.
   std::uint64_t indirect = 0;
 };
 
-/// Appends the stripe centres found in `frame` within `mask` to `out`.
+/// The mask of the transposed AOI (rows become columns): what the column scan reads.
+RowMask Transposed(const RowMask& mask);
+
+/// The stripe centres of every frame of a sweep within one mask: holds the column scan's mask and
+/// the transposition buffer, made once for the sweep (the board's memory is not churned per frame).
+class StripeExtractor {
+ public:
+  /// Throws std::invalid_argument when the mask does not have one entry per row of its AOI.
+  StripeExtractor(const RowMask& mask, const StripeOptions& options);
+  /// Appends the centres found in `frame` to `out`: the row scan's first, then the column
+  /// scan's. Throws std::invalid_argument when the frame's AOI is not the mask's.
+  void Extract(const Frame& frame, std::vector<StripePoint>* out, StripeCounts* counts);
+
+ private:
+  RowMask mask_, column_mask_;
+  StripeOptions options_;
+  std::vector<std::uint16_t> transposed_;
+  std::vector<std::uint8_t> wanted_;  ///< per AOI column: the column scan reads it
+};
+
+/// One frame: StripeExtractor(mask, options).Extract(frame, out, counts).
 void ExtractStripe(const Frame& frame,
                    const RowMask& mask,
                    const StripeOptions& options,

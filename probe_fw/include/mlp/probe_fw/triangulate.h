@@ -14,9 +14,9 @@ namespace mlp::probe_fw {
 struct CloudPoint {
   Vec3 point_in_probe = Vec3::Zero();  ///< [mm]
   double quality = 0.0;                ///< 0..1, from the stripe
-  double x_px = 0.0;                   ///< where it was seen (distorted sensor coordinates)
-  int y_px = 0;
-  double column = 0.0;  ///< projector column of its frame
+  double x_px = 0.0, y_px = 0.0;       ///< where it was seen (distorted sensor coordinates)
+  ScanAxis axis = ScanAxis::kRow;      ///< which scan found it (stripe.h)
+  double column = 0.0;                 ///< projector column of its frame
 };
 
 /// The point where the ray through sensor pixel (x_px, y_px) meets the light plane of `column`.

@@ -152,9 +152,12 @@ void OnlyKnownFields(const json& j,
   }
 }
 
-/// Parses text into a JSON object whose "format" is `format`; throws Error otherwise.
+/// Parses text into a JSON object whose "format" is one of `formats` (the newest first: the
+/// error names it); throws Error otherwise.
 template <class Error>
-json ParseDocument(const std::string& text, const std::string& format, const std::string& what) {
+json ParseDocument(const std::string& text,
+                   std::initializer_list<std::string> formats,
+                   const std::string& what) {
   json j;
   try {
     j = json::parse(text);
@@ -162,10 +165,20 @@ json ParseDocument(const std::string& text, const std::string& format, const std
     Fail<Error>(what + ": not valid JSON (" + e.what() + ")");
   }
   if (!j.is_object()) Fail<Error>(what + ": the document must be a JSON object");
-  if (!j.contains("format") || j.at("format") != format) {
-    Fail<Error>(what + ": format must be \"" + format + "\" (a newer file needs a newer program)");
+  const bool known =
+      j.contains("format") && j.at("format").is_string() &&
+      std::find(formats.begin(), formats.end(), j.at("format").get<std::string>()) != formats.end();
+  if (!known) {
+    Fail<Error>(what + ": format must be \"" + *formats.begin() +
+                "\" (a newer file needs a newer program)");
   }
   return j;
+}
+
+/// Parses text into a JSON object whose "format" is `format`; throws Error otherwise.
+template <class Error>
+json ParseDocument(const std::string& text, const std::string& format, const std::string& what) {
+  return ParseDocument<Error>(text, std::initializer_list<std::string>{format}, what);
 }
 
 }  // namespace mlp::probe_fw::json_fields
