@@ -5,6 +5,7 @@
 #include "mlp/geometry/robust.h"
 
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
 #include "describe.h"
@@ -18,8 +19,6 @@ namespace {
 using detail::Describe;
 using Kind = HandEyeError::Kind;
 using Mat3 = Eigen::Matrix3d;
-using detail::Vec9;
-using Mat9 = Eigen::Matrix<double, 9, 9>;
 
 constexpr int kMinCaptures = 3;
 constexpr int kMinPointsPerCapture = 20;
@@ -247,37 +246,108 @@ std::vector<Start> CandidateStarts(const std::vector<Prepared>& prepared, const 
 
 // ------------------------------------------------------------------ joint fit
 
-// r = |H (exp(dtheta) R0 p + t) - c| - R for one point; dtheta is a small rotation in the
-// flange frame about the closed form's rotation R0 (no singularity near the solution).
+// The parameters in the order of the information matrix: rotation of M (small, flange frame) |
+// t_M | c | the sensor's scale along probe X, Y, Z | its depth bias with incidence.
+constexpr int kParams = 13;
+constexpr int kScale = 9;
+constexpr int kBias = 12;
+using Vec13 = Eigen::Matrix<double, kParams, 1>;
+using Mat13 = Eigen::Matrix<double, kParams, kParams>;
+
+// Which sensor parameters are free.
+struct SensorFree {
+  std::array<bool, 3> scale{};
+  bool bias = false;
+  static SensorFree Of(const SensorModelOptions& s) {
+    return {{s.scale_x, s.scale_y, s.scale_z}, s.incidence_bias};
+  }
+  bool Any() const { return scale[0] || scale[1] || scale[2] || bias; }
+};
+
+// 1 - cos a, a the angle between the probe's z axis and the surface normal whose z component in
+// the probe frame is `n_probe_z` (unit normal).
+template <class T>
+T OneMinusCosIncidence(const T& n_probe_z) {
+  // sqrt(z^2 + tiny): |z| with a derivative at 0 (a normal square to the axis: grazing).
+  return T(1) - sqrt(n_probe_z * n_probe_z + T(1e-12));
+}
+
+// r = |H (exp(dtheta) R0 p' + t) - c| - R for one point, p' = S p + b (1 - cos a) e_z the
+// sensor's reading corrected (SensorModelOptions); dtheta is a small rotation in the flange
+// frame about the closed form's rotation R0 (no singularity near the solution). The normal for
+// the angle is taken at S p (the bias is a small correction of a small correction).
 struct PointOnSphere {
-  PointOnSphere(const Vec3& rotated_point, const Pose3& h, double radius)
-      : q(rotated_point), rh(h.linear()), th(h.translation()), radius(radius) {}
+  PointOnSphere(const Vec3& point, const Mat3& r0, const Pose3& h, double radius, bool with_bias)
+      : p(point),
+        r0(r0),
+        rh(h.linear()),
+        th(h.translation()),
+        radius(radius),
+        with_bias(with_bias) {}
+  // x = H (exp(dtheta) R0 q + t)
   template <class T>
-  bool operator()(const T* dtheta, const T* t, const T* c, T* residual) const {
-    const T p[3] = {T(q(0)), T(q(1)), T(q(2))};
-    T m[3];
-    ceres::AngleAxisRotatePoint(dtheta, p, m);
-    for (int k = 0; k < 3; ++k) m[k] += t[k];
-    T d2 = T(0);
+  void Map(const T* dtheta, const T* t, const T* q, T* x) const {
+    T a[3], m[3];
+    for (int r = 0; r < 3; ++r) a[r] = T(r0(r, 0)) * q[0] + T(r0(r, 1)) * q[1] + T(r0(r, 2)) * q[2];
+    ceres::AngleAxisRotatePoint(dtheta, a, m);
     for (int r = 0; r < 3; ++r) {
-      T w = T(th(r)) - c[r];
-      for (int k = 0; k < 3; ++k) w += T(rh(r, k)) * m[k];
-      d2 += w * w;
+      x[r] = T(th(r));
+      for (int k = 0; k < 3; ++k) x[r] += T(rh(r, k)) * (m[k] + t[k]);
     }
+  }
+  template <class T>
+  bool operator()(
+      const T* dtheta, const T* t, const T* c, const T* s, const T* b, T* residual) const {
+    T q[3] = {s[0] * T(p(0)), s[1] * T(p(1)), s[2] * T(p(2))};
+    T x[3];
+    Map(dtheta, t, q, x);
+    if (with_bias) AddBias(dtheta, t, c, b, q, x);  // the map again, with the corrected depth
+    T d2 = T(0);
+    for (int r = 0; r < 3; ++r) d2 += (x[r] - c[r]) * (x[r] - c[r]);
     residual[0] = sqrt(d2) - T(radius);
     return true;
   }
-  Vec3 q;
-  Mat3 rh;
+  // q.z += b (1 - cos a), the normal's z in the probe frame from x; x mapped again.
+  template <class T>
+  void AddBias(const T* dtheta, const T* t, const T* c, const T* b, T* q, T* x) const {
+    T w[3], g[3], gm[3];
+    for (int r = 0; r < 3; ++r) w[r] = x[r] - c[r];
+    for (int k = 0; k < 3; ++k) g[k] = T(rh(0, k)) * w[0] + T(rh(1, k)) * w[1] + T(rh(2, k)) * w[2];
+    const T back[3] = {-dtheta[0], -dtheta[1], -dtheta[2]};
+    ceres::AngleAxisRotatePoint(back, g, gm);
+    const T nz = (T(r0(0, 2)) * gm[0] + T(r0(1, 2)) * gm[1] + T(r0(2, 2)) * gm[2]) /
+                 sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    q[2] += b[0] * OneMinusCosIncidence(nz);
+    Map(dtheta, t, q, x);
+  }
+  Vec3 p;
+  Mat3 r0, rh;
   Vec3 th;
   double radius;
+  bool with_bias;
 };
 
 struct Model {
   Mat3 rotation;  // R_M
   Vec3 translation;
   Vec3 centre;
-  Vec3 MapToMcs(const Pose3& h, const Vec3& p) const { return h * (rotation * p + translation); }
+  Vec3 scale = Vec3::Ones();  // the sensor's, per probe axis
+  double bias = 0.0;          // [mm at grazing incidence]
+  // 1 - cos a at the point `p` as the sensor read it (the normal taken at S p).
+  double Incidence(const Pose3& h, const Vec3& p) const {
+    const Vec3 w = h * (rotation * scale.cwiseProduct(p) + translation) - centre;
+    const Vec3 n_probe = rotation.transpose() * h.linear().transpose() * w.normalized();
+    return OneMinusCosIncidence(n_probe.z());
+  }
+  // The reading corrected by the sensor model, in the probe frame.
+  Vec3 Corrected(const Pose3& h, const Vec3& p) const {
+    Vec3 q = scale.cwiseProduct(p);
+    if (bias != 0.0) q.z() += bias * Incidence(h, p);
+    return q;
+  }
+  Vec3 MapToMcs(const Pose3& h, const Vec3& p) const {
+    return h * (rotation * Corrected(h, p) + translation);
+  }
   double Residual(const Pose3& h, const Vec3& p, double radius) const {
     return (MapToMcs(h, p) - centre).norm() - radius;
   }
@@ -286,16 +356,45 @@ struct Model {
 // Inlier lists per capture: indices into Prepared::points.
 using Selection = std::vector<std::vector<int>>;
 
+// Holds the parameters of `block` listed in `fixed` (all of them: the block is constant).
+void HoldFixed(ceres::Problem* problem, double* block, int size, const std::vector<int>& fixed) {
+  if (static_cast<int>(fixed.size()) == size) {
+    problem->SetParameterBlockConstant(block);
+  } else if (!fixed.empty()) {
+    problem->SetManifold(block, new ceres::SubsetManifold(size, fixed));
+  }
+}
+
+// The model as Ceres' parameter blocks.
+struct Blocks {
+  double dtheta[3] = {0, 0, 0};
+  double t[3], c[3], s[3], b[1];
+  explicit Blocks(const Model& m) {
+    for (int k = 0; k < 3; ++k) t[k] = m.translation(k), c[k] = m.centre(k), s[k] = m.scale(k);
+    b[0] = m.bias;
+  }
+  Model ToModel(const Mat3& start_rotation) const {
+    Model m;
+    double rot[9];
+    ceres::AngleAxisToRotationMatrix(dtheta, rot);  // column-major
+    m.rotation = Eigen::Map<const Mat3>(rot) * start_rotation;
+    m.translation = Vec3(t[0], t[1], t[2]);
+    m.centre = Vec3(c[0], c[1], c[2]);
+    m.scale = Vec3(s[0], s[1], s[2]);
+    m.bias = b[0];
+    return m;
+  }
+};
+
 Model Refine(const std::vector<Prepared>& prepared,
              const Selection& selection,
              const Model& start,
              const HandEyeOptions& o,
+             const SensorFree& free,
              double huber_mm,
              int* iterations,
              double* final_cost = nullptr) {
-  double dtheta[3] = {0, 0, 0};
-  double t[3] = {start.translation(0), start.translation(1), start.translation(2)};
-  double c[3] = {start.centre(0), start.centre(1), start.centre(2)};
+  Blocks x(start);
   ceres::Problem::Options po;
   po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(po);
@@ -304,21 +403,21 @@ Model Refine(const std::vector<Prepared>& prepared,
   for (size_t i = 0; i < prepared.size(); ++i) {
     const Pose3& h = prepared[i].capture->mcs_from_flange;
     for (int j : selection[i]) {
-      const Vec3 q = start.rotation * prepared[i].points.col(j);
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PointOnSphere, 1, 3, 3, 3>(
-                                   new PointOnSphere(q, h, o.sphere_radius_mm)),
-                               loss, dtheta, t, c);
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PointOnSphere, 1, 3, 3, 3, 3, 1>(new PointOnSphere(
+              prepared[i].points.col(j), start.rotation, h, o.sphere_radius_mm, free.bias)),
+          loss, x.dtheta, x.t, x.c, x.s, x.b);
     }
   }
-  std::vector<int> fixed;
+  if (problem.NumResidualBlocks() == 0) return start;
+  std::vector<int> fixed_centre, fixed_scale;
   for (int k = 0; k < 3; ++k) {
-    if (o.known_centre_mcs[static_cast<size_t>(k)]) fixed.push_back(k);
+    if (o.known_centre_mcs[static_cast<size_t>(k)]) fixed_centre.push_back(k);
+    if (!free.scale[static_cast<size_t>(k)]) fixed_scale.push_back(k);
   }
-  if (fixed.size() == 3) {
-    problem.SetParameterBlockConstant(c);
-  } else if (!fixed.empty()) {
-    problem.SetManifold(c, new ceres::SubsetManifold(3, fixed));
-  }
+  HoldFixed(&problem, x.c, 3, fixed_centre);
+  HoldFixed(&problem, x.s, 3, fixed_scale);
+  if (!free.bias) problem.SetParameterBlockConstant(x.b);
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   so.max_num_iterations = 100;
@@ -329,28 +428,25 @@ Model Refine(const std::vector<Prepared>& prepared,
   ceres::Solve(so, &problem, &summary);
   *iterations += static_cast<int>(summary.iterations.size());
   if (final_cost) *final_cost = summary.final_cost;
-  Model m;
-  double rot[9];
-  ceres::AngleAxisToRotationMatrix(dtheta, rot);  // column-major
-  m.rotation = Eigen::Map<const Mat3>(rot) * start.rotation;
-  m.translation = Vec3(t[0], t[1], t[2]);
-  m.centre = Vec3(c[0], c[1], c[2]);
-  return m;
+  return x.ToModel(start.rotation);
 }
 
-// Jacobian row of one point's residual in (dtheta | t | c), analytically (see Refine).
-Eigen::Matrix<double, 1, 9> JacobianRow(const Model& m, const Pose3& h, const Vec3& p) {
-  const Vec3 a = m.rotation * p;
+// Jacobian row of one point's residual in (dtheta | t | c | scale | bias), analytically (see
+// Refine; the angle of incidence held where the bias is differentiated).
+Eigen::Matrix<double, 1, kParams> JacobianRow(const Model& m, const Pose3& h, const Vec3& p) {
+  const Vec3 a = m.rotation * m.Corrected(h, p);
   const Vec3 w = h * (a + m.translation) - m.centre;
   const Vec3 u = w / w.norm();
   const Vec3 g = h.linear().transpose() * u;
-  Eigen::Matrix<double, 1, 9> row;
-  row << a.cross(g).transpose(), g.transpose(), -u.transpose();
+  const Vec3 g_probe = m.rotation.transpose() * g;
+  Eigen::Matrix<double, 1, kParams> row;
+  row << a.cross(g).transpose(), g.transpose(), -u.transpose(), g_probe.cwiseProduct(p).transpose(),
+      g_probe.z() * m.Incidence(h, p);
   return row;
 }
 
 struct Information {
-  Mat9 jtj = Mat9::Zero();
+  Mat13 jtj = Mat13::Zero();
   double sum_sq = 0.0;
   int m = 0;
 };
@@ -374,14 +470,44 @@ Information Accumulate(const std::vector<Prepared>& prepared,
   return info;
 }
 
+// The parameters the data must determine: M, the centre coordinates not given, the free sensor
+// parameters.
+std::vector<int> FreeParameters(const HandEyeOptions& o, const SensorFree& sensor) {
+  std::vector<int> free;
+  for (int k = 0; k < kParams; ++k) {
+    const bool centre_given = k >= 6 && k < 9 && o.known_centre_mcs[static_cast<size_t>(k - 6)];
+    const bool scale_held =
+        k >= kScale && k < kBias && !sensor.scale[static_cast<size_t>(k - kScale)];
+    const bool bias_held = k == kBias && !sensor.bias;
+    if (!centre_given && !scale_held && !bias_held) free.push_back(k);
+  }
+  return free;
+}
+
+// sigma^2 (J^T J)^-1 over the free parameters, placed in the full layout (zeros elsewhere).
+Mat13 Covariance(const Information& info, const std::vector<int>& free, double sigma2) {
+  const int nf = static_cast<int>(free.size());
+  Eigen::MatrixXd f(nf, nf);
+  for (int a = 0; a < nf; ++a) {
+    for (int b = 0; b < nf; ++b) f(a, b) = info.jtj(free[a], free[b]);
+  }
+  const Eigen::MatrixXd cov = sigma2 * f.ldlt().solve(Eigen::MatrixXd::Identity(nf, nf));
+  Mat13 out = Mat13::Zero();
+  for (int a = 0; a < nf; ++a) {
+    for (int b = 0; b < nf; ++b) out(free[a], free[b]) = cov(a, b);
+  }
+  return out;
+}
+
 // ------------------------------------------------------------------ observability
 
-std::vector<std::string> Proposals(const std::vector<Vec9>& directions) {
-  bool along_z = false, across = false, rotation = false;
-  for (const Vec9& v : directions) {
+std::vector<std::string> Proposals(const std::vector<Vec13>& directions) {
+  bool along_z = false, across = false, rotation = false, sensor = false;
+  for (const Vec13& v : directions) {
     rotation |= v.head<3>().norm() > 0.25;
     along_z |= std::abs(v(5)) > 0.25 || std::abs(v(8)) > 0.25;
     across |= v.segment<2>(3).norm() > 0.25 || v.segment<2>(6).norm() > 0.25;
+    sensor |= v.tail<4>().norm() > 0.25;
   }
   std::vector<std::string> out;
   if (across) {
@@ -399,33 +525,39 @@ std::vector<std::string> Proposals(const std::vector<Vec9>& directions) {
         "move the sphere across the field of view between captures (X, Y and Z by about "
         "+-10 mm) at two or more spindle orientations");
   }
+  if (sensor) {
+    out.push_back(
+        "capture the sphere at several stand-off distances (a scale grows with depth) and "
+        "off-centre in the field of view (the angle of incidence changes across the sphere), "
+        "or estimate fewer sensor parameters");
+  }
   return out;
 }
 
 // Directions of the free parameters whose standard deviation exceeds `limit_mm`, in the scaled
-// space; known centre coordinates are left out (their information rows are removed).
-std::vector<std::pair<Vec9, double>> WeakDirections(const Information& info,
-                                                    const HandEyeOptions& o,
-                                                    double sigma_mm,
-                                                    double limit_mm) {
-  std::vector<int> free;
-  for (int k = 0; k < 9; ++k) {
-    if (k < 6 || !o.known_centre_mcs[static_cast<size_t>(k - 6)]) free.push_back(k);
-  }
+// space (rotations and scales times the lever); fixed parameters are left out.
+std::vector<std::pair<Vec13, double>> WeakDirections(const Information& info,
+                                                     const HandEyeOptions& o,
+                                                     const SensorFree& sensor,
+                                                     double sigma_mm,
+                                                     double limit_mm) {
+  const std::vector<int> free = FreeParameters(o, sensor);
   const int nf = static_cast<int>(free.size());
   Eigen::MatrixXd f(nf, nf);
-  const auto scale = [&](int k) { return k < 3 ? 1.0 / o.lever_mm : 1.0; };
+  const auto scale = [&](int k) {
+    return k < 3 || (k >= kScale && k < kBias) ? 1.0 / o.lever_mm : 1.0;
+  };
   for (int a = 0; a < nf; ++a) {
     for (int b = 0; b < nf; ++b)
       f(a, b) = info.jtj(free[a], free[b]) * scale(free[a]) * scale(free[b]);
   }
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(f);
-  std::vector<std::pair<Vec9, double>> weak;
+  std::vector<std::pair<Vec13, double>> weak;
   for (int k = 0; k < nf; ++k) {
     const double lambda = std::max(es.eigenvalues()(k), 0.0);
     const double std_mm = lambda > 0 ? sigma_mm / std::sqrt(lambda) : INFINITY;
     if (std_mm <= limit_mm) continue;
-    Vec9 v = Vec9::Zero();
+    Vec13 v = Vec13::Zero();
     for (int a = 0; a < nf; ++a) v(free[a]) = es.eigenvectors()(a, k);
     weak.push_back({v, std_mm});
   }
@@ -447,14 +579,15 @@ std::string FormatStd(double std_mm) {
 // a tenth of it.
 void CheckObservable(const Information& info,
                      const HandEyeOptions& o,
+                     const SensorFree& sensor,
                      double sigma_mm,
                      double limit_mm,
                      std::vector<std::string>* warnings) {
-  const auto undetermined = WeakDirections(info, o, sigma_mm, limit_mm);
+  const auto undetermined = WeakDirections(info, o, sensor, sigma_mm, limit_mm);
   if (!undetermined.empty()) {
     std::ostringstream msg;
     msg << "the captures do not determine the calibration:";
-    std::vector<Vec9> dirs;
+    std::vector<Vec13> dirs;
     for (size_t k = 0; k < undetermined.size(); ++k) {
       msg << (k ? "; " : " ") << Describe(undetermined[k].first) << " trade off (determined to "
           << FormatStd(undetermined[k].second) << ")";
@@ -464,9 +597,208 @@ void CheckObservable(const Information& info,
     throw HandEyeError(Kind::kUnderDetermined, msg.str(), Proposals(dirs));
   }
   if (!warnings) return;
-  for (const auto& [v, s] : WeakDirections(info, o, sigma_mm, 0.1 * limit_mm)) {
+  for (const auto& [v, s] : WeakDirections(info, o, sensor, sigma_mm, 0.1 * limit_mm)) {
     warnings->push_back("weakly determined: " + Describe(v) + " (to " + FormatStd(s) + ")");
   }
+}
+
+// Whether the poses cannot tell the incidence bias from the rest (a scale, M).
+bool BiasAmbiguous(const Information& info,
+                   const HandEyeOptions& o,
+                   const SensorFree& sensor,
+                   double sigma_mm) {
+  if (!sensor.bias) return false;
+  for (const auto& [v, std_mm] : WeakDirections(info, o, sensor, sigma_mm, o.max_std_mm)) {
+    if (std::abs(v(kBias)) > 0.25) return true;
+  }
+  return false;
+}
+
+// ------------------------------------------------------------------ per-capture centres
+
+// Where a capture's points, mapped by `m`, put the sphere (radius held), on the side of `near`.
+// A profile is a circle: its centre lies sqrt(R^2 - rho^2) off the circle's plane on either side,
+// and the side nearer `near` is taken (a fit of the sphere itself could slide across the plane
+// where the cut is near the equator). A cloud: Gauss-Newton on the sphere from `near`.
+Vec3 CaptureCentre(const Model& m,
+                   const Prepared& p,
+                   const std::vector<int>& points,
+                   double radius,
+                   const Vec3& near) {
+  const Pose3& h = p.capture->mcs_from_flange;
+  geometry::Points3 x(3, static_cast<Eigen::Index>(points.size()));
+  for (size_t k = 0; k < points.size(); ++k)
+    x.col(static_cast<Eigen::Index>(k)) = m.MapToMcs(h, p.points.col(points[k]));
+  if (x.cols() < 4) return near;
+  if (p.capture->single_profile) {
+    try {
+      const geometry::Circle3 circle = geometry::FitCircle3(x).shape;
+      const double off = std::sqrt(std::max(0.0, radius * radius - circle.radius * circle.radius));
+      const Vec3 a = circle.center + off * circle.normal, b = circle.center - off * circle.normal;
+      return (a - near).norm() <= (b - near).norm() ? a : b;
+    } catch (const geometry::GeometryError&) {
+      return near;
+    }
+  }
+  Vec3 c = near;
+  constexpr int kMaxSteps = 50;
+  for (int step = 0; step < kMaxSteps; ++step) {
+    Mat3 jtj = Mat3::Zero();
+    Vec3 jtr = Vec3::Zero();
+    for (Eigen::Index k = 0; k < x.cols(); ++k) {
+      const Vec3 d = x.col(k) - c;
+      const double n = d.norm();
+      if (!(n > 0)) continue;
+      const Vec3 row = -d / n;  // d r / d c
+      jtj += row * row.transpose(), jtr += row * (n - radius);
+    }
+    const Vec3 dc = jtj.ldlt().solve(-jtr);
+    if (!dc.allFinite()) break;
+    c += dc;
+    if (dc.norm() < 1e-9) break;
+  }
+  return c;
+}
+
+// ------------------------------------------------------------------ the solution's steps
+
+struct Solved {
+  Model model;
+  Selection selection;
+  SensorFree sensor;
+};
+
+// Plain least squares on trimmed sets (3 RMS) until the set is stable.
+void TrimAndRefine(const std::vector<Prepared>& prepared,
+                   const HandEyeOptions& o,
+                   Solved* s,
+                   int* iterations) {
+  for (int round = 0; round < kMaxTrimRounds; ++round) {
+    s->model = Refine(prepared, s->selection, s->model, o, s->sensor, 0.0, iterations);
+    const Information info = Accumulate(prepared, s->selection, s->model, o.sphere_radius_mm);
+    const double limit = std::max(o.trim_sigmas * std::sqrt(info.sum_sq / info.m), kTrimFloorMm);
+    Selection next(prepared.size());
+    for (size_t i = 0; i < prepared.size(); ++i) {
+      const Pose3& h = prepared[i].capture->mcs_from_flange;
+      // Only points its own capture's fit put on the sphere are candidates: background the
+      // capture's fit rejected is not re-admitted because it happens to lie near the sphere.
+      for (int j : prepared[i].inliers) {
+        if (std::abs(s->model.Residual(h, prepared[i].points.col(j), o.sphere_radius_mm)) <= limit)
+          next[i].push_back(j);
+      }
+    }
+    if (next == s->selection) break;
+    s->selection = std::move(next);
+  }
+}
+
+// A finding when a scale is further from 1 than the limit and than 3 sigma.
+std::optional<std::string> ScaleFinding(int axis, double scale, double std, double limit) {
+  const double off = scale - 1.0;
+  if (std::abs(off) < limit || std::abs(off) < 3.0 * std) return std::nullopt;
+  const char* const names[3] = {"lateral (x)", "lateral (y)", "depth (z)"};
+  std::ostringstream m;
+  m << std::fixed << std::setprecision(2) << "the probe's " << names[axis] << " scale is "
+    << 100.0 * std::abs(off) << " % off its calibration (its readings fit the sphere x"
+    << std::setprecision(4) << scale << " +- " << std << "): recalibrate the camera/projector";
+  return m.str();
+}
+
+// The sensor's parameters with their uncertainty and what they say to a person.
+SensorEstimate EstimateSensor(const Solved& s, const Mat13& cov, const HandEyeOptions& o) {
+  SensorEstimate e;
+  e.estimated = s.sensor.Any();
+  e.scale = s.model.scale;
+  for (int k = 0; k < 3; ++k) e.scale_std(k) = std::sqrt(cov(kScale + k, kScale + k));
+  e.incidence_bias_mm = s.model.bias;
+  e.incidence_bias_std_mm = std::sqrt(cov(kBias, kBias));
+  if (s.sensor.scale[2] && s.sensor.bias) {
+    e.scale_bias_correlation =
+        cov(kScale + 2, kBias) / std::sqrt(cov(kScale + 2, kScale + 2) * cov(kBias, kBias));
+  }
+  for (int k = 0; k < 3; ++k) {
+    if (!s.sensor.scale[static_cast<size_t>(k)]) continue;
+    if (auto f = ScaleFinding(k, e.scale(k), e.scale_std(k), o.sensor.finding_scale))
+      e.findings.push_back(*f);
+  }
+  if (s.sensor.bias && std::abs(e.incidence_bias_mm) >= o.sensor.finding_bias_mm &&
+      std::abs(e.incidence_bias_mm) >= 3.0 * e.incidence_bias_std_mm) {
+    std::ostringstream m;
+    m << std::fixed << std::setprecision(3)
+      << "the probe's depth reading depends on the angle of incidence: " << e.incidence_bias_mm
+      << " +- " << e.incidence_bias_std_mm
+      << " mm at grazing light (a shiny surface; measure a matt one, or correct for it)";
+    e.findings.push_back(m.str());
+  }
+  return e;
+}
+
+// Each capture predicted by the solution of all the others (same sensor model, same point sets).
+LeaveOneOut ValidateLeaveOneOut(const std::vector<Prepared>& prepared,
+                                const Solved& s,
+                                const HandEyeOptions& o,
+                                int* iterations) {
+  LeaveOneOut out;
+  if (static_cast<int>(prepared.size()) <= kMinCaptures) return out;
+  double sum_sq = 0.0, centre_sq = 0.0;
+  int points = 0;
+  for (size_t i = 0; i < prepared.size(); ++i) {
+    Selection others = s.selection;
+    others[i].clear();
+    const Model m = Refine(prepared, others, s.model, o, s.sensor, 0.0, iterations);
+    HeldOutCapture held{prepared[i].capture->id, 0.0, 0.0};
+    const Pose3& h = prepared[i].capture->mcs_from_flange;
+    double ss = 0.0;
+    for (int j : s.selection[i]) {
+      const double r = m.Residual(h, prepared[i].points.col(j), o.sphere_radius_mm);
+      ss += r * r;
+    }
+    const int n = static_cast<int>(s.selection[i].size());
+    held.rms_mm = n ? std::sqrt(ss / n) : 0.0;
+    held.centre_error_mm =
+        (CaptureCentre(m, prepared[i], s.selection[i], o.sphere_radius_mm, m.centre) - m.centre)
+            .norm();
+    sum_sq += ss, points += n, centre_sq += held.centre_error_mm * held.centre_error_mm;
+    out.captures.push_back(held);
+  }
+  out.rms_mm = points ? std::sqrt(sum_sq / points) : 0.0;
+  out.centre_error_rms_mm = std::sqrt(centre_sq / static_cast<double>(out.captures.size()));
+  return out;
+}
+
+// The per-capture report and the centres' spread about their mean.
+void ReportCaptures(const std::vector<Prepared>& prepared,
+                    const Solved& s,
+                    const HandEyeOptions& o,
+                    HandEyeResult* result) {
+  Vec3 mean = Vec3::Zero();
+  for (size_t i = 0; i < prepared.size(); ++i) {
+    const Prepared& p = prepared[i];
+    const Pose3& h = p.capture->mcs_from_flange;
+    CaptureReport r;
+    r.id = p.capture->id;
+    r.points = static_cast<int>(p.points.cols());
+    r.on_sphere = static_cast<int>(p.inliers.size());
+    r.inliers = static_cast<int>(s.selection[i].size());
+    double ss = 0.0;
+    for (int j : s.selection[i]) {
+      const double res = s.model.Residual(h, p.points.col(j), o.sphere_radius_mm);
+      ss += res * res, r.max_abs_mm = std::max(r.max_abs_mm, std::abs(res));
+    }
+    r.rms_mm = r.inliers ? std::sqrt(ss / r.inliers) : 0.0;
+    r.centre_mcs = CaptureCentre(s.model, p, s.selection[i], o.sphere_radius_mm, s.model.centre);
+    r.fitted_radius_mm = p.fitted_radius_mm;
+    mean += r.centre_mcs / static_cast<double>(prepared.size());
+    result->points_rejected += r.points - r.inliers;
+    result->captures.push_back(r);
+  }
+  double spread2 = 0.0;
+  for (const CaptureReport& r : result->captures) {
+    const double d = (r.centre_mcs - mean).norm();
+    spread2 += d * d, result->centre_spread_max_mm = std::max(result->centre_spread_max_mm, d);
+  }
+  result->centre_spread_rms_mm = std::sqrt(spread2 / static_cast<double>(prepared.size()));
+  result->centre_mean_offset_mm = (mean - s.model.centre).norm();
 }
 
 }  // namespace
@@ -493,16 +825,73 @@ Pose3 PoseFromXyzWpr(double x, double y, double z, double w_deg, double p_deg, d
   return pose;
 }
 
-HandEyeResult SolveSphereHandEye(const std::vector<SphereCapture>& captures,
-                                 const HandEyeOptions& o) {
-  o.Check();
-  HandEyeResult result;
+namespace {
+
+void CheckPoses(const std::vector<SphereCapture>& captures) {
   for (const SphereCapture& c : captures) {
     if (!c.mcs_from_flange.matrix().allFinite()) Bad("capture " + c.id + ": pose is not finite");
     const Mat3 r = c.mcs_from_flange.linear();
     if ((r.transpose() * r - Mat3::Identity()).norm() > 1e-6 || r.determinant() < 0)
       Bad("capture " + c.id + ": pose's rotation is not a rotation");
   }
+}
+
+// The robust joint fit (rigid: the sensor as calibrated) from every closed-form start; the
+// lowest cost wins.
+Model BestStart(const std::vector<Prepared>& prepared,
+                const Selection& selection,
+                const HandEyeOptions& o,
+                double sigma,
+                int* iterations) {
+  const std::vector<Start> starts = CandidateStarts(prepared, o);
+  const auto model_of = [](const Start& s) {
+    return Model{s.linear.rotation, s.linear.translation, s.linear.centre};
+  };
+  // Pose sets that cannot work at all (a null space of the problem, the sensor parameters asked
+  // for included) are refused before any iteration; the close call is made at the solution.
+  CheckObservable(Accumulate(prepared, selection, model_of(starts.front()), o.sphere_radius_mm), o,
+                  SensorFree::Of(o.sensor), sigma, kStructuralFactor * o.max_std_mm, nullptr);
+  Model model = model_of(starts.front());
+  double best_cost = INFINITY;
+  for (const Start& s : starts) {
+    double cost = 0.0;
+    const Model m =
+        Refine(prepared, selection, model_of(s), o, SensorFree{}, 2.0 * sigma, iterations, &cost);
+    if (cost < best_cost) best_cost = cost, model = m;
+  }
+  return model;
+}
+
+// The joint fit with the sensor model asked for; when the poses cannot tell the incidence bias
+// from the rest, it is dropped (and said) rather than the whole calibration refused.
+Solved SolveJoint(const std::vector<Prepared>& prepared,
+                  Selection selection,
+                  const Model& rigid,
+                  const HandEyeOptions& o,
+                  std::vector<std::string>* warnings,
+                  int* iterations) {
+  Solved s{rigid, std::move(selection), SensorFree::Of(o.sensor)};
+  TrimAndRefine(prepared, o, &s, iterations);
+  const Information info = Accumulate(prepared, s.selection, s.model, o.sphere_radius_mm);
+  const double sigma_mm = std::sqrt(info.sum_sq / std::max(1, info.m - kParams));
+  if (BiasAmbiguous(info, o, s.sensor, sigma_mm)) {
+    warnings->push_back(
+        "ambiguous: these poses cannot tell an incidence-angle bias from the sensor's scale and "
+        "the mounting; the bias is not estimated");
+    s.sensor.bias = false;
+    s.model.bias = 0.0;
+    TrimAndRefine(prepared, o, &s, iterations);
+  }
+  return s;
+}
+
+}  // namespace
+
+HandEyeResult SolveSphereHandEye(const std::vector<SphereCapture>& captures,
+                                 const HandEyeOptions& o) {
+  o.Check();
+  CheckPoses(captures);
+  HandEyeResult result;
   std::vector<Prepared> prepared;
   for (const SphereCapture& c : captures) {
     if (auto p = Prepare(c, o, &result.warnings)) prepared.push_back(std::move(*p));
@@ -515,95 +904,29 @@ HandEyeResult SolveSphereHandEye(const std::vector<SphereCapture>& captures,
   double sigma = 0.0;
   for (const Prepared& p : prepared) selection.push_back(p.inliers), sigma += p.fit_rms_mm;
   sigma = std::max(sigma / static_cast<double>(prepared.size()), kTrimFloorMm);
-  const std::vector<Start> starts = CandidateStarts(prepared, o);
-  const auto model_of = [](const Start& s) {
-    return Model{s.linear.rotation, s.linear.translation, s.linear.centre};
-  };
-  // Pose sets that cannot work at all (a null space of the problem) are refused before any
-  // iteration; the close call is made at the solution below.
-  CheckObservable(Accumulate(prepared, selection, model_of(starts.front()), o.sphere_radius_mm), o,
-                  sigma, kStructuralFactor * o.max_std_mm, nullptr);
-  // Robust joint fit from each start; the lowest cost wins. Then plain least squares on trimmed
-  // sets until the set is stable.
-  Model model = model_of(starts.front());
-  double best_cost = INFINITY;
-  for (const Start& s : starts) {
-    double cost = 0.0;
-    const Model m =
-        Refine(prepared, selection, model_of(s), o, 2.0 * sigma, &result.iterations, &cost);
-    if (cost < best_cost) best_cost = cost, model = m;
-  }
-  for (int round = 0; round < kMaxTrimRounds; ++round) {
-    model = Refine(prepared, selection, model, o, 0.0, &result.iterations);
-    const Information info = Accumulate(prepared, selection, model, o.sphere_radius_mm);
-    const double limit = std::max(o.trim_sigmas * std::sqrt(info.sum_sq / info.m), kTrimFloorMm);
-    Selection next(prepared.size());
-    for (size_t i = 0; i < prepared.size(); ++i) {
-      const Pose3& h = prepared[i].capture->mcs_from_flange;
-      // Only points its own capture's fit put on the sphere are candidates: background the
-      // capture's fit rejected is not re-admitted because it happens to lie near the sphere.
-      for (int j : prepared[i].inliers) {
-        if (std::abs(model.Residual(h, prepared[i].points.col(j), o.sphere_radius_mm)) <= limit)
-          next[i].push_back(j);
-      }
-    }
-    if (next == selection) break;
-    selection = std::move(next);
-  }
+  const Model rigid = BestStart(prepared, selection, o, sigma, &result.iterations);
+  const Solved s = SolveJoint(prepared, selection, rigid, o, &result.warnings, &result.iterations);
 
-  const Information info = Accumulate(prepared, selection, model, o.sphere_radius_mm);
-  const int dof = info.m - 9;
+  const Information info = Accumulate(prepared, s.selection, s.model, o.sphere_radius_mm);
+  const std::vector<int> free = FreeParameters(o, s.sensor);
+  const int dof = info.m - static_cast<int>(free.size());
   if (dof <= 0) Bad("too few points on the sphere after trimming");
   const double sigma2 = info.sum_sq / dof;
-  CheckObservable(info, o, std::sqrt(sigma2), o.max_std_mm, &result.warnings);
-  std::vector<int> free;
-  for (int k = 0; k < 9; ++k) {
-    if (k < 6 || !o.known_centre_mcs[static_cast<size_t>(k - 6)]) free.push_back(k);
-  }
-  Eigen::MatrixXd f(free.size(), free.size());
-  for (size_t a = 0; a < free.size(); ++a) {
-    for (size_t b = 0; b < free.size(); ++b) f(a, b) = info.jtj(free[a], free[b]);
-  }
-  const Eigen::MatrixXd cov =
-      sigma2 * f.ldlt().solve(Eigen::MatrixXd::Identity(f.rows(), f.cols()));
-  for (size_t a = 0; a < free.size(); ++a) {
-    for (size_t b = 0; b < free.size(); ++b) result.covariance(free[a], free[b]) = cov(a, b);
-  }
-
-  result.flange_from_probe.linear() = model.rotation;
-  result.flange_from_probe.translation() = model.translation;
-  result.centre_mcs = model.centre;
+  CheckObservable(info, o, s.sensor, std::sqrt(sigma2), o.max_std_mm, &result.warnings);
+  const Mat13 cov = Covariance(info, free, sigma2);
+  result.covariance = cov.topLeftCorner<9, 9>();
+  result.sensor = EstimateSensor(s, cov, o);
+  result.flange_from_probe.linear() = s.model.rotation;
+  result.flange_from_probe.translation() = s.model.translation;
+  result.centre_mcs = s.model.centre;
   result.point_rms_mm = std::sqrt(info.sum_sq / info.m);
   result.points_used = info.m;
-  double spread2 = 0.0;
-  for (size_t i = 0; i < prepared.size(); ++i) {
-    const Prepared& p = prepared[i];
-    const Pose3& h = p.capture->mcs_from_flange;
-    CaptureReport r;
-    r.id = p.capture->id;
-    r.points = static_cast<int>(p.points.cols());
-    r.inliers = static_cast<int>(selection[i].size());
-    double ss = 0.0;
-    for (int j : selection[i]) {
-      const double res = model.Residual(h, p.points.col(j), o.sphere_radius_mm);
-      ss += res * res, r.max_abs_mm = std::max(r.max_abs_mm, std::abs(res));
-    }
-    r.rms_mm = r.inliers ? std::sqrt(ss / r.inliers) : 0.0;
-    // A profile's centre: the side the solution puts it on.
-    r.centre_mcs = model.MapToMcs(h, p.centre_in_probe.front());
-    for (const Vec3& q : p.centre_in_probe) {
-      const Vec3 m = model.MapToMcs(h, q);
-      if ((m - model.centre).norm() < (r.centre_mcs - model.centre).norm()) r.centre_mcs = m;
-    }
-    r.fitted_radius_mm = p.fitted_radius_mm;
-    const double d = (r.centre_mcs - model.centre).norm();
-    spread2 += d * d, result.centre_spread_max_mm = std::max(result.centre_spread_max_mm, d);
-    result.points_rejected += r.points - r.inliers;
-    result.captures.push_back(r);
-  }
-  result.centre_spread_rms_mm = std::sqrt(spread2 / static_cast<double>(prepared.size()));
+  ReportCaptures(prepared, s, o, &result);
+  if (o.leave_one_out)
+    result.leave_one_out = ValidateLeaveOneOut(prepared, s, o, &result.iterations);
   if (!result.flange_from_probe.matrix().allFinite() || !result.covariance.allFinite() ||
-      !result.centre_mcs.allFinite()) {
+      !result.centre_mcs.allFinite() || !result.sensor.scale.allFinite() ||
+      !std::isfinite(result.sensor.incidence_bias_mm)) {
     throw HandEyeError(Kind::kUnderDetermined, "the fit did not converge to a finite solution");
   }
   return result;

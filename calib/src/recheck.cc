@@ -60,23 +60,84 @@ Vec3 CentreWithRadius(const geometry::Points3& points,
   return centre;
 }
 
-// The sphere centre a capture sees, in the probe frame: robust free-radius fit to find the
-// sphere and its apparent radius, then the centre with the radius held.
-Vec3 CentreInProbe(const RecheckCapture& c, double radius, double* fitted_radius) {
-  geometry::Points3 finite(3, c.points_in_probe.cols());
+// A capture's points on the sphere: finite, then those its robust free-radius fit keeps.
+struct OnSphere {
+  geometry::Points3 points;
+  std::vector<int> inliers;
+  Vec3 centre;  // with the radius held
+  double fitted_radius_mm = 0.0;
+};
+
+// The sphere a capture sees, in the probe frame: robust free-radius fit to find the sphere and
+// its apparent radius, then the centre with the radius held.
+OnSphere FindSphere(const RecheckCapture& c, double radius) {
+  OnSphere s;
+  s.points.resize(3, c.points_in_probe.cols());
   Eigen::Index n = 0;
   for (Eigen::Index i = 0; i < c.points_in_probe.cols(); ++i) {
-    if (c.points_in_probe.col(i).allFinite()) finite.col(n++) = c.points_in_probe.col(i);
+    if (c.points_in_probe.col(i).allFinite()) s.points.col(n++) = c.points_in_probe.col(i);
   }
-  finite.conservativeResize(3, n);
+  s.points.conservativeResize(3, n);
   if (n < kMinPoints) Bad("capture " + c.id + ": " + std::to_string(n) + " points on the sphere");
   try {
-    const auto fit = geometry::FitSphereRobust(finite);
-    *fitted_radius = fit.fit.shape.radius;
-    return CentreWithRadius(finite, fit.inliers, radius, fit.fit.shape.center);
+    const auto fit = geometry::FitSphereRobust(s.points);
+    s.fitted_radius_mm = fit.fit.shape.radius;
+    s.inliers = fit.inliers;
+    s.centre = CentreWithRadius(s.points, s.inliers, radius, fit.fit.shape.center);
   } catch (const geometry::GeometryError& e) {
     Bad("capture " + c.id + ": " + e.what());
   }
+  return s;
+}
+
+struct DepthScale {
+  std::vector<Vec3> centres;  // of the readings corrected by the scale
+  double scale = 1.0, std = 0.0;
+};
+
+// One depth scale s shared by the captures and each capture's centre c_i, the radius held:
+// |(x, y, s z) - c_i| = R (Gauss-Newton on the normal equations; 3n + 1 unknowns, one row per
+// point). On a cap seen along z the scale changes the cap's depth for its width by the factor
+// s, which no centre absorbs; s is about the probe origin, as the hand-eye's sensor model
+// (hand_eye.h, SensorModelOptions), so a 1 % scale also moves a centre 100 mm away by 1 mm.
+DepthScale FitDepthScale(const std::vector<OnSphere>& spheres, double radius) {
+  const int n = static_cast<int>(spheres.size()), u = 3 * n + 1;
+  DepthScale d;
+  for (const OnSphere& s : spheres) d.centres.push_back(s.centre);
+  Eigen::MatrixXd jtj(u, u);
+  double sum_sq = 0.0;
+  int rows = 0;
+  for (int step = 0; step < kGaussNewtonSteps; ++step) {
+    jtj.setZero();
+    Eigen::VectorXd jtr = Eigen::VectorXd::Zero(u);
+    sum_sq = 0.0, rows = 0;
+    for (int i = 0; i < n; ++i) {
+      const OnSphere& s = spheres[static_cast<size_t>(i)];
+      for (int k : s.inliers) {
+        const Vec3 p = s.points.col(k);
+        const Vec3 w = Vec3(p.x(), p.y(), d.scale * p.z()) - d.centres[static_cast<size_t>(i)];
+        const double dist = w.norm();
+        if (!(dist > 0)) continue;
+        Eigen::Matrix<double, 4, 1> j;
+        j << -w / dist, w.z() / dist * p.z();
+        const double r = dist - radius;
+        const int at[4] = {3 * i, 3 * i + 1, 3 * i + 2, u - 1};
+        for (int a = 0; a < 4; ++a) {
+          jtr(at[a]) += j(a) * r;
+          for (int b = 0; b < 4; ++b) jtj(at[a], at[b]) += j(a) * j(b);
+        }
+        sum_sq += r * r, ++rows;
+      }
+    }
+    const Eigen::VectorXd dx = -jtj.ldlt().solve(jtr);
+    if (!dx.allFinite()) Bad("the depth scale of the readings could not be fitted");
+    for (int i = 0; i < n; ++i) d.centres[static_cast<size_t>(i)] += dx.segment<3>(3 * i);
+    d.scale += dx(u - 1);
+    if (dx.norm() < 1e-12) break;
+  }
+  const double sigma2 = sum_sq / std::max(1, rows - u);
+  d.std = std::sqrt(sigma2 * jtj.ldlt().solve(Eigen::VectorXd::Unit(u, u - 1))(u - 1));
+  return d;
 }
 
 struct State {
@@ -93,7 +154,8 @@ void RecheckOptions::Check() const {
   if (!(sphere_radius_mm > 0)) Bad("sphere radius must be > 0");
   if (!original_flange_from_probe.matrix().allFinite() || !original_centre_mcs.allFinite())
     Bad("the original calibration is not finite");
-  if (!(max_offset_mm > 0 && max_rotation_deg > 0 && max_residual_mm > 0 && lever_mm > 0))
+  if (!(max_offset_mm > 0 && max_rotation_deg > 0 && max_residual_mm > 0 && lever_mm > 0 &&
+        max_depth_scale_change > 0))
     Bad("limits must be > 0");
 }
 
@@ -109,14 +171,23 @@ RecheckResult Recheck(const std::vector<RecheckCapture>& captures, const Recheck
                        {"measure the sphere at three or more spindle orientations (M19 0, 120, "
                         "240 degrees) or head orientations"});
   }
-  std::vector<Vec3> q(static_cast<size_t>(n));
+  std::vector<Vec3> q;
+  std::vector<OnSphere> spheres;
   RecheckResult result;
-  for (int i = 0; i < n; ++i) {
-    double radius = 0.0;
-    q[static_cast<size_t>(i)] =
-        CentreInProbe(captures[static_cast<size_t>(i)], o.sphere_radius_mm, &radius);
-    result.apparent_radius_change_mm += (radius - o.sphere_radius_mm) / n;
+  for (const RecheckCapture& c : captures) {
+    spheres.push_back(FindSphere(c, o.sphere_radius_mm));
+    q.push_back(spheres.back().centre);
+    result.apparent_radius_change_mm += (spheres.back().fitted_radius_mm - o.sphere_radius_mm) / n;
   }
+  // A changed depth scale is the camera/projector's calibration, not the mount: when it is a
+  // finding the centres are taken from the corrected readings, so it is not folded into an
+  // offset, and it is reported as what it is.
+  const DepthScale depth = FitDepthScale(spheres, o.sphere_radius_mm);
+  result.depth_scale = depth.scale, result.depth_scale_std = depth.std;
+  const double scale_change = std::abs(depth.scale - 1.0);
+  const bool scale_changed =
+      scale_change > o.max_depth_scale_change && scale_change > 3.0 * depth.std;
+  if (scale_changed) q = depth.centres;
   // Unknowns (rotation x lever | offset | centre shift); one orientation: the offset only.
   std::vector<int> active;
   if (n >= 2) active = {0, 1, 2};
@@ -183,7 +254,12 @@ RecheckResult Recheck(const std::vector<RecheckCapture>& captures, const Recheck
 
   std::ostringstream why;
   why.precision(4);
-  if (result.offset_in_flange_mm.norm() > o.max_offset_mm) {
+  if (scale_changed) {
+    why << "the probe's depth scale changed by " << 100.0 * (depth.scale - 1.0)
+        << " % (its readings fit the sphere x" << depth.scale << " +- " << depth.std << ", limit "
+        << 100.0 * o.max_depth_scale_change
+        << " %): its camera/projector calibration no longer holds; recalibrate the probe";
+  } else if (result.offset_in_flange_mm.norm() > o.max_offset_mm) {
     why << "the mount moved " << result.offset_in_flange_mm.norm() << " mm (quick fix limit "
         << o.max_offset_mm << " mm)";
   } else if (change.angle() * 180.0 / M_PI > o.max_rotation_deg) {

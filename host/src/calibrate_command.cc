@@ -36,6 +36,7 @@ constexpr const char* kUsage =
     "       mlp calibrate projector --views MANIFEST --design PROBE_FILE --out PROBE_FILE\n"
     "                               [--id CALIBRATION_ID] [--json]\n"
     "       mlp calibrate hand-eye --captures MANIFEST --store DIR [--dry-run] [--json]\n"
+    "                              [--estimate scale_x,scale_y,scale_z,incidence_bias]\n"
     "       mlp calibrate recheck  --captures MANIFEST --store DIR [--sphere-moved] [--json]\n"
     "       mlp calibrate list     --store DIR --probe SERIAL [--json]\n"
     "  camera    camera intrinsics and distortion from LED frames of a chessboard\n"
@@ -48,6 +49,9 @@ constexpr const char* kUsage =
     "            calibration (never from an earlier recheck); stored as a new record\n"
     "  list      the calibrations of a probe, oldest first\n"
     "  --views MANIFEST     JSON \"mlprobe-board-views/1\": the board and the capture folders\n"
+    "  --estimate LIST      hand-eye: estimate the sensor's own scale per probe axis and its\n"
+    "            depth bias with the angle of incidence too, and report them (a diagnosis:\n"
+    "            nothing is stored, since the firmware does not correct its readings so)\n"
     "  --captures MANIFEST  JSON \"mlprobe-sphere-captures/1\": probe serial, sphere radius,\n"
     "            optional known centre coordinates, and per capture a cloud file\n"
     "            (.xyz/.txt/.pcd/.ply, or an OpenCV .yml profile) with its flange pose\n"
@@ -59,7 +63,29 @@ constexpr const char* kUsage =
 struct Args {
   std::string command, captures, store, probe;
   bool json = false, dry_run = false, sphere_moved = false;
+  calib::SensorModelOptions estimate;
 };
+
+// "scale_x,scale_z,incidence_bias" -> which sensor parameters the hand-eye estimates.
+calib::SensorModelOptions ParseEstimate(const std::string& list) {
+  calib::SensorModelOptions o;
+  std::stringstream in(list);
+  for (std::string name; std::getline(in, name, ',');) {
+    if (name == "scale_x")
+      o.scale_x = true;
+    else if (name == "scale_y")
+      o.scale_y = true;
+    else if (name == "scale_z")
+      o.scale_z = true;
+    else if (name == "incidence_bias")
+      o.incidence_bias = true;
+    else
+      throw UsageError("--estimate: unknown parameter '" + name +
+                       "' (scale_x, scale_y, scale_z, incidence_bias)");
+  }
+  if (!o.Any()) throw UsageError("--estimate needs at least one parameter");
+  return o;
+}
 
 Args ParseArgs(const std::vector<std::string>& args) {
   if (args.empty()) throw UsageError("a sub-command is needed");
@@ -83,6 +109,8 @@ Args ParseArgs(const std::vector<std::string>& args) {
       a.dry_run = true;
     else if (s == "--sphere-moved")
       a.sphere_moved = true;
+    else if (s == "--estimate")
+      a.estimate = ParseEstimate(value());
     else
       throw UsageError("unknown option " + s);
   }
@@ -90,6 +118,7 @@ Args ParseArgs(const std::vector<std::string>& args) {
   if (a.command != "list" && a.captures.empty())
     throw UsageError("--captures MANIFEST is required");
   if (a.command == "list" && a.probe.empty()) throw UsageError("--probe SERIAL is required");
+  if (a.estimate.Any() && a.command != "hand-eye") throw UsageError("--estimate is for hand-eye");
   return a;
 }
 
@@ -172,6 +201,39 @@ json JVec(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 json PoseJson(const Pose3& p) { return jf::PoseToJson(p); }
 
+json SensorJson(const calib::SensorEstimate& e) {
+  return {{"scale", JVec(e.scale)},
+          {"scale_std", JVec(e.scale_std)},
+          {"incidence_bias_mm", e.incidence_bias_mm},
+          {"incidence_bias_std_mm", e.incidence_bias_std_mm},
+          {"scale_bias_correlation", e.scale_bias_correlation},
+          {"findings", e.findings}};
+}
+
+json LeaveOneOutJson(const calib::LeaveOneOut& v) {
+  json caps = json::array();
+  for (const auto& c : v.captures)
+    caps.push_back({{"id", c.id}, {"rms_mm", c.rms_mm}, {"centre_error_mm", c.centre_error_mm}});
+  return {{"rms_mm", v.rms_mm}, {"centre_error_rms_mm", v.centre_error_rms_mm}, {"captures", caps}};
+}
+
+void PrintSensorAndValidation(const calib::HandEyeResult& r, std::ostream& out) {
+  const calib::SensorEstimate& e = r.sensor;
+  if (e.estimated) {
+    out << "  sensor scale x " << Fixed(e.scale.x(), 5) << " +- " << Fixed(e.scale_std.x(), 5)
+        << ", y " << Fixed(e.scale.y(), 5) << " +- " << Fixed(e.scale_std.y(), 5) << ", z "
+        << Fixed(e.scale.z(), 5) << " +- " << Fixed(e.scale_std.z(), 5) << "; incidence bias "
+        << Fixed(e.incidence_bias_mm * 1e3, 1) << " +- " << Fixed(e.incidence_bias_std_mm * 1e3, 1)
+        << " um at grazing light\n";
+    for (const auto& f : e.findings) out << "  finding: " << f << "\n";
+  }
+  if (!r.leave_one_out.captures.empty()) {
+    out << "  leave-one-out: held-out point RMS " << Fixed(r.leave_one_out.rms_mm * 1e3, 2)
+        << " um, held-out centre error RMS " << Fixed(r.leave_one_out.centre_error_rms_mm * 1e3, 2)
+        << " um\n";
+  }
+}
+
 int HandEye(const Args& a, std::ostream& out, std::ostream& err) {
   const Manifest m = LoadManifest(a.captures);
   calib::HandEyeOptions o;
@@ -179,11 +241,15 @@ int HandEye(const Args& a, std::ostream& out, std::ostream& err) {
   o.known_centre_mcs = m.known_centre;
   if (m.max_std_mm) o.max_std_mm = *m.max_std_mm;
   if (m.lever_mm) o.lever_mm = *m.lever_mm;
+  o.sensor = a.estimate;
   if (!a.json)
     err << "mlp calibrate: solving the hand-eye from " << m.captures.size() << " captures\n";
   const calib::HandEyeResult r = calib::SolveSphereHandEye(m.captures, o);
-  std::string id = "(not stored: --dry-run)";
-  if (!a.dry_run) {
+  // With a sensor model, M assumes readings corrected by it, which the firmware does not make:
+  // a diagnosis, never a calibration to measure with.
+  std::string id = a.estimate.Any() ? "(not stored: a diagnosis with the sensor model)"
+                                    : "(not stored: --dry-run)";
+  if (!a.dry_run && !a.estimate.Any()) {
     id = calib::CalibrationStore(a.store).Save(
         calib::MakeRecord(m.probe_serial, r, m.captures, m.radius_mm));
   }
@@ -203,6 +269,7 @@ int HandEye(const Args& a, std::ostream& out, std::ostream& err) {
     j["points_rejected"] = r.points_rejected;
     j["centre_spread_rms_mm"] = r.centre_spread_rms_mm;
     j["centre_spread_max_mm"] = r.centre_spread_max_mm;
+    j["centre_mean_offset_mm"] = r.centre_mean_offset_mm;
     json caps = json::array();
     for (const auto& c : r.captures) {
       caps.push_back({{"id", c.id},
@@ -212,6 +279,8 @@ int HandEye(const Args& a, std::ostream& out, std::ostream& err) {
                       {"centre_mcs_mm", JVec(c.centre_mcs)}});
     }
     j["captures"] = caps;
+    if (r.sensor.estimated) j["sensor"] = SensorJson(r.sensor);
+    j["leave_one_out"] = LeaveOneOutJson(r.leave_one_out);
     j["warnings"] = r.warnings;
     out << j.dump(2) << "\n";
     return kExitOk;
@@ -227,12 +296,14 @@ int HandEye(const Args& a, std::ostream& out, std::ostream& err) {
       << "  sphere centre " << Vec(r.centre_mcs, 4) << " mm (MCS)\n"
       << "  point RMS " << Fixed(r.point_rms_mm * 1e3, 2) << " um over " << r.points_used
       << " points, " << r.points_rejected << " rejected; centre spread RMS "
-      << Fixed(r.centre_spread_rms_mm * 1e3, 2) << " um\n";
+      << Fixed(r.centre_spread_rms_mm * 1e3, 2) << " um about the captures' mean, which is "
+      << Fixed(r.centre_mean_offset_mm * 1e3, 2) << " um from the centre\n";
   for (const auto& c : r.captures) {
     out << "    " << std::left << std::setw(16) << c.id << std::right << std::setw(7) << c.inliers
         << "/" << std::setw(7) << c.points << " points  RMS " << Fixed(c.rms_mm * 1e3, 2)
         << " um\n";
   }
+  PrintSensorAndValidation(r, out);
   for (const auto& w : r.warnings) out << "  warning: " << w << "\n";
   return kExitOk;
 }
@@ -266,6 +337,8 @@ int Recheck(const Args& a, std::ostream& out, std::ostream& err) {
     j["residual_before_mm"] = r.residual_before_mm;
     j["residual_after_mm"] = r.residual_after_mm;
     j["apparent_radius_change_mm"] = r.apparent_radius_change_mm;
+    j["depth_scale"] = r.depth_scale;
+    j["depth_scale_std"] = r.depth_scale_std;
     j["not_determined"] = r.not_determined;
     out << j.dump(2) << "\n";
   } else {
@@ -275,7 +348,9 @@ int Recheck(const Args& a, std::ostream& out, std::ostream& err) {
     if (a.sphere_moved) out << "  sphere moved " << Vec(r.centre_shift_mm * 1e3, 2) << " um\n";
     out << "  centre residual after the correction " << Fixed(r.residual_after_rms_mm * 1e3, 2)
         << " um RMS; apparent radius change " << Fixed(r.apparent_radius_change_mm * 1e3, 2)
-        << " um\n";
+        << " um\n"
+        << "  depth scale of the readings " << Fixed(r.depth_scale, 5) << " +- "
+        << Fixed(r.depth_scale_std, 5) << "\n";
     for (const auto& s : r.not_determined) out << "  not determined: " << s << "\n";
     if (!id.empty()) out << "  stored as " << id << "\n";
   }

@@ -72,5 +72,82 @@ TEST(LineScannerSphere, RealProfilesCalibrateToTheRobotsAccuracy) {
   for (const auto& c : r.captures) EXPECT_GT(c.inliers, 100) << c.id;
 }
 
+// Issue 25: fitted as ellipses in the scanner's x-z plane, every profile is about 9 % shorter in
+// z than in x: no rigid M absorbs that. With the scanner's own x and z scale estimated too, the
+// done-means: all ten profiles, at least 90 % of the ball's points (those each profile's own
+// robust fit put on the sphere; the joint fit then keeps points within 3 RMS, once stable) kept,
+// point RMS <= 0.20 mm, centre spread <= 0.50 mm RMS (about the captures' mean, as the issue's
+// figures), and a better leave-one-profile-out prediction than the rigid model's.
+constexpr double kScaledPointRmsMm = 0.20;
+constexpr double kScaledCentreSpreadRmsMm = 0.50;
+constexpr double kKeptOfTheBall = 0.90;
+// Scale and bias are told apart when their correlation is below this.
+constexpr double kToldApartCorrelation = 0.5;
+
+HandEyeOptions LineScannerOptions() {
+  HandEyeOptions o;
+  o.sphere_radius_mm = kBallRadiusMm;
+  o.lever_mm = 200.0;
+  o.max_std_mm = 1.0;
+  return o;
+}
+
+double KeptOfTheBall(const HandEyeResult& r) {
+  int on_sphere = 0;
+  for (const auto& c : r.captures) on_sphere += c.on_sphere;
+  return static_cast<double>(r.points_used) / on_sphere;
+}
+
+void Print(const char* name, const HandEyeResult& r) {
+  std::printf(
+      "%s: point RMS %.4f mm over %d points (%.1f %% of the ball's), centre spread RMS %.4f mm "
+      "(mean %.4f mm from c); leave-one-out: held-out RMS %.4f mm, centre error RMS %.4f mm; "
+      "scale x %.4f +- %.4f, z %.4f +- %.4f, bias %.4f +- %.4f mm (correlation with z scale "
+      "%.2f)\n",
+      name, r.point_rms_mm, r.points_used, 100.0 * KeptOfTheBall(r), r.centre_spread_rms_mm,
+      r.centre_mean_offset_mm, r.leave_one_out.rms_mm, r.leave_one_out.centre_error_rms_mm,
+      r.sensor.scale.x(), r.sensor.scale_std.x(), r.sensor.scale.z(), r.sensor.scale_std.z(),
+      r.sensor.incidence_bias_mm, r.sensor.incidence_bias_std_mm, r.sensor.scale_bias_correlation);
+  for (const auto& f : r.sensor.findings) std::printf("  finding: %s\n", f.c_str());
+  for (const auto& w : r.warnings) std::printf("  warning: %s\n", w.c_str());
+}
+
+bool Says(const HandEyeResult& r, const char* words) {
+  for (const auto& f : r.sensor.findings) {
+    if (f.find(words) != std::string::npos) return true;
+  }
+  return false;
+}
+
+TEST(LineScannerSphere, TheScannersOwnScaleIsFoundAndPredictsHeldOutProfilesBetter) {
+  const auto captures = LineScannerCaptures();
+  const HandEyeResult rigid = SolveSphereHandEye(captures, LineScannerOptions());
+  Print("rigid", rigid);
+  HandEyeOptions o = LineScannerOptions();
+  o.sensor.scale_x = o.sensor.scale_z = true;
+  const HandEyeResult scaled = SolveSphereHandEye(captures, o);
+  Print("scale x, z", scaled);
+  EXPECT_EQ(scaled.captures.size(), 10u);
+  EXPECT_GE(KeptOfTheBall(scaled), kKeptOfTheBall);
+  EXPECT_LE(scaled.point_rms_mm, kScaledPointRmsMm);
+  EXPECT_LE(scaled.centre_spread_rms_mm, kScaledCentreSpreadRmsMm);
+  ASSERT_EQ(scaled.leave_one_out.captures.size(), 10u);
+  EXPECT_LT(scaled.leave_one_out.centre_error_rms_mm, rigid.leave_one_out.centre_error_rms_mm);
+  EXPECT_LT(scaled.leave_one_out.rms_mm, rigid.leave_one_out.rms_mm);
+  EXPECT_TRUE(Says(scaled, "depth (z) scale"));  // a scale this far off is said, not absorbed
+
+  // Which cause the data supports: with the incidence bias free as well, the poses tell it from
+  // the depth scale (correlation near 0), both are found, and the held-out profiles are
+  // predicted better still: the data supports a depth scale and an incidence bias.
+  o.sensor.incidence_bias = true;
+  const HandEyeResult both = SolveSphereHandEye(captures, o);
+  Print("scale x, z and incidence bias", both);
+  EXPECT_LT(std::abs(both.sensor.scale_bias_correlation), kToldApartCorrelation);
+  EXPECT_TRUE(Says(both, "depth (z) scale"));
+  EXPECT_TRUE(Says(both, "angle of incidence"));
+  EXPECT_GE(KeptOfTheBall(both), kKeptOfTheBall);
+  EXPECT_LT(both.leave_one_out.rms_mm, scaled.leave_one_out.rms_mm);
+}
+
 }  // namespace
 }  // namespace mlp::calib

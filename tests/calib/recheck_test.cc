@@ -129,6 +129,39 @@ TEST(Recheck, TooLargeOrNonRigidChangesAskForAFullCalibration) {
               bent.residual_after_rms_mm * 1e3);
 }
 
+// Issue 25: the probe's camera/projector calibration drifted, its readings 1-3 % off in depth,
+// and the mount moved as well. The scale is found to 0.1 % and said as such; the mount's offset
+// is still recovered, not mixed with the scale: to 2 um plus what the scale's own uncertainty
+// moves a centre at the sphere's depth (3 sigma; the scale is about the probe origin).
+constexpr double kDepthScaleTol = 0.001;
+
+double MeanDepthMm(const std::vector<RecheckCapture>& captures) {
+  double sum = 0.0;
+  for (const auto& c : captures) sum += c.points_in_probe.row(2).mean();
+  return std::abs(sum) / static_cast<double>(captures.size());
+}
+
+TEST(Recheck, ADepthScaleChangeIsReportedAsSuchNotFoldedIntoTheOffset) {
+  const testing::Truth truth = testing::DefaultTruth();
+  const Vec3 offset(0.05, -0.03, 0.02);
+  const testing::Truth now = Disturbed(truth, Vec3::Zero(), offset);
+  unsigned seed = 9;
+  for (double scale : {1.01, 1.02, 0.97}) {
+    auto captures = Measure(now, testing::PoseSet::kFiveAxis, 4, seed++);
+    for (auto& c : captures) c.points_in_probe.row(2) /= scale;  // reads depth `scale` x short
+    const RecheckResult r = Recheck(captures, Original(truth));
+    const double offset_error = (r.offset_in_flange_mm - offset).norm();
+    const double tol = kOffsetTolMm + 3.0 * r.depth_scale_std * MeanDepthMm(captures);
+    std::printf(
+        "depth scale %.3f: found %.5f +- %.5f, offset error %.3f um (tolerance %.3f um); %s\n",
+        scale, r.depth_scale, r.depth_scale_std, offset_error * 1e3, tol * 1e3, r.reason.c_str());
+    EXPECT_NEAR(r.depth_scale, scale, kDepthScaleTol);
+    EXPECT_TRUE(r.full_calibration_required);
+    EXPECT_NE(r.reason.find("depth scale"), std::string::npos) << r.reason;
+    EXPECT_LT(offset_error, tol);
+  }
+}
+
 TEST(Recheck, UndisturbedProbeChangesNothing) {
   const testing::Truth truth = testing::DefaultTruth();
   const RecheckResult r =
@@ -136,6 +169,8 @@ TEST(Recheck, UndisturbedProbeChangesNothing) {
   EXPECT_LT(r.offset_in_flange_mm.norm(), 0.0005);
   EXPECT_LT(Arcsec(r.rotation_in_flange_rad), 2.0);
   EXPECT_NEAR(r.apparent_radius_change_mm, 0.0, 0.0005);
+  EXPECT_NEAR(r.depth_scale, 1.0, kDepthScaleTol);
+  EXPECT_FALSE(r.full_calibration_required) << r.reason;
 }
 
 }  // namespace

@@ -157,6 +157,23 @@ TEST(CalibrateCli, RealLineScannerSampleManifest) {
   EXPECT_LE(j["point_rms_mm"].get<double>(), kLineScannerPointRmsMm);
   EXPECT_EQ(j["captures"].size(), 10u);
   EXPECT_FALSE(fs::exists(dir / "store" / "LINE-SCANNER-BALL"));  // --dry-run stores nothing
+  EXPECT_EQ(j["leave_one_out"]["captures"].size(), 10u);
+
+  // Issue 25: the scanner's own scale estimated on request is a diagnosis: said, never stored.
+  const ProcessRun scaled =
+      Mlp("hand-eye --json --estimate scale_x,scale_z --store " + (dir / "store").string() +
+              " --captures " + (dir / "ball.json").string(),
+          dir);
+  ASSERT_EQ(scaled.exit_code, 0) << scaled.err;
+  const json s = json::parse(scaled.out);
+  EXPECT_LT(s["point_rms_mm"].get<double>(), j["point_rms_mm"].get<double>());
+  EXPECT_FALSE(s["sensor"]["findings"].empty());
+  EXPECT_FALSE(fs::exists(dir / "store" / "LINE-SCANNER-BALL"));
+  const ProcessRun bad = Mlp("hand-eye --estimate scale_w --store " + (dir / "store").string() +
+                                 " --captures " + (dir / "ball.json").string(),
+                             dir);
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;  // a usage error names the parameters there are
+  EXPECT_NE(bad.err.find("scale_x"), std::string::npos) << bad.err;
 }
 
 }  // namespace

@@ -55,6 +55,7 @@ json RunCalibrateJob(JobContext& ctx, const json& r) {
                       {"point_rms_mm", h.point_rms_mm},
                       {"points_used", h.points_used},
                       {"centre_spread_rms_mm", h.centre_spread_rms_mm},
+                      {"centre_mean_offset_mm", h.centre_mean_offset_mm},
                       {"warnings", h.warnings}});
     ctx.history.AddResult(run.job, {"hand-eye", run.reply, json::object()});
     return run.Finish(history::JobStatus::kDone, true);
@@ -90,6 +91,8 @@ json RunRecheckJob(JobContext& ctx, const json& r) {
                       {"centre_shift_mm", Vec(c.centre_shift_mm)},
                       {"residual_after_rms_mm", c.residual_after_rms_mm},
                       {"apparent_radius_change_mm", c.apparent_radius_change_mm},
+                      {"depth_scale", c.depth_scale},
+                      {"depth_scale_std", c.depth_scale_std},
                       {"not_determined", c.not_determined}});
     ctx.history.AddResult(run.job, {"recheck", run.reply, json::object()});
     if (c.full_calibration_required) {

@@ -38,6 +38,23 @@ struct SphereCapture {
   bool single_profile = false;
 };
 
+/// The sensor's own distortion, estimated with M and c on request (issue 25). A triangulation
+/// sensor whose calibration is off reports S p + b (1 - cos a) e_z for a point at p: S a scale per
+/// probe axis (the depth scale z, the lateral scales x and y: a projector baseline, a focal length
+/// off), b a depth bias that grows with the angle a between the probe's z axis (its direction of
+/// view) and the surface normal (laser triangulation on shiny metal reads deeper or shallower as
+/// the light grazes). A scale grows with the distance from the probe origin, the bias with the
+/// angle: the poses tell them apart, or the result says they cannot.
+struct SensorModelOptions {
+  bool scale_x = false, scale_y = false, scale_z = false;
+  bool incidence_bias = false;
+  /// A scale this far from 1, or a bias this large [mm at grazing incidence], more than 3 sigma
+  /// from nothing, is reported as a finding.
+  double finding_scale = 0.003;
+  double finding_bias_mm = 0.02;
+  bool Any() const { return scale_x || scale_y || scale_z || incidence_bias; }
+};
+
 struct HandEyeOptions {
   double sphere_radius_mm = 12.7;
   /// Coordinates of the sphere centre known beforehand (MCS, mm), e.g. its Z from a touch-off.
@@ -54,6 +71,11 @@ struct HandEyeOptions {
   /// A parameter combination whose standard deviation, with the lever arm, exceeds this is not
   /// determined by the data [mm].
   double max_std_mm = 0.05;
+  /// Estimate the sensor's scale and incidence bias as well (none by default: a rigid M).
+  SensorModelOptions sensor;
+  /// Predict each capture from a solution without it (leave-one-capture-out), so an over-fitted
+  /// model shows: its held-out residuals grow where a sound one's do not.
+  bool leave_one_out = true;
   void Check() const;
 };
 
@@ -61,16 +83,42 @@ struct HandEyeOptions {
 struct CaptureReport {
   std::string id;
   int points = 0;       ///< given (finite)
-  int inliers = 0;      ///< used in the joint fit
+  int on_sphere = 0;    ///< its own robust fit's inliers: the sphere's points, not background
+  int inliers = 0;      ///< used in the joint fit (of those on the sphere)
   double rms_mm = 0.0;  ///< joint-fit residual RMS of its inliers
   double max_abs_mm = 0.0;
-  Vec3 centre_mcs = Vec3::Zero();  ///< its own sphere centre mapped by H_i M (from its points)
+  Vec3 centre_mcs = Vec3::Zero();  ///< its own sphere centre: its points mapped by H_i M
   double fitted_radius_mm = 0.0;   ///< its own free-radius sphere fit (0 for single profiles)
 };
 
 /// The parameter order of HandEyeResult::covariance.
 inline constexpr std::array<const char*, 9> kHandEyeParameters = {
     "rx_rad", "ry_rad", "rz_rad", "tx_mm", "ty_mm", "tz_mm", "cx_mm", "cy_mm", "cz_mm"};
+
+/// The sensor model's parameters with their standard deviations (0 where not estimated).
+struct SensorEstimate {
+  bool estimated = false;
+  Vec3 scale = Vec3::Ones(), scale_std = Vec3::Zero();
+  double incidence_bias_mm = 0.0, incidence_bias_std_mm = 0.0;
+  /// Correlation of the depth scale and the bias when both are estimated: near +-1 the poses
+  /// cannot tell them apart.
+  double scale_bias_correlation = 0.0;
+  /// For a person to act on: "the probe's depth (z) scale is 2.13 % off its calibration ...".
+  std::vector<std::string> findings;
+};
+
+/// One capture predicted by the solution of all the others.
+struct HeldOutCapture {
+  std::string id;
+  double rms_mm = 0.0;           ///< its points (the full solution's inliers) against that solution
+  double centre_error_mm = 0.0;  ///< where its points put the sphere (radius held) vs that centre
+};
+
+struct LeaveOneOut {
+  std::vector<HeldOutCapture> captures;  ///< empty when not run
+  double rms_mm = 0.0;                   ///< over all held-out points
+  double centre_error_rms_mm = 0.0;      ///< over the captures
+};
 
 struct HandEyeResult {
   Pose3 flange_from_probe = Pose3::Identity();  ///< M
@@ -80,9 +128,18 @@ struct HandEyeResult {
   Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
   double point_rms_mm = 0.0;
   int points_used = 0, points_rejected = 0;
-  /// Spread of the per-capture centres around c: RMS and largest distance [mm].
+  /// Spread of the per-capture centres about their mean: RMS and largest distance [mm], how well
+  /// the captures agree with each other (as ISO 10360-5 judges styli by the range of their
+  /// centres). A capture's centre is where its own joint-fit points, mapped by the solution, put
+  /// the sphere (radius held).
   double centre_spread_rms_mm = 0.0, centre_spread_max_mm = 0.0;
+  /// How far the captures' mean centre lies from c [mm]: the joint fit weighs points, not
+  /// centres, so a capture whose centre is weakly fixed (a profile near the equator) pulls its
+  /// own centre more than c. Large beside the spread: the captures disagree systematically.
+  double centre_mean_offset_mm = 0.0;
   std::vector<CaptureReport> captures;
+  SensorEstimate sensor;
+  LeaveOneOut leave_one_out;
   std::vector<std::string> warnings;  ///< weakly determined combinations, discarded captures
   int iterations = 0;
 };

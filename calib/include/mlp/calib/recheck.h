@@ -31,6 +31,10 @@ struct RecheckOptions {
   /// Largest centre residual after the correction [mm]; beyond, the disturbance is not a
   /// rigid change of the mount (a bent probe, a loose window) and a full calibration is required.
   double max_residual_mm = 0.005;
+  /// Largest change of the probe's depth scale a quick re-calibration accepts (0.3 %: 0.3 mm at
+  /// a 100 mm stand-off). A scale is the camera/projector calibration, not the mount: beyond this
+  /// and 3 sigma it is reported as such and a full calibration is required.
+  double max_depth_scale_change = 0.003;
   double lever_mm = 100.0;  ///< turns rotations into lengths when deciding what is determined
   void Check() const;
 };
@@ -53,6 +57,10 @@ struct RecheckResult {
   /// Mean fitted sphere radius minus the nominal: a changed window or a dirty lens shows here
   /// before it shows in the centres (seed 002's "apparent tip-radius change").
   double apparent_radius_change_mm = 0.0;
+  /// The depth scale of the probe's readings (true z = scale x read z) shared by the captures,
+  /// with the radius held: a plane cut of a sphere is a circle, so a cap that is too shallow or
+  /// too deep for its width says the scale. Applied to the centres only when it is a finding.
+  double depth_scale = 1.0, depth_scale_std = 0.0;
   std::vector<std::string> not_determined;  ///< kept at the original value, in words
   bool full_calibration_required = false;
   std::string reason;  ///< why a full calibration is required (empty otherwise)
