@@ -1,7 +1,9 @@
 #include "mlp/calib/probe_calib.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <sstream>
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -64,9 +66,13 @@ struct CornerResidual {
   }
 };
 
-// Projector: f, c | rotation vector and translation of camera_from_projector.
+// Projector: f, c, mirror cubic, smile | rotation vector and translation of
+// camera_from_projector. The observed (commanded) column's actual column must be the sheet
+// column of the point: its planar column less the smile at its place along the line.
 struct StripeResidual {
   StripeObservation s;
+  double half_columns;  // columns / 2: the mirror's cubic is in s = (u - c) / (columns / 2)
+  double tan_fan;       // tan of the fan's half angle: the smile is in t / tan_fan
   template <class T>
   bool operator()(const T* k,
                   const T* board_r,
@@ -81,14 +87,18 @@ struct StripeResidual {
     const T ez[3] = {T(0), T(0), T(1)};
     T n[3];
     ceres::AngleAxisRotatePoint(board_r, ez, n);
-    const T along = n[0] * x + n[1] * y + n[2];
+    const T facing = n[0] * x + n[1] * y + n[2];
     const T dist = n[0] * board_t[0] + n[1] * board_t[1] + n[2] * board_t[2];
-    const T scale = dist / along;
+    const T scale = dist / facing;
     const T X[3] = {scale * x - proj_t[0], scale * y - proj_t[1], scale - proj_t[2]};
     const T minus_r[3] = {-proj_r[0], -proj_r[1], -proj_r[2]};
     T q[3];
     ceres::AngleAxisRotatePoint(minus_r, X, q);  // projector_from_camera
-    r[0] = (proj[1] + proj[0] * q[0] / q[2] - T(s.column)) / T(kStripeSigmaColumns);
+    const T along = q[1] / q[2] / T(tan_fan);
+    const T sheet = proj[1] + proj[0] * q[0] / q[2] - proj[3] * along * along;
+    const T mirror = (T(s.column) - proj[1]) / T(half_columns);
+    const T actual = T(s.column) + proj[2] * mirror * mirror * mirror;
+    r[0] = (sheet - actual) / T(kStripeSigmaColumns);
     return true;
   }
 };
@@ -105,6 +115,75 @@ Pose3 FromAngleAxis(const double* r, const double* t) {
   if (v.norm() > 0) p.linear() = Eigen::AngleAxisd(v.norm(), v.normalized()).toRotationMatrix();
   p.translation() = Vec3(t[0], t[1], t[2]);
   return p;
+}
+
+void Solve(ceres::Problem* problem, ProbeCalibResult* result) {
+  ceres::Solver::Options o;
+  o.linear_solver_type = ceres::SPARSE_SCHUR;
+  o.max_num_iterations = 200;
+  o.function_tolerance = 1e-15;
+  o.parameter_tolerance = 1e-15;
+  o.gradient_tolerance = 1e-15;
+  ceres::Solver::Summary summary;
+  ceres::Solve(o, problem, &summary);
+  if (summary.termination_type == ceres::FAILURE)
+    throw CameraCalibError("the adjustment failed: " + summary.message);
+  result->iterations += static_cast<int>(summary.iterations.size());
+}
+
+// 1-sigma of the mirror's cubic and the smile (proj[2], proj[3]) in their own units, scaled by
+// the fit's residual variance; infinite when the problem cannot say.
+std::array<double, 2> SheetTermStd(ceres::Problem* problem, double* proj) {
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  co.null_space_rank = -1;  // a gauge freedom (the projector along its line) is no failure
+  ceres::Covariance covariance(co);
+  const std::vector<std::pair<const double*, const double*>> blocks = {{proj, proj}};
+  if (!covariance.Compute(blocks, problem)) return {INFINITY, INFINITY};
+  double c[16];
+  covariance.GetCovarianceBlock(proj, proj, c);
+  double cost = 0.0;
+  problem->Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, nullptr);
+  const double dof = std::max(1, problem->NumResiduals() - problem->NumParameters());
+  const double variance = 2.0 * cost / dof;  // Ceres' cost is half the sum of squares
+  return {std::sqrt(c[10] * variance), std::sqrt(c[15] * variance)};
+}
+
+// The mirror's cubic and the smile are kept only where the views determine them: a cubic fitted
+// to stripes in the middle of the mirror's range is extrapolated to its ends, where it does more
+// harm than the design's zero. A term determined worse than the limit is held at its start and
+// the adjustment solved again.
+void CheckSheetTerms(const ProbeCalibInput& in,
+                     double* proj,
+                     ceres::Problem* problem,
+                     ProbeCalibResult* result) {
+  const ProjectorParams& p0 = in.projector_start;
+  const auto sigma = SheetTermStd(problem, proj);
+  // The smile's effect at the camera's field edge: t there is about cy / fy (half the height).
+  const double edge_t = in.camera_start.cy_px / in.camera_start.fy_px;
+  const double edge_r = edge_t / std::tan(p0.fan_half_angle_deg * M_PI / 180.0);
+  result->mirror_cubic_std_cols = sigma[0];
+  result->smile_std_cols = sigma[1] * edge_r * edge_r;
+  std::vector<int> held;
+  const auto say = [&](const char* what, double std_cols, double start) {
+    std::ostringstream m;
+    m.precision(3);
+    m << what << " not determined by these views (1-sigma " << std_cols << " columns, limit "
+      << in.max_term_std_cols << "): held at " << start
+      << "; views whose stripes span the mirror's range and the field determine it";
+    result->notes.push_back(m.str());
+  };
+  if (!(result->mirror_cubic_std_cols <= in.max_term_std_cols)) {
+    held.push_back(2), proj[2] = p0.mirror_cubic_cols;
+    say("the mirror's cubic", result->mirror_cubic_std_cols, p0.mirror_cubic_cols);
+  }
+  if (!(result->smile_std_cols <= in.max_term_std_cols)) {
+    held.push_back(3), proj[3] = p0.sheet_smile_cols;
+    say("the sheet's smile", result->smile_std_cols, p0.sheet_smile_cols);
+  }
+  if (held.empty()) return;
+  problem->SetManifold(proj, new ceres::SubsetManifold(4, held));
+  Solve(problem, result);
 }
 
 }  // namespace
@@ -126,10 +205,36 @@ probe_fw::ProbeModel CalibratedProbeModel(const probe_fw::ProbeModel& design,
   m.projector.f_px = r.projector.f_px;
   m.projector.c_px = r.projector.c_px;
   m.projector.camera_from_projector = r.projector.camera_from_projector;
+  m.projector.mirror_cubic_cols = r.projector.mirror_cubic_cols;
+  m.projector.sheet_smile_cols = r.projector.sheet_smile_cols;
   m.calibration_stats = {true,           r.views_used,    r.corners_used,
                          r.stripes_used, r.corner_rms_px, r.stripe_rms_columns};
   m.Validate();
   return m;
+}
+
+bool InsideTheCorners(const std::vector<Vec2>& corners,
+                      const ChessboardSpec& board,
+                      double x_px,
+                      double y_px) {
+  if (corners.empty()) return false;
+  const std::size_t cols = static_cast<std::size_t>(board.inner_cols);
+  const std::size_t rows = static_cast<std::size_t>(board.inner_rows);
+  // The outer inner corners in order around the board; the image of a plane's convex
+  // quadrilateral is convex (a perspective map keeps lines), so the point is inside when it is
+  // on the same side of all four edges.
+  const Vec2 quad[4] = {corners[0], corners[cols - 1], corners[rows * cols - 1],
+                        corners[(rows - 1) * cols]};
+  const Vec2 p(x_px, y_px);
+  int sign = 0;
+  for (int k = 0; k < 4; ++k) {
+    const Vec2 a = quad[k], b = quad[(k + 1) % 4];
+    const double cross = (b.x() - a.x()) * (p.y() - a.y()) - (b.y() - a.y()) * (p.x() - a.x());
+    const int side = cross > 0 ? 1 : -1;
+    if (sign != 0 && side != sign) return false;
+    sign = side;
+  }
+  return true;
 }
 
 bool OnUniformLight(const GrayImage& led, double x_px, int y_px) {
@@ -156,27 +261,34 @@ ProbeCalibReport CalibrateProbe(const std::vector<GrayImage>& leds,
   ProbeCalibReport report;
   say("camera start: OpenCV calibrateCamera on " + std::to_string(leds.size()) + " LED frames");
   report.camera_start = CalibrateCamera(leds, board);
+  ProbeCalibInput in;
+  in.board = board;
+  in.corners = DetectCorners(leds, board);
   std::vector<StripeObservation> usable;
   for (const StripeObservation& s : stripes) {
     if (s.view < 0 || static_cast<std::size_t>(s.view) >= leds.size())
       throw CameraCalibError("a stripe point names view " + std::to_string(s.view) + " of " +
                              std::to_string(leds.size()));
-    if (OnUniformLight(leds[static_cast<std::size_t>(s.view)], s.x_px,
-                       static_cast<int>(std::lround(s.y_px))))
+    const auto v = static_cast<std::size_t>(s.view);
+    if (OnUniformLight(leds[v], s.x_px, static_cast<int>(std::lround(s.y_px))) &&
+        InsideTheCorners(in.corners[v], board, s.x_px, s.y_px))
       usable.push_back(s);
   }
   report.stripes_found = stripes.size();
   report.stripes_on_light = usable.size();
   report.stripe_stride =
       static_cast<int>((usable.size() + kMaxStripePoints - 1) / kMaxStripePoints);
-  ProbeCalibInput in;
-  in.board = board;
-  in.corners = DetectCorners(leds, board);
   for (std::size_t k = 0; k < usable.size(); k += std::max(1, report.stripe_stride))
     in.stripes.push_back(usable[k]);
   in.camera_start = report.camera_start.intrinsics;
-  in.projector_start = {design.projector.f_px, design.projector.c_px,
-                        design.projector.camera_from_projector};
+  const probe_fw::ProjectorModel& p = design.projector;
+  in.projector_start = {p.f_px,
+                        p.c_px,
+                        p.camera_from_projector,
+                        p.mirror_cubic_cols,
+                        p.sheet_smile_cols,
+                        p.columns,
+                        p.fan_half_angle_deg};
   in.camera_from_board_start.assign(leds.size(), Pose3::Identity());
   const auto& cam = report.camera_start;
   for (std::size_t k = 0; k < cam.views_used.size(); ++k)
@@ -194,7 +306,11 @@ ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
     throw CameraCalibError("one start pose per view is needed");
   const Intrinsics& c0 = in.camera_start;
   double k[9] = {c0.fx_px, c0.fy_px, c0.cx_px, c0.cy_px, c0.k1, c0.k2, c0.p1, c0.p2, c0.k3};
-  double proj[2] = {in.projector_start.f_px, in.projector_start.c_px};
+  const ProjectorParams& p0 = in.projector_start;
+  double proj[4] = {p0.f_px, p0.c_px, p0.mirror_cubic_cols, p0.sheet_smile_cols};
+  const bool curved = p0.columns > 0;
+  const double half_columns = curved ? 0.5 * p0.columns : 1.0;
+  const double tan_fan = std::tan(p0.fan_half_angle_deg * M_PI / 180.0);
   double proj_r[3], proj_t[3];
   ToAngleAxis(in.projector_start.camera_from_projector, proj_r, proj_t);
   std::vector<std::array<double, 6>> boards(views);
@@ -222,9 +338,10 @@ ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
   result.views_used = used_views;
   for (const StripeObservation& s : in.stripes) {
     if (s.view < 0 || static_cast<size_t>(s.view) >= views || in.corners[s.view].empty()) continue;
-    problem.AddResidualBlock(
-        new ceres::AutoDiffCostFunction<StripeResidual, 1, 9, 3, 3, 2, 3, 3>(new StripeResidual{s}),
-        nullptr, k, boards[s.view].data(), boards[s.view].data() + 3, proj, proj_r, proj_t);
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<StripeResidual, 1, 9, 3, 3, 4, 3, 3>(
+                                 new StripeResidual{s, half_columns, tan_fan}),
+                             nullptr, k, boards[s.view].data(), boards[s.view].data() + 3, proj,
+                             proj_r, proj_t);
     ++result.stripes_used;
   }
   if (result.stripes_used == 0) throw CameraCalibError("no stripe point on a found board");
@@ -233,23 +350,20 @@ ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
   // (it drifted 111 mm on the reference probe). Its camera-frame y (~ that axis: the projector
   // is turned about y) is held at the start value.
   problem.SetManifold(proj_t, new ceres::SubsetManifold(3, {1}));
-  ceres::Solver::Options o;
-  o.linear_solver_type = ceres::SPARSE_SCHUR;
-  o.max_num_iterations = 200;
-  o.function_tolerance = 1e-15;
-  o.parameter_tolerance = 1e-15;
-  o.gradient_tolerance = 1e-15;
-  ceres::Solver::Summary summary;
-  ceres::Solve(o, &problem, &summary);
-  if (summary.termination_type == ceres::FAILURE)
-    throw CameraCalibError("the adjustment failed: " + summary.message);
-  result.iterations = static_cast<int>(summary.iterations.size());
+  // Without the mirror's range the cubic has no scale: the design's flat sheet, linear mirror.
+  if (!curved) problem.SetManifold(proj, new ceres::SubsetManifold(4, {2, 3}));
+  Solve(&problem, &result);
+  if (curved) CheckSheetTerms(in, proj, &problem, &result);
   auto& c = result.camera;
   c.fx_px = k[0], c.fy_px = k[1], c.cx_px = k[2], c.cy_px = k[3];
   c.k1 = k[4], c.k2 = k[5], c.p1 = k[6], c.p2 = k[7], c.k3 = k[8];
   result.projector.f_px = proj[0];
   result.projector.c_px = proj[1];
   result.projector.camera_from_projector = FromAngleAxis(proj_r, proj_t);
+  result.projector.mirror_cubic_cols = proj[2];
+  result.projector.sheet_smile_cols = proj[3];
+  result.projector.columns = p0.columns;
+  result.projector.fan_half_angle_deg = p0.fan_half_angle_deg;
   for (size_t v = 0; v < views; ++v)
     result.camera_from_board.push_back(FromAngleAxis(boards[v].data(), boards[v].data() + 3));
   // RMS in the residuals' own units.

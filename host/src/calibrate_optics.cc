@@ -183,7 +183,12 @@ json ProjectorJson(const probe_fw::ProbeModel& m,
   j["projector"] = {{"f_px", r.result.projector.f_px},
                     {"c_px", r.result.projector.c_px},
                     {"camera_from_projector",
-                     probe_fw::json_fields::PoseToJson(r.result.projector.camera_from_projector)}};
+                     probe_fw::json_fields::PoseToJson(r.result.projector.camera_from_projector)},
+                    {"mirror_cubic_cols", r.result.projector.mirror_cubic_cols},
+                    {"mirror_cubic_std_cols", r.result.mirror_cubic_std_cols},
+                    {"sheet_smile_cols", r.result.projector.sheet_smile_cols},
+                    {"sheet_smile_std_cols", r.result.smile_std_cols}};
+  j["notes"] = r.result.notes;
   j["iterations"] = r.result.iterations;
   return j;
 }
@@ -209,8 +214,13 @@ void PrintProjector(std::ostream& out,
       << Fixed(design.projector.f_px, 2) << "), centre column " << Fixed(res.projector.c_px, 2)
       << " (design " << Fixed(design.projector.c_px, 2) << ")\n"
       << "  projector pose vs design: " << Vec(d.translation(), 3) << " mm, "
-      << Fixed(turn.angle() * 180.0 / M_PI, 4) << " deg\n";
+      << Fixed(turn.angle() * 180.0 / M_PI, 4) << " deg\n"
+      << "  mirror cubic " << Fixed(res.projector.mirror_cubic_cols, 3) << " +- "
+      << Fixed(res.mirror_cubic_std_cols, 3) << " columns, sheet smile "
+      << Fixed(res.projector.sheet_smile_cols, 3) << " +- " << Fixed(res.smile_std_cols, 3)
+      << " columns at the field's edge\n";
   for (const auto& w : r.camera_start.warnings) out << "  warning: " << w << "\n";
+  for (const auto& n : res.notes) out << "  note: " << n << "\n";
   if (res.corner_rms_px > kSuspectCornerRmsPx || res.stripe_rms_columns > kSuspectStripeRmsColumns)
     out << "  check: residuals above " << kSuspectCornerRmsPx << " px / "
         << kSuspectStripeRmsColumns << " columns (board size, focus, design file right?)\n";

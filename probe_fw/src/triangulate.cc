@@ -7,18 +7,45 @@
 
 namespace mlp::probe_fw {
 
-Vec3 Triangulate(const ProbeModel& model, double x_px, double y_px, double column) {
-  const Vec2 xy = model.camera.Undistort(Vec2(x_px, y_px));
-  const Vec3 ray(xy.x(), xy.y(), 1.0);
+namespace {
+
+// Fixed-point steps on a curved sheet: the smile moves the plane by a fraction of a column, so
+// each step shrinks the error by that column's share of the point's along-line change (~1e-4).
+constexpr int kSheetSteps = 8;
+constexpr double kSheetTolMm = 1e-10;
+
+Vec3 OnPlane(const ProjectorModel& projector, const Vec3& ray, double planar_column) {
   Vec3 normal;
   double offset = 0.0;
-  model.projector.PlaneOf(column, &normal, &offset);
+  projector.PlaneOf(planar_column, &normal, &offset);
   const double denom = normal.dot(ray);
   // Below 1e-3 the ray grazes the plane (triangulation angle < 0.06 deg): no depth resolution.
   if (!(std::abs(denom) > 1e-3 * ray.norm())) {
     throw std::domain_error("triangulate: camera ray parallel to the light plane");
   }
   return (offset / denom) * ray;
+}
+
+}  // namespace
+
+Vec3 Triangulate(const ProbeModel& model, double x_px, double y_px, double column) {
+  const Vec2 xy = model.camera.Undistort(Vec2(x_px, y_px));
+  const Vec3 ray(xy.x(), xy.y(), 1.0);
+  const ProjectorModel& projector = model.projector;
+  const double actual = projector.ActualColumn(column);
+  Vec3 point = OnPlane(projector, ray, actual);
+  if (projector.sheet_smile_cols == 0.0) return point;
+  // The curved sheet of `actual` meets the ray where the point's planar column is actual plus
+  // the smile at the point's own position along the line.
+  const Pose3 projector_from_probe = projector.camera_from_projector.inverse();
+  for (int step = 0; step < kSheetSteps; ++step) {
+    const Vec3 q = projector_from_probe * point;
+    const Vec3 next = OnPlane(projector, ray, actual + projector.SmileAt(q.y() / q.z()));
+    const double moved = (next - point).norm();
+    point = next;
+    if (moved < kSheetTolMm) break;
+  }
+  return point;
 }
 
 std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,

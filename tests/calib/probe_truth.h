@@ -33,26 +33,9 @@ struct TriangulationError {
   std::size_t points = 0;
 };
 
-/// True surface points over the working volume (105-135 mm, the whole image but 100 px) seen by
-/// the true probe, triangulated with `model`. The probe frame is what calibration defines (a
-/// principal point 0.5 px off turns it by 1e-4 rad) and the hand-eye measures M in that frame,
-/// so the error that matters is after the best rigid alignment (Umeyama, no scale).
-inline TriangulationError TriangulationVsTruth(const probe_fw::ProbeModel& truth,
-                                               const probe_fw::ProbeModel& model) {
-  using geometry::Vec2;
-  using geometry::Vec3;
-  std::vector<Vec3> got, want;
-  for (double z : {105.0, 120.0, 135.0}) {
-    for (double u = 100; u < truth.camera.width_px - 100; u += 150) {
-      for (double w = 100; w < truth.camera.height_px - 100; w += 150) {
-        const Vec2 xy = truth.camera.Undistort(Vec2(u, w));
-        const Vec3 p(xy.x() * z, xy.y() * z, z);
-        const double column = truth.projector.ColumnOf(p);
-        if (column < 0 || column > truth.projector.columns - 1) continue;
-        got.push_back(probe_fw::Triangulate(model, u, w, column)), want.push_back(p);
-      }
-    }
-  }
+/// Triangulated points against true ones, before and after the best rigid alignment.
+inline TriangulationError RigidlyAligned(const std::vector<geometry::Vec3>& got,
+                                         const std::vector<geometry::Vec3>& want) {
   Eigen::Matrix3Xd a(3, got.size()), b(3, want.size());
   for (std::size_t i = 0; i < got.size(); ++i)
     a.col(static_cast<long>(i)) = got[i], b.col(static_cast<long>(i)) = want[i];
@@ -65,6 +48,35 @@ inline TriangulationError TriangulationVsTruth(const probe_fw::ProbeModel& truth
   e.rms_mm = std::sqrt((aligned - b).colwise().squaredNorm().mean());
   e.max_mm = std::sqrt((aligned - b).colwise().squaredNorm().maxCoeff());
   return e;
+}
+
+/// Calls f(u, w, xy, z) over the working volume: planes z = 105, 120, 135 mm, the whole image
+/// but 100 px every 150 px, xy the pixel's undistorted normalised coordinates.
+template <class F>
+void OverTheWorkingVolume(const probe_fw::CameraModel& camera, F f) {
+  for (double z : {105.0, 120.0, 135.0}) {
+    for (double u = 100; u < camera.width_px - 100; u += 150) {
+      for (double w = 100; w < camera.height_px - 100; w += 150)
+        f(u, w, camera.Undistort(geometry::Vec2(u, w)), z);
+    }
+  }
+}
+
+/// True surface points over the working volume seen by the true probe, triangulated with
+/// `model`. The probe frame is what calibration defines (a principal point 0.5 px off turns it
+/// by 1e-4 rad) and the hand-eye measures M in that frame, so the error that matters is after
+/// the best rigid alignment (Umeyama, no scale).
+inline TriangulationError TriangulationVsTruth(const probe_fw::ProbeModel& truth,
+                                               const probe_fw::ProbeModel& model) {
+  using geometry::Vec3;
+  std::vector<Vec3> got, want;
+  OverTheWorkingVolume(truth.camera, [&](double u, double w, const geometry::Vec2& xy, double z) {
+    const Vec3 p(xy.x() * z, xy.y() * z, z);
+    const double column = truth.projector.ColumnOf(p);
+    if (column < 0 || column > truth.projector.columns - 1) return;
+    got.push_back(probe_fw::Triangulate(model, u, w, column)), want.push_back(p);
+  });
+  return RigidlyAligned(got, want);
 }
 
 }  // namespace mlp::test

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "calib/as_built_truth.h"
 #include "calib/probe_truth.h"
 #include "process_run.h"
 #include <gtest/gtest.h>
@@ -26,6 +27,8 @@ using json = nlohmann::json;
 using test::RunProcess;
 
 const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kAsBuilt =
+    std::string(MLP_SOURCE_DIR) + "/samples/probes/as_built/MLP-AB-0001.json";
 const std::string kBoardScene = std::string(MLP_SOURCE_DIR) + "/samples/calib/board_scene.json";
 const std::string kRenderViews =
     std::string(MLP_SOURCE_DIR) + "/samples/calib/render_board_views.sh";
@@ -37,14 +40,18 @@ constexpr double kCentreTolPx = 12.0;   // principal point: ~3 sigma of 16 views
 
 // Renders the sample board views seen by the as-built probe into `dir` with the sample script a
 // user runs (every view of the sample board scene, stripes beside); returns the truth.
+void RenderViewsWith(const std::string& probe_file, const fs::path& dir) {
+  const auto r = RunProcess("bash " + kRenderViews + " " + probe_file + " " + dir.string() + " " +
+                            fs::path(kSim).parent_path().string());
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+}
+
 probe_fw::ProbeModel RenderViews(const fs::path& dir) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   const probe_fw::ProbeModel truth = test::AsBuilt(probe_fw::LoadProbeModel(kReference));
   probe_fw::SaveProbeModel(truth, (dir / "as_built.json").string());
-  const auto r = RunProcess("bash " + kRenderViews + " " + (dir / "as_built.json").string() + " " +
-                            dir.string() + " " + fs::path(kSim).parent_path().string());
-  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  RenderViewsWith((dir / "as_built.json").string(), dir);
   return truth;
 }
 
@@ -120,6 +127,53 @@ TEST(CalibrateOptics, CameraAndProjectorCommandsFromRenderedViews) {
   ASSERT_FALSE(HasFailure());
   CheckProjectorCommand(dir, truth);
   CheckCameraCommand(dir, truth);
+}
+
+// Issue 16, part 1: the probe as built (samples/probes/as_built/MLP-AB-0001.json: off its design,
+// a mirror's cubic of 1.5 columns, a smile of 0.6 columns at the fan's edge, and a 2 mm window
+// no model describes), seen only through rendered views, calibrated from the design like any
+// probe. The issue's target holds (5 um RMS over the working volume), the mirror's cubic is
+// found to 0.1 column; the smile, of which the camera sees only the middle third of the fan
+// (0.07 column at the field's edge), to 0.15 column at the fan's edge.
+constexpr double kBetterThanTheDesign = 10.0;
+constexpr double kCubicTolCols = 0.1;
+constexpr double kSmileTolCols = 0.15;
+
+TEST(CalibrateOptics, AnAsBuiltProbeWithItsOpticsThroughTheCalibration) {
+  const fs::path dir = fs::temp_directory_path() / "mlp_calibrate_optics_as_built";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  RenderViewsWith(kAsBuilt, dir);
+  ASSERT_FALSE(HasFailure());
+  const std::string out = (dir / "calibrated.json").string();
+  const auto run =
+      RunProcess(kMlp + " calibrate projector --json --views " + (dir / "views.json").string() +
+                 " --design " + kReference + " --out " + out + " --id cal-as-built-1");
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const json summary = json::parse(run.out);
+  const sim::AsBuiltProbe truth = sim::LoadAsBuilt(kAsBuilt);
+  const probe_fw::ProbeModel calibrated = probe_fw::LoadProbeModel(out);
+  const test::TriangulationError e = test::TriangulationVsAsBuilt(truth, calibrated);
+  const test::TriangulationError design =
+      test::TriangulationVsAsBuilt(truth, probe_fw::LoadProbeModel(kReference));
+  const test::TriangulationError exact = test::TriangulationVsAsBuilt(truth, truth.model);
+  std::printf(
+      "as built with optics, %zu points over the working volume after rigid alignment: "
+      "calibrated %.2f um RMS, max %.2f um (mirror cubic %.3f, smile %.3f columns); the as-built "
+      "model itself, blind to the window only, %.2f um RMS, max %.2f um; the design %.2f um RMS; "
+      "corner RMS %.4f px, stripe RMS %.4f columns\n",
+      e.points, e.rms_mm * 1e3, e.max_mm * 1e3, calibrated.projector.mirror_cubic_cols,
+      calibrated.projector.sheet_smile_cols, exact.rms_mm * 1e3, exact.max_mm * 1e3,
+      design.rms_mm * 1e3, summary.at("corner_rms_px").get<double>(),
+      summary.at("stripe_rms_columns").get<double>());
+  ASSERT_GT(e.points, 100u);
+  EXPECT_LT(e.rms_mm, kTriangulationRmsTolMm);
+  EXPECT_LT(e.rms_mm * kBetterThanTheDesign, design.rms_mm);
+  EXPECT_NEAR(calibrated.projector.mirror_cubic_cols, truth.model.projector.mirror_cubic_cols,
+              kCubicTolCols);
+  EXPECT_NEAR(calibrated.projector.sheet_smile_cols, truth.model.projector.sheet_smile_cols,
+              kSmileTolCols);
+  EXPECT_TRUE(summary.at("notes").empty()) << summary.at("notes").dump();
 }
 
 TEST(CalibrateOptics, UnusableViewsAreRefusedWithTheReason) {

@@ -221,6 +221,36 @@ TEST(ProbeCli, ServeRefusesABadKeyAMissingBoardAndAForeignRecording) {
   fs::remove_all(dir);
 }
 
+// Issue 16: the virtual probe renders the probe as built, but its firmware never reads that
+// file: `mlp-sim serve` refuses to start without the model the firmware is to use.
+TEST(ProbeCli, AnAsBuiltProbeRendersButItsFirmwareNeverReadsIt) {
+  const fs::path dir = TempDir("as_built");
+  const std::string as_built =
+      std::string(MLP_SOURCE_DIR) + "/samples/probes/as_built/MLP-AB-0001.json";
+  ProcessRun r = Exec(kSim + " render --probe " + as_built + " --scene " + kScene + " --out " +
+                      (dir / "frames").string() + " --capture top_face --aoi 924,668,64,64");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "frames" / "frames.json"));
+  const fs::path key = dir / "probe.key";
+  std::ofstream(key) << std::string(64, 'b') << "\n";
+  fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write);
+  r = Exec(kSim + " serve --probe " + as_built + " --scene " + kScene + " --port 17462 --key " +
+           key.string());
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("--firmware-model"), std::string::npos) << r.out;
+  // A broken as-built file is a clear error naming the field.
+  std::ifstream in(as_built);
+  nlohmann::json bad = nlohmann::json::parse(in);
+  bad["window"]["refractive_index"] = 0.5;
+  std::ofstream(dir / "bad.json") << bad.dump();
+  r = Exec(kSim + " render --probe " + (dir / "bad.json").string() + " --scene " + kScene +
+           " --out " + (dir / "bad").string() + " --capture top_face --aoi 924,668,64,64");
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.out.find("refractive_index"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir / "bad" / "frames.json"));
+  fs::remove_all(dir);
+}
+
 }  // namespace
 
 namespace {

@@ -4,6 +4,7 @@
 
 #include "mlp/probe_fw/cloud_file.h"
 #include "mlp/probe_fw/stripe_file.h"
+#include "mlp/probe_fw/triangulate.h"
 
 #include <filesystem>
 #include <fstream>
@@ -87,6 +88,52 @@ void ExpectError(const std::string& text, const std::string& field) {
   }
 }
 
+// Issue 16: a real mirror and line generator (the mirror's cubic, the sheet's smile).
+ProbeModel CurvedProbe() {
+  ProbeModel m = LoadProbeModel(kReference);
+  m.projector.mirror_cubic_cols = 1.5;
+  m.projector.sheet_smile_cols = -0.8;
+  m.projector.fan_half_angle_deg = 22.0;
+  return m;
+}
+
+TEST(ProbeModel, CurvedSheetModelsAreVersionTwoAndRoundTrip) {
+  const ProbeModel a = CurvedProbe();
+  const std::string text = ToJson(a);
+  EXPECT_NE(text.find("mlprobe-probe-model/2"), std::string::npos);
+  const ProbeModel b = ParseProbeModel(text);
+  EXPECT_EQ(ToJson(b), text);
+  EXPECT_EQ(b.projector.mirror_cubic_cols, 1.5);
+  EXPECT_EQ(b.projector.sheet_smile_cols, -0.8);
+  EXPECT_EQ(b.projector.fan_half_angle_deg, 22.0);
+  // Without the terms a model stays /1, readable by every firmware.
+  EXPECT_NE(ToJson(LoadProbeModel(kReference)).find("mlprobe-probe-model/1"), std::string::npos);
+  ProbeModel bad = a;
+  bad.projector.mirror_cubic_cols = 400.0;  // the actual column would run backwards
+  EXPECT_THROW(bad.Validate(), ProbeModelError);
+}
+
+// A point, the commanded column whose curved sheet lights it and its pixel: triangulation gives
+// the point back, across the field and the mirror's range.
+constexpr double kTriangulationExactMm = 1e-9;
+
+TEST(ProbeModel, TriangulationMeetsTheCurvedSheet) {
+  const ProbeModel m = CurvedProbe();
+  int checked = 0;
+  for (double x = -25.0; x <= 25.0; x += 5.0) {
+    for (double y = -20.0; y <= 20.0; y += 5.0) {
+      const Vec3 p(x, y, 118.0 + 0.1 * x);
+      const double column = m.projector.CommandedColumnOf(p);
+      const Vec2 pixel = m.camera.Project(p);
+      EXPECT_NEAR(m.projector.CommandedColumn(m.projector.ActualColumn(column)), column, 1e-9);
+      EXPECT_LT((Triangulate(m, pixel.x(), pixel.y(), column) - p).norm(), kTriangulationExactMm)
+          << x << ", " << y;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 99);
+}
+
 TEST(ProbeModel, BadFilesNameTheField) {
   const std::string good = ReadFile(kReference);
   auto replace = [&](const std::string& from, const std::string& to) {
@@ -97,7 +144,7 @@ TEST(ProbeModel, BadFilesNameTheField) {
   };
   ExpectError("{", "not valid JSON");
   ExpectError("[]", "JSON object");
-  ExpectError(replace("mlprobe-probe-model/1", "mlprobe-probe-model/2"), "format");
+  ExpectError(replace("mlprobe-probe-model/1", "mlprobe-probe-model/3"), "format");
   ExpectError(replace("\"fx_px\": 4637.681", "\"fx_px\": -1"), "fx_px");
   ExpectError(replace("\"bit_depth\": 8", "\"bit_depth\": 7"), "bit_depth");
   ExpectError(replace("\"bit_depth\": 8", "\"bit_depth\": 8.5"), "bit_depth");

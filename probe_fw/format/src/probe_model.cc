@@ -14,6 +14,10 @@ using nlohmann::json;
 using nlohmann::ordered_json;
 namespace jf = json_fields;
 
+constexpr const char* kFormat = "mlprobe-probe-model/1";
+// The mirror's cubic and the sheet's smile (issue 16): refused by a firmware that predates them.
+constexpr const char* kFormatCurved = "mlprobe-probe-model/2";
+
 [[noreturn]] void Fail(const std::string& what) { throw ProbeModelError("probe model: " + what); }
 
 double Number(const json& j, const char* key, const std::string& where) {
@@ -67,6 +71,38 @@ double ProjectorModel::ColumnOf(const Vec3& point_in_probe) const {
   return c_px + f_px * q.x() / q.z();
 }
 
+double ProjectorModel::ActualColumn(double commanded) const {
+  const double s = (commanded - c_px) / (0.5 * columns);
+  return commanded + mirror_cubic_cols * s * s * s;
+}
+
+double ProjectorModel::CommandedColumn(double actual) const {
+  if (mirror_cubic_cols == 0.0) return actual;
+  constexpr int kSteps = 50;
+  constexpr double kTolColumns = 1e-12;
+  double u = actual;
+  for (int step = 0; step < kSteps; ++step) {
+    const double s = (u - c_px) / (0.5 * columns);
+    const double du = (u + mirror_cubic_cols * s * s * s - actual) /
+                      (1.0 + 3.0 * mirror_cubic_cols * s * s / (0.5 * columns));
+    u -= du;
+    if (std::abs(du) < kTolColumns) break;
+  }
+  return u;
+}
+
+double ProjectorModel::SmileAt(double t) const {
+  const double r = t / std::tan(fan_half_angle_deg * M_PI / 180.0);
+  return sheet_smile_cols * r * r;
+}
+
+double ProjectorModel::SheetColumnOf(const Vec3& point_in_probe) const {
+  const double planar = ColumnOf(point_in_probe);
+  if (sheet_smile_cols == 0.0) return planar;
+  const Vec3 q = camera_from_projector.inverse() * point_in_probe;
+  return planar - SmileAt(q.y() / q.z());
+}
+
 void ProjectorModel::PlaneOf(double column, Vec3* normal_in_probe, double* offset_mm) const {
   // In the projector frame the plane holds the y axis and the direction ((u - c) / f, 0, 1).
   const Vec3 n_proj = Vec3(1.0, 0.0, -(column - c_px) / f_px).normalized();
@@ -95,6 +131,13 @@ void ProbeModel::Validate() const {
   Require(p.columns >= 2 && p.columns <= 1 << 20, "projector.columns must be 2..2^20");
   Require(p.camera_from_projector.translation().norm() > 1.0,
           "projector baseline must exceed 1 mm (no triangulation without it)");
+  // The actual column must grow with the commanded one (|a| < columns / 6); tens of columns of
+  // non-linearity or smile are already far beyond any real mirror or line generator.
+  Require(std::abs(p.mirror_cubic_cols) <= 50.0,
+          "projector.mirror_cubic_cols must be in [-50, 50]");
+  Require(std::abs(p.sheet_smile_cols) <= 50.0, "projector.sheet_smile_cols must be in [-50, 50]");
+  Require(p.fan_half_angle_deg > 1.0 && p.fan_half_angle_deg < 80.0,
+          "projector.fan_half_angle_deg must be in (1, 80)");
   Require(laser.sheet_halfwidth_cols > 0.0, "laser.sheet_halfwidth_cols must be positive");
   const auto& n = noise;
   Require(n.full_well_e > 0.0, "noise.full_well_e must be positive");
@@ -105,8 +148,8 @@ void ProbeModel::Validate() const {
 }
 
 ProbeModel ParseProbeModel(const std::string& json_text) {
-  const json j =
-      jf::ParseDocument<ProbeModelError>(json_text, "mlprobe-probe-model/1", "probe model");
+  const json j = jf::ParseDocument<ProbeModelError>(
+      json_text, {std::string(kFormatCurved), std::string(kFormat)}, "probe model");
   ProbeModel m;
   m.serial = jf::Text<ProbeModelError>(j, "serial", "probe model");
   m.calibration_id = jf::Text<ProbeModelError>(j, "calibration_id", "probe model");
@@ -131,6 +174,11 @@ ProbeModel ParseProbeModel(const std::string& json_text) {
   m.projector.columns = Integer(p, "columns", "projector");
   m.projector.camera_from_projector = jf::Pose<ProbeModelError>(
       Object(p, "camera_from_projector"), "probe model: projector.camera_from_projector");
+  if (j.at("format") == kFormatCurved) {  // a /1 file has a linear mirror and a flat sheet
+    m.projector.mirror_cubic_cols = Number(p, "mirror_cubic_cols", "projector");
+    m.projector.sheet_smile_cols = Number(p, "sheet_smile_cols", "projector");
+    m.projector.fan_half_angle_deg = Number(p, "fan_half_angle_deg", "projector");
+  }
   const json& l = Object(j, "laser");
   m.laser.wavelength_nm = Number(l, "wavelength_nm", "laser");
   m.laser.sheet_halfwidth_cols = Number(l, "sheet_halfwidth_cols", "laser");
@@ -167,7 +215,9 @@ ProbeModel LoadProbeModel(const std::string& path) {
 std::string ToJson(const ProbeModel& m) {
   const auto& c = m.camera;
   ordered_json j;
-  j["format"] = "mlprobe-probe-model/1";
+  // A model with the mirror's or the sheet's terms is a /2 file, which a firmware that would
+  // ignore them refuses; any other stays /1, readable by every firmware.
+  j["format"] = m.projector.Curved() ? kFormatCurved : kFormat;
   j["serial"] = m.serial;
   j["calibration_id"] = m.calibration_id;
   j["camera"] = {
@@ -184,6 +234,11 @@ std::string ToJson(const ProbeModel& m) {
                     {"c_px", m.projector.c_px},
                     {"columns", m.projector.columns},
                     {"camera_from_projector", jf::PoseToJson(m.projector.camera_from_projector)}};
+  if (m.projector.Curved()) {
+    j["projector"]["mirror_cubic_cols"] = m.projector.mirror_cubic_cols;
+    j["projector"]["sheet_smile_cols"] = m.projector.sheet_smile_cols;
+    j["projector"]["fan_half_angle_deg"] = m.projector.fan_half_angle_deg;
+  }
   j["laser"] = {{"wavelength_nm", m.laser.wavelength_nm},
                 {"sheet_halfwidth_cols", m.laser.sheet_halfwidth_cols}};
   j["noise"] = {{"full_well_e", m.noise.full_well_e},

@@ -26,17 +26,27 @@ constexpr double kBoardTemperatureC = 35.0;
 
 int RunServeCommand(const std::vector<std::string>& args, std::ostream& out) {
   using probe_fw::cli::UsageError;
-  const probe_fw::cli::Options o(
-      args, {"--probe", "--scene", "--host", "--port", "--key", "--seed", "--buffer", "--captures"},
-      {});
-  auto probe = std::make_shared<const VirtualProbe>(probe_fw::LoadProbeModel(o.Required("--probe")),
-                                                    LoadScene(o.Required("--scene")));
+  const probe_fw::cli::Options o(args,
+                                 {"--probe", "--scene", "--host", "--port", "--key", "--seed",
+                                  "--buffer", "--captures", "--firmware-model"},
+                                 {});
+  // The frames come from the probe as built; its firmware knows only a model (the calibrated
+  // one): an as-built file is never given to the firmware.
+  const AsBuiltProbe as_built = LoadAsBuilt(o.Required("--probe"));
+  if (!as_built.plain_model && !o.Has("--firmware-model"))
+    throw UsageError(
+        "--probe is an as-built file, which the firmware must not know: give the firmware its "
+        "probe model (the calibrated file) with --firmware-model");
+  const probe_fw::ProbeModel firmware_model =
+      o.Has("--firmware-model") ? probe_fw::LoadProbeModel(o.Get("--firmware-model", ""))
+                                : as_built.model;
+  auto probe = std::make_shared<const VirtualProbe>(as_built, LoadScene(o.Required("--scene")));
   const double port = o.Number("--port", 0.0);
   if (!(port >= 1.0 && port <= 65535.0)) throw UsageError("--port must be 1..65535");
   probe_fw::ServeOptions options;
   options.link.host = o.Get("--host", "127.0.0.1");
   options.link.port = static_cast<std::uint16_t>(port);
-  options.link.serial = probe->model().serial;
+  options.link.serial = firmware_model.serial;
   options.link.key = link::LoadKeyFile(o.Required("--key"));
   options.link.buffer_clouds = static_cast<std::size_t>(o.Number("--buffer", 64));
   options.max_captures =
@@ -50,14 +60,14 @@ int RunServeCommand(const std::vector<std::string>& args, std::ostream& out) {
   };
   link::Log log = [&out](const std::string& line) { out << line << "\n" << std::flush; };
   // The same agent as the board's (mlp-fw serve), with the virtual mirror and camera plugged in.
-  probe_fw::VirtualProjector projector(probe->model().projector.columns - 1.0);
+  probe_fw::VirtualProjector projector(firmware_model.projector.columns - 1.0);
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   out << "mlp-sim: virtual probe " << options.link.serial << " serving " << options.link.host << ":"
       << options.link.port << "\n"
       << std::flush;
   const probe_fw::AgentStats s = probe_fw::ServeProbe(
-      probe->model(),
+      firmware_model,
       MakeVirtualCamera(probe, static_cast<std::uint64_t>(o.Number("--seed", 1)), projector),
       &projector, options, g_stop, log);
   out << "mlp-sim: served " << s.captures << " captures (" << s.points << " points), refused "

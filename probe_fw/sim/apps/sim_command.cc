@@ -22,18 +22,24 @@ constexpr const char* kUsage =
     "                      [--capture ID] [--aoi X0,Y0,W,H|full] [--columns FIRST:LAST:STEP]\n"
     "                      [--format png|pgm] [--noiseless] [--json]\n"
     "                      [--column-count N] [--led-supersampling N]\n"
+    "  --probe     the probe the frames come from: a probe model file, or an as-built file\n"
+    "              (mlprobe-as-built/1: the probe as it really is, which only the renderer reads)\n"
     "  --capture   which capture of the scene (default: the first)\n"
     "  --aoi       sensor window read out, or full (default: 512 x 512 at the centre)\n"
     "  --columns   laser sweep in projector columns (default: every 2nd column reaching the AOI)\n"
-    "  --column-count  N columns evenly over those reaching the AOI (calibration views)\n"
+    "  --column-count  N columns evenly over those reaching the workpiece seen in the AOI\n"
+    "              (calibration views: a 17 x 17 lattice of rays finds a small board)\n"
     "  --led-supersampling  N x N rays per LED pixel on edges (calibration targets' corners)\n"
     "writes DIR/frames.json, DIR/led.*, DIR/laser_NNNN.*, DIR/truth.json, DIR/truth_surface.ply\n"
     "exit codes: 0 written, 2 bad arguments or input, 1 bug\n"
     "\n"
     "usage: mlp-sim serve --probe PROBE_FILE --scene SCENE_FILE --port N --key KEY_FILE\n"
     "                     [--host ADDRESS] [--seed N] [--buffer CLOUDS] [--captures N]\n"
+    "                     [--firmware-model PROBE_FILE]\n"
     "  a virtual probe: connects to the host's probe link, answers capture requests at the\n"
     "  requested pose, AOI and sweep until SIGINT/SIGTERM (or after N captures, acknowledged)\n"
+    "  --firmware-model  the probe model its firmware triangulates with (required when --probe\n"
+    "              is an as-built file; default: the --probe model file)\n"
     "exit codes: 0 stopped, 2 bad arguments or input (key file, probe, scene), 1 bug\n";
 
 const Capture& FindCapture(const Scene& scene, const std::string& id) {
@@ -89,8 +95,7 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
                                   "--columns", "--column-count", "--led-supersampling", "--format"},
                                  {"--noiseless", "--json"});
   const auto start = std::chrono::steady_clock::now();
-  const VirtualProbe probe(probe_fw::LoadProbeModel(o.Required("--probe")),
-                           LoadScene(o.Required("--scene")));
+  const VirtualProbe probe(LoadAsBuilt(o.Required("--probe")), LoadScene(o.Required("--scene")));
   const std::string dir = o.Required("--out");
   const std::string format = o.Get("--format", "png");
   if (format != "png" && format != "pgm") throw UsageError("--format is png or pgm");
@@ -121,7 +126,11 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
       throw UsageError("--columns is FIRST:LAST:STEP, got '" + text + "'");
     }
   } else {
-    probe.ColumnsReaching(capture, sweep.aoi, &sweep.first_column, &sweep.last_column);
+    // Calibration views (--column-count) spread their columns over the whole workpiece seen,
+    // however small in the window: a 17 x 17 lattice of rays finds it.
+    constexpr int kCalibrationGrid = 17;
+    probe.ColumnsReaching(capture, sweep.aoi, &sweep.first_column, &sweep.last_column,
+                          o.Has("--column-count") ? kCalibrationGrid : 3);
     sweep.column_step = 2.0;
     if (o.Has("--column-count")) {
       const double n = o.Number("--column-count", 0.0);
@@ -176,6 +185,9 @@ int RunSimCommand(const std::vector<std::string>& args, std::ostream& out, std::
     err << "mlp-sim: " << e.what() << "\n";
     return probe_fw::cli::kExitBadInput;
   } catch (const SceneError& e) {
+    err << "mlp-sim: " << e.what() << "\n";
+    return probe_fw::cli::kExitBadInput;
+  } catch (const AsBuiltError& e) {
     err << "mlp-sim: " << e.what() << "\n";
     return probe_fw::cli::kExitBadInput;
   } catch (const link::LinkError& e) {  // a key file that is missing, unreadable or shared

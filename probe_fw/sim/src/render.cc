@@ -17,7 +17,7 @@ struct VirtualProbe::Pixel {
   double reflectance = 0.0;
   double cos_incidence = 0.0;  // surface normal vs direction to the projector
   double cos_view = 0.0;       // surface normal vs direction to the camera (the LED ring)
-  double projector_column = 0.0;
+  double sheet_column = 0.0;   // the mirror's actual column whose sheet centre lights the point
 };
 
 namespace {
@@ -85,8 +85,12 @@ void CheckSweep(const probe_fw::ProbeModel& model, const SweepOptions& o) {
 }  // namespace
 
 VirtualProbe::VirtualProbe(probe_fw::ProbeModel model, Scene scene)
-    : model_(std::move(model)), scene_(std::move(scene)) {
+    : VirtualProbe(AsBuiltProbe{std::move(model), {}}, std::move(scene)) {}
+
+VirtualProbe::VirtualProbe(AsBuiltProbe as_built, Scene scene)
+    : model_(std::move(as_built.model)), optics_(as_built.optics), scene_(std::move(scene)) {
   model_.Validate();
+  optics_.Validate();
   if (!scene_.workpiece) throw SceneError("scene: no workpiece");
 }
 
@@ -96,17 +100,18 @@ VirtualProbe::Pixel VirtualProbe::Trace(const Pose3& mcs_from_probe,
   Pixel px;
   const Vec2 xy = model_.camera.Undistort(pixel);
   const Vec3 dir_probe = Vec3(xy.x(), xy.y(), 1.0).normalized();
-  const Ray ray{mcs_from_probe.translation(), mcs_from_probe.linear() * dir_probe};
+  const Vec3 origin_probe = optics_.WindowShift(dir_probe);
+  const Ray ray{mcs_from_probe * origin_probe, mcs_from_probe.linear() * dir_probe};
   const auto hit = scene_.FirstHit(ray);
   if (!hit) return px;
   px.hit = true;
   const Vec3 point_mcs = ray.origin + hit->t * ray.direction;
   const Vec3 normal_probe = mcs_from_probe.linear().transpose() * hit->normal;
-  px.point_in_probe = hit->t * dir_probe;
+  px.point_in_probe = origin_probe + hit->t * dir_probe;
   px.reflectance = hit->reflectance;
   px.cos_view = std::max(0.0, -normal_probe.dot(dir_probe));
   if (!laser) return px;  // LED light comes from the camera: no shadow to test
-  px.projector_column = model_.projector.ColumnOf(px.point_in_probe);
+  px.sheet_column = model_.projector.SheetColumnOf(px.point_in_probe);
   const Vec3 to_projector = model_.projector.Center() - px.point_in_probe;
   px.cos_incidence = normal_probe.dot(to_projector.normalized());
   const Vec3 projector_mcs = mcs_from_probe * model_.projector.Center();
@@ -155,16 +160,17 @@ std::optional<Vec3> VirtualProbe::SurfaceAt(const Capture& capture, const Vec2& 
   return px.point_in_probe;
 }
 
-void VirtualProbe::ColumnsReaching(const Capture& capture,
-                                   const probe_fw::Aoi& aoi,
-                                   double* first,
-                                   double* last) const {
+void VirtualProbe::ColumnsReaching(
+    const Capture& capture, const probe_fw::Aoi& aoi, double* first, double* last, int grid) const {
   *first = INFINITY, *last = -INFINITY;
-  for (int dx : {0, aoi.width / 2, aoi.width - 1}) {
-    for (int dy : {0, aoi.height / 2, aoi.height - 1}) {
+  grid = std::max(grid, 2);
+  for (int i = 0; i < grid; ++i) {
+    for (int k = 0; k < grid; ++k) {
+      const int dx = i + 1 == grid ? aoi.width - 1 : i * aoi.width / (grid - 1);
+      const int dy = k + 1 == grid ? aoi.height - 1 : k * aoi.height / (grid - 1);
       const auto p = SurfaceAt(capture, Vec2(aoi.x0 + dx, aoi.y0 + dy));
       if (!p) continue;
-      const double column = model_.projector.ColumnOf(*p);
+      const double column = model_.projector.CommandedColumnOf(*p);
       *first = std::min(*first, column), *last = std::max(*last, column);
     }
   }
@@ -176,10 +182,11 @@ void VirtualProbe::ColumnsReaching(const Capture& capture,
 std::optional<double> VirtualProbe::TrueStripeCentre(
     const Capture& capture, double column, int row, int x_begin, int x_end) const {
   const Pose3 pose = McsFromProbe(capture);
+  const double actual = model_.projector.ActualColumn(column);
   auto offset = [&](double x, bool* ok) {
     const Pixel px = Trace(pose, Vec2(x, row));
     *ok = px.hit && px.lit;
-    return px.projector_column - column;
+    return px.sheet_column - actual;
   };
   bool ok_prev = false;
   double f_prev = offset(x_begin, &ok_prev);
@@ -227,7 +234,7 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
     for (int side : {-1, 1}) {
       const std::ptrdiff_t j = static_cast<std::ptrdiff_t>(i) + side * stride;
       if (at + side < 0 || at + side >= limit || !pixels[static_cast<size_t>(j)].hit) continue;
-      const double d = pixels[static_cast<size_t>(j)].projector_column - pixels[i].projector_column;
+      const double d = pixels[static_cast<size_t>(j)].sheet_column - pixels[i].sheet_column;
       if (std::abs(d) < std::abs(best)) best = d;
     }
     return std::isfinite(best) ? best : 0.0;
@@ -271,11 +278,12 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
       static_cast<std::uint64_t>((o.last_column - o.first_column) / o.column_step + 1e-9);
   for (std::uint64_t index = 1; o.laser_frames && index <= steps + 1; ++index) {
     const double column = o.first_column + static_cast<double>(index - 1) * o.column_step;
+    const double actual = model_.projector.ActualColumn(column);
     out.laser.push_back(make_frame(column, index, [&](size_t i, Gaussian& gauss) {
       const Pixel& p = pixels[i];
       double e = ambient(p);
       if (!p.lit) return e;
-      const double g = PixelAveragedSheet(p.projector_column - column, slope[i], sheet);
+      const double g = PixelAveragedSheet(p.sheet_column - actual, slope[i], sheet);
       if (g <= 0.0) return e;
       double speckle = 1.0;
       if (o.noise) speckle = std::max(0.0, 1.0 + noise.speckle_contrast * gauss());
@@ -285,7 +293,7 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
   out.truth.resize(n);
   for (size_t i = 0; i < n; ++i) {
     out.truth[i] = {pixels[i].hit, pixels[i].lit, pixels[i].point_in_probe,
-                    pixels[i].projector_column};
+                    model_.projector.CommandedColumn(pixels[i].sheet_column)};
   }
   return out;
 }

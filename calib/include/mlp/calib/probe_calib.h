@@ -23,6 +23,12 @@ namespace mlp::calib {
 struct ProjectorParams {
   double f_px = 0.0, c_px = 0.0;
   geometry::Pose3 camera_from_projector = geometry::Pose3::Identity();
+  /// The mirror's cubic and the sheet's smile [columns] (probe_model.h, ProjectorModel),
+  /// estimated when the mirror's range `columns` is given (from the design; fixed, with the
+  /// fan's half angle), held otherwise.
+  double mirror_cubic_cols = 0.0, sheet_smile_cols = 0.0;
+  int columns = 0;
+  double fan_half_angle_deg = 25.0;
   /// Continuous column lighting a point given in the camera frame.
   double ColumnOf(const geometry::Vec3& point_in_camera) const;
 };
@@ -42,6 +48,10 @@ struct ProbeCalibInput {
   Intrinsics camera_start;                               ///< e.g. from CalibrateCamera
   ProjectorParams projector_start;                       ///< e.g. the design values
   std::vector<geometry::Pose3> camera_from_board_start;  ///< per view
+  /// The mirror's cubic and the smile are kept only when the views determine them to this
+  /// (1-sigma, columns at the range's ends and at the field's edge): views whose stripes stay in
+  /// the middle of the mirror's range extrapolate a cubic to its ends.
+  double max_term_std_cols = 0.05;
 };
 
 struct ProbeCalibResult {
@@ -50,6 +60,11 @@ struct ProbeCalibResult {
   std::vector<geometry::Pose3> camera_from_board;
   double corner_rms_px = 0.0, stripe_rms_columns = 0.0;
   int views_used = 0, corners_used = 0, stripes_used = 0, iterations = 0;
+  /// 1-sigma of the mirror's cubic at the range's ends and of the smile at the camera's field
+  /// edge [columns] (0 when not estimated). Above ProbeCalibInput's limit a term is held at its
+  /// start value (the design's), and `notes` says so.
+  double mirror_cubic_std_cols = 0.0, smile_std_cols = 0.0;
+  std::vector<std::string> notes;
 };
 
 /// Throws CameraCalibError when the data cannot determine the model (fewer than 4 views with a
@@ -68,6 +83,14 @@ probe_fw::ProbeModel CalibratedProbeModel(const probe_fw::ProbeModel& design,
 /// uniform over +-8 px along its row. A checker edge inside the stripe's centroid window shifts
 /// the centre towards the light square (reflectance changes by 10x there).
 bool OnUniformLight(const GrayImage& led, double x_px, int y_px);
+
+/// Whether a pixel lies inside the quadrilateral of a view's outer inner corners (board order;
+/// none found: false). The board's plane is known there; beyond, a stripe may fall on the
+/// board's margin or its sides, which a sweep over the whole board lights.
+bool InsideTheCorners(const std::vector<geometry::Vec2>& corners,
+                      const ChessboardSpec& board,
+                      double x_px,
+                      double y_px);
 
 struct ProbeCalibReport {
   CameraCalibration camera_start;  ///< OpenCV's camera-only calibration, the start

@@ -38,16 +38,40 @@ struct CameraModel {
 
 /// The MEMS line projector as an inverse camera with one coordinate: the mirror angle theta maps to
 /// column u = c_px + f_px tan(theta).
+///
+/// A real mirror and line generator (issue 16) add two terms, both 0 in a design: the mirror's
+/// angle is not linear in the commanded column (the sheet of commanded column u is that of
+/// actual column u + mirror_cubic_cols s^3, s = (u - c_px) / (columns / 2)), and the sheet is
+/// curved (the sheet of actual column u reaches the points whose planar column ColumnOf is
+/// u + sheet_smile_cols (t / tan(fan_half_angle_deg))^2, t = y / z in the projector frame:
+/// a line generator's "smile"). Calibration estimates both.
 struct ProjectorModel {
   double f_px = 0.0;
   double c_px = 0.0;
   int columns = 0;  ///< addressable mirror positions: u in [0, columns)
   Pose3 camera_from_projector = Pose3::Identity();
+  double mirror_cubic_cols = 0.0;  ///< at the ends of the range [columns]
+  double sheet_smile_cols = 0.0;   ///< at the fan's edge [columns]
+  double fan_half_angle_deg = 25.0;
 
-  /// Continuous projector column of a point given in the camera (probe) frame.
+  /// Continuous planar column of a point given in the camera (probe) frame: where a flat sheet
+  /// of a linear mirror would put it.
   double ColumnOf(const Vec3& point_in_probe) const;
-  /// Light plane of column u in the camera frame: unit normal n and offset d with n.x = d.
+  /// Light plane of actual column u in the camera frame: unit normal n and offset d, n.x = d.
   void PlaneOf(double column, Vec3* normal_in_probe, double* offset_mm) const;
+  /// The mirror's actual column of a commanded one, and its inverse (Newton, to 1e-12).
+  double ActualColumn(double commanded) const;
+  double CommandedColumn(double actual) const;
+  /// The actual column whose (curved) sheet reaches a point.
+  double SheetColumnOf(const Vec3& point_in_probe) const;
+  /// The commanded column that lights a point: the smile and the mirror undone.
+  double CommandedColumnOf(const Vec3& point_in_probe) const {
+    return CommandedColumn(SheetColumnOf(point_in_probe));
+  }
+  /// The smile's column offset at along-line position t = y / z (projector frame).
+  double SmileAt(double t) const;
+  /// Whether the model has the terms of a real mirror and sheet (a /2 file).
+  bool Curved() const { return mirror_cubic_cols != 0.0 || sheet_smile_cols != 0.0; }
   /// Projector centre in the camera frame.
   Vec3 Center() const { return camera_from_projector.translation(); }
 };

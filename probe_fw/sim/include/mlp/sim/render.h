@@ -2,16 +2,17 @@
 /// @file The virtual probe: renders the frames a real probe would take of a scene, from the same
 /// probe model the firmware uses, and knows the truth behind every pixel.
 ///
-/// Physics per pixel (docs/VIRTUAL_PROBE.md): the camera ray through the distorted pixel centre
-/// meets the workpiece (occlusion from the camera); the surface point is lit by the laser unless
-/// the workpiece blocks the projector (shadowing), with Lambertian irradiance cos(incidence) x
-/// reflectance; the laser sheet is Gaussian in projector columns and integrated over the pixel
+/// Physics per pixel (docs/PROBE.md, "Virtual probe"): the camera ray through the distorted pixel
+/// centre meets the workpiece (occlusion from the camera); the surface point is lit by the laser
+/// unless the workpiece blocks the projector (shadowing), with Lambertian irradiance cos(incidence)
+/// x reflectance; the laser sheet is Gaussian in projector columns and integrated over the pixel
 /// width along the row; multiplicative speckle; shop light; shot noise (Gaussian approximation of
 /// Poisson) and read noise in electrons; gain to full scale at the full well; quantisation and
 /// saturation at the camera's bit depth. Deterministic for a given seed, frame by frame.
 
 #include "mlp/probe_fw/frame.h"
 #include "mlp/probe_fw/probe_model.h"
+#include "mlp/sim/as_built.h"
 #include "mlp/sim/scene.h"
 
 #include <cstdint>
@@ -39,7 +40,7 @@ struct PixelTruth {
   bool hit = false;  ///< the camera ray meets the workpiece
   bool lit = false;  ///< ... and the projector sees that point
   Vec3 point_in_probe = Vec3::Zero();
-  double projector_column = 0.0;
+  double projector_column = 0.0;  ///< the commanded column whose sheet centre lights the point
 };
 
 struct RenderedCapture {
@@ -51,8 +52,12 @@ struct RenderedCapture {
 class VirtualProbe {
  public:
   VirtualProbe(probe_fw::ProbeModel model, Scene scene);
+  /// Renders with the probe as built (as_built.h): the firmware is given another model.
+  VirtualProbe(AsBuiltProbe as_built, Scene scene);
 
+  /// The model the frames are rendered with (the as-built one's camera and projector).
   const probe_fw::ProbeModel& model() const { return model_; }
+  const AsBuiltOptics& optics() const { return optics_; }
   const Scene& scene() const { return scene_; }
   Pose3 McsFromProbe(const Capture& capture) const {
     return capture.mcs_from_flange * scene_.flange_from_probe;
@@ -61,12 +66,15 @@ class VirtualProbe {
   /// The LED frame and one laser frame per projector column of the sweep.
   RenderedCapture Render(const Capture& capture, const SweepOptions& options) const;
 
-  /// Projector columns whose light can reach the AOI: those of the surface under its corners,
-  /// edge midpoints and centre, widened by 3 columns. Throws SceneError when none is seen.
+  /// Projector columns (commanded) whose light can reach the AOI: those of the surface under a
+  /// grid x grid lattice of its pixels (3: corners, edge midpoints and centre), widened by 3
+  /// columns. A finer grid finds a small workpiece (a calibration board) in a large AOI. Throws
+  /// SceneError when none is seen.
   void ColumnsReaching(const Capture& capture,
                        const probe_fw::Aoi& aoi,
                        double* first,
-                       double* last) const;
+                       double* last,
+                       int grid = 3) const;
 
   /// Surface point (probe frame) seen through a continuous distorted pixel position, if any.
   std::optional<Vec3> SurfaceAt(const Capture& capture, const geometry::Vec2& pixel) const;
@@ -86,6 +94,7 @@ class VirtualProbe {
   Pixel Trace(const Pose3& mcs_from_probe, const geometry::Vec2& pixel, bool laser = true) const;
 
   probe_fw::ProbeModel model_;
+  AsBuiltOptics optics_;
   Scene scene_;
 };
 

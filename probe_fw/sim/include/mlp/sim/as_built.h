@@ -1,0 +1,50 @@
+#pragma once
+/// @file The probe as built, for the virtual probe only (issue 16, part 1): a real probe differs
+/// from its design and is known to the product only through its calibration. The as-built file
+/// (`mlprobe-as-built/1`, docs/PROBE.md, "The probe as built") holds the probe model the probe
+/// really has (camera and projector numbers off the design, the mirror's non-linearity and the
+/// sheet's smile: probe_model.h) and what no probe model describes: a window in front of the
+/// camera (a plane-parallel plate) that shifts every ray sideways. The firmware and the host never
+/// read this file; the renderer renders with it.
+
+#include "mlp/probe_fw/probe_model.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace mlp::sim {
+
+using geometry::Vec3;
+
+class AsBuiltError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct AsBuiltOptics {
+  /// A plane-parallel plate in front of the camera: thickness [mm] (0: none), refractive index,
+  /// unit normal in the probe frame (z forward).
+  double window_thickness_mm = 0.0;
+  double window_index = 1.5;
+  Vec3 window_normal_in_probe = Vec3::UnitZ();
+
+  /// Throws AsBuiltError naming the first field out of range.
+  void Validate() const;
+  /// Where a camera ray leaving the pinhole along the unit direction `d` (probe frame) emerges
+  /// from the window: the emerging ray is parallel to d, its origin moved by this [mm]. A
+  /// plane-parallel plate moves every ray of one direction by the same vector wherever it sits.
+  Vec3 WindowShift(const Vec3& d) const;
+};
+
+struct AsBuiltProbe {
+  probe_fw::ProbeModel model;  ///< the camera and projector the probe really has
+  AsBuiltOptics optics;
+  bool plain_model = false;  ///< read from a plain probe model file: nothing but the model
+};
+
+/// Reads `mlprobe-as-built/1`, or a plain probe model file (`mlprobe-probe-model/1`: the probe
+/// exactly as modelled, nominal optics). Throws AsBuiltError (or ProbeModelError for the model).
+AsBuiltProbe ParseAsBuilt(const std::string& json_text);
+AsBuiltProbe LoadAsBuilt(const std::string& path);
+
+}  // namespace mlp::sim

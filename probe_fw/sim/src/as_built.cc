@@ -1,0 +1,91 @@
+#include "mlp/sim/as_built.h"
+
+#include "mlp/probe_fw/json_fields.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace mlp::sim {
+namespace {
+
+namespace jf = probe_fw::json_fields;
+using nlohmann::json;
+
+constexpr const char* kFormat = "mlprobe-as-built/1";
+// A window's normal this far off the optical axis (or more) is a design error, not a tolerance.
+constexpr double kMaxWindowTiltDeg = 30.0;
+
+[[noreturn]] void Fail(const std::string& what) { throw AsBuiltError(what); }
+
+AsBuiltOptics ParseOptics(const json& j) {
+  jf::OnlyKnownFields<AsBuiltError>(j, {"format", "model", "window"}, "as-built");
+  AsBuiltOptics o;
+  if (j.contains("window")) {
+    const json& w = jf::Object<AsBuiltError>(j, "window", "as-built");
+    jf::OnlyKnownFields<AsBuiltError>(w, {"thickness_mm", "refractive_index", "normal_in_probe"},
+                                      "as-built.window");
+    o.window_thickness_mm = jf::Number<AsBuiltError>(w, "thickness_mm", "as-built.window");
+    o.window_index = jf::Number<AsBuiltError>(w, "refractive_index", "as-built.window");
+    if (w.contains("normal_in_probe"))
+      o.window_normal_in_probe = jf::Vector3<AsBuiltError>(w, "normal_in_probe", "as-built.window");
+  }
+  return o;
+}
+
+}  // namespace
+
+void AsBuiltOptics::Validate() const {
+  if (!(window_thickness_mm >= 0.0 && window_thickness_mm <= 20.0))
+    Fail("as-built: window.thickness_mm must be in [0, 20]");
+  if (!(window_index >= 1.0 && window_index <= 4.0))
+    Fail("as-built: window.refractive_index must be in [1, 4]");
+  const double norm = window_normal_in_probe.norm();
+  if (!(norm > 0.0) || !window_normal_in_probe.allFinite())
+    Fail("as-built: window.normal_in_probe must be a non-zero vector");
+  if (window_normal_in_probe.z() / norm < std::cos(kMaxWindowTiltDeg * M_PI / 180.0))
+    Fail("as-built: window.normal_in_probe must be within 30 degrees of the probe's z axis");
+}
+
+// Snell's law at both faces: inside the plate the ray runs along d_r (tangential part of d
+// divided by the index); it leaves parallel to d. Against the ray that went straight on, it is
+// moved by T / cos(phi_r) d_r - T / cos(phi) d, which has no part along the normal (both cross
+// the plate's thickness T).
+Vec3 AsBuiltOptics::WindowShift(const Vec3& d) const {
+  if (window_thickness_mm == 0.0) return Vec3::Zero();
+  const Vec3 n = window_normal_in_probe.normalized();
+  const double cos_in = d.dot(n);  // > 0: the camera looks through the window
+  const Vec3 tangential = d - cos_in * n;
+  const double sin_r = tangential.norm() / window_index;
+  const double cos_r = std::sqrt(1.0 - sin_r * sin_r);
+  const Vec3 inside = tangential / window_index + cos_r * n;
+  return window_thickness_mm / cos_r * inside - window_thickness_mm / cos_in * d;
+}
+
+AsBuiltProbe ParseAsBuilt(const std::string& json_text) {
+  const json j =
+      jf::ParseDocument<AsBuiltError>(json_text,
+                                      {std::string(kFormat), std::string("mlprobe-probe-model/2"),
+                                       std::string("mlprobe-probe-model/1")},
+                                      "as-built");
+  AsBuiltProbe a;
+  if (j.at("format") != kFormat) {  // a plain probe model: the probe exactly as modelled
+    a.model = probe_fw::ParseProbeModel(json_text);
+    a.plain_model = true;
+    return a;
+  }
+  a.model = probe_fw::ParseProbeModel(jf::Object<AsBuiltError>(j, "model", "as-built").dump());
+  a.optics = ParseOptics(j);
+  a.optics.Validate();
+  return a;
+}
+
+AsBuiltProbe LoadAsBuilt(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) Fail("as-built: cannot open " + path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseAsBuilt(text.str());
+}
+
+}  // namespace mlp::sim
