@@ -12,6 +12,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "flat_scene.h"
 #include <gtest/gtest.h>
 
 namespace mlp::sim {
@@ -111,20 +112,8 @@ TEST(AsBuilt, TheMirrorsCubicIsInvertedExactly) {
               p.mirror_cubic_cols, kExactCols);
 }
 
-// The sample block's flat top, 120 mm below the probe, slightly tilted.
-Scene FlatScene() {
-  Scene s;
-  s.workpiece = MakeBox({-80, -80, -30}, {80, 80, 0}, 0.6);
-  Capture c;
-  c.id = "top";
-  c.mcs_from_flange = Pose3::Identity();
-  c.mcs_from_flange.translation() = Vec3(0.3, -0.2, 120.0);
-  c.mcs_from_flange.linear() =
-      (Eigen::AngleAxisd(M_PI, Vec3::UnitX()) * Eigen::AngleAxisd(0.05, Vec3::UnitY()))
-          .toRotationMatrix();
-  s.captures.push_back(c);
-  return s;
-}
+// A flat face 160 mm square, 120 mm below the probe, slightly tilted: the field's corner too.
+Scene FlatScene() { return testing::FlatScene(0.6, 80.0); }
 
 struct Sweep {
   double stripe_rms_px = 0.0;  // frames vs the renderer's truth

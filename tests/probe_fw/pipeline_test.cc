@@ -7,6 +7,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "flat_scene.h"
 #include <gtest/gtest.h>
 
 namespace mlp::sim {
@@ -22,19 +23,8 @@ constexpr double kPlaneMm = 0.002;
 
 const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
 
-Scene FlatScene(double reflectance) {
-  Scene s;
-  s.workpiece = MakeBox({-50, -50, -30}, {50, 50, 0}, reflectance);
-  Capture c;
-  c.id = "top";
-  c.mcs_from_flange = Pose3::Identity();
-  c.mcs_from_flange.translation() = Vec3(0.3, -0.2, 120.0);
-  c.mcs_from_flange.linear() =
-      (Eigen::AngleAxisd(M_PI, Vec3::UnitX()) * Eigen::AngleAxisd(0.05, Vec3::UnitY()))
-          .toRotationMatrix();
-  s.captures.push_back(c);
-  return s;
-}
+// The sample block's top face, 100 mm square.
+Scene FlatScene(double reflectance) { return testing::FlatScene(reflectance, 50.0); }
 
 SweepOptions CentreSweep(bool noise) {
   SweepOptions o;
