@@ -46,7 +46,7 @@ GrayImage LoadLed(const std::string& dir,
     }
     probe_fw::Frame f;
     f.aoi = e.aoi;
-    probe_fw::ReadImage(dir + "/" + e.file, &f);
+    probe_fw::ReadImage(dir + "/" + e.file, &f, e.channels);
     if (f.aoi.width != e.aoi.width || f.aoi.height != e.aoi.height)
       throw CaptureIoError(dir + "/" + e.file + ": the image's size differs from frames.json");
     return {f.aoi.width, f.aoi.height, e.bit_depth, std::move(f.pixels)};

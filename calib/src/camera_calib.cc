@@ -66,17 +66,28 @@ std::vector<std::vector<geometry::Vec2>> DetectCorners(const std::vector<GrayIma
 }
 
 CameraCalibration CalibrateCamera(const std::vector<GrayImage>& images, const ChessboardSpec& b) {
+  for (const auto& image : images) {
+    if (image.width != images.at(0).width || image.height != images.at(0).height)
+      throw CameraCalibError("the images differ in size");
+  }
+  if (images.empty()) throw CameraCalibError("no images");
+  return CalibrateCameraFromCorners(DetectCorners(images, b), b, images[0].width, images[0].height);
+}
+
+CameraCalibration CalibrateCameraFromCorners(const std::vector<std::vector<geometry::Vec2>>& found,
+                                             const ChessboardSpec& b,
+                                             int width_px,
+                                             int height_px) {
   CameraCalibration result;
   std::vector<std::vector<cv::Point3f>> object_points;
   std::vector<std::vector<cv::Point2f>> image_points;
-  const auto found = DetectCorners(images, b);
-  for (size_t v = 0; v < images.size(); ++v) {
-    if (images[v].width != images[0].width || images[v].height != images[0].height)
-      throw CameraCalibError("the images differ in size");
+  for (size_t v = 0; v < found.size(); ++v) {
     if (found[v].empty()) {
       result.warnings.push_back("image " + std::to_string(v) + ": no complete board found");
       continue;
     }
+    if (found[v].size() != static_cast<size_t>(b.inner_cols * b.inner_rows))
+      throw CameraCalibError("image " + std::to_string(v) + ": not the board's corner count");
     std::vector<cv::Point2f> corners;
     for (const auto& c : found[v])
       corners.emplace_back(static_cast<float>(c.x()), static_cast<float>(c.y()));
@@ -87,7 +98,7 @@ CameraCalibration CalibrateCamera(const std::vector<GrayImage>& images, const Ch
   if (static_cast<int>(image_points.size()) < kMinViews)
     throw CameraCalibError("the board was found in " + std::to_string(image_points.size()) +
                            " images; at least " + std::to_string(kMinViews) + " are needed");
-  const cv::Size size(images[0].width, images[0].height);
+  const cv::Size size(width_px, height_px);
   cv::Mat k, dist;
   std::vector<cv::Mat> rvecs, tvecs;
   cv::Mat std_intr, std_extr, per_view;

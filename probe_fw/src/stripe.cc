@@ -6,6 +6,9 @@
 #include <stdexcept>
 #include <vector>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
 namespace mlp::probe_fw {
 namespace {
 
@@ -295,6 +298,23 @@ std::vector<std::pair<int, int>> Spans(const std::uint8_t* bits, int length) {
   return spans;
 }
 
+// The frame blurred with a Gaussian of `sigma_px` (OpenCV, reflected borders), full-scale pixels
+// kept at full scale.
+const std::uint16_t* Smoothed(const Frame& frame,
+                              double sigma_px,
+                              int max_level,
+                              std::vector<std::uint16_t>* buffer) {
+  buffer->resize(frame.pixels.size());
+  const cv::Mat in(frame.aoi.height, frame.aoi.width, CV_16U,
+                   const_cast<std::uint16_t*>(frame.pixels.data()));
+  cv::Mat out(frame.aoi.height, frame.aoi.width, CV_16U, buffer->data());
+  cv::GaussianBlur(in, out, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REFLECT);
+  for (size_t i = 0; i < buffer->size(); ++i) {
+    if (frame.pixels[i] >= max_level) (*buffer)[i] = static_cast<std::uint16_t>(max_level);
+  }
+  return buffer->data();
+}
+
 }  // namespace
 
 RowMask RowMask::Full(const Aoi& aoi) {
@@ -347,12 +367,15 @@ void StripeExtractor::Extract(const Frame& frame,
     throw std::invalid_argument("stripe: the mask's AOI differs from the frame's");
   }
   const int max_level = (1 << frame.bit_depth) - 1;
+  const std::uint16_t* pixels = frame.pixels.data();
+  if (options_.speckle_sigma_px > 0.0)
+    pixels = Smoothed(frame, options_.speckle_sigma_px, max_level, &smoothed_);
   const bool both = options_.axes == StripeAxes::kBoth;
   // Which columns the column scan reads: all when it runs alone; with both, those the row scan
   // marked (a stripe running down the image costs the column scan nothing).
   wanted_.assign(static_cast<size_t>(a.width), options_.axes == StripeAxes::kColumns ? 1 : 0);
   if (options_.axes != StripeAxes::kColumns) {
-    Scan rows{{frame.pixels.data(), a.width, a.height}, ScanAxis::kRow, a.x0, a.y0, both};
+    Scan rows{{pixels, a.width, a.height}, ScanAxis::kRow, a.x0, a.y0, both};
     if (both) rows.wanted = &wanted_;
     ScanLines(rows, mask_, 0, max_level, options_, out, counts);
   }
@@ -366,7 +389,7 @@ void StripeExtractor::Extract(const Frame& frame,
     while (c1 < a.width && wanted_[static_cast<size_t>(c1)]) ++c1;
     // The band's columns transposed: the column scan's lines in memory order.
     transposed_.resize(static_cast<size_t>(c1 - c0) * static_cast<size_t>(a.height));
-    Transpose(frame.pixels.data() + c0, a.width, c1 - c0, a.height, transposed_.data());
+    Transpose(pixels + c0, a.width, c1 - c0, a.height, transposed_.data());
     const Scan columns{
         {transposed_.data(), a.height, c1 - c0}, ScanAxis::kColumn, a.y0, a.x0 + c0, both};
     ScanLines(columns, column_mask_, c0, max_level, options_, out, counts);

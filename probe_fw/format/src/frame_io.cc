@@ -2,6 +2,7 @@
 
 #include "mlp/probe_fw/json_fields.h"
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -67,6 +68,20 @@ void ReadPgm(const std::string& path, Frame* f) {
   }
 }
 
+ChannelWeights ParseChannels(const json& c, const std::string& where) {
+  if (!c.is_object()) Fail(where + ".channels must be {\"r\": w, \"g\": w, \"b\": w}");
+  ChannelWeights w;
+  w.given = true;
+  w.r = jf::Number<FrameIoError>(c, "r", where + ".channels");
+  w.g = jf::Number<FrameIoError>(c, "g", where + ".channels");
+  w.b = jf::Number<FrameIoError>(c, "b", where + ".channels");
+  for (double v : {w.r, w.g, w.b}) {
+    if (!(std::abs(v) <= 16.0)) Fail(where + ".channels: each weight within [-16, 16]");
+  }
+  if (!(w.r > 0 || w.g > 0 || w.b > 0)) Fail(where + ".channels: no channel has a positive weight");
+  return w;
+}
+
 }  // namespace
 
 void WriteImage(const Frame& f, const std::string& path) {
@@ -79,11 +94,11 @@ void WriteImage(const Frame& f, const std::string& path) {
   WritePng(f, path);
 }
 
-void ReadImage(const std::string& path, Frame* f) {
+void ReadImage(const std::string& path, Frame* f, const ChannelWeights& channels) {
   const std::string ext = Extension(path);
   if (ext == ".pgm") return ReadPgm(path, f);
   if (ext != ".png") Fail(path + ": use .pgm or .png");
-  ReadPng(path, f);
+  ReadPng(path, f, channels);
 }
 
 void WriteCaptureDir(const std::string& dir,
@@ -149,6 +164,7 @@ CaptureManifest ReadCaptureManifest(const std::string& dir) {
       if (!a[k].is_number_integer()) Fail(where + ".aoi must hold integers");
     }
     entry.aoi = {a[0].get<int>(), a[1].get<int>(), a[2].get<int>(), a[3].get<int>()};
+    if (e.contains("channels")) entry.channels = ParseChannels(e.at("channels"), where);
     m.frames.push_back(entry);
   }
   return m;

@@ -1,5 +1,5 @@
-// Grey PNG images through libpng, directly. OpenCV's imgcodecs would do it in one call, but on
-// the probe's board it brings GDAL, GDCM, OpenEXR and a hundred more libraries (190 Debian
+// Grey and colour PNG images through libpng, directly. OpenCV's imgcodecs would do it in one call,
+// but on the probe's board it brings GDAL, GDCM, OpenEXR and a hundred more libraries (190 Debian
 // packages, 174 MB, for reading one PNG); libpng needs zlib alone.
 //
 // libpng reports errors by longjmp. The functions that call setjmp hold no C++ object that
@@ -7,6 +7,8 @@
 // own libpng's structures live in the caller's frame, which the jump never leaves.
 #include "png_io.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 
@@ -55,15 +57,22 @@ struct Header {
   int bit_depth = 0, colour_type = 0;
 };
 
-// Reads the header and sets up the transformations: grey below 8 bits widened to 8, 16-bit
-// samples in the machine's byte order.
+// Reads the header and sets up the transformations: grey below 8 bits widened to 8, a palette
+// expanded to RGB, alpha dropped (a camera's frame has none worth keeping), 16-bit samples in the
+// machine's byte order. `h->colour_type` ends as PNG_COLOR_TYPE_GRAY or PNG_COLOR_TYPE_RGB.
 bool ReadHeader(Reader* r, Header* h) {
   if (setjmp(png_jmpbuf(r->png))) return false;
   png_init_io(r->png, r->file);
   png_read_info(r->png, r->info);
   png_get_IHDR(r->png, r->info, &h->width, &h->height, &h->bit_depth, &h->colour_type, nullptr,
                nullptr, nullptr);
-  if (h->colour_type != PNG_COLOR_TYPE_GRAY) return true;  // refused by the caller
+  if (h->colour_type == PNG_COLOR_TYPE_PALETTE) {
+    png_set_palette_to_rgb(r->png);
+    h->bit_depth = 8;
+  }
+  if (h->colour_type & PNG_COLOR_MASK_ALPHA) png_set_strip_alpha(r->png);
+  h->colour_type =
+      (h->colour_type & PNG_COLOR_MASK_COLOR) ? PNG_COLOR_TYPE_RGB : PNG_COLOR_TYPE_GRAY;
   if (h->bit_depth < 8) png_set_expand_gray_1_2_4_to_8(r->png);
   if (h->bit_depth == 16) png_set_swap(r->png);
   png_set_interlace_handling(r->png);
@@ -91,9 +100,52 @@ bool WriteRows(Writer* w, const Header& h, png_bytepp rows) {
   return true;
 }
 
+// One value per pixel from interleaved RGB samples (ChannelWeights, frame_io.h).
+template <typename Sample>
+void Weigh(const Sample* rgb,
+           const ChannelWeights& w,
+           int bit_depth,
+           std::vector<std::uint16_t>* out) {
+  const double full = (1 << bit_depth) - 1;
+  const double weight[3] = {w.r, w.g, w.b};
+  for (size_t i = 0; i < out->size(); ++i) {
+    double v = 0.0;
+    bool clipped = false;
+    for (int c = 0; c < 3; ++c) {
+      const double s = rgb[3 * i + static_cast<size_t>(c)];
+      v += weight[c] * s;
+      clipped = clipped || (weight[c] > 0 && s >= full);
+    }
+    v = clipped ? full : std::clamp(std::round(v), 0.0, full);
+    (*out)[i] = static_cast<std::uint16_t>(v);
+  }
+}
+
+void ReadColourPng(
+    Reader* r, const Header& h, const ChannelWeights& channels, const std::string& path, Frame* f) {
+  const bool wide = h.bit_depth == 16;
+  const size_t width = h.width, height = h.height, samples = 3 * width * height;
+  std::vector<std::uint8_t> narrow(wide ? 0 : samples);
+  std::vector<std::uint16_t> wide_samples(wide ? samples : 0);
+  std::vector<png_bytep> rows(height);
+  for (size_t y = 0; y < height; ++y) {
+    rows[y] = wide ? reinterpret_cast<png_bytep>(wide_samples.data() + 3 * y * width)
+                   : narrow.data() + 3 * y * width;
+  }
+  if (!ReadRows(r, rows.data())) throw FrameIoError("frames: " + path + ": " + r->error.message);
+  // A 16-bit PNG holds a 10-, 12- or 14-bit camera's values unscaled: the manifest's depth.
+  f->bit_depth = wide ? (f->bit_depth > 8 ? f->bit_depth : 16) : 8;
+  f->pixels.assign(width * height, 0);
+  if (wide)
+    Weigh(wide_samples.data(), channels, f->bit_depth, &f->pixels);
+  else
+    Weigh(narrow.data(), channels, 8, &f->pixels);
+  f->aoi.width = static_cast<int>(width), f->aoi.height = static_cast<int>(height);
+}
+
 }  // namespace
 
-void ReadPng(const std::string& path, Frame* f) {
+void ReadPng(const std::string& path, Frame* f, const ChannelWeights& channels) {
   Reader r;
   r.file = std::fopen(path.c_str(), "rb");
   if (!r.file)
@@ -103,11 +155,15 @@ void ReadPng(const std::string& path, Frame* f) {
   if (!r.info) throw FrameIoError("frames: out of memory reading " + path);
   Header h;
   if (!ReadHeader(&r, &h)) throw FrameIoError("frames: " + path + ": " + r.error.message);
-  if (h.colour_type != PNG_COLOR_TYPE_GRAY)
-    throw FrameIoError("frames: " + path + ": not a grey image");
+  const bool colour = h.colour_type == PNG_COLOR_TYPE_RGB;
+  if (colour && !channels.given)
+    throw FrameIoError("frames: " + path +
+                       ": a colour image; frames.json must say which channels carry the light "
+                       "(\"channels\": {\"r\": 1, \"g\": -1, \"b\": 0} for a red laser)");
   if (h.width > kMaxSidePx || h.height > kMaxSidePx) {
     throw FrameIoError("frames: " + path + ": image too large");
   }
+  if (colour) return ReadColourPng(&r, h, channels, path, f);
   const bool wide = h.bit_depth == 16;
   const size_t width = h.width, height = h.height;
   std::vector<std::uint8_t> narrow(wide ? 0 : width * height);

@@ -11,7 +11,7 @@ namespace mlp::probe_fw {
 
 /// Pixels, width and height from the file; bit_depth set to 8 for an 8-bit file and left as
 /// it is for a 16-bit one (the capture manifest says how many of the 16 bits are used).
-void ReadPng(const std::string& path, Frame* frame);
+void ReadPng(const std::string& path, Frame* frame, const ChannelWeights& channels);
 /// 16-bit samples when bit_depth > 8, else 8-bit.
 void WritePng(const Frame& frame, const std::string& path);
 

@@ -128,7 +128,8 @@ void ProbeModel::Validate() const {
           "camera distortion coefficients are out of any lens's range");
   const auto& p = projector;
   Require(p.f_px > 0.0, "projector.f_px must be positive");
-  Require(p.columns >= 2 && p.columns <= 1 << 20, "projector.columns must be 2..2^20");
+  Require(p.columns >= 1 && p.columns <= 1 << 20,
+          "projector.columns must be 1 (a fixed line laser: one light plane) to 2^20");
   Require(p.camera_from_projector.translation().norm() > 1.0,
           "projector baseline must exceed 1 mm (no triangulation without it)");
   // The actual column must grow with the commanded one (|a| < columns / 6); tens of columns of

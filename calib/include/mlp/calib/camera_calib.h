@@ -50,5 +50,11 @@ class CameraCalibError : public std::runtime_error {
 /// Needs the board found in at least 4 images; throws CameraCalibError otherwise.
 CameraCalibration CalibrateCamera(const std::vector<GrayImage>& images,
                                   const ChessboardSpec& board);
+/// The same from corners found beforehand (per image, board order; empty: no board).
+CameraCalibration CalibrateCameraFromCorners(
+    const std::vector<std::vector<geometry::Vec2>>& corners,
+    const ChessboardSpec& board,
+    int width_px,
+    int height_px);
 
 }  // namespace mlp::calib

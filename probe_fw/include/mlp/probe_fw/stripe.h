@@ -50,6 +50,14 @@ struct StripeOptions {
   int max_width_px = 12;           ///< wider runs above half maximum are not a laser stripe
   double double_peak_ratio = 0.3;  ///< a second peak above this fraction of the first rejects
   StripeAxes axes = StripeAxes::kBoth;
+  /// Gaussian smoothing of the frame before the scans [px, sigma]; 0: none. Laser speckle on a
+  /// rough surface breaks a wide stripe's profile into grains that the double-peak test reads
+  /// as a second stripe; a kernel about the grain's size averages them (Dorsch, Haeusler &
+  /// Herrmann, "Laser triangulation: fundamental uncertainty in distance measurement", Appl.
+  /// Opt. 33, 1994: speckle, not pixel noise, bounds the centre's precision; smoothing along
+  /// the stripe trades lateral resolution for it). A symmetric kernel leaves a straight
+  /// stripe's centre where it was. Pixels at full scale stay at full scale (still saturated).
+  double speckle_sigma_px = 0.0;
 };
 
 struct StripePoint {
@@ -93,7 +101,8 @@ class StripeExtractor {
   RowMask mask_, column_mask_;
   StripeOptions options_;
   std::vector<std::uint16_t> transposed_;
-  std::vector<std::uint8_t> wanted_;  ///< per AOI column: the column scan reads it
+  std::vector<std::uint16_t> smoothed_;  ///< the frame after speckle smoothing
+  std::vector<std::uint8_t> wanted_;     ///< per AOI column: the column scan reads it
 };
 
 /// One frame: StripeExtractor(mask, options).Extract(frame, out, counts).

@@ -1,7 +1,8 @@
 #pragma once
 /// @file Frames on disk: single images (PGM written and read by hand, 8 or 16 bit; PNG through
-/// libpng) and a capture directory: `frames.json` (format mlprobe-frames/1, docs/FRAMES.md)
-/// listing each image with its AOI and projector column.
+/// libpng, grey or colour) and a capture directory: `frames.json` (format mlprobe-frames/1,
+/// docs/PROBE.md) listing each image with its AOI, projector column and, for a colour camera, the
+/// weights of its channels.
 
 #include "mlp/probe_fw/frame.h"
 
@@ -16,11 +17,22 @@ class FrameIoError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// How a colour image becomes the one value per pixel the firmware works on: v = r R + g G + b B,
+/// clamped to [0, 2^bit_depth - 1]. A red laser on a grey board is r = 1, g = -1 (the board's
+/// texture cancels, the laser stays); the board's view under white light is the luminance
+/// (0.299, 0.587, 0.114). A pixel where a channel of positive weight reaches full scale is full
+/// scale: the stripe extractor must see a clipped laser as saturated whatever the weighting.
+struct ChannelWeights {
+  bool given = false;  ///< false: colour images are refused (the manifest must say)
+  double r = 0.0, g = 0.0, b = 0.0;
+};
+
 /// Writes .pgm (binary P5; maxval 2^bit_depth - 1, 16-bit big-endian above 8 bits) or .png
 /// (8 or 16 bit, the value range unchanged), chosen by the extension.
 void WriteImage(const Frame& frame, const std::string& path);
 /// Reads the pixels of a .pgm or .png into `frame` (AOI size from the image; offset unchanged).
-void ReadImage(const std::string& path, Frame* frame);
+/// A colour PNG (RGB, RGBA, palette; 8 or 16 bit) needs `channels` given; a grey one ignores them.
+void ReadImage(const std::string& path, Frame* frame, const ChannelWeights& channels = {});
 
 struct CaptureMeta {
   std::string probe_serial;
@@ -41,6 +53,7 @@ struct CaptureManifest {
     double laser_column = -1.0;
     Aoi aoi;
     int bit_depth = 8;
+    ChannelWeights channels;  ///< "channels": {"r": .., "g": .., "b": ..}, optional
   };
   std::vector<Entry> frames;
 };

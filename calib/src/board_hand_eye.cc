@@ -1,0 +1,357 @@
+#include "mlp/calib/board_hand_eye.h"
+
+#include "mlp/geometry/robust.h"
+#include "mlp/probe_fw/probe_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/core/eigen.hpp>
+
+namespace mlp::calib {
+namespace {
+
+using geometry::Pose3;
+using geometry::Vec2;
+using geometry::Vec3;
+
+constexpr double kHuberSigmas = 3.0;
+constexpr int kMinBoardViews = 3;
+
+// Pose as 6 parameters: angle-axis rotation, then translation [mm].
+std::array<double, 6> ToParams(const Pose3& p) {
+  const Eigen::AngleAxisd aa(p.linear());
+  const Vec3 r = aa.axis() * aa.angle();
+  return {r.x(), r.y(), r.z(), p.translation().x(), p.translation().y(), p.translation().z()};
+}
+
+Pose3 FromParams(const double* q) {
+  Pose3 p = Pose3::Identity();
+  const Vec3 r(q[0], q[1], q[2]);
+  const double angle = r.norm();
+  if (angle > 0) p.linear() = Eigen::AngleAxisd(angle, r / angle).toRotationMatrix();
+  p.translation() = Vec3(q[3], q[4], q[5]);
+  return p;
+}
+
+template <typename T>
+void Apply(const T* pose, const T* in, T* out) {  // pose * in
+  ceres::AngleAxisRotatePoint(pose, in, out);
+  for (int i = 0; i < 3; ++i) out[i] += pose[3 + i];
+}
+
+template <typename T>
+void ApplyInverse(const T* pose, const T* in, T* out) {  // pose^-1 * in
+  const T back[3] = {-pose[0], -pose[1], -pose[2]};
+  const T shifted[3] = {in[0] - pose[3], in[1] - pose[4], in[2] - pose[5]};
+  ceres::AngleAxisRotatePoint(back, shifted, out);
+}
+
+// A board corner seen through X^-1 F^-1 B, against where it was detected [px / sigma].
+struct CornerCost {
+  Intrinsics k;
+  std::array<double, 6> flange_from_base;  // F^-1
+  Vec3 corner;
+  Vec2 seen;
+  double sigma_px;
+  template <typename T>
+  bool operator()(const T* x, const T* b, T* residual) const {
+    const T c[3] = {T(corner.x()), T(corner.y()), T(corner.z())};
+    T in_base[3], in_flange[3], p[3];
+    Apply(b, c, in_base);
+    T f[6];
+    for (int i = 0; i < 6; ++i) f[i] = T(flange_from_base[i]);
+    Apply(f, in_base, in_flange);
+    ApplyInverse(x, in_flange, p);
+    const T xn = p[0] / p[2], yn = p[1] / p[2], r2 = xn * xn + yn * yn;
+    const T radial = 1.0 + k.k1 * r2 + k.k2 * r2 * r2 + k.k3 * r2 * r2 * r2;
+    const T xd = xn * radial + 2.0 * k.p1 * xn * yn + k.p2 * (r2 + 2.0 * xn * xn);
+    const T yd = yn * radial + k.p1 * (r2 + 2.0 * yn * yn) + 2.0 * k.p2 * xn * yn;
+    residual[0] = (k.fx_px * xd + k.cx_px - seen.x()) / sigma_px;
+    residual[1] = (k.fy_px * yd + k.cy_px - seen.y()) / sigma_px;
+    return true;
+  }
+};
+
+// A stripe pixel's ray met with the light plane n.p = d, mapped by F X: its height above the
+// board [mm / sigma].
+struct LaserCost {
+  Vec3 ray;
+  std::array<double, 6> base_from_flange;
+  double sigma_mm;
+  template <typename T>
+  bool operator()(const T* x, const T* b, const T* normal, const T* offset, T* residual) const {
+    const T along = normal[0] * ray.x() + normal[1] * ray.y() + normal[2] * ray.z();
+    const T s = offset[0] / along;
+    const T p[3] = {s * ray.x(), s * ray.y(), s * ray.z()};
+    T in_flange[3], in_base[3], in_board[3];
+    Apply(x, p, in_flange);
+    T f[6];
+    for (int i = 0; i < 6; ++i) f[i] = T(base_from_flange[i]);
+    Apply(f, in_flange, in_base);
+    ApplyInverse(b, in_base, in_board);
+    residual[0] = in_board[2] / sigma_mm;
+    return true;
+  }
+};
+
+probe_fw::CameraModel CameraOf(const Intrinsics& in) {
+  probe_fw::CameraModel c;
+  c.fx_px = in.fx_px, c.fy_px = in.fy_px, c.cx_px = in.cx_px, c.cy_px = in.cy_px;
+  c.k1 = in.k1, c.k2 = in.k2, c.p1 = in.p1, c.p2 = in.p2, c.k3 = in.k3;
+  return c;
+}
+
+Pose3 ParkMartin(const std::vector<Pose3>& base_from_flange,
+                 const std::vector<Pose3>& camera_from_board) {
+  std::vector<cv::Mat> rg, tg, rc, tc;
+  // A fresh cv::Mat per entry: eigen2cv writes into an existing matrix of the same size.
+  const auto push = [](const Pose3& p, std::vector<cv::Mat>* rs, std::vector<cv::Mat>* ts) {
+    cv::Mat r, t;
+    cv::eigen2cv(Eigen::Matrix3d(p.linear()), r);
+    cv::eigen2cv(Vec3(p.translation()), t);
+    rs->push_back(r), ts->push_back(t);
+  };
+  for (size_t i = 0; i < base_from_flange.size(); ++i) {
+    push(base_from_flange[i], &rg, &tg);
+    push(camera_from_board[i], &rc, &tc);
+  }
+  cv::Mat rx, tx;
+  cv::calibrateHandEye(rg, tg, rc, tc, rx, tx, cv::CALIB_HAND_EYE_PARK);
+  Eigen::Matrix3d r;
+  Vec3 t;
+  cv::cv2eigen(rx, r);
+  cv::cv2eigen(tx, t);
+  Pose3 x = Pose3::Identity();
+  x.linear() = r, x.translation() = t;
+  return x;
+}
+
+std::vector<size_t> Thinned(size_t n, int max) {
+  std::vector<size_t> out;
+  const size_t step =
+      std::max<size_t>(1, (n + static_cast<size_t>(max) - 1) / static_cast<size_t>(max));
+  for (size_t i = 0; i < n; i += step) out.push_back(i);
+  return out;
+}
+
+std::vector<Vec3> BoardCorners(const ChessboardSpec& b) {
+  std::vector<Vec3> out;
+  for (int j = 1; j <= b.inner_rows; ++j)
+    for (int i = 1; i <= b.inner_cols; ++i) out.emplace_back(i * b.square_mm, j * b.square_mm, 0.0);
+  return out;
+}
+
+}  // namespace
+
+std::vector<Vec3> LaserPointsInBase(const ImageFindings& f,
+                                    const Pose3& base_from_flange,
+                                    const Intrinsics& camera,
+                                    const geometry::Plane& plane,
+                                    const Pose3& flange_from_camera) {
+  const probe_fw::CameraModel cam = CameraOf(camera);
+  const Vec3 n = plane.normal.normalized();
+  const double d = n.dot(plane.point);
+  const Pose3 base_from_camera = base_from_flange * flange_from_camera;
+  std::vector<Vec3> out;
+  for (const auto& px : f.stripe_px) {
+    const Vec2 u = cam.Undistort(px);
+    const Vec3 ray(u.x(), u.y(), 1.0);
+    const double along = n.dot(ray);
+    if (std::abs(along) < 1e-9) continue;  // a ray in the plane: no intersection
+    out.push_back(base_from_camera * (ray * (d / along)));
+  }
+  return out;
+}
+
+Spread SpreadAboutCommonPlane(const std::vector<Vec3>& points) {
+  Spread s;
+  if (points.size() < 3) return s;
+  Eigen::Matrix3Xd m(3, static_cast<Eigen::Index>(points.size()));
+  for (size_t i = 0; i < points.size(); ++i) m.col(static_cast<Eigen::Index>(i)) = points[i];
+  const auto fit = geometry::FitPlaneRobust(m);
+  double s2 = 0.0;
+  for (int i : fit.inliers) {
+    const Vec3& p = points[static_cast<size_t>(i)];
+    const double e = std::abs(fit.fit.shape.normal.dot(p - fit.fit.shape.point));
+    s2 += e * e, s.max_mm = std::max(s.max_mm, e);
+  }
+  s.points = static_cast<int>(fit.inliers.size());
+  s.outliers = static_cast<int>(points.size() - fit.inliers.size());
+  s.rms_mm = s.points > 0 ? std::sqrt(s2 / double(s.points)) : 0.0;
+  return s;
+}
+
+Spread CornerSpreadInBase(const std::vector<Pose3>& camera_from_board,
+                          const std::vector<Pose3>& base_from_flange,
+                          const Pose3& x,
+                          const ChessboardSpec& board) {
+  Spread s;
+  const auto corners = BoardCorners(board);
+  const size_t views = camera_from_board.size();
+  if (views == 0) return s;
+  double s2 = 0.0;
+  for (const Vec3& c : corners) {
+    std::vector<Vec3> mapped;
+    Vec3 mean = Vec3::Zero();
+    for (size_t v = 0; v < views; ++v) {
+      mapped.push_back(base_from_flange[v] * x * camera_from_board[v] * c);
+      mean += mapped.back();
+    }
+    mean /= double(views);
+    for (const auto& p : mapped) {
+      const double e = (p - mean).norm();
+      s2 += e * e, s.max_mm = std::max(s.max_mm, e), ++s.points;
+    }
+  }
+  s.rms_mm = std::sqrt(s2 / s.points);
+  return s;
+}
+
+BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
+                                     const std::vector<RobotImage>& images,
+                                     const LineLaserCalibration& cal,
+                                     const ChessboardSpec& board,
+                                     const BoardHandEyeOptions& o) {
+  using Kind = HandEyeError::Kind;
+  if (findings.size() != images.size())
+    throw HandEyeError(Kind::kBadInput, "board hand-eye: one pose per image is needed");
+  if (static_cast<int>(cal.board_images.size()) < kMinBoardViews)
+    throw HandEyeError(Kind::kBadInput, "board hand-eye: the board was used in " +
+                                            std::to_string(cal.board_images.size()) +
+                                            " images; at least 3 with different orientations");
+  BoardHandEyeResult r;
+  std::vector<Pose3> flange_poses;
+  for (int i : cal.board_images)
+    flange_poses.push_back(images[static_cast<size_t>(i)].base_from_flange);
+  r.start_flange_from_camera = ParkMartin(flange_poses, cal.camera.camera_from_board);
+  std::array<double, 6> x = ToParams(r.start_flange_from_camera);
+  std::array<double, 6> b =
+      ToParams(flange_poses[0] * r.start_flange_from_camera * cal.camera.camera_from_board[0]);
+  Vec3 n = cal.plane.normal.normalized();
+  double d = n.dot(cal.plane.point);
+
+  const Intrinsics& k = cal.camera.intrinsics;
+  const probe_fw::CameraModel cam = CameraOf(k);
+  const double sigma_px = std::max(0.05, cal.camera.rms_reprojection_px);
+  const double sigma_mm = std::max(0.005, cal.plane_rms_mm);
+  ceres::Problem::Options po;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  ceres::HuberLoss huber(kHuberSigmas);
+  const auto corners = BoardCorners(board);
+  for (size_t v = 0; v < cal.board_images.size(); ++v) {
+    const ImageFindings& f = findings[static_cast<size_t>(cal.board_images[v])];
+    for (size_t c = 0; c < corners.size(); ++c) {
+      auto* cost = new ceres::AutoDiffCostFunction<CornerCost, 2, 6, 6>(new CornerCost{
+          k, ToParams(flange_poses[v].inverse()), corners[c], f.corners[c], sigma_px});
+      problem.AddResidualBlock(cost, &huber, x.data(), b.data());
+      ++r.corners_used;
+    }
+  }
+  for (size_t i = 0; i < findings.size(); ++i) {
+    const ImageFindings& f = findings[i];
+    if (!f.HasLaser()) continue;
+    for (size_t j : Thinned(f.stripe_px.size(), o.max_laser_points_per_image)) {
+      const Vec2 u = cam.Undistort(f.stripe_px[j]);
+      auto* cost = new ceres::AutoDiffCostFunction<LaserCost, 1, 6, 6, 3, 1>(
+          new LaserCost{Vec3(u.x(), u.y(), 1.0), ToParams(images[i].base_from_flange), sigma_mm});
+      problem.AddResidualBlock(cost, &huber, x.data(), b.data(), n.data(), &d);
+      ++r.laser_points_used;
+    }
+  }
+  if (r.laser_points_used > 0) {
+    problem.SetManifold(n.data(), new ceres::SphereManifold<3>());
+    if (!o.refine_plane) {
+      problem.SetParameterBlockConstant(n.data());
+      problem.SetParameterBlockConstant(&d);
+    }
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  so.max_num_iterations = 200;
+  so.function_tolerance = 1e-12;
+  so.parameter_tolerance = 1e-12;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  r.iterations = static_cast<int>(summary.iterations.size());
+  if (!summary.IsSolutionUsable())
+    throw HandEyeError(Kind::kBadInput, "board hand-eye: the solver failed: " + summary.message);
+  r.flange_from_camera = FromParams(x.data());
+  r.base_from_board = FromParams(b.data());
+  r.plane.normal = n.normalized();
+  r.plane.point = r.plane.normal * d;
+
+  // Observability: X's covariance, scaled by the whitened residuals' variance.
+  ceres::Covariance::Options co;
+  ceres::Covariance covariance(co);
+  const std::vector<std::pair<const double*, const double*>> blocks = {{x.data(), x.data()}};
+  double c[36];
+  const double dof =
+      std::max(1.0, double(summary.num_residuals - summary.num_effective_parameters));
+  const double variance = 2.0 * summary.final_cost / dof;
+  if (!covariance.Compute(blocks, &problem) ||
+      !covariance.GetCovarianceBlock(x.data(), x.data(), c))
+    throw HandEyeError(Kind::kUnderDetermined,
+                       "board hand-eye: the mounting is not determined (rank-deficient): "
+                       "the board views need rotations about two different axes");
+  r.covariance = Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(c) * variance;
+  Eigen::Matrix<double, 6, 6> scaled = r.covariance;
+  scaled.topRows<3>() *= o.lever_mm;
+  scaled.leftCols<3>() *= o.lever_mm;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(scaled);
+  r.worst_std_mm = std::sqrt(std::max(0.0, eig.eigenvalues()(5)));
+  if (r.worst_std_mm > o.max_std_mm) {
+    static const char* names[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
+    int dominant = 0;
+    eig.eigenvectors().col(5).cwiseAbs().maxCoeff(&dominant);
+    std::ostringstream msg;
+    msg << "board hand-eye: the mounting is determined to " << r.worst_std_mm
+        << " mm (1 sigma, rotations at " << o.lever_mm << " mm), above " << o.max_std_mm
+        << " mm; mostly " << names[dominant]
+        << ": add board views turned about another axis, or farther apart";
+    throw HandEyeError(Kind::kUnderDetermined, msg.str());
+  }
+
+  // Per image: corners through the solution, laser heights above the board.
+  double corner_sum2 = 0.0;
+  int corner_count = 0;
+  const Pose3 board_from_base = r.base_from_board.inverse();
+  for (size_t i = 0; i < findings.size(); ++i) {
+    const ImageFindings& f = findings[i];
+    BoardHandEyeImage im;
+    im.name = f.name;
+    const auto used = std::find(cal.board_images.begin(), cal.board_images.end(), int(i));
+    if (used != cal.board_images.end()) {
+      const Pose3 camera_from_board =
+          (images[i].base_from_flange * r.flange_from_camera).inverse() * r.base_from_board;
+      double s2 = 0.0;
+      for (size_t c = 0; c < corners.size(); ++c) {
+        s2 += (k.Project(camera_from_board * corners[c]) - f.corners[c]).squaredNorm();
+      }
+      im.corners = static_cast<int>(corners.size());
+      im.corner_rms_px = std::sqrt(s2 / double(corners.size()));
+      corner_sum2 += s2, corner_count += im.corners;
+    }
+    if (f.HasLaser()) {
+      double s2 = 0.0;
+      for (const Vec3& p :
+           LaserPointsInBase(f, images[i].base_from_flange, k, r.plane, r.flange_from_camera)) {
+        const double h = (board_from_base * p).z();
+        s2 += h * h, im.laser_max_mm = std::max(im.laser_max_mm, std::abs(h)), ++im.laser_points;
+      }
+      im.laser_rms_mm = im.laser_points > 0 ? std::sqrt(s2 / im.laser_points) : 0.0;
+    }
+    r.images.push_back(im);
+  }
+  r.corner_rms_px = corner_count > 0 ? std::sqrt(corner_sum2 / corner_count) : 0.0;
+  return r;
+}
+
+}  // namespace mlp::calib
