@@ -101,13 +101,6 @@ struct LaserCost {
   }
 };
 
-probe_fw::CameraModel CameraOf(const Intrinsics& in) {
-  probe_fw::CameraModel c;
-  c.fx_px = in.fx_px, c.fy_px = in.fy_px, c.cx_px = in.cx_px, c.cy_px = in.cy_px;
-  c.k1 = in.k1, c.k2 = in.k2, c.p1 = in.p1, c.p2 = in.p2, c.k3 = in.k3;
-  return c;
-}
-
 Pose3 ParkMartin(const std::vector<Pose3>& base_from_flange,
                  const std::vector<Pose3>& camera_from_board) {
   std::vector<cv::Mat> rg, tg, rc, tc;
@@ -155,7 +148,7 @@ std::vector<Vec3> LaserPointsInBase(const ImageFindings& f,
                                     const Intrinsics& camera,
                                     const geometry::Plane& plane,
                                     const Pose3& flange_from_camera) {
-  const probe_fw::CameraModel cam = CameraOf(camera);
+  const probe_fw::CameraModel cam = CameraModelOf(camera);
   const Vec3 n = plane.normal.normalized();
   const double d = n.dot(plane.point);
   const Pose3 base_from_camera = base_from_flange * flange_from_camera;
@@ -238,7 +231,7 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
   double d = n.dot(cal.plane.point);
 
   const Intrinsics& k = cal.camera.intrinsics;
-  const probe_fw::CameraModel cam = CameraOf(k);
+  const probe_fw::CameraModel cam = CameraModelOf(k);
   const double sigma_px = std::max(0.05, cal.camera.rms_reprojection_px);
   const double sigma_mm = std::max(0.005, cal.plane_rms_mm);
   ceres::Problem::Options po;

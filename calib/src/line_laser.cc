@@ -110,13 +110,6 @@ void FindStripe(const GrayImage& image, const StripeSettings& s, ImageFindings* 
       static_cast<int>(counts.weak + counts.double_peak + counts.too_wide + counts.cut);
 }
 
-probe_fw::CameraModel CameraOf(const Intrinsics& in) {
-  probe_fw::CameraModel c;
-  c.fx_px = in.fx_px, c.fy_px = in.fy_px, c.cx_px = in.cx_px, c.cy_px = in.cy_px;
-  c.k1 = in.k1, c.k2 = in.k2, c.p1 = in.p1, c.p2 = in.p2, c.k3 = in.k3;
-  return c;
-}
-
 template <int N>
 Eigen::Matrix<double, N, Eigen::Dynamic> Columns(
     const std::vector<Eigen::Matrix<double, N, 1>>& v) {
@@ -160,7 +153,7 @@ std::vector<ImageFindings> FindInImages(const RobotViews& views,
 
 StripeScatter ScatterAboutLine(const std::vector<Vec2>& stripe_px, const Intrinsics& camera) {
   StripeScatter s;
-  const probe_fw::CameraModel cam = CameraOf(camera);
+  const probe_fw::CameraModel cam = CameraModelOf(camera);
   std::vector<Vec2> all;
   for (const auto& p : stripe_px) all.push_back(cam.Undistort(p) * camera.fx_px);
   if (all.size() < 3) return s;
@@ -219,7 +212,7 @@ LineLaserCalibration CalibrateLineLaser(const std::vector<ImageFindings>& images
     r.camera = CalibrateCameraFromCorners(kept, board, width_px, height_px);
   r.board_images = kept_index;
 
-  const probe_fw::CameraModel cam = CameraOf(r.camera.intrinsics);
+  const probe_fw::CameraModel cam = CameraModelOf(r.camera.intrinsics);
   std::vector<Vec3> points;
   double sum2 = 0.0;
   int scatter_points = 0;
@@ -255,6 +248,13 @@ LineLaserCalibration CalibrateLineLaser(const std::vector<ImageFindings>& images
   return r;
 }
 
+probe_fw::CameraModel CameraModelOf(const Intrinsics& in) {
+  probe_fw::CameraModel c;
+  c.fx_px = in.fx_px, c.fy_px = in.fy_px, c.cx_px = in.cx_px, c.cy_px = in.cy_px;
+  c.k1 = in.k1, c.k2 = in.k2, c.p1 = in.p1, c.p2 = in.p2, c.k3 = in.k3;
+  return c;
+}
+
 probe_fw::ProjectorModel OnePlaneProjector(const geometry::Plane& plane) {
   probe_fw::ProjectorModel p;
   p.f_px = 1.0, p.c_px = 0.0, p.columns = 1;
@@ -279,9 +279,10 @@ probe_fw::ProbeModel LineLaserProbeModel(const probe_fw::ProbeModel& design,
                                          const std::string& calibration_id) {
   probe_fw::ProbeModel m = design;
   m.calibration_id = calibration_id;
+  const probe_fw::CameraModel k = CameraModelOf(camera);
   auto& c = m.camera;
-  c.fx_px = camera.fx_px, c.fy_px = camera.fy_px, c.cx_px = camera.cx_px, c.cy_px = camera.cy_px;
-  c.k1 = camera.k1, c.k2 = camera.k2, c.p1 = camera.p1, c.p2 = camera.p2, c.k3 = camera.k3;
+  c.fx_px = k.fx_px, c.fy_px = k.fy_px, c.cx_px = k.cx_px, c.cy_px = k.cy_px;
+  c.k1 = k.k1, c.k2 = k.k2, c.p1 = k.p1, c.p2 = k.p2, c.k3 = k.k3;
   m.projector = OnePlaneProjector(plane);
   m.Validate();
   return m;

@@ -74,6 +74,9 @@ LineLaserCalibration CalibrateLineLaser(const std::vector<ImageFindings>& images
                                         int width_px,
                                         int height_px);
 
+/// The firmware's camera model of calibrated intrinsics (for its Newton undistortion).
+probe_fw::CameraModel CameraModelOf(const Intrinsics& camera);
+
 /// The light plane as the probe model's projector: one column (0), the projector frame's x axis
 /// along the plane's normal, its origin the plane's point nearest the camera.
 probe_fw::ProjectorModel OnePlaneProjector(const geometry::Plane& plane_in_camera);
