@@ -9,6 +9,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "board_json.h"
+
 namespace mlp::calib {
 namespace {
 
@@ -16,18 +18,6 @@ namespace jf = probe_fw::json_fields;
 namespace fs = std::filesystem;
 constexpr const char* kFormat = "mlprobe-board-views/1";
 constexpr int kMaxViews = 1000;
-
-ChessboardSpec ParseBoard(const jf::json& j, const std::string& where) {
-  const jf::json& b = jf::Object<CaptureIoError>(j, "board", where);
-  ChessboardSpec s;
-  s.inner_cols = jf::Integer<CaptureIoError>(b, "inner_cols", where + ".board");
-  s.inner_rows = jf::Integer<CaptureIoError>(b, "inner_rows", where + ".board");
-  s.square_mm = jf::Number<CaptureIoError>(b, "square_mm", where + ".board");
-  if (s.inner_cols < 2 || s.inner_rows < 2 || s.inner_cols > 100 || s.inner_rows > 100 ||
-      !(s.square_mm > 0))
-    throw CaptureIoError(where + ".board: 2..100 inner corners each way and square_mm > 0");
-  return s;
-}
 
 GrayImage LoadLed(const std::string& dir,
                   const probe_fw::CaptureManifest& m,

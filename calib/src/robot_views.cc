@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "board_json.h"
 #include <Eigen/Geometry>
 
 namespace mlp::calib {
@@ -140,13 +141,7 @@ RobotViews LoadRobotViews(const std::string& manifest_path) {
   const std::string& where = manifest_path;
   const fs::path base = fs::path(manifest_path).parent_path();
   RobotViews v;
-  const jf::json& b = jf::Object<CaptureIoError>(j, "board", where);
-  v.board.inner_cols = jf::Integer<CaptureIoError>(b, "inner_cols", where + ".board");
-  v.board.inner_rows = jf::Integer<CaptureIoError>(b, "inner_rows", where + ".board");
-  v.board.square_mm = jf::Number<CaptureIoError>(b, "square_mm", where + ".board");
-  if (v.board.inner_cols < 2 || v.board.inner_rows < 2 || v.board.inner_cols > 100 ||
-      v.board.inner_rows > 100 || !(v.board.square_mm > 0))
-    throw CaptureIoError(where + ".board: 2..100 inner corners each way and square_mm > 0");
+  v.board = ParseBoard(j, where);
   const jf::json& ch = jf::Object<CaptureIoError>(j, "channels", where);
   v.board_channels = Channels(ch, "board", where + ".channels");
   v.laser_channels = Channels(ch, "laser", where + ".channels");

@@ -1,0 +1,25 @@
+#pragma once
+// The "board" object of a views manifest (mlprobe-board-views/1, mlprobe-robot-views/1).
+
+#include "mlp/calib/camera_calib.h"
+#include "mlp/calib/capture_io.h"
+#include "mlp/probe_fw/json_fields.h"
+
+#include <string>
+
+namespace mlp::calib {
+
+inline ChessboardSpec ParseBoard(const probe_fw::json_fields::json& j, const std::string& where) {
+  namespace jf = probe_fw::json_fields;
+  const jf::json& b = jf::Object<CaptureIoError>(j, "board", where);
+  ChessboardSpec s;
+  s.inner_cols = jf::Integer<CaptureIoError>(b, "inner_cols", where + ".board");
+  s.inner_rows = jf::Integer<CaptureIoError>(b, "inner_rows", where + ".board");
+  s.square_mm = jf::Number<CaptureIoError>(b, "square_mm", where + ".board");
+  if (s.inner_cols < 2 || s.inner_rows < 2 || s.inner_cols > 100 || s.inner_rows > 100 ||
+      !(s.square_mm > 0))
+    throw CaptureIoError(where + ".board: 2..100 inner corners each way and square_mm > 0");
+  return s;
+}
+
+}  // namespace mlp::calib
