@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -207,6 +208,132 @@ Spread CornerSpreadInBase(const std::vector<Pose3>& camera_from_board,
   return s;
 }
 
+namespace {
+
+// The unknowns of the joint problem: X, B, and the light plane n.p = d (camera frame).
+struct JointParams {
+  std::array<double, 6> x{}, b{};
+  Vec3 n = Vec3::UnitZ();
+  double d = 0.0;
+};
+
+// The noise of each residual class [px], [mm]: what the residuals are divided by.
+struct ClassSigmas {
+  double px = 1.0, mm = 1.0;
+};
+
+// One joint least-squares problem over JointParams at given class sigmas.
+class JointProblem {
+ public:
+  JointProblem(const std::vector<ImageFindings>& findings,
+               const std::vector<RobotImage>& images,
+               const LineLaserCalibration& cal,
+               const ChessboardSpec& board,
+               const BoardHandEyeOptions& o,
+               ClassSigmas sigmas,
+               JointParams* p)
+      : huber_(kHuberSigmas), sigmas_(sigmas), p_(p) {
+    ceres::Problem::Options po;
+    po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    problem_ = std::make_unique<ceres::Problem>(po);
+    AddCorners(findings, images, cal, board);
+    AddLaser(findings, images, cal, o);
+    if (!laser_.empty()) {
+      problem_->SetManifold(p_->n.data(), new ceres::SphereManifold<3>());
+      if (!o.refine_plane) {
+        problem_->SetParameterBlockConstant(p_->n.data());
+        problem_->SetParameterBlockConstant(&p_->d);
+      }
+    }
+  }
+
+  ceres::Solver::Summary Solve() {
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+    so.max_num_iterations = 200;
+    so.function_tolerance = 1e-12;
+    so.parameter_tolerance = 1e-12;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, problem_.get(), &summary);
+    return summary;
+  }
+
+  // Each class's noise as its residuals at the solution show it: 1.4826 x the median |residual|
+  // (robust to the laser light beside the board), the variance-component idea of geodesy
+  // (Helmert; Foerstner 1979) with a robust scale.
+  ClassSigmas ResidualSigmas() const {
+    return {sigmas_.px * RawSigma(corners_),
+            laser_.empty() ? sigmas_.mm : sigmas_.mm * RawSigma(laser_)};
+  }
+
+  ceres::Problem& problem() { return *problem_; }
+  int corners() const { return static_cast<int>(corners_.size()); }
+  int laser_points() const { return static_cast<int>(laser_.size()); }
+
+ private:
+  void AddCorners(const std::vector<ImageFindings>& findings,
+                  const std::vector<RobotImage>& images,
+                  const LineLaserCalibration& cal,
+                  const ChessboardSpec& board) {
+    const auto corners = BoardCorners(board);
+    for (int i : cal.board_images) {
+      const ImageFindings& f = findings[static_cast<size_t>(i)];
+      const auto flange_from_base =
+          ToParams(images[static_cast<size_t>(i)].base_from_flange.inverse());
+      for (size_t c = 0; c < corners.size(); ++c) {
+        auto* cost = new ceres::AutoDiffCostFunction<CornerCost, 2, 6, 6>(new CornerCost{
+            cal.camera.intrinsics, flange_from_base, corners[c], f.corners[c], sigmas_.px});
+        corners_.push_back(problem_->AddResidualBlock(cost, &huber_, p_->x.data(), p_->b.data()));
+      }
+    }
+  }
+
+  void AddLaser(const std::vector<ImageFindings>& findings,
+                const std::vector<RobotImage>& images,
+                const LineLaserCalibration& cal,
+                const BoardHandEyeOptions& o) {
+    const probe_fw::CameraModel cam = CameraModelOf(cal.camera.intrinsics);
+    for (size_t i = 0; i < findings.size(); ++i) {
+      const ImageFindings& f = findings[i];
+      if (!f.HasLaser()) continue;
+      for (size_t j : Thinned(f.stripe_px.size(), o.max_laser_points_per_image)) {
+        const Vec2 u = cam.Undistort(f.stripe_px[j]);
+        auto* cost = new ceres::AutoDiffCostFunction<LaserCost, 1, 6, 6, 3, 1>(new LaserCost{
+            Vec3(u.x(), u.y(), 1.0), ToParams(images[i].base_from_flange), sigmas_.mm});
+        laser_.push_back(problem_->AddResidualBlock(cost, &huber_, p_->x.data(), p_->b.data(),
+                                                    p_->n.data(), &p_->d));
+      }
+    }
+  }
+
+  // 1.4826 x median |whitened residual| of the blocks, without the loss.
+  double RawSigma(const std::vector<ceres::ResidualBlockId>& blocks) const {
+    ceres::Problem::EvaluateOptions eo;
+    eo.residual_blocks = blocks;
+    eo.apply_loss_function = false;
+    std::vector<double> r;
+    problem_->Evaluate(eo, nullptr, &r, nullptr, nullptr);
+    for (double& v : r) v = std::abs(v);
+    std::nth_element(r.begin(), r.begin() + static_cast<long>(r.size() / 2), r.end());
+    return 1.4826 * r[r.size() / 2];
+  }
+
+  ceres::HuberLoss huber_;
+  ClassSigmas sigmas_;
+  JointParams* p_;
+  std::unique_ptr<ceres::Problem> problem_;
+  std::vector<ceres::ResidualBlockId> corners_, laser_;
+};
+
+constexpr int kMaxVariancePasses = 6;
+constexpr double kSigmaSettled = 0.02;  // relative change of both class sigmas between passes
+
+bool Settled(const ClassSigmas& a, const ClassSigmas& b) {
+  return std::abs(a.px / b.px - 1.0) < kSigmaSettled && std::abs(a.mm / b.mm - 1.0) < kSigmaSettled;
+}
+
+}  // namespace
+
 BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
                                      const std::vector<RobotImage>& images,
                                      const LineLaserCalibration& cal,
@@ -224,62 +351,39 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
   for (int i : cal.board_images)
     flange_poses.push_back(images[static_cast<size_t>(i)].base_from_flange);
   r.start_flange_from_camera = ParkMartin(flange_poses, cal.camera.camera_from_board);
-  std::array<double, 6> x = ToParams(r.start_flange_from_camera);
-  std::array<double, 6> b =
-      ToParams(flange_poses[0] * r.start_flange_from_camera * cal.camera.camera_from_board[0]);
-  Vec3 n = cal.plane.normal.normalized();
-  double d = n.dot(cal.plane.point);
+  JointParams p;
+  p.x = ToParams(r.start_flange_from_camera);
+  p.b = ToParams(flange_poses[0] * r.start_flange_from_camera * cal.camera.camera_from_board[0]);
+  p.n = cal.plane.normal.normalized();
+  p.d = p.n.dot(cal.plane.point);
 
-  const Intrinsics& k = cal.camera.intrinsics;
-  const probe_fw::CameraModel cam = CameraModelOf(k);
-  const double sigma_px = std::max(0.05, cal.camera.rms_reprojection_px);
-  const double sigma_mm = std::max(0.005, cal.plane_rms_mm);
-  ceres::Problem::Options po;
-  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(po);
-  ceres::HuberLoss huber(kHuberSigmas);
-  const auto corners = BoardCorners(board);
-  for (size_t v = 0; v < cal.board_images.size(); ++v) {
-    const ImageFindings& f = findings[static_cast<size_t>(cal.board_images[v])];
-    for (size_t c = 0; c < corners.size(); ++c) {
-      auto* cost = new ceres::AutoDiffCostFunction<CornerCost, 2, 6, 6>(new CornerCost{
-          k, ToParams(flange_poses[v].inverse()), corners[c], f.corners[c], sigma_px});
-      problem.AddResidualBlock(cost, &huber, x.data(), b.data());
-      ++r.corners_used;
-    }
-  }
-  for (size_t i = 0; i < findings.size(); ++i) {
-    const ImageFindings& f = findings[i];
-    if (!f.HasLaser()) continue;
-    for (size_t j : Thinned(f.stripe_px.size(), o.max_laser_points_per_image)) {
-      const Vec2 u = cam.Undistort(f.stripe_px[j]);
-      auto* cost = new ceres::AutoDiffCostFunction<LaserCost, 1, 6, 6, 3, 1>(
-          new LaserCost{Vec3(u.x(), u.y(), 1.0), ToParams(images[i].base_from_flange), sigma_mm});
-      problem.AddResidualBlock(cost, &huber, x.data(), b.data(), n.data(), &d);
-      ++r.laser_points_used;
-    }
-  }
-  if (r.laser_points_used > 0) {
-    problem.SetManifold(n.data(), new ceres::SphereManifold<3>());
-    if (!o.refine_plane) {
-      problem.SetParameterBlockConstant(n.data());
-      problem.SetParameterBlockConstant(&d);
-    }
-  }
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  so.max_num_iterations = 200;
-  so.function_tolerance = 1e-12;
-  so.parameter_tolerance = 1e-12;
+  // The first pass weighs by the calibration's noise (sensor only); then each class by its own
+  // residuals, which also carry the robot's pose error, until the weights settle.
+  ClassSigmas sigmas{std::max(0.05, cal.camera.rms_reprojection_px),
+                     std::max(0.005, cal.plane_rms_mm)};
+  std::unique_ptr<JointProblem> joint;
   ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
-  r.iterations = static_cast<int>(summary.iterations.size());
-  if (!summary.IsSolutionUsable())
-    throw HandEyeError(Kind::kBadInput, "board hand-eye: the solver failed: " + summary.message);
-  r.flange_from_camera = FromParams(x.data());
-  r.base_from_board = FromParams(b.data());
-  r.plane.normal = n.normalized();
-  r.plane.point = r.plane.normal * d;
+  for (int pass = 0; pass < kMaxVariancePasses; ++pass) {
+    joint = std::make_unique<JointProblem>(findings, images, cal, board, o, sigmas, &p);
+    summary = joint->Solve();
+    r.iterations += static_cast<int>(summary.iterations.size());
+    if (!summary.IsSolutionUsable())
+      throw HandEyeError(Kind::kBadInput, "board hand-eye: the solver failed: " + summary.message);
+    const ClassSigmas seen = joint->ResidualSigmas();
+    ++r.variance_passes;
+    if (Settled(seen, sigmas)) break;
+    sigmas = seen;
+  }
+  r.corner_sigma_px = sigmas.px, r.laser_sigma_mm = sigmas.mm;
+  r.corners_used = joint->corners(), r.laser_points_used = joint->laser_points();
+  r.flange_from_camera = FromParams(p.x.data());
+  r.base_from_board = FromParams(p.b.data());
+  r.plane.normal = p.n.normalized();
+  r.plane.point = r.plane.normal * p.d;
+  ceres::Problem& problem = joint->problem();
+  std::array<double, 6>& x = p.x;
+  const auto corners = BoardCorners(board);
+  const Intrinsics& k = cal.camera.intrinsics;
 
   // Observability: X's covariance, scaled by the whitened residuals' variance.
   ceres::Covariance::Options co;
