@@ -36,7 +36,7 @@ GrayImage LoadLed(const std::string& dir,
     }
     probe_fw::Frame f;
     f.aoi = e.aoi;
-    probe_fw::ReadImage(dir + "/" + e.file, &f, e.channels);
+    probe_fw::ReadImage(dir + "/" + e.file, &f, e.channels, e.raw);
     if (f.aoi.width != e.aoi.width || f.aoi.height != e.aoi.height)
       throw CaptureIoError(dir + "/" + e.file + ": the image's size differs from frames.json");
     return {f.aoi.width, f.aoi.height, e.bit_depth, std::move(f.pixels)};

@@ -128,4 +128,46 @@ CameraCalibration CalibrateCameraFromCorners(const std::vector<std::vector<geome
   return result;
 }
 
+CameraCalibration BoardPosesWithCamera(const std::vector<std::vector<geometry::Vec2>>& found,
+                                       const ChessboardSpec& b,
+                                       const Intrinsics& k) {
+  CameraCalibration result;
+  result.intrinsics = k;
+  const cv::Matx33d camera(k.fx_px, 0, k.cx_px, 0, k.fy_px, k.cy_px, 0, 0, 1);
+  const std::vector<double> dist = {k.k1, k.k2, k.p1, k.p2, k.k3};
+  const std::vector<cv::Point3f> object = BoardCorners(b);
+  double sum2 = 0.0;
+  size_t count = 0;
+  for (size_t v = 0; v < found.size(); ++v) {
+    if (found[v].size() != object.size()) {
+      result.warnings.push_back("image " + std::to_string(v) + ": no complete board found");
+      continue;
+    }
+    std::vector<cv::Point2f> seen;
+    for (const auto& c : found[v])
+      seen.emplace_back(static_cast<float>(c.x()), static_cast<float>(c.y()));
+    cv::Mat rvec, tvec;
+    cv::solvePnP(object, seen, camera, dist, rvec, tvec, false, cv::SOLVEPNP_ITERATIVE);
+    cv::Mat r;
+    cv::Rodrigues(rvec, r);
+    geometry::Pose3 pose = geometry::Pose3::Identity();
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) pose.linear()(i, j) = r.at<double>(i, j);
+      pose.translation()(i) = tvec.at<double>(i);
+    }
+    double view2 = 0.0;
+    for (size_t c = 0; c < object.size(); ++c) {
+      const geometry::Vec3 p(object[c].x, object[c].y, object[c].z);
+      view2 += (k.Project(pose * p) - found[v][c]).squaredNorm();
+    }
+    sum2 += view2, count += object.size();
+    result.camera_from_board.push_back(pose);
+    result.view_rms_px.push_back(std::sqrt(view2 / double(object.size())));
+    result.views_used.push_back(static_cast<int>(v));
+  }
+  if (result.views_used.empty()) throw CameraCalibError("the board was found in no image");
+  result.rms_reprojection_px = std::sqrt(sum2 / double(count));
+  return result;
+}
+
 }  // namespace mlp::calib

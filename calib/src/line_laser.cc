@@ -38,10 +38,12 @@ cv::Mat ToGray8(const GrayImage& img) {
   return out;
 }
 
-GrayImage Weighted(const std::string& path, const probe_fw::ChannelWeights& w) {
+GrayImage Weighted(const std::string& path,
+                   const probe_fw::ChannelWeights& w,
+                   const probe_fw::RawBayer& raw) {
   probe_fw::Frame f;
   try {
-    probe_fw::ReadImage(path, &f, w);
+    probe_fw::ReadImage(path, &f, w, raw);
   } catch (const probe_fw::FrameIoError& e) {
     throw CaptureIoError(e.what());
   }
@@ -131,8 +133,8 @@ std::vector<ImageFindings> FindInImages(const RobotViews& views,
   for (const RobotImage& image : views.images) {
     ImageFindings f;
     f.name = image.name;
-    const GrayImage board = Weighted(image.path, views.board_channels);
-    const GrayImage laser = Weighted(image.path, views.laser_channels);
+    const GrayImage board = Weighted(image.path, views.board_channels, views.raw);
+    const GrayImage laser = Weighted(image.path, views.laser_channels, views.raw);
     if (!out.empty() &&
         (board.width != out.front().width_px || board.height != out.front().height_px))
       throw CaptureIoError(image.path + ": its size differs from the first image's");
@@ -178,47 +180,57 @@ StripeScatter ScatterAboutLine(const std::vector<Vec2>& stripe_px, const Intrins
   return s;
 }
 
-LineLaserCalibration CalibrateLineLaser(const std::vector<ImageFindings>& images,
-                                        const ChessboardSpec& board,
-                                        int width_px,
-                                        int height_px) {
-  LineLaserCalibration r;
+namespace {
+
+// The images with a board: their corners and their indices into the findings.
+struct BoardImages {
   std::vector<std::vector<Vec2>> corners;
   std::vector<int> index;
+};
+
+BoardImages WithBoard(const std::vector<ImageFindings>& images) {
+  BoardImages b;
   for (size_t i = 0; i < images.size(); ++i) {
     if (!images[i].HasBoard()) continue;
-    corners.push_back(images[i].corners);
-    index.push_back(static_cast<int>(i));
+    b.corners.push_back(images[i].corners);
+    b.index.push_back(static_cast<int>(i));
   }
-  r.camera = CalibrateCameraFromCorners(corners, board, width_px, height_px);
-  // Refuse views whose corners the model cannot follow, once.
-  const double median = Median(r.camera.view_rms_px);
-  std::vector<std::vector<Vec2>> kept;
-  std::vector<int> kept_index;
-  for (size_t v = 0; v < corners.size(); ++v) {
-    if (r.camera.view_rms_px[v] > kViewRmsFactor * median) {
-      std::ostringstream note;
-      note.precision(2);
-      note << std::fixed << images[index[v]].name << ": corners refused, "
-           << r.camera.view_rms_px[v] << " px RMS against the camera model, > " << kViewRmsFactor
-           << " x the median view (" << median << " px): blurred, or the laser over the corners";
-      r.notes.push_back(note.str());
+  return b;
+}
+
+// The views whose corners the camera follows (at most 3 x the median view's RMS); the others
+// get a note each.
+std::vector<size_t> KeptViews(const CameraCalibration& camera,
+                              const BoardImages& boards,
+                              const std::vector<ImageFindings>& images,
+                              std::vector<std::string>* notes) {
+  const double median = Median(camera.view_rms_px);
+  std::vector<size_t> kept;
+  for (size_t v = 0; v < boards.corners.size(); ++v) {
+    if (camera.view_rms_px[v] <= kViewRmsFactor * median) {
+      kept.push_back(v);
       continue;
     }
-    kept.push_back(corners[v]);
-    kept_index.push_back(index[v]);
+    std::ostringstream note;
+    note.precision(2);
+    note << std::fixed << images[static_cast<size_t>(boards.index[v])].name << ": corners refused, "
+         << camera.view_rms_px[v] << " px RMS against the camera model, > " << kViewRmsFactor
+         << " x the median view (" << median << " px): blurred, or the laser over the corners";
+    notes->push_back(note.str());
   }
-  if (kept.size() != corners.size())
-    r.camera = CalibrateCameraFromCorners(kept, board, width_px, height_px);
-  r.board_images = kept_index;
+  return kept;
+}
 
-  const probe_fw::CameraModel cam = CameraModelOf(r.camera.intrinsics);
+// Each board view's stripe pixels met with its board plane [mm, camera frame]; the stripes'
+// scatter about a straight line on the way.
+std::vector<Vec3> LaserOnBoards(const std::vector<ImageFindings>& images, LineLaserCalibration* r) {
+  const probe_fw::CameraModel cam = CameraModelOf(r->camera.intrinsics);
   std::vector<Vec3> points;
   double sum2 = 0.0;
   int scatter_points = 0;
-  for (size_t v = 0; v < kept_index.size(); ++v) {
-    const ImageFindings& f = images[kept_index[v]];
-    const geometry::Pose3& t = r.camera.camera_from_board[v];
+  for (size_t v = 0; v < r->board_images.size(); ++v) {
+    const ImageFindings& f = images[static_cast<size_t>(r->board_images[v])];
+    const geometry::Pose3& t = r->camera.camera_from_board[v];
     const Vec3 n = t.linear().col(2);
     const double d = n.dot(t.translation());
     for (const auto& px : f.stripe_px) {
@@ -226,26 +238,100 @@ LineLaserCalibration CalibrateLineLaser(const std::vector<ImageFindings>& images
       const Vec3 ray(u.x(), u.y(), 1.0);
       points.push_back(ray * (d / n.dot(ray)));
     }
-    r.scatter.push_back(ScatterAboutLine(f.stripe_px, r.camera.intrinsics));
-    sum2 += std::pow(r.scatter.back().rms_px, 2) * r.scatter.back().points;
-    scatter_points += r.scatter.back().points;
+    r->scatter.push_back(ScatterAboutLine(f.stripe_px, r->camera.intrinsics));
+    sum2 += std::pow(r->scatter.back().rms_px, 2) * r->scatter.back().points;
+    scatter_points += r->scatter.back().points;
   }
+  r->scatter_rms_px = scatter_points > 0 ? std::sqrt(sum2 / scatter_points) : 0.0;
   if (points.size() < 3 * ImageFindings::kMinStripePoints)
     throw CameraCalibError("too few laser points on the boards (" + std::to_string(points.size()) +
                            "): is the laser in the board images, and the channel weights right?");
-  r.scatter_rms_px = scatter_points > 0 ? std::sqrt(sum2 / scatter_points) : 0.0;
-  const auto plane = geometry::FitPlaneRobust(Columns(points));
-  r.plane = plane.fit.shape;
-  r.plane_points = static_cast<int>(points.size());
-  r.plane_inliers = static_cast<int>(plane.inliers.size());
+  return points;
+}
+
+// The plane's statistics over the points given as its inliers.
+void PlaneStats(const std::vector<Vec3>& points,
+                const std::vector<int>& inliers,
+                LineLaserCalibration* r) {
   double s2 = 0.0, mx = 0.0;
-  for (int i : plane.inliers) {
-    const double e = r.plane.normal.dot(points[static_cast<size_t>(i)] - r.plane.point);
+  for (int i : inliers) {
+    const double e = r->plane.normal.dot(points[static_cast<size_t>(i)] - r->plane.point);
     s2 += e * e, mx = std::max(mx, std::abs(e));
   }
-  r.plane_rms_mm = std::sqrt(s2 / std::max<size_t>(1, plane.inliers.size()));
-  r.plane_max_mm = mx;
+  r->plane_points = static_cast<int>(points.size());
+  r->plane_inliers = static_cast<int>(inliers.size());
+  r->plane_rms_mm = std::sqrt(s2 / std::max<size_t>(1, inliers.size()));
+  r->plane_max_mm = mx;
+}
+
+// Keeps the calibration's views `kept` (indices into `boards`).
+void KeepViews(const std::vector<size_t>& kept, CameraCalibration* c) {
+  CameraCalibration out = *c;
+  out.camera_from_board.clear(), out.view_rms_px.clear(), out.views_used.clear();
+  for (size_t v : kept) {
+    out.camera_from_board.push_back(c->camera_from_board[v]);
+    out.view_rms_px.push_back(c->view_rms_px[v]);
+    out.views_used.push_back(static_cast<int>(v));
+  }
+  *c = std::move(out);
+}
+
+}  // namespace
+
+LineLaserCalibration CalibrateLineLaser(const std::vector<ImageFindings>& images,
+                                        const ChessboardSpec& board,
+                                        int width_px,
+                                        int height_px) {
+  LineLaserCalibration r;
+  const BoardImages boards = WithBoard(images);
+  r.camera = CalibrateCameraFromCorners(boards.corners, board, width_px, height_px);
+  // Refuse views whose corners the model cannot follow, once, and fit again without them.
+  const std::vector<size_t> kept = KeptViews(r.camera, boards, images, &r.notes);
+  std::vector<std::vector<Vec2>> kept_corners;
+  for (size_t v : kept) {
+    kept_corners.push_back(boards.corners[v]);
+    r.board_images.push_back(boards.index[v]);
+  }
+  if (kept.size() != boards.corners.size())
+    r.camera = CalibrateCameraFromCorners(kept_corners, board, width_px, height_px);
+  const std::vector<Vec3> points = LaserOnBoards(images, &r);
+  const auto plane = geometry::FitPlaneRobust(Columns(points));
+  r.plane = plane.fit.shape;
+  PlaneStats(points, plane.inliers, &r);
   return r;
+}
+
+LineLaserCalibration LineLaserOfModel(const std::vector<ImageFindings>& images,
+                                      const probe_fw::ProbeModel& model,
+                                      const ChessboardSpec& board) {
+  if (model.projector.columns != 1)
+    throw CameraCalibError("probe " + model.serial +
+                           ": not a fixed line laser (the projector has " +
+                           std::to_string(model.projector.columns) + " columns, not 1)");
+  LineLaserCalibration r;
+  const BoardImages boards = WithBoard(images);
+  r.camera = BoardPosesWithCamera(boards.corners, board, IntrinsicsOf(model.camera));
+  const std::vector<size_t> kept = KeptViews(r.camera, boards, images, &r.notes);
+  KeepViews(kept, &r.camera);
+  for (size_t v : kept) r.board_images.push_back(boards.index[v]);
+  const std::vector<Vec3> points = LaserOnBoards(images, &r);
+  Vec3 n;
+  double d = 0.0;
+  model.projector.PlaneOf(0.0, &n, &d);
+  r.plane = {n * d, n};
+  // Inliers as a robust fit would take them: within 2.5 robust sigma (geometry/robust.h).
+  std::vector<double> abs_e;
+  for (const Vec3& p : points) abs_e.push_back(std::abs(n.dot(p) - d));
+  const double limit = 2.5 * 1.4826 * Median(abs_e);
+  std::vector<int> inliers;
+  for (size_t i = 0; i < points.size(); ++i)
+    if (abs_e[i] <= limit) inliers.push_back(static_cast<int>(i));
+  PlaneStats(points, inliers, &r);
+  return r;
+}
+
+Intrinsics IntrinsicsOf(const probe_fw::CameraModel& c) {
+  return {c.fx_px, c.fy_px, c.cx_px, c.cy_px, c.k1, c.k2, c.p1, c.p2, c.k3};
 }
 
 probe_fw::CameraModel CameraModelOf(const Intrinsics& in) {

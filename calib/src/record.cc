@@ -97,9 +97,34 @@ CalibrationRecord MakeRecord(const std::string& probe_serial,
   return rec;
 }
 
+CalibrationRecord MakeRecord(const std::string& probe_serial,
+                             const BoardHandEyeResult& r,
+                             const std::vector<RobotImage>& images) {
+  CalibrationRecord rec;
+  rec.probe_serial = probe_serial;
+  rec.kind = RecordKind::kHandEye;
+  rec.reference = Reference::kBoard;
+  rec.flange_from_probe = r.flange_from_camera;  // the probe frame is the camera's (DESIGN.md)
+  rec.covariance.topLeftCorner<6, 6>() = r.covariance;
+  rec.base_from_board = r.base_from_board;
+  rec.corner_rms_px = r.corner_rms_px;
+  rec.corners_used = r.corners_used;
+  rec.points_used = r.laser_points_used;
+  rec.point_rms_mm = r.laser_sigma_mm;
+  std::vector<std::string> ids;
+  std::vector<Pose3> poses;
+  for (const auto& im : images) ids.push_back(im.name), poses.push_back(im.base_from_flange);
+  rec.orientations = Orientations(r.flange_from_camera, ids, poses);
+  rec.notes = r.warnings;
+  return rec;
+}
+
 CalibrationRecord MakeRecord(const CalibrationRecord& parent,
                              const RecheckResult& r,
                              const std::vector<RecheckCapture>& captures) {
+  if (parent.reference != Reference::kSphere)
+    throw RecordError("calibration " + parent.calibration_id +
+                      " was measured against a board: a recheck needs the sphere");
   if (parent.kind != RecordKind::kHandEye)
     throw RecordError("a recheck corrects a full calibration, not another recheck (" +
                       parent.calibration_id + "): updates are never compounded");
@@ -141,7 +166,15 @@ std::string ToJson(const CalibrationRecord& r) {
     cov.push_back(row);
   }
   j["covariance"] = {{"parameters", kHandEyeParameters}, {"matrix", cov}};
-  j["sphere"] = {{"radius_mm", r.sphere_radius_mm}, {"centre_mcs_mm", Vec(r.sphere_centre_mcs)}};
+  if (r.reference == Reference::kSphere) {
+    j["reference"] = "sphere";
+    j["sphere"] = {{"radius_mm", r.sphere_radius_mm}, {"centre_mcs_mm", Vec(r.sphere_centre_mcs)}};
+  } else {
+    j["reference"] = "board";
+    j["board"] = {{"base_from_board", jf::PoseToJson(r.base_from_board)},
+                  {"corner_rms_px", r.corner_rms_px},
+                  {"corners_used", r.corners_used}};
+  }
   j["stats"] = {{"point_rms_mm", r.point_rms_mm},
                 {"points_used", r.points_used},
                 {"points_rejected", r.points_rejected},
@@ -162,6 +195,30 @@ std::string ToJson(const CalibrationRecord& r) {
   }
   return j.dump(2) + "\n";
 }
+
+namespace {
+
+// "reference" is absent in records written before the board hand-eye: the sphere.
+void ParseReference(const jf::json& j, CalibrationRecord* r) {
+  const std::string ref =
+      j.contains("reference") ? jf::Text<RecordError>(j, "reference", "record") : "sphere";
+  if (ref != "sphere" && ref != "board")
+    throw RecordError("record.reference must be \"sphere\" or \"board\"");
+  if (ref == "sphere") {
+    const auto& sphere = jf::Object<RecordError>(j, "sphere", "record");
+    r->sphere_radius_mm = jf::Number<RecordError>(sphere, "radius_mm", "record.sphere");
+    r->sphere_centre_mcs = jf::Vector3<RecordError>(sphere, "centre_mcs_mm", "record.sphere");
+    return;
+  }
+  r->reference = Reference::kBoard;
+  const auto& board = jf::Object<RecordError>(j, "board", "record");
+  r->base_from_board = jf::Pose<RecordError>(
+      jf::Object<RecordError>(board, "base_from_board", "record.board"), "record.board");
+  r->corner_rms_px = jf::Number<RecordError>(board, "corner_rms_px", "record.board");
+  r->corners_used = jf::Integer<RecordError>(board, "corners_used", "record.board");
+}
+
+}  // namespace
 
 CalibrationRecord ParseRecord(const std::string& text) {
   const jf::json j = jf::ParseDocument<RecordError>(text, kFormat, "calibration record");
@@ -190,9 +247,7 @@ CalibrationRecord ParseRecord(const std::string& text) {
       r.covariance(i, k) = row[static_cast<size_t>(k)].get<double>();
     }
   }
-  const auto& sphere = jf::Object<RecordError>(j, "sphere", "record");
-  r.sphere_radius_mm = jf::Number<RecordError>(sphere, "radius_mm", "record.sphere");
-  r.sphere_centre_mcs = jf::Vector3<RecordError>(sphere, "centre_mcs_mm", "record.sphere");
+  ParseReference(j, &r);
   const auto& stats = jf::Object<RecordError>(j, "stats", "record");
   r.point_rms_mm = jf::Number<RecordError>(stats, "point_rms_mm", "record.stats");
   r.points_used = jf::Integer<RecordError>(stats, "points_used", "record.stats");

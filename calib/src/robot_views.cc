@@ -102,7 +102,8 @@ geometry::Pose3 ToPose(const std::vector<double>& xyz,
 
 std::vector<RobotImage> ReadPoses(const std::string& path,
                                   const PoseConvention& c,
-                                  const fs::path& images) {
+                                  const fs::path& images,
+                                  const std::string& default_extension) {
   std::istringstream in(ReadText(path));
   std::vector<std::string> lines;
   std::vector<int> numbers;
@@ -125,7 +126,7 @@ std::vector<RobotImage> ReadPoses(const std::string& path,
     if (name.find('/') != std::string::npos || name.find("..") != std::string::npos)
       throw CaptureIoError(path + ":" + std::to_string(numbers[i + 2]) +
                            ": an image name must be a plain file name");
-    const std::string file = fs::path(name).has_extension() ? name : name + ".png";
+    const std::string file = fs::path(name).has_extension() ? name : name + default_extension;
     out.push_back({name, (images / file).string(), ToPose(xyz, q, c, at)});
     if (out.size() > kMaxImages) throw CaptureIoError(path + ": more than 10000 images");
   }
@@ -159,11 +160,18 @@ RobotViews LoadRobotViews(const std::string& manifest_path) {
                            ": max_width_px 2..200, window_half_px 1..100, min_amplitude_dn > 0, "
                            "speckle_sigma_px 0..20");
   }
+  if (j.contains("raw")) {
+    try {
+      v.raw = probe_fw::ParseRawBayer(j.at("raw"), where + ".raw");
+    } catch (const probe_fw::FrameIoError& e) {
+      throw CaptureIoError(e.what());
+    }
+  }
   const fs::path images = base / jf::Text<CaptureIoError>(j, "images", where);
   const jf::json& p = jf::Object<CaptureIoError>(j, "poses", where);
   const PoseConvention c = Convention(p, where + ".poses");
-  v.images =
-      ReadPoses((base / jf::Text<CaptureIoError>(p, "file", where + ".poses")).string(), c, images);
+  v.images = ReadPoses((base / jf::Text<CaptureIoError>(p, "file", where + ".poses")).string(), c,
+                       images, v.raw.given ? ".raw" : ".png");
   return v;
 }
 

@@ -7,6 +7,7 @@
 #include "mlp/calib/record.h"
 #include "mlp/host/cli.h"
 #include "mlp/host/cloud_io.h"
+#include "mlp/probe_fw/cloud_file.h"
 #include "mlp/probe_fw/json_fields.h"
 #include "mlp/probe_fw/probe_model.h"
 
@@ -18,6 +19,7 @@
 #include <sstream>
 
 #include "calibrate_optics.h"
+#include "calibrate_robot.h"
 #include "format_numbers.h"
 
 namespace mlp::host {
@@ -35,6 +37,13 @@ constexpr const char* kUsage =
     "usage: mlp calibrate camera    --views MANIFEST [--out CAMERA.json] [--json]\n"
     "       mlp calibrate projector --views MANIFEST --design PROBE_FILE --out PROBE_FILE\n"
     "                               [--id CALIBRATION_ID] [--json]\n"
+    "       mlp calibrate line-laser --views ROBOT_VIEWS --design PROBE_FILE --out PROBE_FILE\n"
+    "                                [--id CALIBRATION_ID] [--json]\n"
+    "       mlp calibrate board-hand-eye --views ROBOT_VIEWS --probe PROBE_FILE --store DIR\n"
+    "                                [--refined-probe PROBE_FILE] [--max-std-mm 0.2]\n"
+    "                                [--lever-mm 100] [--dry-run] [--json]\n"
+    "       mlp calibrate map --views ROBOT_VIEWS --probe PROBE_FILE --store DIR --out DIR\n"
+    "                         [--calibration ID] [--json]\n"
     "       mlp calibrate hand-eye --captures MANIFEST --store DIR [--dry-run] [--json]\n"
     "                              [--estimate scale_x,scale_y,scale_z,incidence_bias]\n"
     "       mlp calibrate recheck  --captures MANIFEST --store DIR [--sphere-moved] [--json]\n"
@@ -43,6 +52,15 @@ constexpr const char* kUsage =
     "  projector camera and MEMS projector adjusted together from the same views' LED frames\n"
     "            and stripe files (mlp-fw stripes); writes the probe model file the firmware\n"
     "            reads (a new file: an existing one is never overwritten)\n"
+    "  line-laser  a camera with a fixed line laser: camera and light plane from images of a\n"
+    "            chessboard with the line on it; writes the probe model file (one light plane)\n"
+    "  board-hand-eye  hand-eye from a fixed chessboard and the robot's poses (AX = XB, then\n"
+    "            corners and laser points together); stored as a new calibration. With\n"
+    "            --refined-probe the light plane is refined too and a new probe model written\n"
+    "  map       every image's laser points (the firmware's triangulation) in the robot's base\n"
+    "            frame, one PLY per image; their spread about one common plane (a check on\n"
+    "            images the calibration was not fitted to)\n"
+    "  --views ROBOT_VIEWS  JSON \"mlprobe-robot-views/1\": images, board, channels, pose file\n"
     "  hand-eye  sphere hand-eye: M (probe -> flange) and the sphere centre from clouds of the\n"
     "            reference sphere at known flange poses; stored as a new calibration\n"
     "  recheck   quick re-calibration after a disturbance, from the probe's latest full\n"
@@ -314,6 +332,10 @@ int Recheck(const Args& a, std::ostream& out, std::ostream& err) {
   const auto original = store.Latest(m.probe_serial, calib::RecordKind::kHandEye);
   if (!original)
     throw UsageError("probe " + m.probe_serial + " has no full calibration in " + a.store);
+  if (original->reference != calib::Reference::kSphere)
+    throw UsageError("the latest full calibration of probe " + m.probe_serial + " (" +
+                     original->calibration_id + ") was measured against a board: a recheck " +
+                     "needs a sphere calibration (mlp calibrate hand-eye)");
   calib::RecheckOptions o;
   o.sphere_radius_mm = m.radius_mm;
   o.original_flange_from_probe = original->flange_from_probe;
@@ -397,6 +419,9 @@ int RunCalibrateCommand(const std::vector<std::string>& args,
   try {
     if (!args.empty() && (args[0] == "camera" || args[0] == "projector"))
       return RunCameraProjectorCommand(args, out, err);
+    if (!args.empty() &&
+        (args[0] == "line-laser" || args[0] == "board-hand-eye" || args[0] == "map"))
+      return RunRobotViewsCommand(args, out, err);
     const Args a = ParseArgs(args);
     if (a.command == "hand-eye") return HandEye(a, out, err);
     if (a.command == "recheck") return Recheck(a, out, err);
@@ -416,6 +441,8 @@ int RunCalibrateCommand(const std::vector<std::string>& args,
   } catch (const calib::RecordError& e) {
     err << "mlp calibrate: " << e.what() << "\n";
   } catch (const calib::CameraCalibError& e) {
+    err << "mlp calibrate: " << e.what() << "\n";
+  } catch (const probe_fw::CloudFileError& e) {
     err << "mlp calibrate: " << e.what() << "\n";
   } catch (const probe_fw::ProbeModelError& e) {
     err << "mlp calibrate: " << e.what() << "\n";

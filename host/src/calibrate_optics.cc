@@ -16,6 +16,7 @@
 #include <map>
 #include <ostream>
 
+#include "calibration_json.h"
 #include "format_numbers.h"
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
@@ -70,12 +71,6 @@ std::vector<calib::GrayImage> Leds(const calib::BoardViews& v) {
   std::vector<calib::GrayImage> out;
   for (const auto& view : v.views) out.push_back(view.led);
   return out;
-}
-
-json IntrinsicsJson(const calib::Intrinsics& k) {
-  return {{"fx_px", k.fx_px}, {"fy_px", k.fy_px}, {"cx_px", k.cx_px},
-          {"cy_px", k.cy_px}, {"k1", k.k1},       {"k2", k.k2},
-          {"p1", k.p1},       {"p2", k.p2},       {"k3", k.k3}};
 }
 
 json BoardJson(const calib::ChessboardSpec& b) {
@@ -152,15 +147,6 @@ int Camera(const Options& o, std::ostream& out, std::ostream& err) {
         << " px (board size right? views sharp?)\n";
   if (!o.out.empty()) out << "  written to " << o.out << "\n";
   return kExitOk;
-}
-
-std::string DefaultId(const std::string& serial) {
-  const std::time_t now = std::time(nullptr);
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char stamp[32];
-  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &utc);
-  return serial + "-optics-" + stamp;
 }
 
 json ProjectorJson(const probe_fw::ProbeModel& m,
@@ -246,8 +232,8 @@ int Projector(const Options& o, std::ostream& out, std::ostream& err) {
   err << "mlp calibrate: adjusted in "
       << Fixed(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1)
       << " s\n";
-  const probe_fw::ProbeModel m =
-      calib::CalibratedProbeModel(design, r.result, o.id.empty() ? DefaultId(design.serial) : o.id);
+  const probe_fw::ProbeModel m = calib::CalibratedProbeModel(
+      design, r.result, o.id.empty() ? DefaultCalibrationId(design.serial, "optics") : o.id);
   probe_fw::SaveProbeModel(m, o.out);
   if (o.json)
     out << ProjectorJson(m, r, v, o.out).dump(2) << "\n";

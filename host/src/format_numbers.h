@@ -3,6 +3,7 @@
 
 #include "mlp/geometry/types.h"
 
+#include <ctime>
 #include <iomanip>
 #include <sstream>
 #include <string>
@@ -20,6 +21,16 @@ inline std::string Vec(const geometry::Vec3& v, int digits) {
   s << std::fixed << std::setprecision(digits) << "(" << v.x() << ", " << v.y() << ", " << v.z()
     << ")";
   return s.str();
+}
+
+/// A calibration id of a probe, e.g. "MLP-1-optics-20261125T101500Z" (UTC, to the second).
+inline std::string DefaultCalibrationId(const std::string& serial, const std::string& what) {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char stamp[32];
+  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &utc);
+  return serial + "-" + what + "-" + stamp;
 }
 
 }  // namespace mlp::host

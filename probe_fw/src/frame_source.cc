@@ -12,7 +12,7 @@ class DirectorySource : public FrameSource {
     const auto& e = manifest_.frames[next_++];
     Frame f;
     f.bit_depth = e.bit_depth;  // a 16-bit colour PNG of a 12-bit camera: full scale 4095
-    ReadImage(dir_ + "/" + e.file, &f, e.channels);
+    ReadImage(dir_ + "/" + e.file, &f, e.channels, e.raw);
     if (f.aoi.width != e.aoi.width || f.aoi.height != e.aoi.height) {
       throw FrameIoError("frames: " + e.file + " is not the size its manifest entry says");
     }

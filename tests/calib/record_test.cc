@@ -8,6 +8,7 @@
 
 #include "hand_eye_fixture.h"
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 namespace mlp::calib {
 namespace {
@@ -77,6 +78,37 @@ TEST(CalibrationStore, RecheckKeepsTheOriginalAndNeverCompounds) {
   EXPECT_EQ(store.Latest("P1")->kind, RecordKind::kRecheck);
   EXPECT_EQ(store.List("P1").size(), 2u);                      // the original is still there
   EXPECT_THROW(MakeRecord(recheck, change, rc), RecordError);  // no recheck of a recheck
+}
+
+// A hand-eye measured against a board: its own fields round-trip, the sphere's are absent, and a
+// recheck (which needs the sphere) refuses it as a parent.
+TEST(CalibrationStore, BoardHandEyeRecordsRoundTripAndAreNoRecheckParent) {
+  const CalibrationStore store(FreshDir("board").string());
+  BoardHandEyeResult r;
+  r.flange_from_camera = testing::DefaultTruth().flange_from_probe;
+  r.base_from_board.translation() = Vec3(400, -20, 3);
+  for (int i = 0; i < 6; ++i) r.covariance(i, i) = 1e-6 * (i + 1);
+  r.corner_rms_px = 2.97, r.corners_used = 864, r.laser_points_used = 9000;
+  r.laser_sigma_mm = 0.298;
+  RobotImage im{"im0", "im0.png", Pose3::Identity()};
+  const CalibrationRecord rec = MakeRecord("BLASER-1", r, {im});
+  const CalibrationRecord back = store.Load("BLASER-1", store.Save(rec));
+  EXPECT_EQ(back.reference, Reference::kBoard);
+  EXPECT_TRUE(back.flange_from_probe.isApprox(r.flange_from_camera, 1e-15));
+  EXPECT_TRUE(back.base_from_board.isApprox(r.base_from_board, 1e-15));
+  EXPECT_TRUE((back.covariance.topLeftCorner<6, 6>() == r.covariance));
+  EXPECT_TRUE((back.covariance.bottomRightCorner<3, 3>().isZero(0.0)));
+  EXPECT_EQ(back.corners_used, 864);
+  EXPECT_DOUBLE_EQ(back.point_rms_mm, 0.298);
+  EXPECT_EQ(back.orientations.size(), 1u);
+  const std::string text = ToJson(back);
+  EXPECT_EQ(text.find("\"sphere\""), std::string::npos);
+  EXPECT_THROW(MakeRecord(back, RecheckResult{}, {}), RecordError);
+  // Records written before the board hand-eye (no "reference") read as sphere records.
+  const CalibrationRecord sphere = MakeRecord("P1", SomeResult(), SomeCaptures(), 12.7);
+  nlohmann::json old = nlohmann::json::parse(ToJson(sphere));
+  old.erase("reference");
+  EXPECT_EQ(ParseRecord(old.dump()).reference, Reference::kSphere);
 }
 
 TEST(CalibrationStore, BadSerialsAndFilesAreTypedErrors) {

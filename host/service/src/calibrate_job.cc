@@ -75,6 +75,9 @@ json RunRecheckJob(JobContext& ctx, const json& r) {
     if (!original)
       throw JobInputError("probe " + ctx.machine.probe_serial +
                           " has no full calibration to recheck against");
+    if (original->reference != calib::Reference::kSphere)
+      throw JobInputError("the latest full calibration of probe " + ctx.machine.probe_serial +
+                          " was measured against a board: a recheck needs a sphere calibration");
     calib::RecheckOptions o;
     o.sphere_radius_mm = Radius(r);
     o.original_flange_from_probe = original->flange_from_probe;

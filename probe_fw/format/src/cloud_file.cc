@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string_view>
 
 namespace mlp::probe_fw {
 namespace {
@@ -37,7 +38,7 @@ void WriteCloudPly(const std::string& path,
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     out << "ply\nformat binary_little_endian 1.0\n"
-        << "comment mlprobe cloud, probe frame, millimetres\n"
+        << "comment mlprobe cloud, " << OneLine(meta.frame) << " frame, millimetres\n"
         << "comment probe_serial " << OneLine(meta.probe_serial) << "\n"
         << "comment calibration_id " << OneLine(meta.calibration_id) << "\n"
         << "comment capture_id " << OneLine(meta.capture_id) << "\n";
@@ -95,6 +96,11 @@ CloudFile ReadCloudPly(const std::string& path) {
       std::string rest;
       std::getline(words, rest);
       if (!rest.empty() && rest[0] == ' ') rest.erase(0, 1);
+      constexpr std::string_view kCloud = "cloud, ", kFrame = " frame, millimetres";
+      if (name == "mlprobe" && rest.size() > kCloud.size() + kFrame.size() &&
+          rest.compare(0, kCloud.size(), kCloud) == 0 &&
+          rest.compare(rest.size() - kFrame.size(), kFrame.size(), kFrame) == 0)
+        f.meta.frame = rest.substr(kCloud.size(), rest.size() - kCloud.size() - kFrame.size());
       if (name == "probe_serial") f.meta.probe_serial = rest;
       if (name == "calibration_id") f.meta.calibration_id = rest;
       if (name == "capture_id") f.meta.capture_id = rest;

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "bmp_io.h"
 #include "png_io.h"
 
 namespace mlp::probe_fw {
@@ -84,6 +85,22 @@ ChannelWeights ParseChannels(const json& c, const std::string& where) {
 
 }  // namespace
 
+RawBayer ParseRawBayer(const json& j, const std::string& where) {
+  if (!j.is_object()) Fail(where + " must be {\"pattern\", \"width\", \"height\", \"bit_depth\"}");
+  RawBayer r;
+  r.given = true;
+  r.pattern = jf::Text<FrameIoError>(j, "pattern", where);
+  r.width = jf::Integer<FrameIoError>(j, "width", where);
+  r.height = jf::Integer<FrameIoError>(j, "height", where);
+  r.bit_depth = jf::Integer<FrameIoError>(j, "bit_depth", where);
+  if (r.pattern != "RGGB" && r.pattern != "BGGR" && r.pattern != "GRBG" && r.pattern != "GBRG")
+    Fail(where + ".pattern must be RGGB, BGGR, GRBG or GBRG");
+  if (r.width < 2 || r.height < 2 || r.width > 16384 || r.height > 16384 || r.bit_depth < 8 ||
+      r.bit_depth > 16)
+    Fail(where + ": width and height 2..16384, bit_depth 8..16");
+  return r;
+}
+
 void WriteImage(const Frame& f, const std::string& path) {
   if (f.pixels.size() != static_cast<size_t>(f.aoi.width) * static_cast<size_t>(f.aoi.height)) {
     Fail("frame size does not match its AOI");
@@ -94,10 +111,15 @@ void WriteImage(const Frame& f, const std::string& path) {
   WritePng(f, path);
 }
 
-void ReadImage(const std::string& path, Frame* f, const ChannelWeights& channels) {
+void ReadImage(const std::string& path,
+               Frame* f,
+               const ChannelWeights& channels,
+               const RawBayer& raw) {
   const std::string ext = Extension(path);
   if (ext == ".pgm") return ReadPgm(path, f);
-  if (ext != ".png") Fail(path + ": use .pgm or .png");
+  if (ext == ".bmp") return ReadBmp(path, f, channels);
+  if (ext == ".raw") return ReadRawBayer(path, f, channels, raw);
+  if (ext != ".png") Fail(path + ": use .pgm, .png, .bmp or .raw");
   ReadPng(path, f, channels);
 }
 
@@ -165,6 +187,7 @@ CaptureManifest ReadCaptureManifest(const std::string& dir) {
     }
     entry.aoi = {a[0].get<int>(), a[1].get<int>(), a[2].get<int>(), a[3].get<int>()};
     if (e.contains("channels")) entry.channels = ParseChannels(e.at("channels"), where);
+    if (e.contains("raw")) entry.raw = ParseRawBayer(e.at("raw"), where + ".raw");
     m.frames.push_back(entry);
   }
   return m;

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "weigh.h"
 #include <png.h>
 
 namespace mlp::probe_fw {
@@ -98,27 +99,6 @@ bool WriteRows(Writer* w, const Header& h, png_bytepp rows) {
   png_write_image(w->png, rows);
   png_write_end(w->png, nullptr);
   return true;
-}
-
-// One value per pixel from interleaved RGB samples (ChannelWeights, frame_io.h).
-template <typename Sample>
-void Weigh(const Sample* rgb,
-           const ChannelWeights& w,
-           int bit_depth,
-           std::vector<std::uint16_t>* out) {
-  const double full = (1 << bit_depth) - 1;
-  const double weight[3] = {w.r, w.g, w.b};
-  for (size_t i = 0; i < out->size(); ++i) {
-    double v = 0.0;
-    bool clipped = false;
-    for (int c = 0; c < 3; ++c) {
-      const double s = rgb[3 * i + static_cast<size_t>(c)];
-      v += weight[c] * s;
-      clipped = clipped || (weight[c] > 0 && s >= full);
-    }
-    v = clipped ? full : std::clamp(std::round(v), 0.0, full);
-    (*out)[i] = static_cast<std::uint16_t>(v);
-  }
 }
 
 void ReadColourPng(

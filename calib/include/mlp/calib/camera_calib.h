@@ -50,6 +50,12 @@ class CameraCalibError : public std::runtime_error {
 /// Needs the board found in at least 4 images; throws CameraCalibError otherwise.
 CameraCalibration CalibrateCamera(const std::vector<GrayImage>& images,
                                   const ChessboardSpec& board);
+/// Each image's board pose with a camera known already (OpenCV's solvePnP, iterative), and its
+/// corners' reprojection RMS: `intrinsics` as given, `std_dev` zero, `rms_reprojection_px` over
+/// all views. Throws CameraCalibError when no image has the board.
+CameraCalibration BoardPosesWithCamera(const std::vector<std::vector<geometry::Vec2>>& found,
+                                       const ChessboardSpec& board,
+                                       const Intrinsics& camera);
 /// The same from corners found beforehand (per image, board order; empty: no board).
 CameraCalibration CalibrateCameraFromCorners(
     const std::vector<std::vector<geometry::Vec2>>& corners,

@@ -74,6 +74,17 @@ LineLaserCalibration CalibrateLineLaser(const std::vector<ImageFindings>& images
                                         int width_px,
                                         int height_px);
 
+/// The same for a probe model calibrated already (a fixed line laser: one column), as the board
+/// hand-eye needs it: the model's camera and light plane; each board image's pose by PnP with
+/// that camera, views refused as above; the plane's residuals on these images' boards (inliers
+/// within 2.5 robust sigma). Throws CameraCalibError (no board, too few laser points, a
+/// projector with more than one column).
+LineLaserCalibration LineLaserOfModel(const std::vector<ImageFindings>& images,
+                                      const probe_fw::ProbeModel& model,
+                                      const ChessboardSpec& board);
+
+/// Calibrated intrinsics of the firmware's camera model, and back.
+Intrinsics IntrinsicsOf(const probe_fw::CameraModel& camera);
 /// The firmware's camera model of calibrated intrinsics (for its Newton undistortion).
 probe_fw::CameraModel CameraModelOf(const Intrinsics& camera);
 

@@ -4,6 +4,7 @@
 /// atomically and never overwritten. A quick re-calibration is a new record whose parent is the
 /// full calibration it was computed from; the original stays.
 
+#include "mlp/calib/board_hand_eye.h"
 #include "mlp/calib/hand_eye.h"
 #include "mlp/calib/recheck.h"
 
@@ -20,6 +21,10 @@ class RecordError : public std::runtime_error {
 };
 
 enum class RecordKind { kHandEye, kRecheck };
+
+/// What the hand-eye was measured against: the reference sphere (hand_eye.h) or a fixed
+/// chessboard with the laser on it (board_hand_eye.h). A recheck needs the sphere.
+enum class Reference { kSphere, kBoard };
 
 /// A flange orientation the calibration was measured at, and the probe's datum there: where the
 /// probe's origin sits relative to the flange origin, and where its optical axis points, in MCS
@@ -38,11 +43,19 @@ struct CalibrationRecord {
   std::string created_utc;  ///< ISO 8601 with milliseconds, e.g. 2026-11-21T21:30:00.125Z
   int sequence = 0;         ///< 1 for a probe's first record, then counting up
   std::string parent_id;    ///< recheck: the full calibration it corrects
+  Reference reference = Reference::kSphere;
   Pose3 flange_from_probe = Pose3::Identity();
+  /// kHandEye: the order of kHandEyeParameters; a board hand-eye fills the first 6 (X) only.
   Eigen::Matrix<double, 9, 9> covariance = Eigen::Matrix<double, 9, 9>::Zero();
   double sphere_radius_mm = 0.0;
   Vec3 sphere_centre_mcs = Vec3::Zero();
-  double point_rms_mm = 0.0;  ///< hand-eye: joint fit; recheck: centre residual after
+  /// Board only: the board's pose in the robot's base frame, and the joint fit's corners.
+  Pose3 base_from_board = Pose3::Identity();
+  double corner_rms_px = 0.0;
+  int corners_used = 0;
+  /// hand-eye: joint fit (board: the laser points' heights above the board, all of them);
+  /// recheck: centre residual after.
+  double point_rms_mm = 0.0;
   int points_used = 0, points_rejected = 0;
   double centre_spread_rms_mm = 0.0;
   std::vector<OrientationDatum> orientations;
@@ -58,7 +71,12 @@ CalibrationRecord MakeRecord(const std::string& probe_serial,
                              const HandEyeResult& result,
                              const std::vector<SphereCapture>& captures,
                              double sphere_radius_mm);
-/// A new record from a recheck against `parent`.
+/// A new record from a board hand-eye; `images` are the views' names and flange poses (the
+/// images of the findings the result was solved from).
+CalibrationRecord MakeRecord(const std::string& probe_serial,
+                             const BoardHandEyeResult& result,
+                             const std::vector<RobotImage>& images);
+/// A new record from a recheck against `parent` (a sphere hand-eye; throws RecordError else).
 CalibrationRecord MakeRecord(const CalibrationRecord& parent,
                              const RecheckResult& result,
                              const std::vector<RecheckCapture>& captures);

@@ -10,6 +10,9 @@
 ///                 "laser": {"r": 1, "g": -1, "b": 0}},              the light of a red laser
 ///    "stripe": {"max_width_px": 30, "window_half_px": 10, "min_amplitude_dn": 20,
 ///               "speckle_sigma_px": 3},        optional (probe_fw/stripe.h, StripeOptions)
+///    "raw": {"pattern": "RGGB", "width": 1280, "height": 960, "bit_depth": 12},
+///                                               optional: the images are raw Bayer mosaics
+///                                               (probe_fw/frame_io.h, RawBayer)
 ///    "poses": {"file": "blaser/data.txt",       relative to the manifest
 ///              "layout": "position-quaternion-name",
 ///              "position_unit": "m",            "m" or "mm"
@@ -17,8 +20,8 @@
 ///              "pose": "base_from_flange"}}     or "flange_from_base"
 ///
 /// Layout "position-quaternion-name": three lines per image, `[x, y, z]`, `[q, q, q, q]` in the
-/// order given, and the image's file name without extension (`.png` is added); blank lines are
-/// skipped.
+/// order given, and the image's file name (without an extension `.png` is added, `.raw` for raw
+/// frames; `.bmp` and `.pgm` are read too); blank lines are skipped.
 
 #include "mlp/calib/camera_calib.h"
 #include "mlp/geometry/types.h"
@@ -48,6 +51,7 @@ struct RobotViews {
   ChessboardSpec board;
   probe_fw::ChannelWeights board_channels, laser_channels;
   StripeSettings stripe;
+  probe_fw::RawBayer raw;  ///< given: the images are raw Bayer mosaics of this layout
   std::vector<RobotImage> images;
 };
 

@@ -1,5 +1,6 @@
 #pragma once
-/// @file A cloud as a file: binary little-endian PLY with float x y z [mm, probe frame] and float
+/// @file A cloud as a file: binary little-endian PLY with float x y z [mm, probe frame unless the
+/// file names another: a robot's base frame for clouds mapped through a hand-eye] and float
 /// quality (0..1); probe serial, calibration id, capture id and (when known) the flange pose H in
 /// comments. Float keeps 8 nm at 120 mm, below any probe's resolution, and PCL and `mlp fit` read
 /// it. Written by the firmware (`mlp-fw run`) and by the host, which keeps every cloud a job used.
@@ -20,6 +21,7 @@ class CloudFileError : public std::runtime_error {
 struct CloudFileMeta {
   std::string probe_serial, calibration_id, capture_id;
   std::optional<std::array<double, 16>> mcs_from_flange;  ///< H, row-major 4 x 4
+  std::string frame = "probe";  ///< the frame x y z are in: "probe" or "base" (a robot's)
 };
 
 /// `xyz`: 3 numbers per point; `quality`: one per point. Writes atomically (temporary file +

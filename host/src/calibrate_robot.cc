@@ -1,0 +1,407 @@
+#include "calibrate_robot.h"
+
+#include "mlp/calib/board_hand_eye.h"
+#include "mlp/calib/line_laser.h"
+#include "mlp/calib/record.h"
+#include "mlp/calib/robot_views.h"
+#include "mlp/host/cli.h"
+#include "mlp/probe_fw/cloud_file.h"
+#include "mlp/probe_fw/json_fields.h"
+#include "mlp/probe_fw/probe_model.h"
+#include "mlp/probe_fw/triangulate.h"
+
+#include <filesystem>
+#include <map>
+#include <ostream>
+#include <stdexcept>
+
+#include "calibration_json.h"
+#include "format_numbers.h"
+#include <nlohmann/json.hpp>
+
+namespace mlp::host {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::ordered_json;
+using geometry::Pose3;
+using geometry::Vec3;
+
+// Above this the mounting is refused: a robot cell's hand-eye, not a machine tool's (the
+// sphere method's real-data test allows 1 mm; the blaser arm gives 0.07 mm).
+constexpr double kDefaultMaxStdMm = 0.2;
+
+struct Options {
+  std::string command, views, design, probe, out, id, store, calibration, refined_probe;
+  bool json = false, dry_run = false;
+  calib::BoardHandEyeOptions hand_eye;
+};
+
+double PositiveNumber(const std::string& flag, const std::string& text) {
+  try {
+    size_t used = 0;
+    const double v = std::stod(text, &used);
+    if (used == text.size() && v > 0 && std::isfinite(v)) return v;
+  } catch (const std::exception&) {
+  }
+  throw UsageError(flag + " needs a positive number, not '" + text + "'");
+}
+
+void Require(bool ok, const char* what) {
+  if (!ok) throw UsageError(what);
+}
+
+void CheckOptions(const Options& o) {
+  Require(!o.views.empty(), "--views MANIFEST is required");
+  if (o.command == "line-laser") {
+    Require(!o.design.empty() && !o.out.empty(),
+            "line-laser needs --design PROBE_FILE and --out PROBE_FILE");
+    Require(o.probe.empty() && o.store.empty(), "line-laser takes --views --design --out --id");
+  } else {
+    Require(!o.probe.empty() && !o.store.empty(), "--probe PROBE_FILE and --store DIR are needed");
+    Require(o.design.empty(), "--design is for line-laser");
+  }
+  if (o.command == "map") Require(!o.out.empty(), "map needs --out DIR (one cloud per image)");
+  if (o.command != "board-hand-eye")
+    Require(o.refined_probe.empty() && !o.dry_run,
+            "--refined-probe and --dry-run are for board-hand-eye");
+  if (o.command != "map") Require(o.calibration.empty(), "--calibration is for map");
+  for (const std::string& file : {o.command == "map" ? std::string() : o.out, o.refined_probe})
+    if (!file.empty() && fs::exists(file))
+      throw UsageError(file + " exists: calibrations are never overwritten; choose a new file");
+  if (o.command == "map" && fs::exists(o.out) && !fs::is_empty(o.out))
+    throw UsageError(o.out + " exists and is not empty: clouds are never overwritten");
+}
+
+Options Parse(const std::vector<std::string>& args) {
+  Options o;
+  o.command = args.at(0);
+  o.hand_eye.max_std_mm = kDefaultMaxStdMm;
+  o.hand_eye.refine_plane = false;
+  const std::map<std::string, std::string Options::*> valued = {
+      {"--views", &Options::views},
+      {"--design", &Options::design},
+      {"--probe", &Options::probe},
+      {"--out", &Options::out},
+      {"--id", &Options::id},
+      {"--store", &Options::store},
+      {"--calibration", &Options::calibration},
+      {"--refined-probe", &Options::refined_probe}};
+  for (size_t i = 1; i < args.size(); ++i) {
+    if (args[i] == "--json" || args[i] == "--dry-run") {
+      (args[i] == "--json" ? o.json : o.dry_run) = true;
+      continue;
+    }
+    if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
+    if (args[i] == "--max-std-mm" || args[i] == "--lever-mm") {
+      (args[i] == "--lever-mm" ? o.hand_eye.lever_mm : o.hand_eye.max_std_mm) =
+          PositiveNumber(args[i], args[i + 1]);
+      ++i;
+      continue;
+    }
+    const auto it = valued.find(args[i]);
+    if (it == valued.end()) throw UsageError("unknown option " + args[i]);
+    o.*(it->second) = args[++i];
+  }
+  // The plane is refined with the hand-eye only when the refined probe model is written:
+  // otherwise the firmware's file and the hand-eye would disagree about it.
+  o.hand_eye.refine_plane = !o.refined_probe.empty();
+  CheckOptions(o);
+  return o;
+}
+
+// Every image, with a line of progress each (the images take a second or two each).
+std::vector<calib::ImageFindings> Find(const calib::RobotViews& v, std::ostream& err) {
+  size_t done = 0;
+  return calib::FindInImages(v, [&](const std::string& line) {
+    err << "mlp calibrate: [" << ++done << "/" << v.images.size() << "] " << line << "\n"
+        << std::flush;
+  });
+}
+
+json ImagesJson(const std::vector<calib::ImageFindings>& found) {
+  json a = json::array();
+  for (const auto& f : found) {
+    json e = {{"name", f.name},
+              {"board", f.HasBoard()},
+              {"board_scale", f.corner_scale},
+              {"stripe_points", f.stripe_px.size()},
+              {"stripe_saturated", f.stripe_saturated}};
+    if (!f.refused.empty()) e["refused"] = f.refused;
+    a.push_back(e);
+  }
+  return a;
+}
+
+json PlaneJson(const calib::LineLaserCalibration& c) {
+  return {{"normal_in_camera", {c.plane.normal.x(), c.plane.normal.y(), c.plane.normal.z()}},
+          {"offset_mm", c.plane.normal.dot(c.plane.point)},
+          {"rms_mm", c.plane_rms_mm},
+          {"max_mm", c.plane_max_mm},
+          {"points", c.plane_points},
+          {"inliers", c.plane_inliers}};
+}
+
+int Refused(const std::vector<calib::ImageFindings>& found) {
+  int n = 0;
+  for (const auto& f : found) n += !f.refused.empty();
+  return n;
+}
+
+int LineLaser(const Options& o, std::ostream& out, std::ostream& err) {
+  const probe_fw::ProbeModel design = probe_fw::LoadProbeModel(o.design);
+  const calib::RobotViews v = calib::LoadRobotViews(o.views);
+  const auto found = Find(v, err);
+  if (found.front().width_px != design.camera.width_px ||
+      found.front().height_px != design.camera.height_px)
+    throw UsageError("the images are " + std::to_string(found.front().width_px) + " x " +
+                     std::to_string(found.front().height_px) + " px, the design's camera " +
+                     std::to_string(design.camera.width_px) + " x " +
+                     std::to_string(design.camera.height_px));
+  const auto cal =
+      calib::CalibrateLineLaser(found, v.board, design.camera.width_px, design.camera.height_px);
+  const auto model = calib::LineLaserProbeModel(
+      design, cal.camera.intrinsics, cal.plane,
+      o.id.empty() ? DefaultCalibrationId(design.serial, "line-laser") : o.id);
+  probe_fw::SaveProbeModel(model, o.out);
+  json j = {{"probe_model", o.out},
+            {"calibration_id", model.calibration_id},
+            {"probe_serial", model.serial},
+            {"images", ImagesJson(found)},
+            {"boards_used", cal.board_images.size()},
+            {"corner_rms_px", cal.camera.rms_reprojection_px},
+            {"stripe_scatter_px", cal.scatter_rms_px},
+            {"camera", IntrinsicsJson(cal.camera.intrinsics)},
+            {"plane", PlaneJson(cal)},
+            {"notes", cal.notes}};
+  if (o.json) {
+    out << j.dump(2) << "\n";
+    return kExitOk;
+  }
+  out << "line-laser calibration " << model.calibration_id << " of " << model.serial << "\n"
+      << "  images " << found.size() << ": board used in " << cal.board_images.size() << ", "
+      << Refused(found) << " refused (neither board nor line)\n"
+      << "  corners " << Fixed(cal.camera.rms_reprojection_px, 3) << " px RMS, stripe scatter "
+      << Fixed(cal.scatter_rms_px, 3) << " px about a line\n"
+      << "  light plane: " << Fixed(cal.plane_rms_mm, 4) << " mm RMS, "
+      << Fixed(cal.plane_max_mm, 3) << " mm max (" << cal.plane_inliers << " of "
+      << cal.plane_points << " points)\n";
+  for (const auto& n : cal.notes) out << "  note: " << n << "\n";
+  for (const auto& f : found)
+    if (!f.refused.empty()) out << "  refused " << f.name << ": " << f.refused << "\n";
+  out << "  probe model written to " << o.out << "\n";
+  return kExitOk;
+}
+
+struct HandEyeFigures {
+  calib::Spread corners, laser;
+};
+
+HandEyeFigures Figures(const calib::RobotViews& v,
+                       const std::vector<calib::ImageFindings>& found,
+                       const calib::LineLaserCalibration& cal,
+                       const calib::BoardHandEyeResult& r) {
+  HandEyeFigures f;
+  std::vector<Pose3> flanges;
+  for (int i : cal.board_images) flanges.push_back(v.images[size_t(i)].base_from_flange);
+  f.corners = calib::CornerSpreadInBase(cal.camera.camera_from_board, flanges, r.flange_from_camera,
+                                        v.board);
+  std::vector<Vec3> in_base;
+  for (size_t i = 0; i < found.size(); ++i) {
+    const auto p = calib::LaserPointsInBase(found[i], v.images[i].base_from_flange,
+                                            cal.camera.intrinsics, r.plane, r.flange_from_camera);
+    in_base.insert(in_base.end(), p.begin(), p.end());
+  }
+  f.laser = calib::SpreadAboutCommonPlane(in_base);
+  return f;
+}
+
+json SpreadJson(const calib::Spread& s) {
+  return {
+      {"rms_mm", s.rms_mm}, {"max_mm", s.max_mm}, {"points", s.points}, {"outliers", s.outliers}};
+}
+
+json HandEyeJson(const calib::BoardHandEyeResult& r, const HandEyeFigures& f) {
+  json images = json::array();
+  for (const auto& im : r.images)
+    images.push_back({{"name", im.name},
+                      {"corners", im.corners},
+                      {"corner_rms_px", im.corner_rms_px},
+                      {"laser_points", im.laser_points},
+                      {"laser_rms_mm", im.laser_rms_mm},
+                      {"laser_max_mm", im.laser_max_mm}});
+  json sd = json::array();
+  for (int i = 0; i < 6; ++i) sd.push_back(std::sqrt(r.covariance(i, i)));
+  return {
+      {"flange_from_probe", probe_fw::json_fields::PoseToJson(r.flange_from_camera)},
+      {"start_flange_from_probe", probe_fw::json_fields::PoseToJson(r.start_flange_from_camera)},
+      {"base_from_board", probe_fw::json_fields::PoseToJson(r.base_from_board)},
+      {"std_dev",
+       {{"parameters", {"rx_rad", "ry_rad", "rz_rad", "tx_mm", "ty_mm", "tz_mm"}}, {"values", sd}}},
+      {"worst_std_mm", r.worst_std_mm},
+      {"corner_rms_px", r.corner_rms_px},
+      {"noise", {{"corner_sigma_px", r.corner_sigma_px}, {"laser_sigma_mm", r.laser_sigma_mm}}},
+      {"corners_used", r.corners_used},
+      {"laser_points_used", r.laser_points_used},
+      {"corner_spread_in_base", SpreadJson(f.corners)},
+      {"laser_points_about_common_plane", SpreadJson(f.laser)},
+      {"images", images},
+      {"warnings", r.warnings}};
+}
+
+void PrintHandEye(std::ostream& out,
+                  const calib::BoardHandEyeResult& r,
+                  const HandEyeFigures& f,
+                  const calib::BoardHandEyeOptions& opt) {
+  const Eigen::AngleAxisd turn(r.flange_from_camera.linear());
+  out << "  flange_from_probe: t " << Vec(r.flange_from_camera.translation(), 3) << " mm, "
+      << Fixed(turn.angle() * 180.0 / M_PI, 4) << " deg\n"
+      << "  determined to " << Fixed(r.worst_std_mm, 4) << " mm (1 sigma, worst combination, "
+      << "rotations at " << Fixed(opt.lever_mm, 0) << " mm; limit " << opt.max_std_mm << ")\n"
+      << "  corners through the robot's poses " << Fixed(r.corner_rms_px, 2)
+      << " px RMS; the fit weighed corners at " << Fixed(r.corner_sigma_px, 2)
+      << " px and laser points at " << Fixed(r.laser_sigma_mm, 3) << " mm\n"
+      << "  board corners in the base: " << Fixed(f.corners.rms_mm, 3) << " mm RMS, "
+      << Fixed(f.corners.max_mm, 3) << " mm max from their mean\n"
+      << "  laser points about one plane: " << Fixed(f.laser.rms_mm, 3) << " mm RMS, "
+      << Fixed(f.laser.max_mm, 3) << " mm max (" << f.laser.points << " points, "
+      << f.laser.outliers << " off the plane)\n";
+  out << "  per image: corners off the joint solution [px RMS]; laser points' height above the "
+         "board [mm RMS / max] (light beside the board counts)\n";
+  for (const auto& im : r.images)
+    if (im.corners > 0 || im.laser_points > 0)
+      out << "    " << im.name << ": corners "
+          << (im.corners > 0 ? Fixed(im.corner_rms_px, 2) : std::string("-")) << ", laser "
+          << (im.laser_points > 0 ? Fixed(im.laser_rms_mm, 3) + " / " + Fixed(im.laser_max_mm, 3)
+                                  : std::string("-"))
+          << "\n";
+  for (const auto& w : r.warnings) out << "  warning: " << w << "\n";
+}
+
+int BoardHandEye(const Options& o, std::ostream& out, std::ostream& err) {
+  const probe_fw::ProbeModel model = probe_fw::LoadProbeModel(o.probe);
+  const calib::RobotViews v = calib::LoadRobotViews(o.views);
+  const auto found = Find(v, err);
+  const auto cal = calib::LineLaserOfModel(found, model, v.board);
+  const auto r = calib::SolveBoardHandEye(found, v.images, cal, v.board, o.hand_eye);
+  const HandEyeFigures f = Figures(v, found, cal, r);
+  std::vector<calib::RobotImage> used;
+  for (size_t i = 0; i < found.size(); ++i)
+    if (found[i].refused.empty()) used.push_back(v.images[i]);
+  std::string id;
+  if (!o.dry_run)
+    id = calib::CalibrationStore(o.store).Save(calib::MakeRecord(model.serial, r, used));
+  if (!o.refined_probe.empty() && !o.dry_run)
+    probe_fw::SaveProbeModel(calib::LineLaserProbeModel(model, cal.camera.intrinsics, r.plane,
+                                                        model.calibration_id + "+plane-" + id),
+                             o.refined_probe);
+  json j = HandEyeJson(r, f);
+  j["calibration_id"] = id;
+  j["probe_serial"] = model.serial;
+  j["stored"] = !o.dry_run;
+  if (o.json) {
+    out << j.dump(2) << "\n";
+    return kExitOk;
+  }
+  out << "board hand-eye of " << model.serial << (o.dry_run ? " (dry run: nothing stored)" : "")
+      << "\n";
+  PrintHandEye(out, r, f, o.hand_eye);
+  for (const auto& n : cal.notes) out << "  note: " << n << "\n";
+  if (!o.dry_run) out << "  stored as " << id << " in " << o.store << "\n";
+  if (!o.refined_probe.empty() && !o.dry_run)
+    out << "  probe model with the refined plane written to " << o.refined_probe << "\n";
+  return kExitOk;
+}
+
+std::array<double, 16> RowMajor(const Pose3& p) {
+  std::array<double, 16> h{};
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) h[size_t(4 * r + c)] = p.matrix()(r, c);
+  return h;
+}
+
+// The image's stripe centres triangulated by the firmware with the probe model (column 0: the
+// one light plane) and mapped by F_i X into the robot's base frame.
+std::vector<Vec3> CloudInBase(const calib::ImageFindings& f,
+                              const probe_fw::ProbeModel& model,
+                              const Pose3& base_from_probe) {
+  std::vector<Vec3> out;
+  for (const auto& px : f.stripe_px) {
+    try {
+      out.push_back(base_from_probe * probe_fw::Triangulate(model, px.x(), px.y(), 0.0));
+    } catch (const std::domain_error&) {  // a ray in the light plane: no point
+    }
+  }
+  return out;
+}
+
+int Map(const Options& o, std::ostream& out, std::ostream& err) {
+  const probe_fw::ProbeModel model = probe_fw::LoadProbeModel(o.probe);
+  if (model.projector.columns != 1)
+    throw UsageError(o.probe + ": not a fixed line laser (projector.columns is not 1)");
+  const calib::CalibrationStore store(o.store);
+  const auto record = o.calibration.empty()
+                          ? store.Latest(model.serial, calib::RecordKind::kHandEye)
+                          : std::optional(store.Load(model.serial, o.calibration));
+  if (!record) throw UsageError("probe " + model.serial + " has no hand-eye in " + o.store);
+  const calib::RobotViews v = calib::LoadRobotViews(o.views);
+  const auto found = Find(v, err);
+  fs::create_directories(o.out);
+  json images = json::array();
+  std::vector<Vec3> all;
+  for (size_t i = 0; i < found.size(); ++i) {
+    json e = {{"name", found[i].name}};
+    if (!found[i].HasLaser()) {
+      e["refused"] = found[i].refused.empty() ? "no laser line" : found[i].refused;
+      images.push_back(e);
+      continue;
+    }
+    const Pose3& flange = v.images[i].base_from_flange;
+    const auto cloud = CloudInBase(found[i], model, flange * record->flange_from_probe);
+    std::vector<double> xyz;
+    for (const Vec3& p : cloud) xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
+    const std::string file =
+        (fs::path(o.out) / (fs::path(found[i].name).stem().string() + ".ply")).string();
+    probe_fw::CloudFileMeta meta{model.serial, record->calibration_id, found[i].name,
+                                 RowMajor(flange), "base"};
+    probe_fw::WriteCloudPly(file, xyz, std::vector<float>(cloud.size(), 1.0f), meta);
+    e["cloud"] = file, e["points"] = cloud.size();
+    images.push_back(e);
+    all.insert(all.end(), cloud.begin(), cloud.end());
+  }
+  if (all.empty()) throw UsageError("no image of " + o.views + " shows the laser line");
+  const calib::Spread s = calib::SpreadAboutCommonPlane(all);
+  json j = {{"probe_serial", model.serial},
+            {"probe_calibration_id", model.calibration_id},
+            {"hand_eye_calibration_id", record->calibration_id},
+            {"images", images},
+            {"points_about_common_plane", SpreadJson(s)}};
+  if (o.json) {
+    out << j.dump(2) << "\n";
+    return kExitOk;
+  }
+  out << "laser points of " << found.size() << " images in the robot's base frame ("
+      << model.calibration_id << ", hand-eye " << record->calibration_id << ")\n"
+      << "  about one common plane: " << Fixed(s.rms_mm, 3) << " mm RMS, " << Fixed(s.max_mm, 3)
+      << " mm max (" << s.points << " points, " << s.outliers << " off the plane)\n";
+  for (const auto& e : images)
+    out << "    " << e["name"].get<std::string>() << ": "
+        << (e.contains("refused") ? e["refused"].get<std::string>()
+                                  : std::to_string(e["points"].get<size_t>()) + " points")
+        << "\n";
+  out << "  clouds (PLY, base frame) written to " << o.out << "\n";
+  return kExitOk;
+}
+
+}  // namespace
+
+int RunRobotViewsCommand(const std::vector<std::string>& args,
+                         std::ostream& out,
+                         std::ostream& err) {
+  const Options o = Parse(args);
+  if (o.command == "line-laser") return LineLaser(o, out, err);
+  if (o.command == "board-hand-eye") return BoardHandEye(o, out, err);
+  return Map(o, out, err);
+}
+
+}  // namespace mlp::host
