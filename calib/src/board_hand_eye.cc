@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <sstream>
 
@@ -54,7 +55,12 @@ void ApplyInverse(const T* pose, const T* in, T* out) {  // pose^-1 * in
   ceres::AngleAxisRotatePoint(back, shifted, out);
 }
 
-// A board corner seen through X^-1 F^-1 B, against where it was detected [px / sigma].
+// The robot's pose error of an image as its own small pose D (angle-axis, translation [mm], in
+// the flange frame): the true flange pose is F D. Errors-in-variables for the robot's poses, so
+// that a robot cell's pose error (3 px at the blaser's board, six times its corner noise) lands
+// in D_i instead of in X, and every corner and laser point keeps its own, independent noise.
+
+// A board corner seen through X^-1 D^-1 F^-1 B, against where it was detected [px / sigma].
 struct CornerCost {
   Intrinsics k;
   std::array<double, 6> flange_from_base;  // F^-1
@@ -62,13 +68,14 @@ struct CornerCost {
   Vec2 seen;
   double sigma_px;
   template <typename T>
-  bool operator()(const T* x, const T* b, T* residual) const {
+  bool operator()(const T* x, const T* b, const T* d, T* residual) const {
     const T c[3] = {T(corner.x()), T(corner.y()), T(corner.z())};
-    T in_base[3], in_flange[3], p[3];
+    T in_base[3], reported[3], in_flange[3], p[3];
     Apply(b, c, in_base);
     T f[6];
     for (int i = 0; i < 6; ++i) f[i] = T(flange_from_base[i]);
-    Apply(f, in_base, in_flange);
+    Apply(f, in_base, reported);
+    ApplyInverse(d, reported, in_flange);
     ApplyInverse(x, in_flange, p);
     const T xn = p[0] / p[2], yn = p[1] / p[2], r2 = xn * xn + yn * yn;
     const T radial = 1.0 + k.k1 * r2 + k.k2 * r2 * r2 + k.k3 * r2 * r2 * r2;
@@ -80,24 +87,37 @@ struct CornerCost {
   }
 };
 
-// A stripe pixel's ray met with the light plane n.p = d, mapped by F X: its height above the
+// A stripe pixel's ray met with the light plane n.p = d, mapped by F D X: its height above the
 // board [mm / sigma].
 struct LaserCost {
   Vec3 ray;
   std::array<double, 6> base_from_flange;
   double sigma_mm;
   template <typename T>
-  bool operator()(const T* x, const T* b, const T* normal, const T* offset, T* residual) const {
+  bool operator()(
+      const T* x, const T* b, const T* normal, const T* offset, const T* d, T* residual) const {
     const T along = normal[0] * ray.x() + normal[1] * ray.y() + normal[2] * ray.z();
     const T s = offset[0] / along;
     const T p[3] = {s * ray.x(), s * ray.y(), s * ray.z()};
-    T in_flange[3], in_base[3], in_board[3];
+    T in_flange[3], reported[3], in_base[3], in_board[3];
     Apply(x, p, in_flange);
+    Apply(d, in_flange, reported);
     T f[6];
     for (int i = 0; i < 6; ++i) f[i] = T(base_from_flange[i]);
-    Apply(f, in_flange, in_base);
+    Apply(f, reported, in_base);
     ApplyInverse(b, in_base, in_board);
     residual[0] = in_board[2] / sigma_mm;
+    return true;
+  }
+};
+
+// The prior on an image's robot error: zero, with the robot's noise [rad], [mm].
+struct RobotPrior {
+  double sigma_rad, sigma_mm;
+  template <typename T>
+  bool operator()(const T* d, T* residual) const {
+    for (int i = 0; i < 3; ++i) residual[i] = d[i] / sigma_rad;
+    for (int i = 3; i < 6; ++i) residual[i] = d[i] / sigma_mm;
     return true;
   }
 };
@@ -210,19 +230,30 @@ Spread CornerSpreadInBase(const std::vector<Pose3>& camera_from_board,
 
 namespace {
 
-// The unknowns of the joint problem: X, B, and the light plane n.p = d (camera frame).
+// The unknowns of the joint problem: X, B, the light plane n.p = d (camera frame), and each
+// image's robot error D_i (zero for an image that adds nothing).
 struct JointParams {
   std::array<double, 6> x{}, b{};
   Vec3 n = Vec3::UnitZ();
   double d = 0.0;
+  std::vector<std::array<double, 6>> robot;
 };
 
-// The noise of each residual class [px], [mm]: what the residuals are divided by.
+// The noise of each class: corners [px] and laser heights [mm], the sensor's, independent per
+// point; the robot's pose error per image [rad], [mm].
 struct ClassSigmas {
-  double px = 1.0, mm = 1.0;
+  double px = 1.0, mm = 1.0, robot_rad = 1.0, robot_mm = 1.0;
 };
 
-// One joint least-squares problem over JointParams at given class sigmas.
+constexpr double kMinSigmaPx = 0.01, kMinSigmaMm = 0.0005, kMinRobotMm = 0.0005;
+
+double Mad(std::vector<double> v) {  // 1.4826 x the median |v|
+  for (double& e : v) e = std::abs(e);
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return 1.4826 * v[v.size() / 2];
+}
+
+// One joint least-squares problem over JointParams at given class noise.
 class JointProblem {
  public:
   JointProblem(const std::vector<ImageFindings>& findings,
@@ -232,12 +263,19 @@ class JointProblem {
                const BoardHandEyeOptions& o,
                ClassSigmas sigmas,
                JointParams* p)
-      : huber_(kHuberSigmas), sigmas_(sigmas), p_(p) {
+      : huber_(kHuberSigmas), sigmas_(sigmas), p_(p), lever_mm_(o.lever_mm) {
     ceres::Problem::Options po;
     po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_ = std::make_unique<ceres::Problem>(po);
     AddCorners(findings, images, cal, board);
     AddLaser(findings, images, cal, o);
+    for (size_t i = 0; i < findings.size(); ++i) {
+      if (!problem_->HasParameterBlock(p_->robot[i].data())) continue;
+      problem_->AddResidualBlock(new ceres::AutoDiffCostFunction<RobotPrior, 6, 6>(
+                                     new RobotPrior{sigmas_.robot_rad, sigmas_.robot_mm}),
+                                 nullptr, p_->robot[i].data());
+      used_.push_back(i);
+    }
     if (!laser_.empty()) {
       problem_->SetManifold(p_->n.data(), new ceres::SphereManifold<3>());
       if (!o.refine_plane) {
@@ -249,7 +287,7 @@ class JointProblem {
 
   ceres::Solver::Summary Solve() {
     ceres::Solver::Options so;
-    so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+    so.linear_solver_type = ceres::DENSE_SCHUR;  // the robot errors eliminated image by image
     so.max_num_iterations = 200;
     so.function_tolerance = 1e-12;
     so.parameter_tolerance = 1e-12;
@@ -258,12 +296,23 @@ class JointProblem {
     return summary;
   }
 
-  // Each class's noise as its residuals at the solution show it: 1.4826 x the median |residual|
-  // (robust to the laser light beside the board), the variance-component idea of geodesy
-  // (Helmert; Foerstner 1979) with a robust scale.
+  // Each class's noise as the solution shows it (variance components, Helmert; Foerstner 1979):
+  // 1.4826 x the median |residual| for the sensor's classes (robust to the laser light beside
+  // the board), and the robot errors' own scale.
   ClassSigmas ResidualSigmas() const {
-    return {sigmas_.px * RawSigma(corners_),
-            laser_.empty() ? sigmas_.mm : sigmas_.mm * RawSigma(laser_)};
+    ClassSigmas s;
+    s.px = std::max(kMinSigmaPx, sigmas_.px * Mad(Residuals(corners_)));
+    s.mm = laser_.empty() ? sigmas_.mm : std::max(kMinSigmaMm, sigmas_.mm * Mad(Residuals(laser_)));
+    // The robot's translation noise; its rotation noise is given: at the camera the two are
+    // nearly the same motion, and estimated apart one of them collapsed to zero, estimated as
+    // one (rotations at the lever arm) the rotations took up the camera model's own errors on
+    // the blaser images (0.2 deg per image, the corners' spread doubled).
+    std::vector<double> all;
+    for (size_t i : used_)
+      for (int k = 3; k < 6; ++k) all.push_back(p_->robot[i][size_t(k)]);
+    s.robot_mm = std::max(kMinRobotMm, Rms(all));
+    s.robot_rad = sigmas_.robot_rad;  // given (BoardHandEyeOptions), not estimated
+    return s;
   }
 
   ceres::Problem& problem() { return *problem_; }
@@ -271,19 +320,26 @@ class JointProblem {
   int laser_points() const { return static_cast<int>(laser_.size()); }
 
  private:
+  static double Rms(const std::vector<double>& v) {
+    double s2 = 0.0;
+    for (double e : v) s2 += e * e;
+    return v.empty() ? 0.0 : std::sqrt(s2 / double(v.size()));
+  }
+
   void AddCorners(const std::vector<ImageFindings>& findings,
                   const std::vector<RobotImage>& images,
                   const LineLaserCalibration& cal,
                   const ChessboardSpec& board) {
     const auto corners = BoardCorners(board);
-    for (int i : cal.board_images) {
-      const ImageFindings& f = findings[static_cast<size_t>(i)];
-      const auto flange_from_base =
-          ToParams(images[static_cast<size_t>(i)].base_from_flange.inverse());
+    for (int index : cal.board_images) {
+      const size_t i = static_cast<size_t>(index);
+      const auto flange_from_base = ToParams(images[i].base_from_flange.inverse());
       for (size_t c = 0; c < corners.size(); ++c) {
-        auto* cost = new ceres::AutoDiffCostFunction<CornerCost, 2, 6, 6>(new CornerCost{
-            cal.camera.intrinsics, flange_from_base, corners[c], f.corners[c], sigmas_.px});
-        corners_.push_back(problem_->AddResidualBlock(cost, &huber_, p_->x.data(), p_->b.data()));
+        auto* cost = new ceres::AutoDiffCostFunction<CornerCost, 2, 6, 6, 6>(
+            new CornerCost{cal.camera.intrinsics, flange_from_base, corners[c],
+                           findings[i].corners[c], sigmas_.px});
+        corners_.push_back(problem_->AddResidualBlock(cost, &huber_, p_->x.data(), p_->b.data(),
+                                                      p_->robot[i].data()));
       }
     }
   }
@@ -298,24 +354,23 @@ class JointProblem {
       if (!f.HasLaser()) continue;
       for (size_t j : Thinned(f.stripe_px.size(), o.max_laser_points_per_image)) {
         const Vec2 u = cam.Undistort(f.stripe_px[j]);
-        auto* cost = new ceres::AutoDiffCostFunction<LaserCost, 1, 6, 6, 3, 1>(new LaserCost{
+        auto* cost = new ceres::AutoDiffCostFunction<LaserCost, 1, 6, 6, 3, 1, 6>(new LaserCost{
             Vec3(u.x(), u.y(), 1.0), ToParams(images[i].base_from_flange), sigmas_.mm});
         laser_.push_back(problem_->AddResidualBlock(cost, &huber_, p_->x.data(), p_->b.data(),
-                                                    p_->n.data(), &p_->d));
+                                                    p_->n.data(), &p_->d, p_->robot[i].data()));
       }
     }
   }
 
-  // 1.4826 x median |whitened residual| of the blocks, without the loss.
-  double RawSigma(const std::vector<ceres::ResidualBlockId>& blocks) const {
+  // The blocks' residuals times their class sigma over the one they were built with, without
+  // the loss.
+  std::vector<double> Residuals(const std::vector<ceres::ResidualBlockId>& blocks) const {
     ceres::Problem::EvaluateOptions eo;
     eo.residual_blocks = blocks;
     eo.apply_loss_function = false;
     std::vector<double> r;
     problem_->Evaluate(eo, nullptr, &r, nullptr, nullptr);
-    for (double& v : r) v = std::abs(v);
-    std::nth_element(r.begin(), r.begin() + static_cast<long>(r.size() / 2), r.end());
-    return 1.4826 * r[r.size() / 2];
+    return r;
   }
 
   ceres::HuberLoss huber_;
@@ -323,13 +378,16 @@ class JointProblem {
   JointParams* p_;
   std::unique_ptr<ceres::Problem> problem_;
   std::vector<ceres::ResidualBlockId> corners_, laser_;
+  std::vector<size_t> used_;  ///< images with a robot error in the problem
+  double lever_mm_;
 };
 
-constexpr int kMaxVariancePasses = 6;
-constexpr double kSigmaSettled = 0.02;  // relative change of both class sigmas between passes
+constexpr int kMaxVariancePasses = 10;
+constexpr double kSigmaSettled = 0.02;  // relative change of every class sigma between passes
 
 bool Settled(const ClassSigmas& a, const ClassSigmas& b) {
-  return std::abs(a.px / b.px - 1.0) < kSigmaSettled && std::abs(a.mm / b.mm - 1.0) < kSigmaSettled;
+  const auto close = [](double u, double v) { return std::abs(u / v - 1.0) < kSigmaSettled; };
+  return close(a.px, b.px) && close(a.mm, b.mm) && close(a.robot_mm, b.robot_mm);
 }
 
 }  // namespace
@@ -351,16 +409,24 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
   for (int i : cal.board_images)
     flange_poses.push_back(images[static_cast<size_t>(i)].base_from_flange);
   r.start_flange_from_camera = ParkMartin(flange_poses, cal.camera.camera_from_board);
+  if (!r.start_flange_from_camera.matrix().allFinite())
+    throw HandEyeError(Kind::kUnderDetermined,
+                       "board hand-eye: AX = XB has no solution from these views: the board "
+                       "views need rotations about two different axes");
   JointParams p;
   p.x = ToParams(r.start_flange_from_camera);
   p.b = ToParams(flange_poses[0] * r.start_flange_from_camera * cal.camera.camera_from_board[0]);
   p.n = cal.plane.normal.normalized();
   p.d = p.n.dot(cal.plane.point);
-
-  // The first pass weighs by the calibration's noise (sensor only); then each class by its own
-  // residuals, which also carry the robot's pose error, until the weights settle.
+  p.robot.assign(findings.size(), std::array<double, 6>{});
+  // The robot's noise starts from the corners' spread in the base through the start (each
+  // view's board pose, F_i and X): the pose error is most of it.
+  const Spread start = CornerSpreadInBase(cal.camera.camera_from_board, flange_poses,
+                                          r.start_flange_from_camera, board);
+  const double robot_cap_mm = std::max(kMinRobotMm, start.rms_mm);
   ClassSigmas sigmas{std::max(0.05, cal.camera.rms_reprojection_px),
-                     std::max(0.005, cal.plane_rms_mm)};
+                     std::max(0.005, cal.plane_rms_mm), o.robot_rotation_sigma_deg * M_PI / 180.0,
+                     robot_cap_mm};
   std::unique_ptr<JointProblem> joint;
   ceres::Solver::Summary summary;
   for (int pass = 0; pass < kMaxVariancePasses; ++pass) {
@@ -369,12 +435,18 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
     r.iterations += static_cast<int>(summary.iterations.size());
     if (!summary.IsSolutionUsable())
       throw HandEyeError(Kind::kBadInput, "board hand-eye: the solver failed: " + summary.message);
-    const ClassSigmas seen = joint->ResidualSigmas();
+    ClassSigmas seen = joint->ResidualSigmas();
+    // The robot's noise at most the start's corner spread: a weak prior lets the per-image
+    // errors absorb X, which raises their scale and weakens the prior further (on the blaser
+    // images, unbounded, it ran away to 32 mm).
+    seen.robot_mm = std::min(seen.robot_mm, robot_cap_mm);
+
     ++r.variance_passes;
     if (Settled(seen, sigmas)) break;
     sigmas = seen;
   }
   r.corner_sigma_px = sigmas.px, r.laser_sigma_mm = sigmas.mm;
+  r.robot_sigma_mm = sigmas.robot_mm, r.robot_sigma_deg = sigmas.robot_rad * 180.0 / M_PI;
   r.corners_used = joint->corners(), r.laser_points_used = joint->laser_points();
   r.flange_from_camera = FromParams(p.x.data());
   r.base_from_board = FromParams(p.b.data());
@@ -385,14 +457,14 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
   const auto corners = BoardCorners(board);
   const Intrinsics& k = cal.camera.intrinsics;
 
-  // Observability: X's covariance, scaled by the whitened residuals' variance.
+  // Observability: X's covariance (the robot's errors and the plane marginalised).
   ceres::Covariance::Options co;
   ceres::Covariance covariance(co);
   const std::vector<std::pair<const double*, const double*>> blocks = {{x.data(), x.data()}};
   double c[36];
-  const double dof =
-      std::max(1.0, double(summary.num_residuals - summary.num_effective_parameters));
-  const double variance = 2.0 * summary.final_cost / dof;
+  // Not scaled by the residuals' variance factor: every class's noise was estimated from the
+  // solution already.
+  const double variance = 1.0;
   if (!covariance.Compute(blocks, &problem) ||
       !covariance.GetCovarianceBlock(x.data(), x.data(), c))
     throw HandEyeError(Kind::kUnderDetermined,
@@ -424,6 +496,9 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
     const ImageFindings& f = findings[i];
     BoardHandEyeImage im;
     im.name = f.name;
+    const Pose3 d = FromParams(p.robot[i].data());
+    im.robot_error_mm = d.translation().norm();
+    im.robot_error_deg = Eigen::AngleAxisd(d.linear()).angle() * 180.0 / M_PI;
     const auto used = std::find(cal.board_images.begin(), cal.board_images.end(), int(i));
     if (used != cal.board_images.end()) {
       const Pose3 camera_from_board =

@@ -225,6 +225,8 @@ json HandEyeJson(const calib::BoardHandEyeResult& r, const HandEyeFigures& f) {
   json images = json::array();
   for (const auto& im : r.images)
     images.push_back({{"name", im.name},
+                      {"robot_error_mm", im.robot_error_mm},
+                      {"robot_error_deg", im.robot_error_deg},
                       {"corners", im.corners},
                       {"corner_rms_px", im.corner_rms_px},
                       {"laser_points", im.laser_points},
@@ -240,7 +242,11 @@ json HandEyeJson(const calib::BoardHandEyeResult& r, const HandEyeFigures& f) {
        {{"parameters", {"rx_rad", "ry_rad", "rz_rad", "tx_mm", "ty_mm", "tz_mm"}}, {"values", sd}}},
       {"worst_std_mm", r.worst_std_mm},
       {"corner_rms_px", r.corner_rms_px},
-      {"noise", {{"corner_sigma_px", r.corner_sigma_px}, {"laser_sigma_mm", r.laser_sigma_mm}}},
+      {"noise",
+       {{"corner_sigma_px", r.corner_sigma_px},
+        {"laser_sigma_mm", r.laser_sigma_mm},
+        {"robot_sigma_mm", r.robot_sigma_mm},
+        {"robot_sigma_deg", r.robot_sigma_deg}}},
       {"corners_used", r.corners_used},
       {"laser_points_used", r.laser_points_used},
       {"corner_spread_in_base", SpreadJson(f.corners)},
@@ -259,18 +265,21 @@ void PrintHandEye(std::ostream& out,
       << "  determined to " << Fixed(r.worst_std_mm, 4) << " mm (1 sigma, worst combination, "
       << "rotations at " << Fixed(opt.lever_mm, 0) << " mm; limit " << opt.max_std_mm << ")\n"
       << "  corners through the robot's poses " << Fixed(r.corner_rms_px, 2)
-      << " px RMS; the fit weighed corners at " << Fixed(r.corner_sigma_px, 2)
-      << " px and laser points at " << Fixed(r.laser_sigma_mm, 3) << " mm\n"
+      << " px RMS; noise found: corners " << Fixed(r.corner_sigma_px, 2) << " px, laser "
+      << Fixed(r.laser_sigma_mm, 3) << " mm, the robot's poses " << Fixed(r.robot_sigma_mm, 3)
+      << " mm / " << Fixed(r.robot_sigma_deg, 4) << " deg (1 sigma per axis)\n"
       << "  board corners in the base: " << Fixed(f.corners.rms_mm, 3) << " mm RMS, "
       << Fixed(f.corners.max_mm, 3) << " mm max from their mean\n"
       << "  laser points about one plane: " << Fixed(f.laser.rms_mm, 3) << " mm RMS, "
       << Fixed(f.laser.max_mm, 3) << " mm max (" << f.laser.points << " points, "
       << f.laser.outliers << " off the plane)\n";
-  out << "  per image: corners off the joint solution [px RMS]; laser points' height above the "
-         "board [mm RMS / max] (light beside the board counts)\n";
+  out << "  per image: the robot's pose error the fit found [mm, deg]; corners off the solution "
+         "through the reported pose [px RMS]; laser points' height above the board [mm RMS / "
+         "max] (light beside the board counts)\n";
   for (const auto& im : r.images)
     if (im.corners > 0 || im.laser_points > 0)
-      out << "    " << im.name << ": corners "
+      out << "    " << im.name << ": robot " << Fixed(im.robot_error_mm, 3) << " mm "
+          << Fixed(im.robot_error_deg, 3) << " deg, corners "
           << (im.corners > 0 ? Fixed(im.corner_rms_px, 2) : std::string("-")) << ", laser "
           << (im.laser_points > 0 ? Fixed(im.laser_rms_mm, 3) + " / " + Fixed(im.laser_max_mm, 3)
                                   : std::string("-"))
