@@ -10,6 +10,7 @@
 #include "mlp/probe_fw/probe_model.h"
 #include "mlp/probe_fw/triangulate.h"
 
+#include <chrono>
 #include <filesystem>
 #include <map>
 #include <ostream>
@@ -292,7 +293,11 @@ int BoardHandEye(const Options& o, std::ostream& out, std::ostream& err) {
   const calib::RobotViews v = calib::LoadRobotViews(o.views);
   const auto found = Find(v, err);
   const auto cal = calib::LineLaserOfModel(found, model, v.board);
+  const auto start = std::chrono::steady_clock::now();
   const auto r = calib::SolveBoardHandEye(found, v.images, cal, v.board, o.hand_eye);
+  err << "mlp calibrate: hand-eye solved in "
+      << Fixed(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 2)
+      << " s (" << r.variance_passes << " passes, " << r.iterations << " iterations)\n";
   const HandEyeFigures f = Figures(v, found, cal, r);
   std::vector<calib::RobotImage> used;
   for (size_t i = 0; i < found.size(); ++i)
