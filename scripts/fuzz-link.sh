@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds the link's libFuzzer target and the job socket's request parser target with clang (-fsanitize=fuzzer,address,undefined) and runs
+# Builds the link's libFuzzer target, the job socket's request parser target and the image readers' target with clang (-fsanitize=fuzzer,address,undefined) and runs
 # each for SECONDS (default 20: what CI runs; run them for hours by hand). The corpora are kept
 # in build-fuzz/corpus and build-fuzz/corpus-requests between runs. Exit 0 only when no crash, leak or sanitizer report was found.
 set -euo pipefail
@@ -18,3 +18,11 @@ clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-reco
   -o "$out/job_request_fuzz"
 "$out/job_request_fuzz" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=1024 \
   -print_final_stats=1 "$out/corpus-requests" 2>&1 | tail -n 12
+mkdir -p "$out/corpus-images"
+cp -n tests/fuzz/images/* "$out/corpus-images/"  # seeds: one valid file of each kind
+clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
+  -Iprobe_fw/format/include -Igeometry/include -I/usr/include/eigen3 -I/usr/include/opencv4 \
+  probe_fw/format/src/{frame_io,png_io,bmp_io}.cc tests/fuzz/image_fuzz.cc \
+  -lpng -lopencv_imgproc -lopencv_core -o "$out/image_fuzz"
+"$out/image_fuzz" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 \
+  -print_final_stats=1 "$out/corpus-images" 2>&1 | tail -n 12
