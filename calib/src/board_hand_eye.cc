@@ -5,10 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <memory>
 #include <sstream>
 
+#include "robust_scale.h"
 #include <Eigen/Geometry>
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -247,12 +247,6 @@ struct ClassSigmas {
 
 constexpr double kMinSigmaPx = 0.01, kMinSigmaMm = 0.0005, kMinRobotMm = 0.0005;
 
-double Mad(std::vector<double> v) {  // 1.4826 x the median |v|
-  for (double& e : v) e = std::abs(e);
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return 1.4826 * v[v.size() / 2];
-}
-
 // One joint least-squares problem over JointParams at given class noise.
 class JointProblem {
  public:
@@ -263,7 +257,7 @@ class JointProblem {
                const BoardHandEyeOptions& o,
                ClassSigmas sigmas,
                JointParams* p)
-      : huber_(kHuberSigmas), sigmas_(sigmas), p_(p), lever_mm_(o.lever_mm) {
+      : huber_(kHuberSigmas), sigmas_(sigmas), p_(p) {
     ceres::Problem::Options po;
     po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     problem_ = std::make_unique<ceres::Problem>(po);
@@ -298,11 +292,14 @@ class JointProblem {
 
   // Each class's noise as the solution shows it (variance components, Helmert; Foerstner 1979):
   // 1.4826 x the median |residual| for the sensor's classes (robust to the laser light beside
-  // the board), and the robot errors' own scale.
-  ClassSigmas ResidualSigmas() const {
+  // the board), and the RMS of the robot errors' translations, at most `robot_cap_mm`: a weak
+  // prior lets the per-image errors absorb X, which raises their scale and weakens the prior
+  // further (on the blaser images, unbounded, it ran away to 32 mm).
+  ClassSigmas ResidualSigmas(double robot_cap_mm) const {
     ClassSigmas s;
-    s.px = std::max(kMinSigmaPx, sigmas_.px * Mad(Residuals(corners_)));
-    s.mm = laser_.empty() ? sigmas_.mm : std::max(kMinSigmaMm, sigmas_.mm * Mad(Residuals(laser_)));
+    s.px = std::max(kMinSigmaPx, sigmas_.px * RobustSigma(Residuals(corners_)));
+    s.mm = laser_.empty() ? sigmas_.mm
+                          : std::max(kMinSigmaMm, sigmas_.mm * RobustSigma(Residuals(laser_)));
     // The robot's translation noise; its rotation noise is given: at the camera the two are
     // nearly the same motion, and estimated apart one of them collapsed to zero, estimated as
     // one (rotations at the lever arm) the rotations took up the camera model's own errors on
@@ -310,7 +307,7 @@ class JointProblem {
     std::vector<double> all;
     for (size_t i : used_)
       for (int k = 3; k < 6; ++k) all.push_back(p_->robot[i][size_t(k)]);
-    s.robot_mm = std::max(kMinRobotMm, Rms(all));
+    s.robot_mm = std::clamp(Rms(all), kMinRobotMm, robot_cap_mm);
     s.robot_rad = sigmas_.robot_rad;  // given (BoardHandEyeOptions), not estimated
     return s;
   }
@@ -379,7 +376,6 @@ class JointProblem {
   std::unique_ptr<ceres::Problem> problem_;
   std::vector<ceres::ResidualBlockId> corners_, laser_;
   std::vector<size_t> used_;  ///< images with a robot error in the problem
-  double lever_mm_;
 };
 
 constexpr int kMaxVariancePasses = 10;
@@ -435,11 +431,7 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
     r.iterations += static_cast<int>(summary.iterations.size());
     if (!summary.IsSolutionUsable())
       throw HandEyeError(Kind::kBadInput, "board hand-eye: the solver failed: " + summary.message);
-    ClassSigmas seen = joint->ResidualSigmas();
-    // The robot's noise at most the start's corner spread: a weak prior lets the per-image
-    // errors absorb X, which raises their scale and weakens the prior further (on the blaser
-    // images, unbounded, it ran away to 32 mm).
-    seen.robot_mm = std::min(seen.robot_mm, robot_cap_mm);
+    const ClassSigmas seen = joint->ResidualSigmas(robot_cap_mm);
 
     ++r.variance_passes;
     if (Settled(seen, sigmas)) break;

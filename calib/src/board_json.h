@@ -1,13 +1,24 @@
 #pragma once
-// The "board" object of a views manifest (mlprobe-board-views/1, mlprobe-robot-views/1).
+// What the views manifests (mlprobe-board-views/1, mlprobe-robot-views/1) share: reading the
+// file and its "board" object.
 
 #include "mlp/calib/camera_calib.h"
 #include "mlp/calib/capture_io.h"
 #include "mlp/probe_fw/json_fields.h"
 
+#include <fstream>
+#include <sstream>
 #include <string>
 
 namespace mlp::calib {
+
+inline std::string ReadTextFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw CaptureIoError("cannot read " + path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
 
 inline ChessboardSpec ParseBoard(const probe_fw::json_fields::json& j, const std::string& where) {
   namespace jf = probe_fw::json_fields;

@@ -75,11 +75,8 @@ BoardViews LoadBoardViews(const std::string& manifest_path,
                           bool with_stripes,
                           int sensor_width_px,
                           int sensor_height_px) {
-  std::ifstream in(manifest_path);
-  if (!in) throw CaptureIoError("cannot read " + manifest_path);
-  std::stringstream text;
-  text << in.rdbuf();
-  const jf::json j = jf::ParseDocument<CaptureIoError>(text.str(), kFormat, manifest_path);
+  const jf::json j =
+      jf::ParseDocument<CaptureIoError>(ReadTextFile(manifest_path), kFormat, manifest_path);
   BoardViews out;
   out.board = ParseBoard(j, manifest_path);
   if (!j.contains("views") || !j.at("views").is_array() || j.at("views").empty() ||

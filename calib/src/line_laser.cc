@@ -9,6 +9,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "robust_scale.h"
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -118,11 +119,6 @@ Eigen::Matrix<double, N, Eigen::Dynamic> Columns(
   Eigen::Matrix<double, N, Eigen::Dynamic> m(N, static_cast<Eigen::Index>(v.size()));
   for (size_t i = 0; i < v.size(); ++i) m.col(static_cast<Eigen::Index>(i)) = v[i];
   return m;
-}
-
-double Median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
 }
 
 }  // namespace
@@ -320,12 +316,12 @@ LineLaserCalibration LineLaserOfModel(const std::vector<ImageFindings>& images,
   model.projector.PlaneOf(0.0, &n, &d);
   r.plane = {n * d, n};
   // Inliers as a robust fit would take them: within 2.5 robust sigma (geometry/robust.h).
-  std::vector<double> abs_e;
-  for (const Vec3& p : points) abs_e.push_back(std::abs(n.dot(p) - d));
-  const double limit = 2.5 * 1.4826 * Median(abs_e);
+  std::vector<double> e;
+  for (const Vec3& p : points) e.push_back(n.dot(p) - d);
+  const double limit = 2.5 * RobustSigma(e);
   std::vector<int> inliers;
   for (size_t i = 0; i < points.size(); ++i)
-    if (abs_e[i] <= limit) inliers.push_back(static_cast<int>(i));
+    if (std::abs(e[i]) <= limit) inliers.push_back(static_cast<int>(i));
   PlaneStats(points, inliers, &r);
   return r;
 }

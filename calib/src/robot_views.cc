@@ -25,14 +25,6 @@ struct PoseConvention {
   bool base_from_flange = true;
 };
 
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw CaptureIoError("cannot read " + path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 probe_fw::ChannelWeights Channels(const jf::json& c, const char* key, const std::string& where) {
   const jf::json& w = jf::Object<CaptureIoError>(c, key, where);
   const std::string at = where + "." + key;
@@ -104,7 +96,7 @@ std::vector<RobotImage> ReadPoses(const std::string& path,
                                   const PoseConvention& c,
                                   const fs::path& images,
                                   const std::string& default_extension) {
-  std::istringstream in(ReadText(path));
+  std::istringstream in(ReadTextFile(path));
   std::vector<std::string> lines;
   std::vector<int> numbers;
   std::string line;
@@ -138,7 +130,7 @@ std::vector<RobotImage> ReadPoses(const std::string& path,
 
 RobotViews LoadRobotViews(const std::string& manifest_path) {
   const jf::json j =
-      jf::ParseDocument<CaptureIoError>(ReadText(manifest_path), kFormat, manifest_path);
+      jf::ParseDocument<CaptureIoError>(ReadTextFile(manifest_path), kFormat, manifest_path);
   const std::string& where = manifest_path;
   const fs::path base = fs::path(manifest_path).parent_path();
   RobotViews v;

@@ -78,7 +78,6 @@ Options Parse(const std::vector<std::string>& args) {
   Options o;
   o.command = args.at(0);
   o.hand_eye.max_std_mm = kDefaultMaxStdMm;
-  o.hand_eye.refine_plane = false;
   const std::map<std::string, std::string Options::*> valued = {
       {"--views", &Options::views},
       {"--design", &Options::design},
