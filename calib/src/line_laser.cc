@@ -109,8 +109,8 @@ void FindStripe(const GrayImage& image, const StripeSettings& s, ImageFindings* 
     out->stripe_quality.push_back(static_cast<float>(p.quality));
   }
   out->stripe_saturated = static_cast<int>(counts.saturated);
-  out->stripe_rejected =
-      static_cast<int>(counts.weak + counts.double_peak + counts.too_wide + counts.cut);
+  out->stripe_rejected = static_cast<int>(counts.weak + counts.double_peak + counts.too_wide +
+                                          counts.too_narrow + counts.cut);
 }
 
 template <int N>

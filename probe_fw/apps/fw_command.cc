@@ -107,8 +107,10 @@ void Print(const Summary& s,
                                   {"saturated", s.counts.saturated},
                                   {"double_peak", s.counts.double_peak},
                                   {"too_wide", s.counts.too_wide},
+                                  {"too_narrow", s.counts.too_narrow},
                                   {"cut", s.counts.cut},
-                                  {"indirect", s.counts.indirect}}},
+                                  {"indirect", s.counts.indirect},
+                                  {"reflectance_slope", s.counts.reflectance_dropped}}},
                                 {"probe_serial", meta.probe_serial},
                                 {"capture_id", meta.capture_id},
                                 {"seconds", s.seconds}};
@@ -120,8 +122,9 @@ void Print(const Summary& s,
       << "\n"
       << "  rejected stripes: " << s.counts.weak << " weak, " << s.counts.saturated
       << " saturated, " << s.counts.double_peak << " double-peaked, " << s.counts.too_wide
-      << " too wide, " << s.counts.cut << " cut by the ROI, " << s.counts.indirect
-      << " indirect light (reflections)\n"
+      << " too wide, " << s.counts.too_narrow << " too narrow, " << s.counts.cut
+      << " cut by the ROI, " << s.counts.indirect << " indirect light (reflections), "
+      << s.counts.reflectance_dropped << " reflectance changing too fast\n"
       << "  probe " << meta.probe_serial << ", capture " << meta.capture_id << ", " << s.seconds
       << " s\n";
 }

@@ -107,7 +107,8 @@ std::vector<Trace> LinkRow(const std::vector<SweepObservation>& obs,
 }
 
 // Members of `b` on pixels that `a` crossed at a column more than `columns` away (the column at
-// which `a` crossed a pixel is interpolated between its members on either side).
+// which `a` crossed a pixel is interpolated between its members on either side, and extrapolated
+// by one step beyond its ends: the AOI's edge may end a trace a pixel short of a reflection).
 std::size_t Conflicts(const std::vector<SweepObservation>& obs,
                       const Trace& a,
                       const Trace& b,
@@ -117,11 +118,11 @@ std::size_t Conflicts(const std::vector<SweepObservation>& obs,
     const double x = obs[j].stripe.Along();
     for (std::size_t k = 0; k + 1 < a.size(); ++k) {
       const SweepObservation &p = obs[a[k]], &q = obs[a[k + 1]];
-      const double lo = std::min(p.stripe.Along(), q.stripe.Along());
-      const double hi = std::max(p.stripe.Along(), q.stripe.Along());
-      if (x < lo || x > hi) continue;
-      const double t =
-          hi > lo ? (x - p.stripe.Along()) / (q.stripe.Along() - p.stripe.Along()) : 0.5;
+      const double step = q.stripe.Along() - p.stripe.Along();
+      // The segment, widened by its own length at the trace's first and last members.
+      const double t_lo = k == 0 ? -1.0 : 0.0, t_hi = k + 2 == a.size() ? 2.0 : 1.0;
+      const double t = step != 0.0 ? (x - p.stripe.Along()) / step : 0.5;
+      if (step == 0.0 ? x != p.stripe.Along() : (t < t_lo || t > t_hi)) continue;
       if (std::abs(obs[j].column - (p.column + t * (q.column - p.column))) > columns) {
         ++n;
         break;
@@ -138,9 +139,24 @@ double MedianAmplitude(const std::vector<SweepObservation>& obs, const Trace& t)
   return a[a.size() / 2];
 }
 
-// Which of two conflicting traces is indirect light: the clearly weaker one; else a blip
-// against a trace several times longer (noise above the threshold, not a reflection); else
-// both, since neither can be told apart.
+// How a trace moved through the sweep: +1 or -1 along its scan line as the column grew, times
+// the way direct light moves there (so +1: the direct way, -1: against it), 0 when it moved too
+// little to tell or the way is unknown.
+int Way(const std::vector<SweepObservation>& obs, const Trace& t, const GhostOptions& o) {
+  const SweepObservation &first = obs[t.front()], &last = obs[t.back()];
+  const double expected =
+      first.stripe.axis == ScanAxis::kRow ? o.row_motion_sign : o.column_motion_sign;
+  const double moved = last.stripe.Along() - first.stripe.Along();
+  const double columns = last.column - first.column;
+  if (expected == 0.0 || t.size() < 2 || std::abs(moved) < o.min_motion_px || columns == 0.0)
+    return 0;
+  return moved * columns * expected > 0.0 ? 1 : -1;
+}
+
+// Which of two conflicting traces is indirect light: one that moves the direct way beats one
+// that has no direction; else the clearly weaker one; else a blip against a trace several times
+// longer (noise above the threshold, not a reflection); else both, since neither can be told
+// apart.
 void Resolve(const std::vector<SweepObservation>& obs,
              const std::vector<Trace>& traces,
              std::size_t i,
@@ -148,6 +164,11 @@ void Resolve(const std::vector<SweepObservation>& obs,
              const GhostOptions& o,
              std::vector<bool>* lost) {
   constexpr std::size_t kLonger = 3;
+  const int wi = Way(obs, traces[i], o), wj = Way(obs, traces[j], o);
+  if (wi != wj && (wi > 0 || wj > 0)) {
+    (*lost)[wi > 0 ? j : i] = true;
+    return;
+  }
   const double si = MedianAmplitude(obs, traces[i]), sj = MedianAmplitude(obs, traces[j]);
   const std::size_t ni = traces[i].size(), nj = traces[j].size();
   if (si >= o.dominance * sj || ni >= kLonger * nj) {
@@ -166,6 +187,7 @@ std::size_t RejectInRow(std::vector<SweepObservation>* observations,
   std::vector<SweepObservation>& obs = *observations;
   const std::vector<Trace> traces = LinkRow(obs, row, o);
   std::vector<bool> lost(traces.size(), false);
+  for (std::size_t t = 0; t < traces.size(); ++t) lost[t] = Way(obs, traces[t], o) < 0;
   for (std::size_t i = 0; i < traces.size(); ++i) {
     for (std::size_t j = i + 1; j < traces.size(); ++j) {
       if (Conflicts(obs, traces[i], traces[j], o.same_ray_columns) +
@@ -185,6 +207,25 @@ std::size_t RejectInRow(std::vector<SweepObservation>* observations,
 }
 
 }  // namespace
+
+void DirectMotion(const ProbeModel& model, double* row_sign, double* column_sign) {
+  const ProjectorModel& p = model.projector;
+  Vec3 n0, n1;
+  double d0 = 0.0, d1 = 0.0;
+  p.PlaneOf(p.c_px, &n0, &d0);
+  p.PlaneOf(p.c_px + 1.0, &n1, &d1);
+  *row_sign = *column_sign = 0.0;
+  if (!(std::abs(n0.z()) > 1e-9)) return;  // the optical axis lies in the sheet: no triangulation
+  const Vec3 p0(0.0, 0.0, d0 / n0.z());    // the central sheet on the optical axis
+  // The next sheet at the same depth: p0 moved within z = p0.z along that sheet's normal.
+  const Vec3 across(n1.x(), n1.y(), 0.0);
+  if (!(p0.z() > 0.0) || !(across.squaredNorm() > 1e-18)) return;
+  const Vec3 p1 = p0 + (d1 - n1.dot(p0)) / n1.dot(across) * across;
+  const Vec2 step = model.camera.Project(p1) - model.camera.Project(p0);
+  const double whole = step.norm();
+  if (std::abs(step.x()) > 0.1 * whole) *row_sign = step.x() > 0.0 ? 1.0 : -1.0;
+  if (std::abs(step.y()) > 0.1 * whole) *column_sign = step.y() > 0.0 ? 1.0 : -1.0;
+}
 
 std::size_t RejectIndirectLight(std::vector<SweepObservation>* observations,
                                 const GhostOptions& options) {

@@ -58,14 +58,25 @@ double LocalBackground(const Span& s, int peak, int half) {
   return count > 0 ? sum / count : 0.0;
 }
 
-// Centre of mass of intensity above `bg` in [centre - half, centre + half].
-double Centroid(const Span& s, int centre, int half, double bg) {
-  double mass = 0.0, moment = 0.0;
+// Centre of mass of intensity above `bg` in [centre - half, centre + half]; the light and the
+// second moment about the centre when asked for.
+double Centroid(const Span& s,
+                int centre,
+                int half,
+                double bg,
+                double* mass_out = nullptr,
+                double* variance_out = nullptr) {
+  double mass = 0.0, moment = 0.0, second = 0.0;
   for (int x = std::max(s.begin, centre - half); x <= std::min(s.end - 1, centre + half); ++x) {
     const double w = std::max(0.0, s.row[x] - bg);
-    mass += w, moment += w * x;
+    const double dx = x - centre;
+    mass += w, moment += w * dx, second += w * dx * dx;
   }
-  return mass > 0.0 ? moment / mass : centre;
+  if (!(mass > 0.0)) return centre;
+  const double mean = moment / mass;
+  if (mass_out) *mass_out = mass;
+  if (variance_out) *variance_out = std::max(0.0, second / mass - mean * mean);
+  return centre + mean;
 }
 
 constexpr int kSkipBlock = 16;
@@ -214,7 +225,12 @@ std::uint16_t ScanSpan(const Span& s,
     const int centre = std::clamp(static_cast<int>(std::lround(first)),
                                   s.begin + o.window_half_px + 2, s.end - o.window_half_px - 3);
     const double bg2 = LocalBackground(s, centre, o.window_half_px);
-    const double u = Centroid(s, centre, o.window_half_px, bg2);
+    double mass = 0.0, variance = 0.0;
+    const double u = Centroid(s, centre, o.window_half_px, bg2, &mass, &variance);
+    if (variance < o.min_variance_px2) {
+      ++counts->too_narrow;
+      continue;
+    }
     if (scan.other_axis_too && !AcrossThisScan(scan, u, v, o.window_half_px + 2)) {
       ++counts->other_axis;
       const int at = static_cast<int>(std::lround(u));
@@ -222,6 +238,7 @@ std::uint16_t ScanSpan(const Span& s,
       continue;
     }
     out->push_back(MakePoint(scan, u, v, s.row[peak] - bg2, max_level));
+    out->back().mass_dn = mass, out->back().variance_px2 = variance;
     ++counts->points;
   }
   return lowest;

@@ -1,6 +1,7 @@
 #include "mlp/probe_fw/triangulate.h"
 
 #include "mlp/probe_fw/ghost.h"
+#include "mlp/probe_fw/reflectance.h"
 
 #include <cmath>
 #include <stdexcept>
@@ -65,12 +66,17 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
     for (const StripePoint& s : stripe) seen.push_back({s, frame.laser_column, index, false});
     ++index;
   }
-  const std::size_t indirect = RejectIndirectLight(&seen, GhostOptions{});
+  GhostOptions ghost;
+  DirectMotion(model, &ghost.row_motion_sign, &ghost.column_motion_sign);
+  const std::size_t indirect = RejectIndirectLight(&seen, ghost);
   counts->indirect += indirect;
   counts->points -= indirect;
+  const ReflectanceCounts slope = CorrectReflectanceSlope(&seen, ReflectanceOptions{});
+  counts->reflectance_dropped += slope.dropped;
+  counts->points -= slope.dropped;
   std::vector<CloudPoint> cloud;
   for (const SweepObservation& o : seen) {
-    if (o.indirect) continue;
+    if (o.indirect) continue;  // light from elsewhere, or a reflectance too uneven to correct
     CloudPoint p;
     p.point_in_probe = Triangulate(model, o.stripe.x_px, o.stripe.y_px, o.column);
     if (!(p.point_in_probe.z() > 0.0)) continue;  // behind the camera: not a real surface

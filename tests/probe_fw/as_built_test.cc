@@ -12,7 +12,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "flat_scene.h"
+#include "scenes.h"
 #include <gtest/gtest.h>
 
 namespace mlp::sim {

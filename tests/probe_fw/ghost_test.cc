@@ -4,6 +4,7 @@
 
 #include "mlp/probe_fw/ghost.h"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 namespace mlp::probe_fw {
@@ -80,6 +81,70 @@ TEST(RejectIndirectLight, RowsAreIndependentAndNothingIsAnEmptySweep) {
   AddTrace(&obs, 0, 0, 29, 100.0, 3.0, 0.0, 100.0);
   AddTrace(&obs, 1, 0, 29, 130.0, 4.0, 0.0, 50.0);  // another row: no conflict
   EXPECT_EQ(RejectIndirectLight(&obs, {}), 0u);
+}
+
+// A plane mirror beside the face: its ghost comes from the projector's mirror image and moves
+// against the stripe's way through the sweep. Brighter than the stripe (a mirror of Fresnel
+// reflectance ~0.9 beside a dark face), it still loses once the direct way is known; without
+// that the brighter trace would win.
+TEST(RejectIndirectLight, ABrighterMirrorGhostMovingTheWrongWayLoses) {
+  std::vector<SweepObservation> obs;
+  // The ghost (frames 0-19, -3 px a frame, 2.5x the light) crosses x 180..123 at the columns of
+  // its first frames; the stripe (frames 20-39, +3 px a frame) crosses 160..217 later: the same
+  // pixels at columns far apart.
+  AddTrace(&obs, 0, 20, 39, 160.0, 3.0, 0.0, 60.0);
+  AddTrace(&obs, 0, 0, 19, 180.0, -3.0, 0.0, 150.0);
+  GhostOptions o;
+  o.row_motion_sign = 1.0;
+  std::vector<SweepObservation> with_way = obs;
+  EXPECT_EQ(RejectIndirectLight(&with_way, o), 20u);
+  EXPECT_EQ(Indirect(with_way, 150.0), 20u);
+  EXPECT_EQ(RejectIndirectLight(&obs, {}), 20u);
+  EXPECT_EQ(Indirect(obs, 60.0), 20u);  // by light alone the stripe would have gone
+  // A ghost on its own, off every pixel of the stripe, moving the wrong way: still indirect.
+  std::vector<SweepObservation> alone;
+  AddTrace(&alone, 1, 0, 19, 500.0, -2.0, 0.0, 90.0);
+  EXPECT_EQ(RejectIndirectLight(&alone, o), 20u);
+}
+
+// A one-frame ghost just past the end of the stripe's trace (the AOI's edge ended the trace a
+// pixel short of it) conflicts with the trace's next step and loses to the trace's direction.
+TEST(RejectIndirectLight, AOneFrameGhostJustPastTheTraceEndLoses) {
+  std::vector<SweepObservation> obs;
+  AddTrace(&obs, 0, 100, 140, 100.0, 4.0, 0.0, 80.0);  // ends at x = 260, column 280
+  AddTrace(&obs, 0, 10, 10, 261.5, 0.0, 0.0, 90.0);    // column 20, a pixel and a half further
+  GhostOptions o;
+  o.row_motion_sign = 1.0;
+  EXPECT_EQ(RejectIndirectLight(&obs, o), 1u);
+  EXPECT_EQ(Indirect(obs, 90.0), 1u);
+}
+
+// The reference probe's projector sits along +x: direct light moves along the rows as the column
+// grows, not along the columns. Turned by 90 deg about the optical axis, the other way round.
+TEST(DirectMotion, FollowsTheBaseline) {
+  ProbeModel m =
+      LoadProbeModel(std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json");
+  double row = 0.0, column = 0.0;
+  DirectMotion(m, &row, &column);
+  EXPECT_NE(row, 0.0);
+  EXPECT_EQ(column, 0.0);
+  // On a face at 120 mm, the sheets of columns 500 and 501 on the line y = 0: the stripe's image
+  // moves along x the way DirectMotion says.
+  const auto image_x = [&](double column) {
+    Vec3 n;
+    double d = 0.0;
+    m.projector.PlaneOf(column, &n, &d);
+    return m.camera.Project(Vec3((d - n.z() * 120.0) / n.x(), 0.0, 120.0)).x();
+  };
+  EXPECT_GT((image_x(501.0) - image_x(500.0)) * row, 0.0);
+  const Eigen::Matrix3d quarter = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitZ()).toRotationMatrix();
+  m.projector.camera_from_projector.linear() = quarter * m.projector.camera_from_projector.linear();
+  m.projector.camera_from_projector.translation() =
+      quarter * m.projector.camera_from_projector.translation();
+  double row_turned = 0.0, column_turned = 0.0;
+  DirectMotion(m, &row_turned, &column_turned);
+  EXPECT_EQ(row_turned, 0.0);
+  EXPECT_NE(column_turned, 0.0);
 }
 
 }  // namespace

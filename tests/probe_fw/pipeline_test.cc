@@ -7,7 +7,7 @@
 #include <cmath>
 #include <numeric>
 
-#include "flat_scene.h"
+#include "scenes.h"
 #include <gtest/gtest.h>
 
 namespace mlp::sim {
@@ -133,21 +133,7 @@ namespace {
 // Issue 3: a bore reconstructed and fitted to within 2 um of its true diameter.
 constexpr double kBoreDiameterMm = 0.002;
 
-// A capture looking into the bore at its wall sector at angle theta + 180 deg, with the camera
-// tilted 30 deg from the bore axis (the probe's mounting on a 3-axis machine; the spindle's
-// orientation turns it around the bore). Camera x points towards the projector.
-Capture WallCapture(double theta_rad, double radius_mm, const std::string& id) {
-  const Vec3 radial(std::cos(theta_rad), std::sin(theta_rad), 0.0);
-  const Vec3 wall = -radius_mm * radial + Vec3(0, 0, -12.0);
-  const double tilt = 30.0 * M_PI / 180.0;
-  const Vec3 z_cam = (-std::sin(tilt) * radial - std::cos(tilt) * Vec3::UnitZ()).normalized();
-  const Vec3 x_cam = (std::cos(tilt) * radial - std::sin(tilt) * Vec3::UnitZ()).normalized();
-  Capture c;
-  c.id = id;
-  c.mcs_from_flange.linear() << x_cam, z_cam.cross(x_cam), z_cam;
-  c.mcs_from_flange.translation() = wall - 120.0 * z_cam;
-  return c;
-}
+using testing::WallCapture;
 
 // Diameter error [mm] of a bore of `radius` (30 mm deep) measured from four wall captures.
 double BoreDiameterError(double radius, size_t* wall_count, double* rms_mm) {
@@ -161,11 +147,7 @@ double BoreDiameterError(double radius, size_t* wall_count, double* rms_mm) {
   const VirtualProbe probe(probe_fw::LoadProbeModel(kReference), scene);
   std::vector<Vec3> wall_points;
   for (const Capture& c : probe.scene().captures) {
-    SweepOptions o;
-    o.aoi = {874, 668, 300, 200};
-    probe.ColumnsReaching(c, o.aoi, &o.first_column, &o.last_column);
-    o.column_step = 2.0;
-    o.seed = 7;
+    const SweepOptions o = testing::WallSweep(probe, c);
     const RenderedCapture r = probe.Render(c, o);
     probe_fw::StripeCounts counts;
     const auto cloud = probe_fw::ReconstructSweep(probe.model(), r.laser,

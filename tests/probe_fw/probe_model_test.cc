@@ -49,6 +49,22 @@ TEST(ProbeModel, JsonRoundTripIsExact) {
   EXPECT_EQ(ToJson(c), ToJson(d));
   c.calibration_stats.corner_rms_px = -1.0;
   EXPECT_THROW(c.Validate(), ProbeModelError);
+  // The lens (optional): written when given, read back exactly, absent from a design without it.
+  EXPECT_EQ(ToJson(a).find("f_number"), std::string::npos);
+  ProbeModel e = a;
+  e.camera.f_number = 4.7;
+  e.camera.focus_distance_mm = 118.5;
+  const ProbeModel f = ParseProbeModel(ToJson(e));
+  EXPECT_EQ(f.camera.f_number, 4.7);
+  EXPECT_EQ(f.camera.focus_distance_mm, 118.5);
+  // Entrance pupil 16.04 mm / 4.7 wide, seen from 120 mm: sin u = 1.706 / 120.01.
+  const double pupil_radius = 0.5 * a.camera.fx_px * a.camera.pixel_pitch_mm / 4.7;
+  EXPECT_NEAR(f.camera.ApertureSinAt(120.0), pupil_radius / std::hypot(pupil_radius, 120.0), 1e-15);
+  EXPECT_EQ(a.camera.ApertureSinAt(120.0), 0.0);
+  e.camera.f_number = 0.2;
+  EXPECT_THROW(e.Validate(), ProbeModelError);
+  e.camera.f_number = 4.7, e.camera.focus_distance_mm = -1.0;
+  EXPECT_THROW(e.Validate(), ProbeModelError);
 }
 
 TEST(ProbeModel, UndistortInvertsProjectAcrossTheSensor) {

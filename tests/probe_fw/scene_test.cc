@@ -123,6 +123,49 @@ TEST(Scene, BadScenesAreTypedErrors) {
           R"("inner_cols": 9, "inner_rows": 6, "square_mm": 2, "dark_reflectance": 0.9}, "reflectance": 0.5}})",
       "dark_reflectance");
   ExpectSceneError(R"({"format": "mlprobe-scene/9"})", "format");
+  const std::string box = R"({"box": {"min": [0,0,0], "max": [1,1,1]}, "material": )";
+  ExpectSceneError(head + box + R"("chrome"}})", "unknown finish");
+  ExpectSceneError(head + box + R"({"specular_f0": 0.5, "roughness": 0.001}}})", "roughness");
+  ExpectSceneError(head + box + R"({"specular_f0": 1.5, "roughness": 0.1}}})", "specular_f0");
+  ExpectSceneError(head + box + R"({"specular_f0": 0.5}}})", "roughness");
+  ExpectSceneError(head + box + R"(7}})", "finish name or an object");
+}
+
+// A finish on an operation reaches every face of it, the subtracted bore's wall too; a face
+// without one is matt.
+TEST(Scene, MaterialsReachEveryFaceOfTheirSolid) {
+  const std::string text = R"({
+    "format": "mlprobe-scene/1",
+    "flange_from_probe": {"translation_mm": [0, 0, 0], "rotation_vector_rad": [0, 0, 0]},
+    "workpiece": {"union": [
+      {"difference": [
+        {"box": {"min": [-50, -50, -30], "max": [50, 50, 0]}},
+        {"cylinder": {"base": [0, 0, -31], "axis": [0, 0, 1], "radius": 20, "length": 32}}
+      ], "material": "ground_steel"},
+      {"sphere": {"center": [0, 80, 10], "radius": 5}, "reflectance": 0.4,
+       "material": {"specular_f0": 0.9, "roughness": 0.3}},
+      {"sphere": {"center": [0, -80, 10], "radius": 5}, "reflectance": 0.7}
+    ]},
+    "captures": [{"id": "top", "mcs_from_flange":
+        {"translation_mm": [0, 0, 120], "rotation_vector_rad": [3.141592653589793, 0, 0]}}]
+  })";
+  const Scene s = ParseScene(text);
+  EXPECT_TRUE(s.workpiece->Glossy());
+  const auto top = s.FirstHit(RayTo({30, 30, 50}, {30, 30, 0}));
+  const auto wall = s.FirstHit(RayTo({0, 0, -10}, {-30, 0, -10}));
+  const auto glossy = s.FirstHit(RayTo({0, 80, 50}, {0, 80, 0}));
+  const auto matt = s.FirstHit(RayTo({0, -80, 50}, {0, -80, 0}));
+  ASSERT_TRUE(top && wall && glossy && matt);
+  for (const auto& h : {*top, *wall}) {
+    EXPECT_EQ(h.gloss.specular_f0, 0.55);
+    EXPECT_EQ(h.gloss.roughness, 0.12);
+    EXPECT_EQ(h.reflectance, 0.08);  // the finish's diffuse part
+  }
+  EXPECT_EQ(glossy->gloss.specular_f0, 0.9);
+  EXPECT_EQ(glossy->reflectance, 0.4);  // no diffuse given: the solid's reflectance stays
+  EXPECT_EQ(matt->gloss.specular_f0, 0.0);
+  EXPECT_EQ(matt->reflectance, 0.7);
+  EXPECT_FALSE(ParseScene(kBlockScene).workpiece->Glossy());
 }
 
 }  // namespace

@@ -66,6 +66,12 @@ Vec2 CameraModel::Undistort(const Vec2& pixel) const {
   return q;
 }
 
+double CameraModel::ApertureSinAt(double depth_mm) const {
+  if (f_number <= 0.0 || depth_mm <= 0.0) return 0.0;
+  const double pupil_radius_mm = 0.5 * fx_px * pixel_pitch_mm / f_number;
+  return pupil_radius_mm / std::hypot(pupil_radius_mm, depth_mm);
+}
+
 double ProjectorModel::ColumnOf(const Vec3& point_in_probe) const {
   const Vec3 q = camera_from_projector.inverse() * point_in_probe;
   return c_px + f_px * q.x() / q.z();
@@ -126,6 +132,10 @@ void ProbeModel::Validate() const {
   Require(std::abs(c.k1) < 10 && std::abs(c.k2) < 100 && std::abs(c.k3) < 1000 &&
               std::abs(c.p1) < 1 && std::abs(c.p2) < 1,
           "camera distortion coefficients are out of any lens's range");
+  Require(c.f_number == 0.0 || (c.f_number >= 0.5 && c.f_number <= 64.0),
+          "camera.f_number must be 0.5..64 (or absent)");
+  Require(c.focus_distance_mm == 0.0 || (c.focus_distance_mm > 0.0 && c.focus_distance_mm < 1e5),
+          "camera.focus_distance_mm must be positive (or absent)");
   const auto& p = projector;
   Require(p.f_px > 0.0, "projector.f_px must be positive");
   Require(p.columns >= 1 && p.columns <= 1 << 20,
@@ -144,8 +154,9 @@ void ProbeModel::Validate() const {
   Require(n.full_well_e > 0.0, "noise.full_well_e must be positive");
   Require(n.read_noise_e >= 0.0 && n.laser_peak_e >= 0.0 && n.led_e >= 0.0 && n.ambient_e >= 0.0,
           "noise levels must be non-negative");
-  Require(n.speckle_contrast >= 0.0 && n.speckle_contrast < 1.0,
-          "noise.speckle_contrast must be in [0, 1)");
+  // 1: fully developed speckle (one polarisation, coherence length beyond the roughness depth).
+  Require(n.speckle_contrast >= 0.0 && n.speckle_contrast <= 1.0,
+          "noise.speckle_contrast must be in [0, 1]");
 }
 
 ProbeModel ParseProbeModel(const std::string& json_text) {
@@ -169,6 +180,9 @@ ProbeModel ParseProbeModel(const std::string& json_text) {
   m.camera.p1 = Number(d, "p1", "camera.distortion");
   m.camera.p2 = Number(d, "p2", "camera.distortion");
   m.camera.k3 = Number(d, "k3", "camera.distortion");
+  m.camera.f_number = jf::NumberOr<ProbeModelError>(c, "f_number", 0.0, "probe model: camera");
+  m.camera.focus_distance_mm =
+      jf::NumberOr<ProbeModelError>(c, "focus_distance_mm", 0.0, "probe model: camera");
   const json& p = Object(j, "projector");
   m.projector.f_px = Number(p, "f_px", "projector");
   m.projector.c_px = Number(p, "c_px", "projector");
@@ -231,6 +245,9 @@ std::string ToJson(const ProbeModel& m) {
       {"cx_px", c.cx_px},
       {"cy_px", c.cy_px},
       {"distortion", {{"k1", c.k1}, {"k2", c.k2}, {"p1", c.p1}, {"p2", c.p2}, {"k3", c.k3}}}};
+  // Optional optics: absent when not given, so a model without them reads as it always did.
+  if (c.f_number > 0.0) j["camera"]["f_number"] = c.f_number;
+  if (c.focus_distance_mm > 0.0) j["camera"]["focus_distance_mm"] = c.focus_distance_mm;
   j["projector"] = {{"f_px", m.projector.f_px},
                     {"c_px", m.projector.c_px},
                     {"columns", m.projector.columns},

@@ -90,10 +90,11 @@ void WriteTruth(const std::string& dir,
 }
 
 int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const probe_fw::cli::Options o(args,
-                                 {"--probe", "--scene", "--out", "--seed", "--capture", "--aoi",
-                                  "--columns", "--column-count", "--led-supersampling", "--format"},
-                                 {"--noiseless", "--json"});
+  const probe_fw::cli::Options o(
+      args,
+      {"--probe", "--scene", "--out", "--seed", "--capture", "--aoi", "--columns", "--column-count",
+       "--led-supersampling", "--format", "--exposure"},
+      {"--noiseless", "--json"});
   const auto start = std::chrono::steady_clock::now();
   const VirtualProbe probe(LoadAsBuilt(o.Required("--probe")), LoadScene(o.Required("--scene")));
   const std::string dir = o.Required("--out");
@@ -115,6 +116,9 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
   if (supersampling != std::floor(supersampling) || supersampling < 1 || supersampling > 16)
     throw UsageError("--led-supersampling is a whole number from 1 to 16");
   sweep.led_supersampling = static_cast<int>(supersampling);
+  sweep.exposure = o.Number("--exposure", 1.0);
+  if (!(sweep.exposure > 0.0 && sweep.exposure <= 1e4))
+    throw UsageError("--exposure is a factor in (0, 10000] (1: the model's photometry)");
   if (o.Has("--columns") && o.Has("--column-count"))
     throw UsageError("give --columns or --column-count, not both");
   if (o.Has("--columns")) {

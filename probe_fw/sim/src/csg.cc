@@ -14,7 +14,7 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 SurfaceHit Hit(double t, const Vec3& normal, double reflectance) {
-  return SurfaceHit{t, normal, reflectance};
+  return SurfaceHit{t, normal, reflectance, Gloss{}};
 }
 
 class Halfspace : public Solid {
@@ -237,11 +237,37 @@ class Compound : public Solid {
     }
     out->insert(out->end(), acc.begin(), acc.end());
   }
+  bool Glossy() const override {
+    return first_->Glossy() ||
+           std::any_of(rest_.begin(), rest_.end(), [](const SolidPtr& s) { return s->Glossy(); });
+  }
 
  private:
   Op op_;
   SolidPtr first_;
   std::vector<SolidPtr> rest_;
+};
+
+class Finish : public Solid {
+ public:
+  Finish(SolidPtr solid, const Gloss& gloss, double diffuse)
+      : solid_(std::move(solid)), gloss_(gloss), diffuse_(diffuse) {}
+  void Spans(const Ray& ray, std::vector<Span>* out) const override {
+    const size_t first = out->size();
+    solid_->Spans(ray, out);
+    for (size_t i = first; i < out->size(); ++i) {
+      for (SurfaceHit* h : {&(*out)[i].in, &(*out)[i].out}) {
+        h->gloss = gloss_;
+        if (diffuse_ >= 0.0) h->reflectance = diffuse_;
+      }
+    }
+  }
+  bool Glossy() const override { return gloss_.specular_f0 > 0.0; }
+
+ private:
+  SolidPtr solid_;
+  Gloss gloss_;
+  double diffuse_;
 };
 
 SolidPtr MakeCompound(Op op, std::vector<SolidPtr> parts) {
@@ -324,6 +350,13 @@ SolidPtr MakeRevolution(const Vec3& base,
                         double radius_top,
                         double reflectance) {
   return std::make_shared<Revolution>(base, axis, length, radius_base, radius_top, reflectance);
+}
+SolidPtr MakeFinish(SolidPtr solid, const Gloss& gloss, double diffuse) {
+  if (!(gloss.specular_f0 >= 0.0 && gloss.specular_f0 <= 1.0) ||
+      !(gloss.roughness >= 0.005 && gloss.roughness <= 1.0) || !(diffuse <= 1.0)) {
+    throw SceneError("finish: specular_f0 in [0, 1], roughness in [0.005, 1], diffuse <= 1");
+  }
+  return std::make_shared<Finish>(std::move(solid), gloss, diffuse);
 }
 SolidPtr MakeUnion(std::vector<SolidPtr> parts) {
   return MakeCompound(Op::kUnion, std::move(parts));

@@ -1,24 +1,20 @@
 #include "mlp/sim/render.h"
 
+#include "mlp/sim/brdf.h"
+#include "mlp/sim/speckle.h"
+
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <random>
 #include <stdexcept>
+
+#include "pixel.h"
 
 namespace mlp::sim {
 
 using geometry::Vec2;
 using probe_fw::Frame;
-
-// Everything about one pixel that does not depend on the laser column.
-struct VirtualProbe::Pixel {
-  bool hit = false, lit = false;
-  Vec3 point_in_probe = Vec3::Zero();
-  double reflectance = 0.0;
-  double cos_incidence = 0.0;  // surface normal vs direction to the projector
-  double cos_view = 0.0;       // surface normal vs direction to the camera (the LED ring)
-  double sheet_column = 0.0;   // the mirror's actual column whose sheet centre lights the point
-};
 
 namespace {
 
@@ -69,12 +65,29 @@ double PixelAveragedSheet(double a, double b, double w) {
          (std::erf(k * (a + 0.5 * b)) - std::erf(k * (a - 0.5 * b)));
 }
 
+// The speckle's own random stream: the surface's phases, one per capture, apart from the frames'.
+constexpr std::uint64_t kSurfacePhaseStream = 1ULL << 40;
+
+// Grain from the aperture when the model gives one (speckle.h); else independent per pixel.
+bool CoherentSpeckle(const probe_fw::ProbeModel& m) {
+  return m.camera.f_number > 0.0 && m.noise.speckle_contrast > 0.0 && m.laser.wavelength_nm > 0.0;
+}
+
+// The Airy radius on the sensor, 1.22 lambda N / pitch [px]: the pinhole's image distance
+// fx pitch as the lens's, so the grain seen from the surface is that of the aperture
+// sin u = D / 2z (CameraModel::ApertureSinAt).
+double AiryRadiusPx(const probe_fw::ProbeModel& m) {
+  return 1.22 * m.laser.wavelength_nm * 1e-6 * m.camera.f_number / m.camera.pixel_pitch_mm;
+}
+
 void CheckSweep(const probe_fw::ProbeModel& model, const SweepOptions& o) {
   const auto& c = model.camera;
   if (o.aoi.width <= 0 || o.aoi.height <= 0 || o.aoi.x0 < 0 || o.aoi.y0 < 0 ||
       o.aoi.x0 + o.aoi.width > c.width_px || o.aoi.y0 + o.aoi.height > c.height_px) {
     throw std::invalid_argument("sweep: the AOI must lie inside the sensor");
   }
+  if (!(o.exposure > 0.0 && o.exposure <= 1e4))
+    throw std::invalid_argument("sweep: exposure must be in (0, 1e4] times the model's");
   if (!(o.column_step > 0.0) || !(o.last_column >= o.first_column) || o.first_column < 0.0 ||
       o.last_column > model.projector.columns - 1) {
     throw std::invalid_argument(
@@ -109,13 +122,15 @@ VirtualProbe::Pixel VirtualProbe::Trace(const Pose3& mcs_from_probe,
   const Vec3 normal_probe = mcs_from_probe.linear().transpose() * hit->normal;
   px.point_in_probe = origin_probe + hit->t * dir_probe;
   px.reflectance = hit->reflectance;
-  px.cos_view = std::max(0.0, -normal_probe.dot(dir_probe));
+  const Vec3 to_camera = -dir_probe;
+  px.led_response = Reflected(hit->reflectance, hit->gloss, normal_probe, to_camera, to_camera);
   if (!laser) return px;  // LED light comes from the camera: no shadow to test
   px.sheet_column = model_.projector.SheetColumnOf(px.point_in_probe);
-  const Vec3 to_projector = model_.projector.Center() - px.point_in_probe;
-  px.cos_incidence = normal_probe.dot(to_projector.normalized());
+  const Vec3 to_projector = (model_.projector.Center() - px.point_in_probe).normalized();
+  px.laser_response =
+      Reflected(hit->reflectance, hit->gloss, normal_probe, to_projector, to_camera);
   const Vec3 projector_mcs = mcs_from_probe * model_.projector.Center();
-  px.lit = px.cos_incidence > 0.0 && !scene_.Blocked(point_mcs, projector_mcs);
+  px.lit = normal_probe.dot(to_projector) > 0.0 && !scene_.Blocked(point_mcs, projector_mcs);
   return px;
 }
 
@@ -126,7 +141,7 @@ std::vector<double> VirtualProbe::LedResponse(const Pose3& pose,
                                               const SweepOptions& o,
                                               const std::vector<Pixel>& pixels) const {
   const int w = o.aoi.width, h = o.aoi.height, ss = std::max(1, o.led_supersampling);
-  const auto value = [](const Pixel& p) { return p.hit ? p.reflectance * p.cos_view : 0.0; };
+  const auto value = [](const Pixel& p) { return p.hit ? p.led_response : 0.0; };
   std::vector<double> out(pixels.size());
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
@@ -212,6 +227,92 @@ std::optional<double> VirtualProbe::TrueStripeCentre(
   return std::nullopt;
 }
 
+struct VirtualProbe::Sheet {
+  double gx = 0.0, gy = 0.0;  // d column / d pixel along the row and along the column
+  double width_cols = 0.0;    // the sheet's 1/e^2 half-width on this pixel, defocus included
+  double gain = 1.0;          // design width / width: a blurred stripe carries the same light
+};
+
+// How far the projector column changes across a pixel, for the integration of the sheet over
+// the pixel's area: along the row and along the column, each the one-sided difference of smaller
+// magnitude (a depth step, a neighbour on another surface, must not widen the stripe). Defocus
+// (thin lens, camera.focus_distance_mm): a point at depth z is a disc of diameter
+// b = D z_i |1/z - 1/z_f| on the sensor (D = f / N the pupil, z_i = f = fx pitch the pinhole's
+// image distance); its spread across the stripe, sigma = b / 4, widens the Gaussian sheet in
+// quadrature. Along the stripe the blur changes nothing a straight stripe would show.
+std::vector<VirtualProbe::Sheet> VirtualProbe::SheetAcrossPixels(const std::vector<Pixel>& pixels,
+                                                                 int w,
+                                                                 int h) const {
+  const auto derivative = [&](size_t i, int at, int limit, std::ptrdiff_t stride) {
+    double best = INFINITY;
+    for (int side : {-1, 1}) {
+      const std::ptrdiff_t j = static_cast<std::ptrdiff_t>(i) + side * stride;
+      if (at + side < 0 || at + side >= limit || !pixels[static_cast<size_t>(j)].hit) continue;
+      const double d =
+          side * (pixels[static_cast<size_t>(j)].sheet_column - pixels[i].sheet_column);
+      if (std::abs(d) < std::abs(best)) best = d;
+    }
+    return std::isfinite(best) ? best : 0.0;
+  };
+  const auto& cam = model_.camera;
+  const bool defocus = cam.f_number > 0.0 && cam.focus_distance_mm > 0.0;
+  const double disc_px_per_dioptre = cam.fx_px * cam.fx_px * cam.pixel_pitch_mm / cam.f_number;
+  const double w0 = model_.laser.sheet_halfwidth_cols;
+  std::vector<Sheet> out(pixels.size());
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      Sheet& s = out[i];
+      s.width_cols = w0;
+      if (!pixels[i].hit) continue;
+      s.gx = derivative(i, x, w, 1), s.gy = derivative(i, y, h, w);
+      if (!defocus) continue;
+      const double depth = pixels[i].point_in_probe.z();
+      const double disc_px =
+          disc_px_per_dioptre * std::abs(1.0 / depth - 1.0 / cam.focus_distance_mm);
+      const double sigma_cols = 0.25 * disc_px * std::hypot(s.gx, s.gy);
+      s.width_cols = std::hypot(w0, 2.0 * sigma_cols);
+      s.gain = w0 / s.width_cols;
+    }
+  }
+  return out;
+}
+
+// One laser frame's light through the coherent imager: the sheet's irradiance at every
+// sub-sample of a lit pixel, the column interpolated by the pixel's gradient.
+void VirtualProbe::SpeckledSheet(const std::vector<Pixel>& pixels,
+                                 const std::vector<Sheet>& sheets,
+                                 int w,
+                                 int h,
+                                 double actual_column,
+                                 SpeckleImager* imager,
+                                 std::vector<double>* laser_e) const {
+  const int q = imager->Oversampling();
+  const size_t row_stride = static_cast<size_t>(w) * q;
+  std::vector<float>& irradiance = imager->Irradiance();
+  const double peak = model_.noise.laser_peak_e;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      const Pixel& p = pixels[i];
+      const Sheet& s = sheets[i];
+      const double a = p.sheet_column - actual_column;
+      if (!p.lit || std::abs(a) > 3.0 * s.width_cols + std::abs(s.gx) + std::abs(s.gy)) continue;
+      const double scale = peak * p.laser_response * s.gain;
+      const double k = -2.0 / (s.width_cols * s.width_cols);
+      for (int b = 0; b < q; ++b) {
+        const double dy = (b + 0.5) / q - 0.5;
+        for (int c = 0; c < q; ++c) {
+          const double u = a + s.gx * ((c + 0.5) / q - 0.5) + s.gy * dy;
+          irradiance[(static_cast<size_t>(y) * q + b) * row_stride + static_cast<size_t>(x) * q +
+                     c] = static_cast<float>(scale * std::exp(k * u * u));
+        }
+      }
+    }
+  }
+  imager->Image(laser_e);
+}
+
 RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions& o) const {
   CheckSweep(model_, o);
   const Pose3 pose = McsFromProbe(capture);
@@ -224,28 +325,7 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
           Trace(pose, Vec2(o.aoi.x0 + x, o.aoi.y0 + y), o.laser_frames);
     }
   }
-  // How far the projector column changes across a pixel, for the integration of the sheet over
-  // the pixel's area: d column / d pixel along the row and along the column, each the one-sided
-  // difference of smaller magnitude (a depth step, a neighbour on another surface, must not widen
-  // the stripe), combined as the box of equal variance (hypot): exact for a stripe along either
-  // axis, and the stripe may run any way.
-  const auto step = [&](size_t i, int at, int limit, std::ptrdiff_t stride) {
-    double best = INFINITY;
-    for (int side : {-1, 1}) {
-      const std::ptrdiff_t j = static_cast<std::ptrdiff_t>(i) + side * stride;
-      if (at + side < 0 || at + side >= limit || !pixels[static_cast<size_t>(j)].hit) continue;
-      const double d = pixels[static_cast<size_t>(j)].sheet_column - pixels[i].sheet_column;
-      if (std::abs(d) < std::abs(best)) best = d;
-    }
-    return std::isfinite(best) ? best : 0.0;
-  };
-  std::vector<double> slope(n, 0.0);
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      const size_t i = static_cast<size_t>(y) * w + x;
-      if (pixels[i].hit) slope[i] = std::hypot(step(i, x, w, 1), step(i, y, h, w));
-    }
-  }
+  const std::vector<Sheet> sheets = SheetAcrossPixels(pixels, w, h);
   const auto& noise = model_.noise;
   const double gain_dn_per_e = model_.camera.MaxLevel() / noise.full_well_e;
   auto make_frame = [&](double laser_column, std::uint64_t index, auto signal_e) {
@@ -256,7 +336,7 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
     f.pixels.resize(n);
     Gaussian gauss(FrameSeed(o.seed, index));
     for (size_t i = 0; i < n; ++i) {
-      double e = signal_e(i, gauss);
+      double e = o.exposure * signal_e(i, gauss);
       if (o.noise)
         e += gauss() * std::sqrt(std::max(e, 0.0) + noise.read_noise_e * noise.read_noise_e);
       const double dn = std::round(e * gain_dn_per_e);
@@ -272,22 +352,46 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
   RenderedCapture out;
   out.led = make_frame(
       -1.0, 0, [&](size_t i, Gaussian&) { return ambient(pixels[i]) + noise.led_e * led[i]; });
-  const double sheet = model_.laser.sheet_halfwidth_cols;
+  out.ghosts = Interreflections(pose, o, pixels);
+  std::unique_ptr<SpeckleImager> coherent;
+  std::vector<double> laser_e;
+  std::vector<float> ghost_e;
+  if (o.noise && o.laser_frames && CoherentSpeckle(model_)) {
+    coherent = std::make_unique<SpeckleImager>(w, h, AiryRadiusPx(model_), noise.speckle_contrast,
+                                               FrameSeed(o.seed, kSurfacePhaseStream));
+  }
   // Columns first + i * step, as the firmware plans a sweep (agent.h: PlanSweep).
   const auto steps =
       static_cast<std::uint64_t>((o.last_column - o.first_column) / o.column_step + 1e-9);
   for (std::uint64_t index = 1; o.laser_frames && index <= steps + 1; ++index) {
     const double column = o.first_column + static_cast<double>(index - 1) * o.column_step;
     const double actual = model_.projector.ActualColumn(column);
+    const double sheet_w = model_.laser.sheet_halfwidth_cols;
+    if (coherent) {
+      SplatGhosts(out.ghosts, actual, sheet_w, w, h, coherent->Oversampling(),
+                  coherent->Irradiance().data());
+      SpeckledSheet(pixels, sheets, w, h, actual, coherent.get(), &laser_e);
+      out.laser.push_back(make_frame(
+          column, index, [&](size_t i, Gaussian&) { return ambient(pixels[i]) + laser_e[i]; }));
+      continue;
+    }
+    if (!out.ghosts.empty()) {
+      ghost_e.assign(n, 0.0f);
+      SplatGhosts(out.ghosts, actual, sheet_w, w, h, 1, ghost_e.data());
+    }
     out.laser.push_back(make_frame(column, index, [&](size_t i, Gaussian& gauss) {
       const Pixel& p = pixels[i];
-      double e = ambient(p);
-      if (!p.lit) return e;
-      const double g = PixelAveragedSheet(p.sheet_column - actual, slope[i], sheet);
-      if (g <= 0.0) return e;
+      const Sheet& sh = sheets[i];
+      double laser = ghost_e.empty() ? 0.0 : ghost_e[i];
+      if (p.lit) {
+        const double g = sh.gain * PixelAveragedSheet(p.sheet_column - actual,
+                                                      std::hypot(sh.gx, sh.gy), sh.width_cols);
+        laser += noise.laser_peak_e * p.laser_response * g;
+      }
+      if (laser <= 0.0) return ambient(p);
       double speckle = 1.0;
       if (o.noise) speckle = std::max(0.0, 1.0 + noise.speckle_contrast * gauss());
-      return e + noise.laser_peak_e * p.reflectance * p.cos_incidence * g * speckle;
+      return ambient(p) + laser * speckle;
     }));
   }
   out.truth.resize(n);

@@ -33,6 +33,47 @@ Vec3 Direction(const json& j, const char* key, const std::string& where) {
 
 SolidPtr ParseNode(const json& node, const std::string& where);
 
+// Finishes of machined parts in blue laser light. specular_f0: normal-incidence reflectance of
+// the bare metal at 450 nm (iron ~0.55, aluminium ~0.92, from their complex refractive index,
+// Rakic et al., Appl. Opt. 37(22), 1998); roughness: the GGX alpha of the lay as seen by the
+// probe's aperture (ground Ra ~0.3 um: narrow lobe; milled: wider; cast: broad); diffuse: the
+// light scattered out of the lobe (subsurface and multiple scattering on the grain). A matt
+// coated reference (sprayed white) is Lambertian. The values are typical, not measured here.
+struct Finish {
+  const char* name;
+  double diffuse;
+  Gloss gloss;
+};
+constexpr Finish kFinishes[] = {
+    {"matt_coated", 0.8, {0.0, 1.0}},
+    {"ground_steel", 0.08, {0.55, 0.12}},
+    {"milled_aluminium", 0.15, {0.92, 0.25}},
+    {"cast_iron", 0.12, {0.45, 0.45}},
+};
+
+SolidPtr WithMaterial(SolidPtr solid, const json& node, const std::string& where) {
+  if (!node.contains("material")) return solid;
+  const json& m = node.at("material");
+  const std::string w = where + ".material";
+  if (m.is_string()) {
+    for (const Finish& f : kFinishes) {
+      if (m.get<std::string>() == f.name) return MakeFinish(std::move(solid), f.gloss, f.diffuse);
+    }
+    Fail(w + ": unknown finish \"" + m.get<std::string>() +
+         "\" (matt_coated, ground_steel, milled_aluminium, cast_iron)");
+  }
+  if (!m.is_object()) Fail(w + " must be a finish name or an object");
+  Gloss g;
+  g.specular_f0 = jf::Number<SceneError>(m, "specular_f0", "scene: " + w);
+  g.roughness = jf::Number<SceneError>(m, "roughness", "scene: " + w);
+  const double diffuse = jf::NumberOr<SceneError>(m, "diffuse", -1.0, "scene: " + w);
+  if (!(g.specular_f0 >= 0.0 && g.specular_f0 <= 1.0)) Fail(w + ".specular_f0 must be in [0, 1]");
+  if (!(g.roughness >= 0.005 && g.roughness <= 1.0)) Fail(w + ".roughness must be in [0.005, 1]");
+  if (m.contains("diffuse") && !(diffuse >= 0.0 && diffuse <= 1.0))
+    Fail(w + ".diffuse must be in [0, 1]");
+  return MakeFinish(std::move(solid), g, diffuse);
+}
+
 std::vector<SolidPtr> ParseList(const json& list, const std::string& where) {
   if (!list.is_array() || list.empty()) Fail(where + " must be a non-empty array of solids");
   std::vector<SolidPtr> parts;
@@ -76,8 +117,7 @@ SolidPtr ParsePrimitive(const std::string& kind, const json& p, double refl, con
   Fail(w + ": unknown solid \"" + kind + "\"");
 }
 
-SolidPtr ParseNode(const json& node, const std::string& where) {
-  if (!node.is_object()) Fail(where + " must be an object");
+SolidPtr ParseSolid(const json& node, const std::string& where) {
   for (const char* op : {"union", "intersection", "difference"}) {
     if (!node.contains(op)) continue;
     auto parts = ParseList(node.at(op), where + "." + op);
@@ -99,6 +139,11 @@ SolidPtr ParseNode(const json& node, const std::string& where) {
   Fail(where +
        ": expected one of halfspace, box, sphere, cylinder, cone, chessboard, union, "
        "intersection, difference");
+}
+
+SolidPtr ParseNode(const json& node, const std::string& where) {
+  if (!node.is_object()) Fail(where + " must be an object");
+  return WithMaterial(ParseSolid(node, where), node, where);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 /// rejected: a ghost must never reach a cloud, a lost point costs less. Spacetime reasoning
 /// after Curless & Levoy, "Better optical triangulation through spacetime analysis", ICCV 1995.
 
+#include "mlp/probe_fw/probe_model.h"
 #include "mlp/probe_fw/stripe.h"
 
 #include <cstddef>
@@ -44,10 +45,26 @@ struct GhostOptions {
   double same_ray_columns = 4.0;
   /// A trace is clearly the stronger when its median amplitude is this many times the other's.
   double dominance = 1.5;
+  /// The way direct light moves along a row (row scans) and along a column (column scans) as the
+  /// column grows: +1 or -1, 0 unknown (DirectMotion). For every face that both the camera and
+  /// the projector see, the stripe moves one way along the epipolar line (the ordering
+  /// constraint of stereo: Baker and Binford, IJCAI 1981); light reflected once by a plane comes
+  /// from the projector's mirror image, whose baseline is turned round: it moves the other way.
+  double row_motion_sign = 0.0, column_motion_sign = 0.0;
+  /// A trace whose centres moved at least this far [px] has a direction to judge.
+  double min_motion_px = 1.0;
 };
 
-/// Marks `indirect` on every observation of a trace that conflicts with a clearly stronger one,
-/// and on both traces of a conflict where neither is. Returns how many were marked.
+/// The way direct light moves along each scan axis for this probe (GhostOptions' signs): the
+/// image of the optical axis' point on the central column's light plane, and of the next column's
+/// sheet at the same depth. An axis along which the stripe moves less than a tenth of its whole
+/// motion gets 0 (no rule there).
+void DirectMotion(const ProbeModel& model, double* row_sign, double* column_sign);
+
+/// Marks `indirect` on every observation of a trace that moves against direct light's way (when
+/// the options give it), and of a trace that loses a conflict: against one that moves the direct
+/// way while it has no direction, else against a clearly stronger one, else against one several
+/// times longer; both traces of a conflict where none of this tells. Returns how many were marked.
 std::size_t RejectIndirectLight(std::vector<SweepObservation>* observations,
                                 const GhostOptions& options);
 

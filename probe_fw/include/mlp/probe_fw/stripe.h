@@ -49,6 +49,10 @@ struct StripeOptions {
   int window_half_px = 4;          ///< centroid window half-width (~3 sigma of a 3-5 px stripe)
   int max_width_px = 12;           ///< wider runs above half maximum are not a laser stripe
   double double_peak_ratio = 0.3;  ///< a second peak above this fraction of the first rejects
+  /// A profile narrower than this (second moment [px^2]) lies mostly on one pixel: its centre of
+  /// mass locks to the pixel (biased by up to a third of a pixel) and is not a point. A design
+  /// stripe has ~1.1 px^2; a face seen so that the sheet sweeps it fast narrows it.
+  double min_variance_px2 = 0.2;
   StripeAxes axes = StripeAxes::kBoth;
   /// Gaussian smoothing of the frame before the scans [px, sigma]; 0: none. Laser speckle on a
   /// rough surface breaks a wide stripe's profile into grains that the double-peak test reads
@@ -66,7 +70,11 @@ struct StripePoint {
   double x_px = 0.0, y_px = 0.0;
   ScanAxis axis = ScanAxis::kRow;
   double amplitude_dn = 0.0;
-  double quality = 0.0;  ///< 0..1: amplitude relative to full scale, lowered by asymmetry
+  double quality = 0.0;  ///< 0..1: amplitude relative to half of full scale
+  /// The profile in the centroid window above its background: its light (sum, DN) and its
+  /// second moment about the centre [px^2] (reflectance.h uses both).
+  double mass_dn = 0.0;
+  double variance_px2 = 0.0;
 
   /// The sensor row (row scan) or column (column scan) the centre was found on.
   int Line() const { return static_cast<int>(axis == ScanAxis::kRow ? y_px : x_px); }
@@ -77,11 +85,14 @@ struct StripePoint {
 struct StripeCounts {
   /// lines: scan lines (row and column spans) read.
   std::uint64_t lines = 0, points = 0, weak = 0, saturated = 0, double_peak = 0, too_wide = 0;
-  std::uint64_t cut = 0;  ///< window not inside the ROI: cut by its edge
+  std::uint64_t cut = 0;         ///< window not inside the ROI: cut by its edge
+  std::uint64_t too_narrow = 0;  ///< profile on about one pixel (StripeOptions::min_variance_px2)
   /// Found by both scans and left to the one more nearly across the stripe: not a loss.
   std::uint64_t other_axis = 0;
   /// Light that left the light plane (a reflection), told by the sweep (ghost.h): not points.
   std::uint64_t indirect = 0;
+  /// The face's reflectance changes too fast across the stripe to correct (reflectance.h).
+  std::uint64_t reflectance_dropped = 0;
 };
 
 /// The mask of the transposed AOI (rows become columns): what the column scan reads.

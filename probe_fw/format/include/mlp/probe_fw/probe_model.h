@@ -26,6 +26,10 @@ struct CameraModel {
   double pixel_pitch_mm = 0.0;  ///< sensor pixel size
   double fx_px = 0.0, fy_px = 0.0, cx_px = 0.0, cy_px = 0.0;
   double k1 = 0.0, k2 = 0.0, p1 = 0.0, p2 = 0.0, k3 = 0.0;
+  /// The lens's aperture and focus, optional (0: not given). The firmware needs neither to
+  /// triangulate; the virtual probe renders speckle grain and defocus from them (docs/PROBE.md).
+  double f_number = 0.0;           ///< f / D, f = fx_px * pixel_pitch_mm, D the entrance pupil
+  double focus_distance_mm = 0.0;  ///< depth (z) of sharp focus
 
   /// Distorted pixel of a point in the camera frame (z > 0).
   Vec2 Project(const Vec3& point_in_probe) const;
@@ -34,6 +38,9 @@ struct CameraModel {
   Vec2 Undistort(const Vec2& pixel) const;
   /// Largest pixel value (2^bit_depth - 1).
   int MaxLevel() const { return (1 << bit_depth) - 1; }
+  /// Half-angle sin u of the observation aperture seen from a point at depth z [mm] (Dorsch et
+  /// al. 1994's u_obs): entrance pupil radius over distance; 0 when the f-number is not given.
+  double ApertureSinAt(double depth_mm) const;
 };
 
 /// The MEMS line projector as an inverse camera with one coordinate: the mirror angle theta maps to

@@ -21,6 +21,8 @@
 
 namespace mlp::sim {
 
+class SpeckleImager;
+
 struct SweepOptions {
   probe_fw::Aoi aoi;          ///< the window read out
   double first_column = 0.0;  ///< projector column of the first laser frame
@@ -33,7 +35,33 @@ struct SweepOptions {
   int led_supersampling = 1;
   /// false: the LED frame only (a camera calibration view); no laser frames are rendered.
   bool laser_frames = true;
+  /// One specular inter-reflection (scenes with a glossy face only; interreflection.cc).
+  bool interreflections = true;
+  /// Exposure time relative to the one the model's photometry (noise.*_e) is given for: scales
+  /// every light (laser, LED ring, shop light) before the noise. Dark metal needs more.
+  double exposure = 1.0;
 };
+
+/// Sheet light that reaches the camera after one specular reflection off another face: where the
+/// camera sees the point it lands on (AOI pixel coordinates, continuous), the actual projector
+/// column whose sheet centre sends it, and the electrons it gives while that column is lit.
+struct GhostSplat {
+  float x = 0.0f, y = 0.0f;
+  float column = 0.0f;
+  float electrons = 0.0f;
+};
+
+/// Adds the splats of the columns within 3 sheet half-widths of `actual_column` to an image of
+/// width x height pixels sampled `oversampling` times per pixel and axis (row-major), each
+/// weighted by the sheet's Gaussian and shared bilinearly; a sub-sample receives q^2 times a
+/// pixel's electrons, so the pixel's mean over its sub-samples is the pixel's light.
+void SplatGhosts(const std::vector<GhostSplat>& splats,
+                 double actual_column,
+                 double sheet_halfwidth_cols,
+                 int width,
+                 int height,
+                 int oversampling,
+                 float* image);
 
 /// What lies behind one pixel centre.
 struct PixelTruth {
@@ -46,7 +74,8 @@ struct PixelTruth {
 struct RenderedCapture {
   probe_fw::Frame led;
   std::vector<probe_fw::Frame> laser;
-  std::vector<PixelTruth> truth;  ///< AOI pixels, row-major
+  std::vector<PixelTruth> truth;   ///< AOI pixels, row-major
+  std::vector<GhostSplat> ghosts;  ///< the inter-reflected light, sorted by column
 };
 
 class VirtualProbe {
@@ -87,6 +116,24 @@ class VirtualProbe {
 
  private:
   struct Pixel;
+  struct Sheet;
+  std::vector<GhostSplat> Interreflections(const Pose3& mcs_from_probe,
+                                           const SweepOptions& o,
+                                           const std::vector<Pixel>& pixels) const;
+  /// Whether the camera sees a point (not hidden by another surface), and at which pixel of the
+  /// AOI (sensor coordinates).
+  bool SeenAt(const Pose3& mcs_from_probe,
+              const probe_fw::Aoi& aoi,
+              const Vec3& point_mcs,
+              geometry::Vec2* pixel) const;
+  std::vector<Sheet> SheetAcrossPixels(const std::vector<Pixel>& pixels, int w, int h) const;
+  void SpeckledSheet(const std::vector<Pixel>& pixels,
+                     const std::vector<Sheet>& sheets,
+                     int w,
+                     int h,
+                     double actual_column,
+                     SpeckleImager* imager,
+                     std::vector<double>* laser_e) const;
   std::vector<double> LedResponse(const Pose3& pose,
                                   const SweepOptions& o,
                                   const std::vector<Pixel>& pixels) const;

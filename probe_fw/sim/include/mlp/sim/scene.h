@@ -23,12 +23,20 @@ struct Ray {
   Vec3 direction;  ///< unit
 };
 
+/// The glossy part of a surface's reflectance (brdf.h): a microfacet lobe of Fresnel reflectance
+/// `specular_f0` at normal incidence and GGX roughness alpha. The default is none: a matt face.
+struct Gloss {
+  double specular_f0 = 0.0;  ///< 0..1 (iron ~0.55, aluminium ~0.9 in blue light)
+  double roughness = 1.0;    ///< GGX alpha, 0.005..1 (small: mirror-like; a polished mirror ~0.005)
+};
+
 /// Where a ray crosses the boundary of a solid: ray parameter [mm], outward unit normal of the
-/// solid there, reflectance of that surface (0..1).
+/// solid there, diffuse (Lambertian) reflectance of that surface (0..1) and its gloss.
 struct SurfaceHit {
   double t = 0.0;
   Vec3 normal = Vec3::Zero();
   double reflectance = 0.0;
+  Gloss gloss;
 };
 
 /// One interval of the ray inside a solid (t may be +-infinity for unbounded solids).
@@ -41,6 +49,8 @@ class Solid {
   virtual ~Solid() = default;
   /// Appends the sorted, disjoint spans of `ray` inside the solid.
   virtual void Spans(const Ray& ray, std::vector<Span>* out) const = 0;
+  /// Whether any face has a specular lobe (then light reflects onto other faces).
+  virtual bool Glossy() const { return false; }
 };
 
 using SolidPtr = std::shared_ptr<const Solid>;
@@ -67,6 +77,9 @@ SolidPtr MakeChessboard(const Pose3& mcs_from_board,
                         double square_mm,
                         double light_reflectance,
                         double dark_reflectance);
+/// The same solid with every face given `gloss` and, when `diffuse` is >= 0, that diffuse
+/// reflectance (a finish: ground, milled, cast, coated).
+SolidPtr MakeFinish(SolidPtr solid, const Gloss& gloss, double diffuse = -1.0);
 SolidPtr MakeUnion(std::vector<SolidPtr> parts);
 SolidPtr MakeIntersection(std::vector<SolidPtr> parts);
 /// `a` minus every solid of `b`.

@@ -11,8 +11,11 @@
 
 namespace mlp::sim {
 
+/// The exposure the probe model's photometry (noise.*_e) is given for: the link's default.
+constexpr double kReferenceExposureUs = 100.0;
+
 /// Noise is seeded from `seed` and the capture id, so a repeated request renders the same
-/// frames. The exposure is not modelled (the renderer's signal level is the nominal one). The
+/// frames. The request's exposure scales every light by exposure_us / kReferenceExposureUs. The
 /// camera looks at `projector` (a VirtualProjector the agent drives), which must outlive it:
 /// each grab is the rendered frame of what the projector lights.
 probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe,
