@@ -18,12 +18,19 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
+// The demo runs the calibrated chain (issue 16): the virtual probe renders as built, the
+// firmware and host know it through cal-as-built-1. Issue 16's done-means for that chain:
+// alignment origin <= 5 um and <= 10 arcsec, bore diameter <= 2 um, hand-eye <= 5 um. Issue 5's
+// 2 um / 5 arcsec for the hand-eye hold where the firmware's model is the truth
+// (tests/calib/virtual_hand_eye_test.cc, which keeps them); through a calibration the true M is
+// only defined in the calibrated probe frame (sim::TrueFromModelFrame), and its rotation is held
+// to the alignment's 10 arcsec (issue 16 names none for the hand-eye).
 constexpr double kOriginTolUm = 5.0;
 constexpr double kRotationTolArcsec = 10.0;
 constexpr double kDiameterTolMm = 0.002;
-constexpr double kHandEyeTolUm = 2.0, kHandEyeTolArcsec = 5.0;  // issue 5
-constexpr double kFinishedDiameterMm = 60.0;                    // the demo's nominal
-constexpr double kRadiusBeforeMm = 4.999;                       // T12 D9.998 in the sample table
+constexpr double kHandEyeTolUm = 5.0, kHandEyeTolArcsec = 10.0;  // issue 16
+constexpr double kFinishedDiameterMm = 60.0;                     // the demo's nominal
+constexpr double kRadiusBeforeMm = 4.999;                        // T12 D9.998 in the sample table
 
 TEST(Demo, TheWholeChainMeetsTheTruth) {
   const fs::path dir = fs::temp_directory_path() / "mlp_demo_test";

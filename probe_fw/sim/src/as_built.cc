@@ -1,10 +1,13 @@
 #include "mlp/sim/as_built.h"
 
 #include "mlp/probe_fw/json_fields.h"
+#include "mlp/probe_fw/triangulate.h"
 
 #include <cmath>
 #include <fstream>
 #include <sstream>
+
+#include <Eigen/Geometry>
 
 namespace mlp::sim {
 namespace {
@@ -60,6 +63,45 @@ Vec3 AsBuiltOptics::WindowShift(const Vec3& d) const {
   const double cos_r = std::sqrt(1.0 - sin_r * sin_r);
   const Vec3 inside = tangential / window_index + cos_r * n;
   return window_thickness_mm / cos_r * inside - window_thickness_mm / cos_in * d;
+}
+
+Pose3 TrueFromModelFrame(const AsBuiltProbe& truth,
+                         const probe_fw::ProbeModel& model,
+                         const probe_fw::Aoi* aoi,
+                         double* rms_mm) {
+  const auto& cam = truth.model.camera;
+  const auto& proj = truth.model.projector;
+  std::vector<Vec3> got, want;
+  const double step = aoi ? 20.0 : 150.0;
+  const double u0 = aoi ? aoi->x0 : 100.0, u1 = aoi ? aoi->x0 + aoi->width : cam.width_px - 100.0;
+  const double w0 = aoi ? aoi->y0 : 100.0, w1 = aoi ? aoi->y0 + aoi->height : cam.height_px - 100.0;
+  for (double z : {105.0, 120.0, 135.0}) {
+    for (double u = u0; u < u1; u += step) {
+      for (double w = w0; w < w1; w += step) {
+        const geometry::Vec2 xy = cam.Undistort(geometry::Vec2(u, w));
+        const Vec3 d = Vec3(xy.x(), xy.y(), 1.0).normalized();
+        const Vec3 o = truth.optics.WindowShift(d);
+        const Vec3 p = o + d * ((z - o.z()) / d.z());
+        const double column = proj.CommandedColumnOf(p);
+        if (column < 0 || column > proj.columns - 1) continue;
+        got.push_back(probe_fw::Triangulate(model, u, w, column));
+        want.push_back(p);
+      }
+    }
+  }
+  if (got.size() < 3) throw AsBuiltError("as built: no point of the working volume is lit");
+  Eigen::Matrix3Xd a(3, static_cast<Eigen::Index>(got.size())), b = a;
+  for (size_t i = 0; i < got.size(); ++i)
+    a.col(static_cast<Eigen::Index>(i)) = got[i], b.col(static_cast<Eigen::Index>(i)) = want[i];
+  const Eigen::Matrix4d t = Eigen::umeyama(a, b, false);
+  Pose3 out = Pose3::Identity();
+  out.linear() = t.topLeftCorner<3, 3>();
+  out.translation() = t.topRightCorner<3, 1>();
+  if (rms_mm) {
+    *rms_mm = std::sqrt(
+        ((out.linear() * a).colwise() + out.translation() - b).colwise().squaredNorm().mean());
+  }
+  return out;
 }
 
 AsBuiltProbe ParseAsBuilt(const std::string& json_text) {

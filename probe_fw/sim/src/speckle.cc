@@ -23,23 +23,31 @@ SpeckleImager::SpeckleImager(
       !(contrast >= 0.0 && contrast <= 1.0)) {
     throw std::invalid_argument("speckle: Airy radius must be 0.05..50 px, contrast 0..1");
   }
-  // The field's spectrum ends at 1 / (lambda N) = 1.22 / airy_radius; sample it at least 1.25x
-  // finer than Nyquist, and never coarser than a third of a pixel (the pixel's integral).
-  q_ = std::max(3, static_cast<int>(std::ceil(1.25 * 2.0 * 1.22 / airy_radius_px)));
+  // The intensity's spectrum ends at 2 / (lambda N) = 2.44 / airy_radius: sample it at least
+  // that finely, and at least 3 x 3 per pixel (its mean of |field|^2 is the pixel integral).
+  q_ = std::max(3, static_cast<int>(std::ceil(2.0 * 1.22 / airy_radius_px)));
   const double step = 1.0 / q_;
-  const int reach = static_cast<int>(std::ceil(airy_radius_px * kThirdZero / kFirstZero / step));
+  reach_ = static_cast<int>(std::ceil(airy_radius_px * kThirdZero / kFirstZero / step));
+  // The kernel as rows of contiguous taps (dy, dx from -half to +half): the inner loop runs
+  // along a row of the field without a bounds test (the field has a margin of reach_).
   double energy = 0.0;
-  for (int dy = -reach; dy <= reach; ++dy) {
-    for (int dx = -reach; dx <= reach; ++dx) {
+  for (int dy = -reach_; dy <= reach_; ++dy) {
+    KernelRow row;
+    row.dy = dy;
+    for (int dx = -reach_; dx <= reach_; ++dx) {
       const double v = kFirstZero * std::hypot(dx, dy) * step / airy_radius_px;
       if (v > kThirdZero) continue;
-      const double a = AiryAmplitude(v);
-      taps_.push_back({dx, dy, static_cast<float>(a)});
-      energy += a * a;
+      if (row.amplitude.empty()) row.dx0 = dx;
+      row.amplitude.push_back(static_cast<float>(AiryAmplitude(v)));
+      energy += AiryAmplitude(v) * AiryAmplitude(v);
     }
+    if (!row.amplitude.empty()) kernel_.push_back(std::move(row));
   }
   // Unit energy: the mean of |field|^2 over the phases is the irradiance blurred by |h|^2.
-  for (Tap& t : taps_) t.amplitude = static_cast<float>(t.amplitude / std::sqrt(energy));
+  for (KernelRow& row : kernel_) {
+    for (float& a : row.amplitude) a = static_cast<float>(a / std::sqrt(energy));
+    for (float a : row.amplitude) row.power.push_back(a * a);
+  }
   const size_t n = static_cast<size_t>(w_) * q_ * static_cast<size_t>(h_) * q_;
   phase_.resize(n);
   std::mt19937_64 engine(seed);
@@ -48,14 +56,31 @@ SpeckleImager::SpeckleImager(
     p = {static_cast<float>(std::cos(phi)), static_cast<float>(std::sin(phi))};
   }
   irradiance_.assign(n, 0.0f);
-  field_.assign(n, {0.0f, 0.0f});
-  incoherent_.assign(n, 0.0f);
-  row_lo_.assign(static_cast<size_t>(h_) * q_, w_ * q_);
-  row_hi_.assign(static_cast<size_t>(h_) * q_, -1);
+  const size_t padded = static_cast<size_t>(w_ * q_ + 2 * reach_) * (h_ * q_ + 2 * reach_);
+  re_.assign(padded, 0.0f), im_.assign(padded, 0.0f), incoherent_.assign(padded, 0.0f);
+  lit_lo_.assign(static_cast<size_t>(h_) * q_, w_ * q_);
+  lit_hi_.assign(static_cast<size_t>(h_) * q_, -1);
+}
+
+// Adds one scatterer's field (amplitude a, light e) at padded position (x, y) through the kernel.
+void SpeckleImager::Scatter(int x, int y, std::complex<float> a, float e) {
+  const int Wp = w_ * q_ + 2 * reach_;
+  for (const KernelRow& row : kernel_) {
+    const size_t o = static_cast<size_t>(y + row.dy) * Wp + static_cast<size_t>(x + row.dx0);
+    float* __restrict re = re_.data() + o;
+    float* __restrict im = im_.data() + o;
+    float* __restrict inc = incoherent_.data() + o;
+    const float* amp = row.amplitude.data();
+    const float* pw = row.power.data();
+    const int n = static_cast<int>(row.amplitude.size());
+    for (int k = 0; k < n; ++k) {
+      re[k] += amp[k] * a.real(), im[k] += amp[k] * a.imag(), inc[k] += pw[k] * e;
+    }
+  }
 }
 
 void SpeckleImager::Image(std::vector<double>* pixel_e) {
-  const int W = w_ * q_, H = h_ * q_;
+  const int W = w_ * q_, H = h_ * q_, Wp = W + 2 * reach_;
   pixel_e->assign(static_cast<size_t>(w_) * h_, 0.0);
   for (int y = 0; y < H; ++y) {
     for (int x = 0; x < W; ++x) {
@@ -63,27 +88,38 @@ void SpeckleImager::Image(std::vector<double>* pixel_e) {
       const float e = irradiance_[i];
       if (e <= 0.0f) continue;
       irradiance_[i] = 0.0f;
-      const std::complex<float> a = std::sqrt(e) * phase_[i];
-      for (const Tap& t : taps_) {
-        const int xo = x + t.dx, yo = y + t.dy;
-        if (xo < 0 || yo < 0 || xo >= W || yo >= H) continue;
-        const size_t o = static_cast<size_t>(yo) * W + xo;
-        field_[o] += t.amplitude * a;
-        incoherent_[o] += t.amplitude * t.amplitude * e;
-        row_lo_[yo] = std::min(row_lo_[yo], xo), row_hi_[yo] = std::max(row_hi_[yo], xo);
-      }
+      Scatter(x + reach_, y + reach_, std::sqrt(e) * phase_[i], e);
+      lit_lo_[y] = std::min(lit_lo_[y], x), lit_hi_[y] = std::max(lit_hi_[y], x);
     }
   }
+  // Where light can have landed on sub-row y: the lit stretches of the rows within reach_,
+  // widened by reach_ (clipped to the AOI: light beyond its edge is not read out).
   const double per_sub = 1.0 / (q_ * q_);
   for (int y = 0; y < H; ++y) {
-    for (int x = row_lo_[y]; x <= row_hi_[y]; ++x) {
-      const size_t o = static_cast<size_t>(y) * W + x;
-      const double e = (1.0 - contrast_) * incoherent_[o] + contrast_ * std::norm(field_[o]);
+    int lo = W, hi = -1;
+    for (int yi = std::max(0, y - reach_); yi <= std::min(H - 1, y + reach_); ++yi)
+      lo = std::min(lo, lit_lo_[yi] - reach_), hi = std::max(hi, lit_hi_[yi] + reach_);
+    lo = std::max(lo, 0), hi = std::min(hi, W - 1);
+    for (int x = lo; x <= hi; ++x) {
+      const size_t o = static_cast<size_t>(y + reach_) * Wp + static_cast<size_t>(x + reach_);
+      const double field = double(re_[o]) * re_[o] + double(im_[o]) * im_[o];
+      const double e = (1.0 - contrast_) * incoherent_[o] + contrast_ * field;
       (*pixel_e)[static_cast<size_t>(y / q_) * w_ + x / q_] += e * per_sub;
-      field_[o] = {0.0f, 0.0f}, incoherent_[o] = 0.0f;
     }
-    row_lo_[y] = W, row_hi_[y] = -1;
   }
+  // Clear what the scatterers touched, margin included.
+  for (int y = 0; y < H; ++y) {
+    if (lit_hi_[y] < 0) continue;
+    for (int yo = y; yo <= y + 2 * reach_; ++yo) {
+      const size_t o = static_cast<size_t>(yo) * Wp + static_cast<size_t>(lit_lo_[y]);
+      const size_t n = static_cast<size_t>(lit_hi_[y] - lit_lo_[y] + 2 * reach_ + 1);
+      std::fill_n(re_.begin() + static_cast<std::ptrdiff_t>(o), n, 0.0f);
+      std::fill_n(im_.begin() + static_cast<std::ptrdiff_t>(o), n, 0.0f);
+      std::fill_n(incoherent_.begin() + static_cast<std::ptrdiff_t>(o), n, 0.0f);
+    }
+  }
+  std::fill(lit_lo_.begin(), lit_lo_.end(), W);
+  std::fill(lit_hi_.begin(), lit_hi_.end(), -1);
 }
 
 }  // namespace mlp::sim

@@ -7,6 +7,7 @@
 /// camera (a plane-parallel plate) that shifts every ray sideways. The firmware and the host never
 /// read this file; the renderer renders with it.
 
+#include "mlp/probe_fw/frame.h"
 #include "mlp/probe_fw/probe_model.h"
 
 #include <stdexcept>
@@ -14,6 +15,7 @@
 
 namespace mlp::sim {
 
+using geometry::Pose3;
 using geometry::Vec3;
 
 class AsBuiltError : public std::runtime_error {
@@ -41,6 +43,22 @@ struct AsBuiltProbe {
   AsBuiltOptics optics;
   bool plain_model = false;  ///< read from a plain probe model file: nothing but the model
 };
+
+/// Where a model's probe frame lies in the true camera frame: the rigid transform (Umeyama, no
+/// scale) that best takes points triangulated with `model` onto the true surface points over the
+/// working volume (planes z = 105, 120, 135 mm, through the window), over the whole image (pixels
+/// every 150 px) or, given `aoi`, over that window (every 20 px): a calibrated model is rigidly
+/// like the truth only to its calibration's error, so the frame a measurement in one window
+/// sees is best found there.
+/// Calibration fixes its probe frame by its own camera estimate (a window moves the pinhole
+/// T (1 - 1/n) along the axis, 0.68 mm for the sample's 2 mm of BK7; a principal point 0.5 px
+/// off turns it by 1e-4 rad), and the hand-eye measures M in that frame: the true M of a
+/// calibrated chain is the scene's flange_from_probe times this. `rms_mm`: what is left after
+/// the alignment.
+Pose3 TrueFromModelFrame(const AsBuiltProbe& truth,
+                         const probe_fw::ProbeModel& model,
+                         const probe_fw::Aoi* aoi = nullptr,
+                         double* rms_mm = nullptr);
 
 /// Reads `mlprobe-as-built/1`, or a plain probe model file (`mlprobe-probe-model/1`: the probe
 /// exactly as modelled, nominal optics). Throws AsBuiltError (or ProbeModelError for the model).

@@ -40,18 +40,21 @@ class SpeckleImager {
   void Image(std::vector<double>* pixel_e);
 
  private:
-  struct Tap {
-    int dx, dy;
-    float amplitude;
+  struct KernelRow {
+    int dy = 0, dx0 = 0;                  ///< the row's offset and its first tap's
+    std::vector<float> amplitude, power;  ///< Airy amplitude and its square, contiguous in dx
   };
-  int w_, h_, q_;
+  void Scatter(int x, int y, std::complex<float> a, float e);
+
+  int w_, h_, q_, reach_ = 0;
   double contrast_;
-  std::vector<Tap> taps_;
+  std::vector<KernelRow> kernel_;
   std::vector<std::complex<float>> phase_;  ///< per sub-sample, the surface's
   std::vector<float> irradiance_;
-  std::vector<std::complex<float>> field_;
-  std::vector<float> incoherent_;
-  std::vector<int> row_lo_, row_hi_;  ///< touched sub-columns per sub-row of the field
+  /// The image field (real, imaginary) and the incoherent light, with a margin of reach_ all
+  /// round so the kernel needs no bounds test.
+  std::vector<float> re_, im_, incoherent_;
+  std::vector<int> lit_lo_, lit_hi_;  ///< lit sub-columns per sub-row of this frame
 };
 
 }  // namespace mlp::sim
