@@ -13,19 +13,8 @@ namespace mlp::test {
 /// commanded column whose (curved) sheet reaches it through the (non-linear) mirror.
 inline TriangulationError TriangulationVsAsBuilt(const sim::AsBuiltProbe& truth,
                                                  const probe_fw::ProbeModel& model) {
-  using geometry::Vec3;
-  const auto& proj = truth.model.projector;
-  std::vector<Vec3> got, want;
-  OverTheWorkingVolume(truth.model.camera,
-                       [&](double u, double w, const geometry::Vec2& xy, double z) {
-                         const Vec3 d = Vec3(xy.x(), xy.y(), 1.0).normalized();
-                         const Vec3 o = truth.optics.WindowShift(d);
-                         const Vec3 p = o + d * ((z - o.z()) / d.z());
-                         const double column = proj.CommandedColumnOf(p);
-                         if (column < 0 || column > proj.columns - 1) return;
-                         got.push_back(probe_fw::Triangulate(model, u, w, column));
-                         want.push_back(p);
-                       });
+  std::vector<geometry::Vec3> got, want;
+  sim::WorkingVolumePoints(truth, model, nullptr, &got, &want);
   return RigidlyAligned(got, want);
 }
 

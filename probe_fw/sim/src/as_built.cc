@@ -65,13 +65,13 @@ Vec3 AsBuiltOptics::WindowShift(const Vec3& d) const {
   return window_thickness_mm / cos_r * inside - window_thickness_mm / cos_in * d;
 }
 
-Pose3 TrueFromModelFrame(const AsBuiltProbe& truth,
+void WorkingVolumePoints(const AsBuiltProbe& truth,
                          const probe_fw::ProbeModel& model,
                          const probe_fw::Aoi* aoi,
-                         double* rms_mm) {
+                         std::vector<Vec3>* triangulated,
+                         std::vector<Vec3>* true_points) {
   const auto& cam = truth.model.camera;
   const auto& proj = truth.model.projector;
-  std::vector<Vec3> got, want;
   const double step = aoi ? 20.0 : 150.0;
   const double u0 = aoi ? aoi->x0 : 100.0, u1 = aoi ? aoi->x0 + aoi->width : cam.width_px - 100.0;
   const double w0 = aoi ? aoi->y0 : 100.0, w1 = aoi ? aoi->y0 + aoi->height : cam.height_px - 100.0;
@@ -84,11 +84,19 @@ Pose3 TrueFromModelFrame(const AsBuiltProbe& truth,
         const Vec3 p = o + d * ((z - o.z()) / d.z());
         const double column = proj.CommandedColumnOf(p);
         if (column < 0 || column > proj.columns - 1) continue;
-        got.push_back(probe_fw::Triangulate(model, u, w, column));
-        want.push_back(p);
+        triangulated->push_back(probe_fw::Triangulate(model, u, w, column));
+        true_points->push_back(p);
       }
     }
   }
+}
+
+Pose3 TrueFromModelFrame(const AsBuiltProbe& truth,
+                         const probe_fw::ProbeModel& model,
+                         const probe_fw::Aoi* aoi,
+                         double* rms_mm) {
+  std::vector<Vec3> got, want;
+  WorkingVolumePoints(truth, model, aoi, &got, &want);
   if (got.size() < 3) throw AsBuiltError("as built: no point of the working volume is lit");
   Eigen::Matrix3Xd a(3, static_cast<Eigen::Index>(got.size())), b = a;
   for (size_t i = 0; i < got.size(); ++i)

@@ -12,6 +12,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace mlp::sim {
 
@@ -43,6 +44,17 @@ struct AsBuiltProbe {
   AsBuiltOptics optics;
   bool plain_model = false;  ///< read from a plain probe model file: nothing but the model
 };
+
+/// Points over the working volume (planes z = 105, 120, 135 mm): each true point where the real
+/// camera ray of a pixel (through the window) meets the plane, lit by the commanded column whose
+/// (curved) sheet reaches it through the (non-linear) mirror, and the same pixel and column
+/// triangulated with `model`. Pixels every 150 px over the image (100 px from its edges), or
+/// every 20 px over `aoi`.
+void WorkingVolumePoints(const AsBuiltProbe& truth,
+                         const probe_fw::ProbeModel& model,
+                         const probe_fw::Aoi* aoi,
+                         std::vector<Vec3>* triangulated,
+                         std::vector<Vec3>* true_points);
 
 /// Where a model's probe frame lies in the true camera frame: the rigid transform (Umeyama, no
 /// scale) that best takes points triangulated with `model` onto the true surface points over the
