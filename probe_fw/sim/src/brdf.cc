@@ -4,14 +4,14 @@
 #include <cmath>
 
 namespace mlp::sim {
-namespace {
-
-// Smith's masking of one direction for GGX (Walter et al. 2007, eq. 34).
 double SmithG1(double cos_theta, double alpha2) {
   return 2.0 * cos_theta / (cos_theta + std::sqrt(alpha2 + (1.0 - alpha2) * cos_theta * cos_theta));
 }
 
-}  // namespace
+double SchlickFresnel(double f0, double cos_h) {
+  const double c = 1.0 - std::clamp(cos_h, 0.0, 1.0);
+  return f0 + (1.0 - f0) * c * c * c * c * c;
+}
 
 double Reflected(double diffuse,
                  const Gloss& gloss,
@@ -28,8 +28,7 @@ double Reflected(double diffuse,
   const double k = cos_h * cos_h * (a2 - 1.0) + 1.0;
   const double facets = a2 / (M_PI * k * k);  // GGX D(h), Walter et al. eq. 33
   const double masking = SmithG1(cos_l, a2) * SmithG1(cos_v, a2);
-  const double c = 1.0 - std::clamp(h.dot(to_viewer), 0.0, 1.0);
-  const double fresnel = gloss.specular_f0 + (1.0 - gloss.specular_f0) * c * c * c * c * c;
+  const double fresnel = SchlickFresnel(gloss.specular_f0, h.dot(to_viewer));
   // pi f_s cos_l with f_s = D G F / (4 cos_l cos_v): the cos_l cancels.
   return out + M_PI * facets * masking * fresnel / (4.0 * cos_v);
 }

@@ -28,10 +28,6 @@ constexpr double kSharpLobe = 0.03;
 constexpr int kRoughStride = 4;
 constexpr double kNudgeMm = 1e-4;  // leave the first face before tracing the reflected ray
 
-double SmithG1(double cos_theta, double alpha2) {
-  return 2.0 * cos_theta / (cos_theta + std::sqrt(alpha2 + (1.0 - alpha2) * cos_theta * cos_theta));
-}
-
 // A reflected direction from the lobe of a face with normal n lit from `to_light`, and the
 // fraction of the light it carries (Fresnel x masking, over the sampling density); 0: lost.
 double SampleLobe(
@@ -47,9 +43,8 @@ double SampleLobe(
   *reflected = 2.0 * l_h * h - to_light;
   const double cos_l = n.dot(to_light), cos_r = n.dot(*reflected);
   if (cos_l <= 0.0 || cos_r <= 0.0) return 0.0;
-  const double c = 1.0 - l_h;
-  const double fresnel = g.specular_f0 + (1.0 - g.specular_f0) * c * c * c * c * c;
-  return fresnel * SmithG1(cos_l, a2) * SmithG1(cos_r, a2) * l_h / (cos_l * cos_h);
+  return SchlickFresnel(g.specular_f0, l_h) * SmithG1(cos_l, a2) * SmithG1(cos_r, a2) * l_h /
+         (cos_l * cos_h);
 }
 
 }  // namespace

@@ -14,6 +14,12 @@ namespace mlp::sim {
 /// face of reflectance rho gives rho cos(incidence)). All directions unit, pointing away from the
 /// surface. 0 when either direction is behind the face. A glint (specular direction, small
 /// roughness) gives values far above 1: the camera saturates there, as on real metal.
+/// Smith's masking of one direction at cos_theta from the normal, GGX alpha^2 (Walter et al.
+/// 2007, eq. 34).
+double SmithG1(double cos_theta, double alpha2);
+/// Schlick's Fresnel reflectance at cos(angle to the half vector) `cos_h`, f0 at normal incidence.
+double SchlickFresnel(double f0, double cos_h);
+
 double Reflected(
     double diffuse, const Gloss& gloss, const Vec3& n, const Vec3& to_light, const Vec3& to_viewer);
 
