@@ -16,11 +16,15 @@ function(mlp_add_library name)
   mlp_set_warnings(mlp_${name})
 endfunction()
 
-# mlp_add_test(<module> <name> SOURCES ... DEPS ... [RESOURCE_LOCK lock]): one gtest binary,
-# tests discovered as <module>/<Suite>.<Case> so ctest -R geometry/ selects a module. Tests
-# sharing a RESOURCE_LOCK never run at once under ctest -j (one LinuxCNC per machine).
+# mlp_add_test(<module> <name> SOURCES ... DEPS ... [RESOURCE_LOCK lock] [TIMEOUT s]): one
+# gtest binary, tests discovered as <module>/<Suite>.<Case> so ctest -R geometry/ selects a
+# module. Tests sharing a RESOURCE_LOCK never run at once under ctest -j (one LinuxCNC per
+# machine). TIMEOUT (default 300 s) is a hang guard, not a speed check.
 function(mlp_add_test module name)
-  cmake_parse_arguments(ARG "" "RESOURCE_LOCK" "SOURCES;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "RESOURCE_LOCK;TIMEOUT" "SOURCES;DEPS" ${ARGN})
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 300)
+  endif()
   set(target test_${module}_${name})
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE ${ARG_DEPS} mlp_test_main GTest::gmock)
@@ -32,7 +36,7 @@ function(mlp_add_test module name)
   endif()
   gtest_discover_tests(${target} TEST_PREFIX "${module}/" DISCOVERY_TIMEOUT 60
                        PROPERTIES ENVIRONMENT "MLP_SHARED_DATA=${MLP_SHARED_DATA_DIR}"
-                                  TIMEOUT 300 ${lock})
+                                  TIMEOUT ${ARG_TIMEOUT} ${lock})
 endfunction()
 
 # mlp_import_opencv_modules(<module>...): imported targets opencv_<module> from the headers and

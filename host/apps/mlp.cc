@@ -22,6 +22,8 @@ constexpr const char* kUsage =
     "  calibrate sphere hand-eye, quick re-calibration, calibration records\n"
     "            (mlp calibrate --help; runs mlp-calibrate beside this program)\n"
     "  demo      the whole job on the virtual machine (runs mlp-demo beside this program)\n"
+    "  verify    the probe's acceptance test (ISO 10360-8 manner) on the virtual machine\n"
+    "            (mlp verify --help; runs mlp-verify beside this program)\n"
     "  status    the host service's health: probes, machines (mlp-hostd must run)\n"
     "  request   send a job request (JSON) to mlp-hostd and print its reply\n"
     "  history   list or export the job history (mlp history --help)\n"
@@ -59,6 +61,7 @@ int main(int argc, char** argv) {
   }
   if (args[0] == "calibrate") return RunSibling(argv, "mlp-calibrate");
   if (args[0] == "demo") return RunSibling(argv, "mlp-demo");
+  if (args[0] == "verify") return RunSibling(argv, "mlp-verify");
   if (args[0] == "tool") return RunSibling(argv, "mlp-tool");
   if (args[0] == "setter") return RunSibling(argv, "mlp-setter");
   if (args[0] == "grind") return RunSibling(argv, "mlp-grind");

@@ -34,6 +34,12 @@ inline const std::string kMlp = MLP_BINARY, kHostd = MLP_HOSTD_BINARY, kSim = ML
 inline const std::string kProbe =
     std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
 inline const std::string kScene = std::string(MLP_SOURCE_DIR) + "/samples/scenes/bore_block.json";
+// The probe as built (the virtual probe renders with it) and its calibration, made by the
+// product's chain (the firmware and the host use only that): issue 16, docs/PROBE.md.
+inline const std::string kAsBuilt =
+    std::string(MLP_SOURCE_DIR) + "/samples/probes/as_built/MLP-AB-0001.json";
+inline const std::string kCalibratedModel =
+    std::string(MLP_SOURCE_DIR) + "/samples/probes/as_built/MLP-AB-0001.calibrated.json";
 inline const std::string kDemoPlate =
     std::string(MLP_SOURCE_DIR) + "/samples/scenes/demo_plate.json";
 constexpr int kLinkPort = 17431;  // each test that runs a probe link has its own port
@@ -162,13 +168,14 @@ inline bool MachineRuns(const Site& site, const std::string& machine, const std:
 
 // Every capture of `scene` whose id starts with `prefix`, taken through the service on
 // `machine` (default AOI 300 x 200 px at the sensor's centre; every second column reaching
-// it): the capture job ids in the scene's order.
+// it, as the host plans with the probe model `model`): the capture job ids in the scene's order.
 inline std::vector<std::int64_t> CaptureSceneViews(const Site& site,
                                                    const std::string& machine,
                                                    const std::string& scene,
                                                    const std::string& prefix,
-                                                   probe_fw::Aoi aoi = {874, 668, 300, 200}) {
-  const sim::VirtualProbe vp(probe_fw::LoadProbeModel(kProbe), sim::LoadScene(scene));
+                                                   probe_fw::Aoi aoi = {874, 668, 300, 200},
+                                                   const std::string& model = kProbe) {
+  const sim::VirtualProbe vp(probe_fw::LoadProbeModel(model), sim::LoadScene(scene));
   std::vector<std::int64_t> captures;
   for (const sim::Capture& c : vp.scene().captures) {
     if (c.id.rfind(prefix, 0) != 0) continue;
@@ -213,6 +220,64 @@ inline json BoreMeasureJob(const std::vector<std::int64_t>& captures, double nom
         {"register", "radius_wear"},
         {"null_band_mm", 0.002},
         {"upper_limit_mm", 0.5}}}};
+}
+
+// The virtual probe on the link rendering as built, its firmware given the calibrated model.
+inline std::vector<std::string> AsBuiltProbeArgs(const Site& site,
+                                                 const std::string& scene,
+                                                 int port) {
+  return {kSim,
+          "serve",
+          "--probe",
+          kAsBuilt,
+          "--firmware-model",
+          kCalibratedModel,
+          "--scene",
+          scene,
+          "--port",
+          std::to_string(port),
+          "--key",
+          (site.dir / "probe.key").string()};
+}
+
+// The hand-eye through the product's chain, as at the machine before a part is measured: the
+// as-built probe looks at the demo plate's reference sphere from its 8 poses (every sample scene
+// mounts the probe alike: one virtual machine), the host plans with the calibrated model and
+// solves on `machine`; the record is the service's own. The site's probe entry must name the
+// calibrated model. The calibration's probe is stopped before this returns.
+inline void CalibrateThroughChain(const Site& site, const std::string& machine, int port) {
+  {
+    Child probe(AsBuiltProbeArgs(site, kDemoPlate, port), site.dir / "sim-calibrate.log");
+    ASSERT_TRUE(ProbeConnected(site));
+    const auto ids = CaptureSceneViews(site, machine, kDemoPlate, "sphere_", {824, 618, 400, 300},
+                                       kCalibratedModel);
+    ASSERT_EQ(ids.size(), 8u);
+    const json request = {
+        {"op", "calibrate"}, {"machine", machine}, {"captures", ids}, {"sphere_radius_mm", 12.7}};
+    const auto run = site.Mlp("request " + site.Request("calibrate-chain", request) + " --json");
+    ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+    // What it found against the true M in the calibrated probe frame (as the demo judges it).
+    const json m = json::parse(run.out).at("flange_from_probe");
+    const geometry::Vec3 t(m["translation_mm"][0].get<double>(),
+                           m["translation_mm"][1].get<double>(),
+                           m["translation_mm"][2].get<double>());
+    const geometry::Vec3 rv(m["rotation_vector_rad"][0].get<double>(),
+                            m["rotation_vector_rad"][1].get<double>(),
+                            m["rotation_vector_rad"][2].get<double>());
+    const probe_fw::Aoi window{824, 618, 400, 300};
+    const geometry::Pose3 truth =
+        sim::LoadScene(kDemoPlate).flange_from_probe *
+        sim::TrueFromModelFrame(sim::LoadAsBuilt(kAsBuilt),
+                                probe_fw::LoadProbeModel(kCalibratedModel), &window);
+    const Eigen::AngleAxisd e(Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix() *
+                              truth.linear().transpose());
+    std::printf("hand-eye through the chain: %.2f um, %.2f arcsec from the true M\n",
+                (t - truth.translation()).norm() * 1e3, e.angle() * 180 / M_PI * 3600);
+  }
+  ASSERT_TRUE(site.WaitFor([&] {
+    const auto s = site.Mlp("status --json");
+    return s.exit_code == 0 && json::parse(s.out).at("probes").at(0).at("connected") == false;
+  }));
 }
 
 }  // namespace mlp::test

@@ -1,7 +1,9 @@
-// Every feature of the features block end to end, as a macro runs them: the host plans each
-// feature's captures from its nominal (op plan: flange poses, AOI, projector columns), the
-// virtual probe renders them through the firmware and the authenticated link, the host
-// measures; each result against the scene's truth (samples/scenes/features_block.json).
+// Every feature of the features block end to end, as a macro runs them, through the product's
+// chain: the hand-eye calibrated on the reference sphere, then the host plans each feature's
+// captures from its nominal (op plan: flange poses, AOI, projector columns) with the calibrated
+// model, the virtual probe renders them as built through the firmware (given the calibration
+// only) and the authenticated link, the host measures; each result against the scene's truth
+// (samples/scenes/features_block.json).
 
 #include <algorithm>
 #include <cmath>
@@ -61,15 +63,17 @@ void CheckAgainstTruth(const std::string& feature, const json& truth, const json
 }
 
 TEST(Inspect, PlansCapturesAndMeasuresEveryFeatureOfTheBlock) {
+  // Through the product's chain (issue 16): the probe renders as built, the firmware and the
+  // host know only its calibration, and the hand-eye is calibrated first on the reference sphere.
   Site site("inspect", kInspectPort);
   json config = json::parse(ReadText(site.dir / "hostd.json"));
-  config["probes"][0]["model_file"] = kProbe;
+  config["probes"][0]["model_file"] = kCalibratedModel;
   std::ofstream(site.dir / "hostd.json") << config.dump(1);
-  SaveSceneCalibration(site, kFeaturesBlock);
   Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
-  Child probe({kSim, "serve", "--probe", kProbe, "--scene", kFeaturesBlock, "--port",
-               std::to_string(kInspectPort), "--key", (site.dir / "probe.key").string()},
-              site.dir / "sim.log");
+  ASSERT_TRUE(site.WaitFor([&] { return fs::exists(site.socket); }));
+  CalibrateThroughChain(site, "vmc-1", kInspectPort);
+  if (HasFatalFailure()) return;
+  Child probe(AsBuiltProbeArgs(site, kFeaturesBlock, kInspectPort), site.dir / "sim.log");
   ASSERT_TRUE(ProbeConnected(site));
   const json inspection = json::parse(ReadText(kFeaturesBlock)).at("inspection");
   ASSERT_EQ(inspection.size(), 7u);

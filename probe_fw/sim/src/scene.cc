@@ -56,11 +56,11 @@ SolidPtr WithMaterial(SolidPtr solid, const json& node, const std::string& where
   const json& m = node.at("material");
   const std::string w = where + ".material";
   if (m.is_string()) {
-    for (const Finish& f : kFinishes) {
-      if (m.get<std::string>() == f.name) return MakeFinish(std::move(solid), f.gloss, f.diffuse);
+    try {
+      return MakeNamedFinish(std::move(solid), m.get<std::string>());
+    } catch (const SceneError& e) {
+      throw SceneError(std::string(e.what()).insert(7, w + ": "));  // after "scene: "
     }
-    Fail(w + ": unknown finish \"" + m.get<std::string>() +
-         "\" (matt_coated, ground_steel, milled_aluminium, cast_iron)");
   }
   if (!m.is_object()) Fail(w + " must be a finish name or an object");
   Gloss g;
@@ -147,6 +147,13 @@ SolidPtr ParseNode(const json& node, const std::string& where) {
 }
 
 }  // namespace
+
+SolidPtr MakeNamedFinish(SolidPtr solid, const std::string& name) {
+  for (const Finish& f : kFinishes) {
+    if (name == f.name) return MakeFinish(std::move(solid), f.gloss, f.diffuse);
+  }
+  Fail("unknown finish \"" + name + "\" (matt_coated, ground_steel, milled_aluminium, cast_iron)");
+}
 
 Scene ParseScene(const std::string& json_text) {
   const json j = jf::ParseDocument<SceneError>(json_text, "mlprobe-scene/1", "scene");

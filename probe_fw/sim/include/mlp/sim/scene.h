@@ -80,6 +80,10 @@ SolidPtr MakeChessboard(const Pose3& mcs_from_board,
 /// The same solid with every face given `gloss` and, when `diffuse` is >= 0, that diffuse
 /// reflectance (a finish: ground, milled, cast, coated).
 SolidPtr MakeFinish(SolidPtr solid, const Gloss& gloss, double diffuse = -1.0);
+/// The same solid in a named finish of machined parts (`matt_coated`, `ground_steel`,
+/// `milled_aluminium`, `cast_iron`: docs/PROBE.md, "Materials"); throws SceneError naming the
+/// known ones for any other name.
+SolidPtr MakeNamedFinish(SolidPtr solid, const std::string& name);
 SolidPtr MakeUnion(std::vector<SolidPtr> parts);
 SolidPtr MakeIntersection(std::vector<SolidPtr> parts);
 /// `a` minus every solid of `b`.
