@@ -241,10 +241,11 @@ inline std::vector<std::string> AsBuiltProbeArgs(const Site& site,
 }
 
 // The hand-eye through the product's chain, as at the machine before a part is measured: the
-// as-built probe looks at the demo plate's reference sphere from its 8 poses (every sample scene
-// mounts the probe alike: one virtual machine), the host plans with the calibrated model and
-// solves on `machine`; the record is the service's own. The site's probe entry must name the
-// calibrated model. The calibration's probe is stopped before this returns.
+// as-built probe looks at the demo plate's reference sphere from its 8 poses (the features block
+// mounts the probe alike: one virtual machine; the bore block's identity mounting does not), the
+// host plans with the calibrated model and solves on `machine`; the record is the service's own.
+// The site's probe entry must name the calibrated model. The calibration's probe is stopped before
+// this returns.
 inline void CalibrateThroughChain(const Site& site, const std::string& machine, int port) {
   {
     Child probe(AsBuiltProbeArgs(site, kDemoPlate, port), site.dir / "sim-calibrate.log");

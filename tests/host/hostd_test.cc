@@ -211,18 +211,21 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
 }
 
 // Seed 004's alignment on the demo plate (samples/scenes/demo_plate.json): top face A, holes B
-// and C -> G54 with its rotation about Z, against the scene's truth.
+// and C -> G54 with its rotation about Z, against the scene's truth, through the product's chain
+// (the as-built probe, its calibration, the hand-eye calibrated first).
 TEST(Hostd, AlignsThePlateToPlaneCircleCircle) {
   Site site("align", kAlignPort);
-  test::SaveSceneCalibration(site, test::kDemoPlate);
   Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
-  Child probe({kSim, "serve", "--probe", kProbe, "--scene", test::kDemoPlate, "--port",
-               std::to_string(kAlignPort), "--key", (site.dir / "probe.key").string()},
-              site.dir / "sim.log");
+  ASSERT_TRUE(site.WaitFor([&] { return fs::exists(site.socket); }));
+  test::CalibrateThroughChain(site, "lcnc-1", kAlignPort);
+  if (HasFatalFailure()) return;
+  Child probe(test::AsBuiltProbeArgs(site, test::kDemoPlate, kAlignPort), site.dir / "sim.log");
   ASSERT_TRUE(test::ProbeConnected(site));
-  const auto face = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "face_");
-  const auto b = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "b_wall");
-  const auto c = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "c_wall");
+  const probe_fw::Aoi aoi{874, 668, 300, 200};
+  const std::string& model = test::kCalibratedModel;
+  const auto face = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "face_", aoi, model);
+  const auto b = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "b_wall", aoi, model);
+  const auto c = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "c_wall", aoi, model);
   ASSERT_EQ(face.size(), 3u);
   ASSERT_EQ(b.size(), 4u);
   ASSERT_EQ(c.size(), 4u);
