@@ -241,16 +241,19 @@ inline std::vector<std::string> AsBuiltProbeArgs(const Site& site,
 }
 
 // The hand-eye through the product's chain, as at the machine before a part is measured: the
-// as-built probe looks at the demo plate's reference sphere from its 8 poses (the features block
-// mounts the probe alike: one virtual machine; the bore block's identity mounting does not), the
-// host plans with the calibrated model and solves on `machine`; the record is the service's own.
-// The site's probe entry must name the calibrated model. The calibration's probe is stopped before
-// this returns.
-inline void CalibrateThroughChain(const Site& site, const std::string& machine, int port) {
+// as-built probe looks at a reference sphere from the 8 poses of `sphere_scene` (its captures
+// sphere_*; by default the demo plate's, whose mounting the features block shares: one virtual
+// machine), the host plans with the calibrated model and solves on `machine`; the record is the
+// service's own. The site's probe entry must name the calibrated model for plans. The
+// calibration's probe is stopped before this returns.
+inline void CalibrateThroughChain(const Site& site,
+                                  const std::string& machine,
+                                  int port,
+                                  const std::string& sphere_scene = kDemoPlate) {
   {
-    Child probe(AsBuiltProbeArgs(site, kDemoPlate, port), site.dir / "sim-calibrate.log");
+    Child probe(AsBuiltProbeArgs(site, sphere_scene, port), site.dir / "sim-calibrate.log");
     ASSERT_TRUE(ProbeConnected(site));
-    const auto ids = CaptureSceneViews(site, machine, kDemoPlate, "sphere_", {824, 618, 400, 300},
+    const auto ids = CaptureSceneViews(site, machine, sphere_scene, "sphere_", {824, 618, 400, 300},
                                        kCalibratedModel);
     ASSERT_EQ(ids.size(), 8u);
     const json request = {
@@ -267,7 +270,7 @@ inline void CalibrateThroughChain(const Site& site, const std::string& machine, 
                             m["rotation_vector_rad"][2].get<double>());
     const probe_fw::Aoi window{824, 618, 400, 300};
     const geometry::Pose3 truth =
-        sim::LoadScene(kDemoPlate).flange_from_probe *
+        sim::LoadScene(sphere_scene).flange_from_probe *
         sim::TrueFromModelFrame(sim::LoadAsBuilt(kAsBuilt),
                                 probe_fw::LoadProbeModel(kCalibratedModel), &window);
     const Eigen::AngleAxisd e(Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix() *
