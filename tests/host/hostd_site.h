@@ -222,6 +222,48 @@ inline json BoreMeasureJob(const std::vector<std::int64_t>& captures, double nom
         {"upper_limit_mm", 0.5}}}};
 }
 
+// A sphere scene for the hand-eye: the reference sphere (R 12.7) on the table, the probe mounted
+// with a known M, captures from directions on a cone around the sphere with the spindle
+// oriented differently each time (translations alone would not determine M and c).
+inline constexpr int kSphereViews = 8;
+inline json ReferenceSphereScene(const geometry::Pose3& flange_from_probe,
+                                 const geometry::Vec3& centre) {
+  json captures = json::array();
+  for (int k = 0; k < kSphereViews; ++k) {
+    const double tilt = (10.0 + 25.0 * (k % 3) / 2.0) * M_PI / 180,
+                 az = k * 2 * M_PI / kSphereViews;
+    const geometry::Vec3 view(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az),
+                              -std::cos(tilt));  // camera z: towards the sphere
+    geometry::Pose3 mcs_from_probe = geometry::Pose3::Identity();
+    const geometry::Vec3 x = view.unitOrthogonal();
+    const double roll = 0.7 * k;  // spindle orientation (M19)
+    const geometry::Vec3 xr = std::cos(roll) * x + std::sin(roll) * view.cross(x);
+    mcs_from_probe.linear() << xr, view.cross(xr), view;
+    // The sphere at different places in the view and distances: were it always on the optical
+    // axis at one range, M's tilt would trade against its offset along the axis.
+    const geometry::Vec3 in_view(4.0 * std::cos(1.9 * k), 3.0 * std::sin(2.3 * k),
+                                 118.0 + 8.0 * std::sin(1.3 * k));
+    mcs_from_probe.translation() = centre - mcs_from_probe.linear() * in_view;
+    const geometry::Pose3 h = mcs_from_probe * flange_from_probe.inverse();
+    const Eigen::AngleAxisd r(h.linear());
+    const geometry::Vec3 rv = r.axis() * r.angle(), t = h.translation();
+    captures.push_back({{"id", "sphere_" + std::to_string(k)},
+                        {"mcs_from_flange",
+                         {{"translation_mm", {t.x(), t.y(), t.z()}},
+                          {"rotation_vector_rad", {rv.x(), rv.y(), rv.z()}}}}});
+  }
+  const Eigen::AngleAxisd m(flange_from_probe.linear());
+  const geometry::Vec3 mv = m.axis() * m.angle(), mt = flange_from_probe.translation();
+  return {{"format", "mlprobe-scene/1"},
+          {"flange_from_probe",
+           {{"translation_mm", {mt.x(), mt.y(), mt.z()}},
+            {"rotation_vector_rad", {mv.x(), mv.y(), mv.z()}}}},
+          {"workpiece",
+           {{"sphere", {{"center", {centre.x(), centre.y(), centre.z()}}, {"radius", 12.7}}},
+            {"reflectance", 0.6}}},
+          {"captures", captures}};
+}
+
 // The virtual probe on the link rendering as built, its firmware given the calibrated model.
 inline std::vector<std::string> AsBuiltProbeArgs(const Site& site,
                                                  const std::string& scene,
