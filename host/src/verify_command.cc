@@ -6,10 +6,12 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <ostream>
 #include <sstream>
 
+#include "verify_plot.h"
 #include <nlohmann/json.hpp>
 
 namespace mlp::host {
@@ -24,7 +26,7 @@ constexpr const char* kUsage =
     "                  [--probing-views N]"
     " [--orientations N] [--spheres N] [--seed N] [--quick]\n"
     "                  [--mpe-form-um U] [--mpe-dispersion-um U] [--mpe-size-um U]\n"
-    "                  [--mpe-size-1x25-um U] [--mpe-length A,K] [--json]\n"
+    "                  [--mpe-size-1x25-um U] [--mpe-length A,K] [--json] [--svg FILE]\n"
     "  the probe's acceptance test in the manner of ISO 10360-8 on the virtual machine: the\n"
     "  virtual probe renders as built, the firmware and the host use only its calibration;\n"
     "  the hand-eye is calibrated on a matt sphere first. Per finish: the probing form and\n"
@@ -46,6 +48,8 @@ constexpr const char* kUsage =
     "                  dispersion P_Form.Sph.D95% (20), size P_Size.Sph.All (3), size-1x25\n"
     "                  (25); --mpe-length A,K: E_Uni's MPE A + L/K um, L in mm (3,100)\n"
     "  --json          the whole result as JSON on stdout (progress stays on stderr)\n"
+    "  --svg           a picture: E_Uni against its MPE envelope, the probing views' form\n"
+    "                  figures against theirs\n"
     "exit codes: 0 every figure within its MPE, 3 a figure beyond it, 2 bad arguments or\n"
     "files, 7 the chain failed (the reason is printed), 1 bug\n";
 constexpr int kExitBeyondMpe = 3;
@@ -97,7 +101,18 @@ struct Parsed {
   verify::AcceptanceOptions options;
   Mpe mpe;
   bool json = false;
+  std::string svg_path;  ///< the picture, when asked for
 };
+
+// The picture, whole or not at all: a temporary file renamed over the path.
+void WriteSvg(const std::string& path, const std::string& svg) {
+  const std::string tmp = path + ".tmp";
+  std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+  out << svg;
+  out.close();
+  if (!out) throw verify::VerifyError("cannot write " + tmp);
+  fs::rename(tmp, path);
+}
 
 Parsed ParseArgs(const std::vector<std::string>& args) {
   Parsed p;
@@ -116,7 +131,9 @@ Parsed ParseArgs(const std::vector<std::string>& args) {
     }
     if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
     const std::string& v = args[++i];
-    if (a == "--probe") {
+    if (a == "--svg") {
+      p.svg_path = v;
+    } else if (a == "--probe") {
       p.options.as_built_path = v;
     } else if (a == "--calibrated") {
       p.options.calibrated_path = v;
@@ -323,6 +340,7 @@ int RunVerifyCommand(const std::vector<std::string>& args, std::ostream& out, st
     const verify::AcceptanceResult r = verify::RunAcceptance(p.options);
     bool within = false;
     const json j = ToJson(r, p.mpe, &within);
+    if (!p.svg_path.empty()) WriteSvg(p.svg_path, VerifyPlotSvg(j));
     if (p.json)
       out << j.dump(2) << "\n";
     else

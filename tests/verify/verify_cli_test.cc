@@ -5,6 +5,9 @@
 // hand-eye is calibrated on a matt sphere first. Matt coated and ground steel.
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "process_run.h"
@@ -36,8 +39,10 @@ const json* FindTest(const json& finish, const std::string& name) {
 }
 
 TEST(VerifyCli, QuickAcceptanceThroughTheCalibratedChainMeetsTheIssueFigures) {
-  const auto run =
-      RunProcess(kMlp + " verify --quick --f-number 4.8 --speckle-contrast 0.3 --json");
+  const std::string svg = "/tmp/mlp_verify_cli_test.svg";
+  std::remove(svg.c_str());
+  const auto run = RunProcess(
+      kMlp + " verify --quick --f-number 4.8 --speckle-contrast 0.3 --json" + " --svg " + svg);
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;  // every figure within the declared MPEs
   const json r = json::parse(run.out);
   for (const json& f : r.at("finishes")) {
@@ -68,6 +73,17 @@ TEST(VerifyCli, QuickAcceptanceThroughTheCalibratedChainMeetsTheIssueFigures) {
       EXPECT_TRUE(t->at("within").get<bool>()) << name;
     }
   }
+  // The picture: one marker with its tooltip per length, both panels, the world said.
+  std::ifstream in(svg);
+  const std::string picture((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(picture.rfind("<svg", 0), 0u) << svg;
+  size_t titles = 0;
+  for (size_t at = picture.find("<title>"); at != std::string::npos;
+       at = picture.find("<title>", at + 1))
+    ++titles;
+  EXPECT_EQ(titles, 8u);  // 2 finishes x 4 lengths
+  for (const char* s : {"E_Uni", "probing form", "virtual machine", "ground_steel"})
+    EXPECT_NE(picture.find(s), std::string::npos) << s;
 }
 
 TEST(VerifyCli, TheReadableSummaryNamesEveryTestAndItsWorld) {
