@@ -74,11 +74,6 @@ class DemoError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-fs::path SelfDir() {
-  std::error_code ec;
-  return fs::read_symlink("/proc/self/exe", ec).parent_path();
-}
-
 std::string RandomKeyHex() {
   std::random_device rd;
   std::string hex;
@@ -301,9 +296,7 @@ int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std:
       else
         throw UsageError("unknown argument " + args[i]);
     }
-    if (d.samples.empty())
-      d.samples = fs::exists(SelfDir() / "../../samples") ? SelfDir() / "../../samples"
-                                                          : fs::path("samples");
+    if (d.samples.empty()) d.samples = DefaultSamplesDir();
     if (d.dir.empty())
       d.dir = fs::temp_directory_path() / ("mlprobe-demo-" + std::to_string(getpid()));
     d.dir = fs::absolute(d.dir);
@@ -316,10 +309,11 @@ int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std:
     const fs::path calibrated = d.samples / "probes" / "as_built" / "MLP-AB-0001.calibrated.json";
     WriteSite(d);
     d.out << "mlp demo: the virtual machine in " << d.dir.string() << "\n";
-    Child hostd({(SelfDir() / "mlp-hostd").string(), "--config", (d.dir / "hostd.json").string()},
-                d.dir / "hostd.log");
+    Child hostd(
+        {(ProgramDir() / "mlp-hostd").string(), "--config", (d.dir / "hostd.json").string()},
+        d.dir / "hostd.log");
     WaitFor([&] { return fs::exists(d.socket); }, "mlp-hostd did not start: see hostd.log");
-    Child sim({(SelfDir() / "mlp-sim").string(), "serve", "--probe", as_built.string(),
+    Child sim({(ProgramDir() / "mlp-sim").string(), "serve", "--probe", as_built.string(),
                "--firmware-model", calibrated.string(), "--scene", scene.string(), "--port",
                std::to_string(d.port), "--key", (d.dir / "probe.key").string()},
               d.dir / "probe.log");

@@ -29,15 +29,6 @@ struct FitRequest {
   geometry::RobustOptions robust;
 };
 
-double ParseNumber(const std::string& flag, const std::string& value) {
-  char* end = nullptr;
-  const double v = std::strtod(value.c_str(), &end);
-  if (value.empty() || *end != '\0' || !std::isfinite(v)) {
-    throw UsageError(flag + " needs a number, got '" + value + "'");
-  }
-  return v;
-}
-
 FitRequest ParseArgs(const std::vector<std::string>& args) {
   FitRequest req;
   std::vector<std::string> positional;

@@ -67,24 +67,8 @@ struct Mpe {
   double Length(double length_mm) const { return length_a_um + length_mm / length_k; }
 };
 
-fs::path SelfDir() {
-  std::error_code ec;
-  return fs::read_symlink("/proc/self/exe", ec).parent_path();
-}
-
-double Number(const std::string& flag, const std::string& text) {
-  size_t used = 0;
-  double v = NAN;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-  }
-  if (used != text.size() || !std::isfinite(v)) throw UsageError(flag + " needs a number");
-  return v;
-}
-
 int Count(const std::string& flag, const std::string& text) {
-  const double v = Number(flag, text);
+  const double v = ParseNumber(flag, text);
   if (v != std::floor(v)) throw UsageError(flag + " needs a whole number");
   return static_cast<int>(v);
 }
@@ -93,7 +77,7 @@ verify::Finish ParseFinish(const std::string& text) {
   verify::Finish f;
   const size_t colon = text.find(':');
   f.material = text.substr(0, colon);
-  f.exposure = colon == std::string::npos ? 1.0 : Number("--finish", text.substr(colon + 1));
+  f.exposure = colon == std::string::npos ? 1.0 : ParseNumber("--finish", text.substr(colon + 1));
   return f;
 }
 
@@ -140,9 +124,9 @@ Parsed ParseArgs(const std::vector<std::string>& args) {
     } else if (a == "--finish") {
       finishes.push_back(ParseFinish(v));
     } else if (a == "--f-number") {
-      p.options.f_number = Number(a, v);
+      p.options.f_number = ParseNumber(a, v);
     } else if (a == "--speckle-contrast") {
-      p.options.speckle_contrast = Number(a, v);
+      p.options.speckle_contrast = ParseNumber(a, v);
     } else if (a == "--hand-eye-views") {
       p.options.hand_eye_views = Count(a, v);
     } else if (a == "--probing-views") {
@@ -154,18 +138,18 @@ Parsed ParseArgs(const std::vector<std::string>& args) {
     } else if (a == "--seed") {
       p.options.seed = static_cast<std::uint64_t>(Count(a, v));
     } else if (a == "--mpe-form-um") {
-      p.mpe.form_um = Number(a, v);
+      p.mpe.form_um = ParseNumber(a, v);
     } else if (a == "--mpe-dispersion-um") {
-      p.mpe.dispersion_um = Number(a, v);
+      p.mpe.dispersion_um = ParseNumber(a, v);
     } else if (a == "--mpe-size-um") {
-      p.mpe.size_um = Number(a, v);
+      p.mpe.size_um = ParseNumber(a, v);
     } else if (a == "--mpe-size-1x25-um") {
-      p.mpe.size_1x25_um = Number(a, v);
+      p.mpe.size_1x25_um = ParseNumber(a, v);
     } else if (a == "--mpe-length") {
       const size_t comma = v.find(',');
       if (comma == std::string::npos) throw UsageError("--mpe-length needs A,K");
-      p.mpe.length_a_um = Number(a, v.substr(0, comma));
-      p.mpe.length_k = Number(a, v.substr(comma + 1));
+      p.mpe.length_a_um = ParseNumber(a, v.substr(0, comma));
+      p.mpe.length_k = ParseNumber(a, v.substr(comma + 1));
     } else {
       throw UsageError("unknown argument " + a);
     }
@@ -176,8 +160,7 @@ Parsed ParseArgs(const std::vector<std::string>& args) {
         m.length_a_um > 0 && m.length_k > 0))
     throw UsageError("the MPEs must be positive");
   if (p.options.as_built_path.empty()) {
-    const fs::path samples =
-        fs::exists(SelfDir() / "../../samples") ? SelfDir() / "../../samples" : fs::path("samples");
+    const fs::path samples = DefaultSamplesDir();
     p.options.as_built_path = (samples / "probes" / "as_built" / "MLP-AB-0001.json").string();
   }
   if (p.options.calibrated_path.empty()) {

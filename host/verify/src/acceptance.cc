@@ -113,7 +113,7 @@ double Range(const std::vector<double>& r) {
 std::vector<double> RadialResiduals(const geometry::Points3& p, const geometry::Sphere& s) {
   std::vector<double> r(static_cast<size_t>(p.cols()));
   for (Eigen::Index i = 0; i < p.cols(); ++i)
-    r[static_cast<size_t>(i)] = (p.col(i) - s.center).norm() - s.radius;
+    r[static_cast<size_t>(i)] = geometry::SignedDistance(s, p.col(i));
   return r;
 }
 

@@ -1,8 +1,10 @@
 #pragma once
-/// @file What the host's command-line tools share: exit codes and the error for unusable
-/// arguments.
+/// @file What the host's command-line tools share: exit codes, the error for unusable
+/// arguments, reading a number argument, and where the programs and the samples are.
 
+#include <filesystem>
 #include <stdexcept>
+#include <string>
 
 namespace mlp::host {
 
@@ -18,5 +20,15 @@ class UsageError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+/// A finite number, the whole of `value`; otherwise UsageError naming `flag`.
+double ParseNumber(const std::string& flag, const std::string& value);
+
+/// The folder of the running program (its siblings: mlp-hostd, mlp-sim, ...).
+std::filesystem::path ProgramDir();
+
+/// The samples folder: ../../samples from the program (a build tree in the checkout), else
+/// ./samples.
+std::filesystem::path DefaultSamplesDir();
 
 }  // namespace mlp::host
