@@ -21,8 +21,9 @@ clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-reco
 mkdir -p "$out/corpus-images"
 cp -n tests/fuzz/images/* "$out/corpus-images/"  # seeds: one valid file of each kind
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-  -Iprobe_fw/format/include -Igeometry/include -I/usr/include/eigen3 -I/usr/include/opencv4 \
-  probe_fw/format/src/{frame_io,png_io,bmp_io}.cc tests/fuzz/image_fuzz.cc \
+  -Iprobe_fw/format/include -Igeometry/include -Igeometry/base/include -I/usr/include/eigen3 \
+  -I/usr/include/opencv4 probe_fw/format/src/{frame_io,png_io,bmp_io}.cc \
+  geometry/base/src/files.cc tests/fuzz/image_fuzz.cc \
   -lpng -lopencv_imgproc -lopencv_core -o "$out/image_fuzz"
 "$out/image_fuzz" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=2048 \
   -print_final_stats=1 "$out/corpus-images" 2>&1 | tail -n 12

@@ -1,5 +1,6 @@
 #include "mlp/calib/board_hand_eye.h"
 
+#include "mlp/base/units.h"
 #include "mlp/geometry/robust.h"
 #include "mlp/probe_fw/probe_model.h"
 
@@ -421,8 +422,8 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
                                           r.start_flange_from_camera, board);
   const double robot_cap_mm = std::max(kMinRobotMm, start.rms_mm);
   ClassSigmas sigmas{std::max(0.05, cal.camera.rms_reprojection_px),
-                     std::max(0.005, cal.plane_rms_mm), o.robot_rotation_sigma_deg * M_PI / 180.0,
-                     robot_cap_mm};
+                     std::max(0.005, cal.plane_rms_mm),
+                     o.robot_rotation_sigma_deg / base::kDegPerRad, robot_cap_mm};
   std::unique_ptr<JointProblem> joint;
   ceres::Solver::Summary summary;
   for (int pass = 0; pass < kMaxVariancePasses; ++pass) {
@@ -438,7 +439,7 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
     sigmas = seen;
   }
   r.corner_sigma_px = sigmas.px, r.laser_sigma_mm = sigmas.mm;
-  r.robot_sigma_mm = sigmas.robot_mm, r.robot_sigma_deg = sigmas.robot_rad * 180.0 / M_PI;
+  r.robot_sigma_mm = sigmas.robot_mm, r.robot_sigma_deg = sigmas.robot_rad * base::kDegPerRad;
   r.corners_used = joint->corners(), r.laser_points_used = joint->laser_points();
   r.flange_from_camera = FromParams(p.x.data());
   r.base_from_board = FromParams(p.b.data());
@@ -490,7 +491,7 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
     im.name = f.name;
     const Pose3 d = FromParams(p.robot[i].data());
     im.robot_error_mm = d.translation().norm();
-    im.robot_error_deg = Eigen::AngleAxisd(d.linear()).angle() * 180.0 / M_PI;
+    im.robot_error_deg = Eigen::AngleAxisd(d.linear()).angle() * base::kDegPerRad;
     const auto used = std::find(cal.board_images.begin(), cal.board_images.end(), int(i));
     if (used != cal.board_images.end()) {
       const Pose3 camera_from_board =

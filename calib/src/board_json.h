@@ -2,9 +2,10 @@
 // What the views manifests (mlprobe-board-views/1, mlprobe-robot-views/1) share: reading the
 // file and its "board" object.
 
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
 #include "mlp/calib/camera_calib.h"
 #include "mlp/calib/capture_io.h"
-#include "mlp/probe_fw/json_fields.h"
 
 #include <fstream>
 #include <sstream>
@@ -13,15 +14,11 @@
 namespace mlp::calib {
 
 inline std::string ReadTextFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw CaptureIoError("cannot read " + path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
+  return base::ReadFileAs<CaptureIoError>(path);
 }
 
-inline ChessboardSpec ParseBoard(const probe_fw::json_fields::json& j, const std::string& where) {
-  namespace jf = probe_fw::json_fields;
+inline ChessboardSpec ParseBoard(const base::json_fields::json& j, const std::string& where) {
+  namespace jf = base::json_fields;
   const jf::json& b = jf::Object<CaptureIoError>(j, "board", where);
   ChessboardSpec s;
   s.inner_cols = jf::Integer<CaptureIoError>(b, "inner_cols", where + ".board");

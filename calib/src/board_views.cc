@@ -1,8 +1,8 @@
 #include "mlp/calib/board_views.h"
 
+#include "mlp/base/json_fields.h"
 #include "mlp/calib/capture_io.h"
 #include "mlp/probe_fw/frame_io.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/probe_fw/stripe_file.h"
 
 #include <filesystem>
@@ -14,7 +14,7 @@
 namespace mlp::calib {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 namespace fs = std::filesystem;
 constexpr const char* kFormat = "mlprobe-board-views/1";
 constexpr int kMaxViews = 1000;

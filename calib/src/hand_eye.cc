@@ -1,5 +1,6 @@
 #include "mlp/calib/hand_eye.h"
 
+#include "mlp/base/units.h"
 #include "mlp/geometry/error.h"
 #include "mlp/geometry/fit.h"
 #include "mlp/geometry/robust.h"
@@ -815,7 +816,7 @@ void HandEyeOptions::Check() const {
 }
 
 Pose3 PoseFromXyzWpr(double x, double y, double z, double w_deg, double p_deg, double r_deg) {
-  const double k = M_PI / 180.0;
+  const double k = 1.0 / base::kDegPerRad;
   Pose3 pose = Pose3::Identity();
   pose.linear() =
       (Eigen::AngleAxisd(r_deg * k, Vec3::UnitZ()) * Eigen::AngleAxisd(p_deg * k, Vec3::UnitY()) *

@@ -1,5 +1,7 @@
 #include "mlp/calib/probe_calib.h"
 
+#include "mlp/base/units.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -161,7 +163,7 @@ void CheckSheetTerms(const ProbeCalibInput& in,
   const auto sigma = SheetTermStd(problem, proj);
   // The smile's effect at the camera's field edge: t there is about cy / fy (half the height).
   const double edge_t = in.camera_start.cy_px / in.camera_start.fy_px;
-  const double edge_r = edge_t / std::tan(p0.fan_half_angle_deg * M_PI / 180.0);
+  const double edge_r = edge_t / std::tan(p0.fan_half_angle_deg / base::kDegPerRad);
   result->mirror_cubic_std_cols = sigma[0];
   result->smile_std_cols = sigma[1] * edge_r * edge_r;
   std::vector<int> held;
@@ -310,7 +312,7 @@ ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
   double proj[4] = {p0.f_px, p0.c_px, p0.mirror_cubic_cols, p0.sheet_smile_cols};
   const bool curved = p0.columns > 0;
   const double half_columns = curved ? 0.5 * p0.columns : 1.0;
-  const double tan_fan = std::tan(p0.fan_half_angle_deg * M_PI / 180.0);
+  const double tan_fan = std::tan(p0.fan_half_angle_deg / base::kDegPerRad);
   double proj_r[3], proj_t[3];
   ToAngleAxis(in.projector_start.camera_from_projector, proj_r, proj_t);
   std::vector<std::array<double, 6>> boards(views);

@@ -1,5 +1,6 @@
 #include "mlp/calib/recheck.h"
 
+#include "mlp/base/units.h"
 #include "mlp/geometry/error.h"
 #include "mlp/geometry/robust.h"
 
@@ -262,8 +263,8 @@ RecheckResult Recheck(const std::vector<RecheckCapture>& captures, const Recheck
   } else if (result.offset_in_flange_mm.norm() > o.max_offset_mm) {
     why << "the mount moved " << result.offset_in_flange_mm.norm() << " mm (quick fix limit "
         << o.max_offset_mm << " mm)";
-  } else if (change.angle() * 180.0 / M_PI > o.max_rotation_deg) {
-    why << "the mount turned " << change.angle() * 180.0 / M_PI << " degrees (quick fix limit "
+  } else if (change.angle() * base::kDegPerRad > o.max_rotation_deg) {
+    why << "the mount turned " << change.angle() * base::kDegPerRad << " degrees (quick fix limit "
         << o.max_rotation_deg << " degrees)";
   } else if (result.residual_after_rms_mm > o.max_residual_mm) {
     why << "after the best rigid correction the sphere centres still disagree by "

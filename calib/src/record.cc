@@ -1,6 +1,7 @@
 #include "mlp/calib/record.h"
 
-#include "mlp/probe_fw/json_fields.h"
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -14,13 +15,10 @@
 #include <sstream>
 #include <tuple>
 
-#include <fcntl.h>
-#include <unistd.h>
-
 namespace mlp::calib {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;
 
@@ -294,23 +292,11 @@ std::string CalibrationStore::Save(CalibrationRecord record) const {
   const auto existing = List(record.probe_serial);
   record.sequence = existing.empty() ? 1 : existing.back().sequence + 1;
   const fs::path final_path = dir / (record.calibration_id + ".json");
-  const fs::path temp = dir / ("." + record.calibration_id + ".tmp");
-  const std::string text = ToJson(record);
-  const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644);
-  if (fd < 0) throw RecordError("cannot write " + temp.string() + ": " + std::strerror(errno));
-  const bool written = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size()) &&
-                       ::fsync(fd) == 0;
-  ::close(fd);
-  // A hard link fails if the name exists: a record is never replaced, even by a racing writer.
-  const bool linked = written && ::link(temp.c_str(), final_path.c_str()) == 0;
-  const int link_errno = errno;
-  ::unlink(temp.c_str());
-  if (!linked) {
-    throw RecordError("cannot store " + final_path.string() + ": " +
-                      (written ? std::strerror(link_errno) : "write failed"));
+  try {
+    base::WriteFileAtomically(final_path.string(), ToJson(record), base::Replace::kNever);
+  } catch (const base::FileError& e) {
+    throw RecordError(std::string("cannot store the record: ") + e.what());
   }
-  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
-  if (dfd >= 0) ::fsync(dfd), ::close(dfd);
   return record.calibration_id;
 }
 
@@ -318,12 +304,12 @@ CalibrationRecord CalibrationStore::Load(const std::string& serial, const std::s
   CheckSerial(serial);
   CheckSerial(id);
   const fs::path path = fs::path(root_) / serial / (id + ".json");
-  std::ifstream in(path);
-  if (!in) throw RecordError("no calibration " + id + " of probe " + serial + " in " + root_);
-  std::stringstream text;
-  text << in.rdbuf();
+  if (!fs::exists(path))
+    throw RecordError("no calibration " + id + " of probe " + serial + " in " + root_);
   try {
-    return ParseRecord(text.str());
+    return ParseRecord(base::ReadFile(path.string()));
+  } catch (const base::FileError& e) {
+    throw RecordError(e.what());
   } catch (const RecordError& e) {
     throw RecordError(path.string() + ": " + e.what());
   }

@@ -1,7 +1,7 @@
 #include "mlp/calib/robot_views.h"
 
+#include "mlp/base/json_fields.h"
 #include "mlp/calib/capture_io.h"
-#include "mlp/probe_fw/json_fields.h"
 
 #include <cmath>
 #include <filesystem>
@@ -14,7 +14,7 @@
 namespace mlp::calib {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 namespace fs = std::filesystem;
 constexpr const char* kFormat = "mlprobe-robot-views/1";
 constexpr int kMaxImages = 10000;

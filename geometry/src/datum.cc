@@ -1,5 +1,6 @@
 #include "mlp/geometry/datum.h"
 
+#include "mlp/base/units.h"
 #include "mlp/geometry/error.h"
 
 #include <cmath>
@@ -7,7 +8,6 @@
 namespace mlp::geometry {
 namespace {
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 // Below this sine the secondary direction is too close to the plane normal to define X.
 constexpr double kMinProjectedSine = 1e-6;
 
@@ -56,13 +56,13 @@ WorkOffsetReading ReadWorkOffset(const Pose3& mcs_from_work) {
   WorkOffsetReading r;
   const Mat3 rot = mcs_from_work.linear();
   r.origin_mm = mcs_from_work.translation();
-  r.rotation_z_deg = std::atan2(rot(1, 0), rot(0, 0)) * kRadToDeg;
-  r.tilt_deg = std::acos(std::clamp(rot(2, 2), -1.0, 1.0)) * kRadToDeg;
+  r.rotation_z_deg = std::atan2(rot(1, 0), rot(0, 0)) * base::kDegPerRad;
+  r.tilt_deg = std::acos(std::clamp(rot(2, 2), -1.0, 1.0)) * base::kDegPerRad;
   // R = Rz(c) Ry(b) Rx(a).
   const double b = std::asin(std::clamp(-rot(2, 0), -1.0, 1.0));
   const double a = std::atan2(rot(2, 1), rot(2, 2));
   const double c = std::atan2(rot(1, 0), rot(0, 0));
-  r.euler_zyx_deg = Vec3(a, b, c) * kRadToDeg;
+  r.euler_zyx_deg = Vec3(a, b, c) * base::kDegPerRad;
   return r;
 }
 

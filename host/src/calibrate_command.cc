@@ -1,5 +1,7 @@
 #include "mlp/host/calibrate_command.h"
 
+#include "mlp/base/json_fields.h"
+#include "mlp/base/units.h"
 #include "mlp/calib/camera_calib.h"
 #include "mlp/calib/capture_io.h"
 #include "mlp/calib/hand_eye.h"
@@ -8,7 +10,6 @@
 #include "mlp/host/cli.h"
 #include "mlp/host/cloud_io.h"
 #include "mlp/probe_fw/cloud_file.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/probe_fw/probe_model.h"
 
 #include <filesystem>
@@ -25,7 +26,7 @@
 namespace mlp::host {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 namespace fs = std::filesystem;
 using calib::Pose3;
 using calib::Vec3;
@@ -178,11 +179,7 @@ geometry::Points3 ReadPoints(const fs::path& path, const jf::json& c, const std:
 }
 
 Manifest LoadManifest(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw UsageError("cannot open " + path);
-  std::stringstream text;
-  text << in.rdbuf();
-  const jf::json j = jf::ParseDocument<UsageError>(text.str(), kManifestFormat, path);
+  const jf::json j = jf::ParseDocument<UsageError>(ReadInputFile(path), kManifestFormat, path);
   Manifest m;
   m.probe_serial = jf::Text<UsageError>(j, "probe_serial", "manifest");
   m.radius_mm = jf::Number<UsageError>(j, "sphere_radius_mm", "manifest");
@@ -366,7 +363,7 @@ int Recheck(const Args& a, std::ostream& out, std::ostream& err) {
   } else {
     out << "recheck of probe " << m.probe_serial << " against " << original->calibration_id << "\n"
         << "  offset " << Vec(r.offset_in_flange_mm * 1e3, 2) << " um (flange frame)\n"
-        << "  rotation " << Vec(r.rotation_in_flange_rad * 180 / M_PI * 3600, 2) << " arcsec\n";
+        << "  rotation " << Vec(r.rotation_in_flange_rad * base::kArcsecPerRad, 2) << " arcsec\n";
     if (a.sphere_moved) out << "  sphere moved " << Vec(r.centre_shift_mm * 1e3, 2) << " um\n";
     out << "  centre residual after the correction " << Fixed(r.residual_after_rms_mm * 1e3, 2)
         << " um RMS; apparent radius change " << Fixed(r.apparent_radius_change_mm * 1e3, 2)

@@ -1,10 +1,11 @@
 #include "calibrate_optics.h"
 
+#include "mlp/base/json_fields.h"
+#include "mlp/base/units.h"
 #include "mlp/calib/board_views.h"
 #include "mlp/calib/capture_io.h"
 #include "mlp/calib/probe_calib.h"
 #include "mlp/host/cli.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/probe_fw/probe_model.h"
 
 #include <chrono>
@@ -94,17 +95,6 @@ json ViewsJson(const calib::BoardViews& v, const calib::CameraCalibration& c) {
   return views;
 }
 
-void WriteAtomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::trunc);
-    f << text;
-    f.flush();
-    if (!f) throw UsageError("cannot write " + tmp);
-  }
-  fs::rename(tmp, path);
-}
-
 void PrintIntrinsics(std::ostream& out, const calib::Intrinsics& k, const calib::Intrinsics* sd) {
   const auto pm = [&](double v, double s, int digits) {
     return Fixed(v, digits) + (sd ? " +- " + Fixed(s, digits) : std::string());
@@ -132,7 +122,7 @@ int Camera(const Options& o, std::ostream& out, std::ostream& err) {
   j["std_dev"] = IntrinsicsJson(c.std_dev);
   j["rms_reprojection_px"] = c.rms_reprojection_px;
   j["views"] = ViewsJson(v, c);
-  if (!o.out.empty()) WriteAtomically(o.out, j.dump(2) + "\n");
+  if (!o.out.empty()) WriteOutputFile(o.out, j.dump(2) + "\n");
   if (o.json) {
     out << j.dump(2) << "\n";
     return kExitOk;
@@ -169,7 +159,7 @@ json ProjectorJson(const probe_fw::ProbeModel& m,
   j["projector"] = {{"f_px", r.result.projector.f_px},
                     {"c_px", r.result.projector.c_px},
                     {"camera_from_projector",
-                     probe_fw::json_fields::PoseToJson(r.result.projector.camera_from_projector)},
+                     base::json_fields::PoseToJson(r.result.projector.camera_from_projector)},
                     {"mirror_cubic_cols", r.result.projector.mirror_cubic_cols},
                     {"mirror_cubic_std_cols", r.result.mirror_cubic_std_cols},
                     {"sheet_smile_cols", r.result.projector.sheet_smile_cols},
@@ -200,7 +190,7 @@ void PrintProjector(std::ostream& out,
       << Fixed(design.projector.f_px, 2) << "), centre column " << Fixed(res.projector.c_px, 2)
       << " (design " << Fixed(design.projector.c_px, 2) << ")\n"
       << "  projector pose vs design: " << Vec(d.translation(), 3) << " mm, "
-      << Fixed(turn.angle() * 180.0 / M_PI, 4) << " deg\n"
+      << Fixed(turn.angle() * base::kDegPerRad, 4) << " deg\n"
       << "  mirror cubic " << Fixed(res.projector.mirror_cubic_cols, 3) << " +- "
       << Fixed(res.mirror_cubic_std_cols, 3) << " columns, sheet smile "
       << Fixed(res.projector.sheet_smile_cols, 3) << " +- " << Fixed(res.smile_std_cols, 3)

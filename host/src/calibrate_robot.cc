@@ -1,12 +1,13 @@
 #include "calibrate_robot.h"
 
+#include "mlp/base/json_fields.h"
+#include "mlp/base/units.h"
 #include "mlp/calib/board_hand_eye.h"
 #include "mlp/calib/line_laser.h"
 #include "mlp/calib/record.h"
 #include "mlp/calib/robot_views.h"
 #include "mlp/host/cli.h"
 #include "mlp/probe_fw/cloud_file.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/probe_fw/probe_model.h"
 #include "mlp/probe_fw/triangulate.h"
 
@@ -235,9 +236,9 @@ json HandEyeJson(const calib::BoardHandEyeResult& r, const HandEyeFigures& f) {
   json sd = json::array();
   for (int i = 0; i < 6; ++i) sd.push_back(std::sqrt(r.covariance(i, i)));
   return {
-      {"flange_from_probe", probe_fw::json_fields::PoseToJson(r.flange_from_camera)},
-      {"start_flange_from_probe", probe_fw::json_fields::PoseToJson(r.start_flange_from_camera)},
-      {"base_from_board", probe_fw::json_fields::PoseToJson(r.base_from_board)},
+      {"flange_from_probe", base::json_fields::PoseToJson(r.flange_from_camera)},
+      {"start_flange_from_probe", base::json_fields::PoseToJson(r.start_flange_from_camera)},
+      {"base_from_board", base::json_fields::PoseToJson(r.base_from_board)},
       {"std_dev",
        {{"parameters", {"rx_rad", "ry_rad", "rz_rad", "tx_mm", "ty_mm", "tz_mm"}}, {"values", sd}}},
       {"worst_std_mm", r.worst_std_mm},
@@ -261,7 +262,7 @@ void PrintHandEye(std::ostream& out,
                   const calib::BoardHandEyeOptions& opt) {
   const Eigen::AngleAxisd turn(r.flange_from_camera.linear());
   out << "  flange_from_probe: t " << Vec(r.flange_from_camera.translation(), 3) << " mm, "
-      << Fixed(turn.angle() * 180.0 / M_PI, 4) << " deg\n"
+      << Fixed(turn.angle() * base::kDegPerRad, 4) << " deg\n"
       << "  determined to " << Fixed(r.worst_std_mm, 4) << " mm (1 sigma, worst combination, "
       << "rotations at " << Fixed(opt.lever_mm, 0) << " mm; limit " << opt.max_std_mm << ")\n"
       << "  corners through the robot's poses " << Fixed(r.corner_rms_px, 2)

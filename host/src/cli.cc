@@ -1,5 +1,7 @@
 #include "mlp/host/cli.h"
 
+#include "mlp/base/files.h"
+
 #include <cmath>
 #include <cstdlib>
 #include <system_error>
@@ -13,6 +15,22 @@ double ParseNumber(const std::string& flag, const std::string& value) {
     throw UsageError(flag + " needs a number, got '" + value + "'");
   }
   return v;
+}
+
+std::string ReadInputFile(const std::string& path) {
+  try {
+    return base::ReadFile(path);
+  } catch (const base::FileError& e) {
+    throw UsageError(e.what());
+  }
+}
+
+void WriteOutputFile(const std::string& path, const std::string& text) {
+  try {
+    base::WriteFileAtomically(path, text);
+  } catch (const base::FileError& e) {
+    throw UsageError(e.what());
+  }
 }
 
 std::filesystem::path ProgramDir() {

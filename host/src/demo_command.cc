@@ -1,7 +1,8 @@
 #include "mlp/host/demo_command.h"
 
+#include "mlp/base/json_fields.h"
+#include "mlp/base/units.h"
 #include "mlp/host/cli.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/service/job_client.h"
 #include "mlp/sim/render.h"
 #include "mlp/sim/scene.h"
@@ -181,12 +182,12 @@ void Calibrate(Demo& d, const sim::VirtualProbe& vp, const geometry::Pose3& trut
   d.out << std::fixed << std::setprecision(4) << "   M translation (" << t.x() << ", " << t.y()
         << ", " << t.z() << ") mm: " << std::setprecision(2)
         << (t - truth.translation()).norm() * 1e3 << " um from the true mounting, rotation "
-        << e.angle() * 180 / M_PI * 3600 << " arcsec (the true M in the calibrated probe frame, "
+        << e.angle() * base::kArcsecPerRad << " arcsec (the true M in the calibrated probe frame, "
         << "which is rigidly like the true camera's to "
         << d.summary["calibration"]["frame_rms_um"].get<double>() << " um RMS); stored as "
         << r.at("calibration_id").get<std::string>() << "\n";
   d.summary["calibration"]["translation_error_um"] = (t - truth.translation()).norm() * 1e3;
-  d.summary["calibration"]["rotation_error_arcsec"] = e.angle() * 180 / M_PI * 3600;
+  d.summary["calibration"]["rotation_error_arcsec"] = e.angle() * base::kArcsecPerRad;
 }
 
 void Align(Demo& d, const sim::VirtualProbe& vp, const json& truth) {
@@ -254,7 +255,7 @@ json SceneCaptureRequest(const std::string& machine,
   return {{"op", "capture"},
           {"machine", machine},
           {"capture_id", capture.id},
-          {"mcs_from_flange", probe_fw::json_fields::PoseToJson(capture.mcs_from_flange)},
+          {"mcs_from_flange", base::json_fields::PoseToJson(capture.mcs_from_flange)},
           {"aoi", {aoi.x0, aoi.y0, aoi.width, aoi.height}},
           {"columns", {first, last, 2.0}}};
 }

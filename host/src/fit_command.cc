@@ -1,5 +1,6 @@
 #include "mlp/host/fit_command.h"
 
+#include "mlp/base/units.h"
 #include "mlp/geometry/chebyshev.h"
 #include "mlp/geometry/error.h"
 #include "mlp/geometry/fit.h"
@@ -103,7 +104,7 @@ Json ShapeJson(const geometry::Cylinder& s) {
 Json ShapeJson(const geometry::Cone& s) {
   return {{"apex", Vec(s.Apex())},
           {"axis", Vec(s.axis)},
-          {"half_angle_deg", s.half_angle * 180.0 / M_PI},
+          {"half_angle_deg", s.half_angle * base::kDegPerRad},
           {"point", Vec(s.point)},
           {"radius_at_point", s.RadiusAtPoint()}};
 }

@@ -1,5 +1,6 @@
 #include "mlp/host/grind_command.h"
 
+#include "mlp/base/units.h"
 #include "mlp/grind/grind_job.h"
 #include "mlp/host/cli.h"
 
@@ -151,14 +152,11 @@ int Measure(const std::map<std::string, std::string>& f, bool json, std::ostream
   for (const auto& [k, v] : f)
     if (k != "--job" && k != "--png") throw UsageError("unknown argument " + k);
   if (!f.count("--job")) throw UsageError("mlp grind measure needs --job");
-  std::ifstream in(f.at("--job"));
-  if (!in) throw UsageError("cannot read " + f.at("--job"));
-  std::ostringstream text;
-  text << in.rdbuf();
+  const std::string text = ReadInputFile(f.at("--job"));
   grind::GrindJob job;
   std::unique_ptr<geometry::Profile2> p;
   try {
-    job = grind::ParseJob(text.str());
+    job = grind::ParseJob(text);
     p = std::make_unique<geometry::Profile2>(job.profile);
   } catch (const std::exception& e) {
     throw UsageError(f.at("--job") + ": " + e.what());
@@ -203,7 +201,7 @@ int Measure(const std::map<std::string, std::string>& f, bool json, std::ostream
         << std::setw(6) << std::setprecision(2) << r.d_mm * 1e3 << " um";
     if (r.feed == grind::Feed::kUnderFeed)
       out << "  wheel off by " << r.error_mm * 1e3 << " um at "
-          << std::atan2(r.error_dir.y(), r.error_dir.x()) * 180 / M_PI << " deg"
+          << std::atan2(r.error_dir.y(), r.error_dir.x()) * base::kDegPerRad << " deg"
           << (r.wheel_cut ? "" : " (did not cut)");
     if (r.compensation_mm.norm() > 0)
       out << "  compensation (" << r.compensation_mm.x() * 1e3 << ", "

@@ -1,7 +1,6 @@
 #include "mlp/host/setter_command.h"
 
 #include "mlp/host/cli.h"
-#include "mlp/nc/tool_table.h"
 #include "mlp/setter/beam_processor.h"
 #include "mlp/setter/beam_signal.h"
 
@@ -78,23 +77,6 @@ void Allow(const Flags& f, const std::set<std::string>& known) {
     if (!known.count(k)) throw UsageError("unknown argument " + k);
 }
 
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw UsageError("cannot read " + path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// Whole or not at all (the nc layer's writer: temporary file, fsync, rename).
-void WriteAtomically(const std::string& path, const std::string& text) {
-  try {
-    nc::WriteFileAtomically(path, text);
-  } catch (const std::runtime_error& e) {
-    throw UsageError(std::string("cannot write ") + path + ": " + e.what());
-  }
-}
-
 // `mlprobe-beam-signal/1`: a header line `# mlprobe-beam-signal/1 sample_rate_hz=H`, then one
 // voltage a line.
 struct SignalFile {
@@ -166,13 +148,13 @@ int Simulate(const Flags& f, std::ostream& out) {
        << std::setprecision(7);
   for (float v : s.volts) text << v << "\n";
   const std::string path = f.Text("--out");
-  WriteAtomically(path, text.str());
+  WriteOutputFile(path, text.str());
   const nlohmann::ordered_json truth = {{"format", "mlprobe-beam-truth/1"},
                                         {"axis_start_mm", s.axis_start_mm},
                                         {"axis_feed_mm_per_sample", s.axis_feed_mm_per_sample},
                                         {"axis_at_edge_mm", s.axis_at_edge_mm},
                                         {"drop_times_s", s.drop_times_s}};
-  WriteAtomically(path + ".truth.json", truth.dump(1) + "\n");
+  WriteOutputFile(path + ".truth.json", truth.dump(1) + "\n");
   out << s.volts.size() << " samples at " << s.sample_rate_hz << " Hz in " << path << " ("
       << s.drop_times_s.size() << " drops; truth in " << path << ".truth.json)\n";
   return kExitOk;
@@ -183,7 +165,7 @@ int Calibrate(const Flags& f, std::ostream& out) {
   const SignalFile s = ReadSignal(f.Text("--signal"));
   const setter::CalibrationCurve c = setter::CalibrateFromPin(
       s.volts, s.sample_rate_hz, f.Number("--feed-mm-min", 0.0), !f.switches.count("--leaving"));
-  WriteAtomically(f.Text("--out"), setter::CurveJson(c));
+  WriteOutputFile(f.Text("--out"), setter::CurveJson(c));
   if (f.switches.count("--json")) {
     out << nlohmann::json::parse(setter::CurveJson(c)).dump() << "\n";
     return kExitOk;
@@ -206,7 +188,7 @@ int Process(const Flags& f, std::ostream& out, std::ostream& err) {
   c.entering = !f.switches.count("--leaving");
   c.threshold_share = f.Number("--threshold-share", c.threshold_share);
   try {
-    c.curve = setter::ParseCurve(ReadText(f.Text("--curve")));
+    c.curve = setter::ParseCurve(ReadInputFile(f.Text("--curve")));
   } catch (const setter::SetterError& e) {
     throw UsageError(f.Text("--curve") + ": " + e.what());
   }

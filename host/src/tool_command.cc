@@ -1,7 +1,8 @@
 #include "mlp/host/tool_command.h"
 
+#include "mlp/base/json_fields.h"
+#include "mlp/base/units.h"
 #include "mlp/host/cli.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/toolcam/measure.h"
 #include "mlp/toolcam/strobe.h"
 #include "mlp/toolcam/tool_camera.h"
@@ -184,8 +185,8 @@ int Render(const RenderOptions& o,
     throw UsageError(e.what());
   }
   err << "mlp tool: rendering " << plan.positions << " frames of " << tool.id << "\n";
-  const int n = toolcam::RenderToolSequence(tool, camera, plan, o.start_deg * M_PI / 180, o.seed,
-                                            o.out, o.shift);
+  const int n = toolcam::RenderToolSequence(tool, camera, plan, o.start_deg / base::kDegPerRad,
+                                            o.seed, o.out, o.shift);
   out << n << " frames and truth.json in " << o.out << "\n";
   return kExitOk;
 }

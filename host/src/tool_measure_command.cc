@@ -2,9 +2,10 @@
 // lists) measured against a tool description or a calibration pin; the camera's calibration
 // written and read; the measured tool into a LinuxCNC tool table (atomically, bounded, logged).
 
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
 #include "mlp/host/cli.h"
 #include "mlp/nc/tool_table.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/toolcam/measure.h"
 #include "mlp/toolcam/pin_calibration.h"
 
@@ -26,7 +27,7 @@
 namespace mlp::host::tool {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 namespace fs = std::filesystem;
 
 constexpr int kExitRefused = 4;  // measured, but the tool table was not changed (the reason)
@@ -50,19 +51,11 @@ struct Images {
   std::vector<std::vector<std::uint8_t>> pixels;
 };
 
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw UsageError("cannot read " + path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 // DIR/images.json (`mlprobe-tool-images/1`) and the images it lists (any format OpenCV reads).
 Images ReadImages(const std::string& dir) {
   const std::string manifest = (fs::path(dir) / "images.json").string();
   const auto j =
-      jf::ParseDocument<UsageError>(ReadText(manifest), "mlprobe-tool-images/1", manifest);
+      jf::ParseDocument<UsageError>(ReadInputFile(manifest), "mlprobe-tool-images/1", manifest);
   const auto& c = jf::Object<UsageError>(j, "camera", "images.json");
   Images im;
   im.camera.width_px = jf::Integer<UsageError>(c, "width_px", "camera");
@@ -150,7 +143,7 @@ toolcam::ToolCameraModel CameraFor(const Images& im,
   toolcam::ToolCameraModel base = im.camera;
   toolcam::PinCalibration cal;
   try {
-    cal = toolcam::ParseCameraCalibration(ReadText(calibration_file), &base);
+    cal = toolcam::ParseCameraCalibration(ReadInputFile(calibration_file), &base);
   } catch (const toolcam::ToolError& e) {
     throw UsageError(calibration_file + ": " + e.what());
   }
@@ -332,7 +325,7 @@ void SaveReference(const std::string& path,
                    const toolcam::ToolDescription& tool,
                    const toolcam::ToolMeasurement& m) {
   try {
-    nc::WriteFileAtomically(path, toolcam::ToJson(toolcam::ReferenceFrom(tool, m)));
+    base::WriteFileAtomically(path, toolcam::ToJson(toolcam::ReferenceFrom(tool, m)));
   } catch (const std::runtime_error& e) {
     throw UsageError("cannot write " + path + ": " + e.what());
   }
@@ -413,7 +406,7 @@ int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostr
   const toolcam::PinCalibration p =
       toolcam::CalibrateWithPin(im.pixels, im.position, im.positions, im.camera, pin);
   try {
-    nc::WriteFileAtomically(f.Get("--out"), toolcam::CameraCalibrationJson(p, im.camera, pin.id));
+    base::WriteFileAtomically(f.Get("--out"), toolcam::CameraCalibrationJson(p, im.camera, pin.id));
   } catch (const std::runtime_error& e) {
     throw UsageError("cannot write " + f.Get("--out") + ": " + e.what());
   }

@@ -88,16 +88,6 @@ struct Parsed {
   std::string svg_path;  ///< the picture, when asked for
 };
 
-// The picture, whole or not at all: a temporary file renamed over the path.
-void WriteSvg(const std::string& path, const std::string& svg) {
-  const std::string tmp = path + ".tmp";
-  std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-  out << svg;
-  out.close();
-  if (!out) throw verify::VerifyError("cannot write " + tmp);
-  fs::rename(tmp, path);
-}
-
 Parsed ParseArgs(const std::vector<std::string>& args) {
   Parsed p;
   std::vector<verify::Finish> finishes;
@@ -323,12 +313,15 @@ int RunVerifyCommand(const std::vector<std::string>& args, std::ostream& out, st
     const verify::AcceptanceResult r = verify::RunAcceptance(p.options);
     bool within = false;
     const json j = ToJson(r, p.mpe, &within);
-    if (!p.svg_path.empty()) WriteSvg(p.svg_path, VerifyPlotSvg(j));
+    if (!p.svg_path.empty()) WriteOutputFile(p.svg_path, VerifyPlotSvg(j));
     if (p.json)
       out << j.dump(2) << "\n";
     else
       PrintSummary(j, out);
     return within ? kExitOk : kExitBeyondMpe;
+  } catch (const UsageError& e) {  // the picture could not be written
+    err << "mlp verify: " << e.what() << "\n";
+    return kExitBadInput;
   } catch (const verify::VerifyError& e) {
     err << "mlp verify: " << e.what() << "\n";
     return kExitBadInput;

@@ -6,6 +6,7 @@
 // (4 x 6,000 each). Baseline in the same run: one read of the 50,000 points.
 // Run: build/bin/mlp_host_bench --benchmark_counters_tabular=true
 
+#include "mlp/base/files.h"
 #include "mlp/geometry/datum.h"
 #include "mlp/history/file_hash.h"
 #include "mlp/history/history.h"
@@ -128,12 +129,12 @@ void BM_BoreJobHostSide(benchmark::State& state) {
     mlp::nc::NcResult out;
     out.tools.push_back(
         {12, mlp::nc::ToolRegister::kRadiusGeometry, 5.0, 5.0 + d.offset_change_mm, false});
-    mlp::nc::WriteFileAtomically((kDir / "mlp_result.ngc").string(),
-                                 mlp::nc::LinuxCncSubroutine("mlp_result", out));
+    mlp::base::WriteFileAtomically((kDir / "mlp_result.ngc").string(),
+                                   mlp::nc::LinuxCncSubroutine("mlp_result", out));
     history.AddResult(job, {"bore", {{"d", bore.diameter_mm}}, {{"change", d.offset_change_mm}}});
     mlp::jobs::BoreReport rep;
     rep.bore = bore;
-    mlp::nc::WriteFileAtomically((kDir / "report.svg").string(), mlp::jobs::BoreReportSvg(rep));
+    mlp::base::WriteFileAtomically((kDir / "report.svg").string(), mlp::jobs::BoreReportSvg(rep));
     history.FinishJob(job, mlp::history::JobStatus::kInTolerance, {{"ok", true}}, {});
     state.counters["diameter_error_um"] = (bore.diameter_mm - 60.0) * 1e3;
   }
@@ -160,8 +161,8 @@ void BM_AlignJobHostSide(benchmark::State& state) {
                         {w.origin_mm.x(), w.origin_mm.y(), w.origin_mm.z()},
                         std::nullopt,
                         w.rotation_z_deg});
-    mlp::nc::WriteFileAtomically((kDir / "mlp_result.ngc").string(),
-                                 mlp::nc::LinuxCncSubroutine("mlp_result", out));
+    mlp::base::WriteFileAtomically((kDir / "mlp_result.ngc").string(),
+                                   mlp::nc::LinuxCncSubroutine("mlp_result", out));
     state.counters["origin_error_um"] = w.origin_mm.norm() * 1e3;
   }
   state.counters["points"] = 15000 + 2 * 24000;

@@ -4,6 +4,7 @@
 // loris, pre-authentication memory, head-of-line blocking, a lost history, a socket path that
 // is a file, 64-bit truncation, a full disk.
 
+#include "mlp/base/files.h"
 #include "mlp/history/history.h"
 #include "mlp/link/transport.h"
 
@@ -343,6 +344,7 @@ TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
   fs::create_directories(site.dir / "lcnc");
   std::ofstream(site.dir / "lcnc" / ".mlp_result.ngc.mlp-tmp") << "half a file";
   std::ofstream(site.dir / "data" / "clouds" / "41" / "top.ply.tmp") << "half a cloud";
+  std::ofstream(site.dir / "data" / "clouds" / "41" / ".side.ply.mlp-tmp.4242") << "half a cloud";
   // As a host killed in its write leaves it: tool 12's radius 4.999 -> 4.989 announced; the
   // table shows it written. A second job announced 4.999 -> 4.979 but never wrote.
   std::int64_t written_job = 0, lost_job = 0, confirmed_job = 0, files_job = 0;
@@ -385,6 +387,7 @@ TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
   }
   EXPECT_FALSE(fs::exists(site.dir / "lcnc" / ".mlp_result.ngc.mlp-tmp"));
   EXPECT_FALSE(fs::exists(site.dir / "data" / "clouds" / "41" / "top.ply.tmp"));
+  EXPECT_FALSE(fs::exists(site.dir / "data" / "clouds" / "41" / ".side.ply.mlp-tmp.4242"));
   {
     history::History h((site.dir / "data" / "history.sqlite").string());
     const json w = h.ExportJob(written_job), l = h.ExportJob(lost_job);
@@ -569,7 +572,9 @@ TEST(Hostd, AFullDiskFailsTheJobCleanly) {
   EXPECT_NE(r.err.find("cannot write"), std::string::npos) << r.err;
   EXPECT_NE(Log(site).find("failed: cloud: cannot write"), std::string::npos) << Log(site);
   for (const auto& e : fs::recursive_directory_iterator(site.dir / "data"))
-    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+    EXPECT_TRUE(e.path().string().find(".tmp") == std::string::npos &&
+                !base::IsTemporaryName(e.path().filename().string()))
+        << e.path();
   EXPECT_TRUE(StatusOk(site));
   EXPECT_EQ(hostd.Stop(), 0);
   history::History h((site.dir / "data" / "history.sqlite").string());

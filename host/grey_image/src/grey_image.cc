@@ -1,5 +1,7 @@
 #include "mlp/grey_image/grey_image.h"
 
+#include "mlp/base/files.h"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -47,16 +49,10 @@ void GaussianBlur(std::vector<double>* img, int w, int h, double sigma) {
 }
 
 void WritePgm(const std::string& path, int w, int h, const std::vector<std::uint8_t>& px) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary);
+  base::WriteFileAtomically(path, [&](std::ostream& out) {
     out << "P5\n" << w << " " << h << "\n255\n";
     out.write(reinterpret_cast<const char*>(px.data()), static_cast<std::streamsize>(px.size()));
-    if (!out) throw std::runtime_error("cannot write " + tmp);
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw std::runtime_error("cannot write " + path + ": " + ec.message());
+  });
 }
 
 }  // namespace mlp::grey_image

@@ -1,7 +1,7 @@
 #include "mlp/grind/grind_job.h"
 
+#include "mlp/base/json_fields.h"
 #include "mlp/grey_image/grey_image.h"
-#include "mlp/probe_fw/json_fields.h"
 
 #include <cmath>
 #include <filesystem>
@@ -14,7 +14,7 @@ namespace mlp::grind {
 namespace {
 
 using geometry::Vec2;
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 
 Vec2 Pair(const nlohmann::json& j, const std::string& where) {
   if (!j.is_array() || j.size() != 2 || !j[0].is_number() || !j[1].is_number())

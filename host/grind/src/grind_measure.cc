@@ -1,5 +1,6 @@
 #include "mlp/grind/grind_measure.h"
 
+#include "mlp/base/units.h"
 #include "mlp/geometry/error.h"
 #include "mlp/geometry/fit.h"
 
@@ -193,9 +194,9 @@ PointResult MeasurePoint(const PointInput& in,
         best = phi, best_spread = spread, best_mean = mean;
     }
   };
-  scan(normal - M_PI / 2, normal + M_PI / 2, 0.5 * M_PI / 180);
+  scan(normal - M_PI / 2, normal + M_PI / 2, 0.5 / base::kDegPerRad);
   const double coarse = best;
-  scan(coarse - 0.5 * M_PI / 180, coarse + 0.5 * M_PI / 180, 0.01 * M_PI / 180);
+  scan(coarse - 0.5 / base::kDegPerRad, coarse + 0.5 / base::kDegPerRad, 0.01 / base::kDegPerRad);
   res.error_dir = Vec2(std::cos(best), std::sin(best));
   res.error_mm = best_mean, res.spread_mm = best_spread;
   if (best_spread > kShiftSpreadMm) WornNose(edge, n, r, &res);

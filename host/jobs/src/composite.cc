@@ -1,5 +1,6 @@
 #include "mlp/jobs/composite.h"
 
+#include "mlp/base/units.h"
 #include "mlp/geometry/fit.h"
 
 #include <algorithm>
@@ -11,7 +12,7 @@ namespace {
 
 using geometry::Vec3;
 
-double Deg(double rad) { return rad * 180.0 / M_PI; }
+double Deg(double rad) { return base::DegFromRad(rad); }
 
 double AngleBetweenDeg(const Vec3& a, const Vec3& b) {
   // atan2 of the cross and dot products: accurate near 0 deg, where acos loses half the digits.

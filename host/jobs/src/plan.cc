@@ -1,5 +1,7 @@
 #include "mlp/jobs/plan.h"
 
+#include "mlp/base/units.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -45,7 +47,7 @@ ViewTarget WallView(const std::string& id,
                     const Vec3& up,
                     double half_depth,
                     const PlanOptions& o) {
-  const double t = o.wall_tilt_deg * M_PI / 180;
+  const double t = o.wall_tilt_deg / base::kDegPerRad;
   const Vec3 view = -std::sin(t) * n_out - std::cos(t) * up;
   ViewTarget v;
   v.id = id;
@@ -226,7 +228,7 @@ std::vector<PlannedCapture> PlanCaptures(const std::vector<ViewTarget>& views,
 std::string CheckReachable(const std::vector<PlannedCapture>& plan) {
   for (const PlannedCapture& c : plan) {
     const Vec3 z = c.mcs_from_flange.linear().col(2);
-    const double tilt_deg = std::atan2(z.head<2>().norm(), z.z()) * 180 / M_PI;
+    const double tilt_deg = std::atan2(z.head<2>().norm(), z.z()) * base::kDegPerRad;
     if (tilt_deg > 0.01)
       return "view " + c.id + " needs the spindle tilted " + Num(tilt_deg) +
              " deg: a 3-axis machine only orients it about Z";

@@ -1,5 +1,7 @@
 #include "mlp/jobs/report.h"
 
+#include "mlp/base/units.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -81,7 +83,7 @@ std::string BoreReportSvg(const BoreReport& r) {
   Circle(s, kBaseRadiusPx, "fill='none' stroke='black' stroke-width='1.2'");
   for (size_t b = 0; b < dev.size(); ++b) {
     if (!std::isfinite(dev[b])) continue;
-    const double a = (static_cast<double>(b) + 0.5) * M_PI / 180.0;
+    const double a = (static_cast<double>(b) + 0.5) / base::kDegPerRad;
     const double rr = kBaseRadiusPx + k * dev[b];
     // Screen y points down: machine +Y is up.
     s << "<circle cx='" << Num(kCentreX + rr * std::cos(a), 1) << "' cy='"
@@ -219,7 +221,7 @@ DeviationPanel RingPanel(const std::string& title, const BoreMeasurement& hole) 
   const auto& dev = hole.deviation_by_degree_mm;
   for (size_t b = 0; b < dev.size(); ++b) {
     if (!std::isfinite(dev[b])) continue;
-    const double a = (static_cast<double>(b) + 0.5) * M_PI / 180, r = hole.diameter_mm / 2;
+    const double a = (static_cast<double>(b) + 0.5) / base::kDegPerRad, r = hole.diameter_mm / 2;
     p.xy_mm.emplace_back(r * std::cos(a), r * std::sin(a));
     p.deviation_mm.push_back(dev[b]);
   }

@@ -1,5 +1,7 @@
 #include "mlp/nc/tool_table.h"
 
+#include "mlp/base/files.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -39,14 +41,6 @@ void CheckValue(char word, double v, const std::string& where) {
   if (word == 'Q' && (v != std::floor(v) || v < 0 || v > 9))
     Fail(where + ": Q (orientation) must be a whole number 0..9");
   if (word == 'D' && v < 0) Fail(where + ": D (diameter) must not be negative");
-}
-
-void Fsync(const std::string& path, int flags) {
-  const int fd = ::open(path.c_str(), flags);
-  if (fd < 0) throw std::runtime_error("cannot open " + path + ": " + std::strerror(errno));
-  const int rc = ::fsync(fd);
-  ::close(fd);
-  if (rc != 0) throw std::runtime_error("cannot sync " + path + ": " + std::strerror(errno));
 }
 
 }  // namespace
@@ -168,45 +162,19 @@ double ToolTable::Set(int tool, char word, double value) {
 }
 
 ToolTable LoadToolTable(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) Fail("cannot read the tool table " + path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return ToolTable::Parse(text.str(), path);
-}
-
-void WriteFileAtomically(const std::string& path, const std::string& text) {
-  const fs::path target(path);
-  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  const std::string tmp =
-      (dir / std::string(".").append(target.filename().string()).append(".mlp-tmp")).string();
-  struct stat st {};
-  const bool existed = ::stat(path.c_str(), &st) == 0;
-  {
-    std::ofstream out(tmp, std::ios::trunc | std::ios::binary);
-    out << text;
-    out.flush();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw std::runtime_error("cannot write " + tmp);
-    }
+  std::string text;
+  try {
+    text = base::ReadFile(path);
+  } catch (const base::FileError& e) {
+    Fail(std::string("cannot read the tool table: ") + e.what());
   }
-  if (existed) ::chmod(tmp.c_str(), st.st_mode & 07777);
-  Fsync(tmp, O_RDONLY);
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::string why = std::strerror(errno);
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw std::runtime_error("cannot replace " + path + ": " + why);
-  }
-  Fsync(dir.string(), O_RDONLY | O_DIRECTORY);
+  return ToolTable::Parse(text, path);
 }
 
 void SaveToolTable(const ToolTable& table, const std::string& path) {
   try {
-    WriteFileAtomically(path, table.Text());
-  } catch (const std::runtime_error& e) {
+    base::WriteFileAtomically(path, table.Text());
+  } catch (const base::FileError& e) {
     Fail(std::string("tool table not written: ") + e.what());
   }
 }

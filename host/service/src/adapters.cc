@@ -1,5 +1,6 @@
 #include "mlp/service/adapters.h"
 
+#include "mlp/base/files.h"
 #include "mlp/nc/tool_table.h"
 #include "mlp/service/request_json.h"
 
@@ -109,7 +110,7 @@ std::vector<std::string> WriteResult(const ControllerConfig& c,
   // The controller's file first: if it cannot be written, nothing else claims a result.
   if (c.kind == ControllerConfig::Kind::kLinuxCnc) {
     const fs::path p = dir / "mlp_result.ngc";
-    nc::WriteFileAtomically(p.string(), nc::LinuxCncSubroutine("mlp_result", r));
+    base::WriteFileAtomically(p.string(), nc::LinuxCncSubroutine("mlp_result", r));
     files.push_back(p.string());
     if (c.write_tool_table && !r.tools.empty()) {
       nc::ToolTable table = nc::LoadToolTable(c.tool_table);
@@ -122,11 +123,11 @@ std::vector<std::string> WriteResult(const ControllerConfig& c,
     }
   } else if (c.kind == ControllerConfig::Kind::kFanucStyle) {
     const fs::path p = dir / (stem + ".nc");
-    nc::WriteFileAtomically(p.string(), nc::FanucStyleSnippet(c.map, r));
+    base::WriteFileAtomically(p.string(), nc::FanucStyleSnippet(c.map, r));
     files.push_back(p.string());
   }
   const fs::path json_path = dir / (stem + ".json");
-  nc::WriteFileAtomically(json_path.string(), DumpSafe(result, 2) + "\n");
+  base::WriteFileAtomically(json_path.string(), DumpSafe(result, 2) + "\n");
   files.push_back(json_path.string());
   AppendCsv(dir / "results.csv", result);
   files.push_back((dir / "results.csv").string());

@@ -1,7 +1,7 @@
+#include "mlp/base/json_fields.h"
 #include "mlp/calib/record.h"
 #include "mlp/geometry/datum.h"
 #include "mlp/jobs/decision.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/service/adapters.h"
 
 #include <cmath>
@@ -11,7 +11,7 @@
 namespace mlp::service {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 using json = nlohmann::json;
 using geometry::Plane;
 using geometry::Vec3;

@@ -1,13 +1,13 @@
+#include "mlp/base/json_fields.h"
 #include "mlp/calib/hand_eye.h"
 #include "mlp/calib/recheck.h"
-#include "mlp/probe_fw/json_fields.h"
 
 #include "job_common.h"
 
 namespace mlp::service {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 using json = nlohmann::json;
 using geometry::Vec3;
 

@@ -1,6 +1,7 @@
 #include "mlp/service/config.h"
 
-#include "mlp/probe_fw/json_fields.h"
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
 
 #include <filesystem>
 #include <fstream>
@@ -11,7 +12,7 @@ namespace mlp::service {
 namespace {
 
 namespace fs = std::filesystem;
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 using json = nlohmann::json;
 constexpr const char* kFormat = "mlprobe-hostd/1";
 
@@ -174,11 +175,7 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
 }
 
 HostdConfig LoadHostdConfig(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError("cannot read the configuration " + path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseHostdConfig(text.str(), path);
+  return ParseHostdConfig(base::ReadFileAs<ConfigError>(path, "the configuration: "), path);
 }
 
 }  // namespace mlp::service

@@ -1,10 +1,11 @@
 #include "mlp/service/hostd.h"
 
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
 #include "mlp/history/file_hash.h"
 #include "mlp/history/history.h"
 #include "mlp/link/transport.h"
 #include "mlp/probe_fw/cloud_file.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/service/adapters.h"
 #include "mlp/service/capture_broker.h"
 #include "mlp/service/request_json.h"
@@ -23,7 +24,7 @@ namespace mlp::service {
 namespace {
 
 namespace fs = std::filesystem;
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 using json = nlohmann::json;
 
 class RequestError : public std::runtime_error {
@@ -158,8 +159,8 @@ struct Hostd::Impl {
     }
   }
 
-  // Temporary files of writes a stop cut short ("<dir>/.<name>.mlp-tmp", "<cloud>.ply.tmp"):
-  // never the real files, which are renamed into place whole.
+  // Temporary files of writes a stop cut short (base::IsTemporaryName): never the real files,
+  // which are renamed into place whole.
   void RemoveTemporaries() {
     std::vector<fs::path> dirs = {config.data_dir};
     for (const MachineConfig& m : config.machines) {
@@ -171,9 +172,7 @@ struct Hostd::Impl {
       std::error_code ec;
       for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
         const std::string name = it->path().filename().string();
-        const bool ours = (name.size() > 9 && name.ends_with(".mlp-tmp") && name[0] == '.') ||
-                          name.ends_with(".ply.tmp");
-        if (!ours || !it->is_regular_file()) continue;
+        if (!base::IsTemporaryName(name) || !it->is_regular_file()) continue;
         std::error_code rm;
         fs::remove(it->path(), rm);
         log("removed " + it->path().string() + ", left by a write that a stop cut short");

@@ -1,9 +1,9 @@
 #include "job_common.h"
 
+#include "mlp/base/json_fields.h"
 #include "mlp/geometry/datum.h"
 #include "mlp/history/file_hash.h"
 #include "mlp/probe_fw/cloud_file.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/service/adapters.h"
 
 #include <algorithm>
@@ -17,7 +17,7 @@
 
 namespace mlp::service {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 using json = nlohmann::json;
 using geometry::Vec3;
 

@@ -1,9 +1,9 @@
 #include "measure_features.h"
 
+#include "mlp/base/json_fields.h"
 #include "mlp/jobs/composite.h"
 #include "mlp/jobs/plan.h"
 #include "mlp/jobs/surface.h"
-#include "mlp/probe_fw/json_fields.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -16,7 +16,7 @@
 namespace mlp::service {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 using json = nlohmann::json;
 using geometry::Vec3;
 

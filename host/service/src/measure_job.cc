@@ -1,9 +1,10 @@
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
 #include "mlp/calib/record.h"
 #include "mlp/jobs/decision.h"
 #include "mlp/jobs/feature.h"
 #include "mlp/jobs/report.h"
 #include "mlp/nc/tool_table.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/service/adapters.h"
 
 #include <algorithm>
@@ -18,7 +19,7 @@
 namespace mlp::service {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 using json = nlohmann::json;
 using geometry::Vec3;
 
@@ -134,7 +135,7 @@ std::string WriteReport(JobContext& ctx,
   std::filesystem::create_directories(dir);
   const std::string path =
       (dir / (ctx.machine.name + "-job" + std::to_string(job) + ".svg")).string();
-  nc::WriteFileAtomically(path, svg);
+  base::WriteFileAtomically(path, svg);
   return path;
 }
 

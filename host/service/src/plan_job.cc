@@ -1,5 +1,5 @@
+#include "mlp/base/json_fields.h"
 #include "mlp/jobs/plan.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/probe_fw/probe_model.h"
 
 #include <algorithm>
@@ -10,7 +10,7 @@
 namespace mlp::service {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 using json = nlohmann::json;
 
 jobs::PlanOptions ParseOptions(const json& r) {

@@ -1,6 +1,6 @@
 #include "mlp/setter/calibration_curve.h"
 
-#include "mlp/probe_fw/json_fields.h"
+#include "mlp/base/json_fields.h"
 #include "mlp/setter/beam_signal.h"
 
 #include <algorithm>
@@ -113,7 +113,7 @@ std::string CurveJson(const CalibrationCurve& c) {
 }
 
 CalibrationCurve ParseCurve(const std::string& text) {
-  namespace jf = probe_fw::json_fields;
+  namespace jf = base::json_fields;
   const auto j = jf::ParseDocument<SetterError>(text, "mlprobe-beam-curve/1", "curve");
   CalibrationCurve c;
   c.clear_v = jf::Number<SetterError>(j, "clear_v", "curve");

@@ -1,5 +1,6 @@
 #include "mlp/toolcam/measure.h"
 
+#include "mlp/base/units.h"
 #include "mlp/geometry/contour.h"
 
 #include <algorithm>
@@ -262,7 +263,7 @@ FluteMeasurement MeasureFlute(const Outline& o,
   m.tool = model;
   m.turn0 = turn0;
   m.blur = opt.blur_rad;
-  m.tan_pitch = std::tan(pitch_deg * M_PI / 180);
+  m.tan_pitch = std::tan(pitch_deg / base::kDegPerRad);
   m.fit_turn = nominal.helix_deg >= 5.0;  // a straight flute's turn trades with its radius
   const double r = nominal.Radius(), rc = nominal.corner_radius_mm;
   std::vector<FitPoint> pts;
@@ -309,13 +310,13 @@ void Eccentricity(ToolMeasurement* t) {
   Eigen::MatrixXd a(n, 3);
   Eigen::VectorXd r(n);
   for (Eigen::Index k = 0; k < n; ++k) {
-    const double phi = t->flutes[static_cast<size_t>(k)].angle_deg * M_PI / 180;
+    const double phi = t->flutes[static_cast<size_t>(k)].angle_deg / base::kDegPerRad;
     a.row(k) << 1, std::cos(phi), std::sin(phi);
     r(k) = t->flutes[static_cast<size_t>(k)].radius_mm;
   }
   const Eigen::Vector3d c = a.colPivHouseholderQr().solve(r);
   t->eccentricity_mm = std::hypot(c(1), c(2));
-  t->eccentricity_deg = std::atan2(c(2), c(1)) * 180 / M_PI;
+  t->eccentricity_deg = std::atan2(c(2), c(1)) * base::kDegPerRad;
 }
 
 }  // namespace
@@ -396,7 +397,7 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
     const double offset_deg = curve < 0 ? step_deg * (ym - yp) / (2 * curve) : 0.0;
     // The principal image's turn: its flute at +y at the reference height, less the offset.
     const double turn0 =
-        M_PI / 2 - ground.EdgeAngle(0, opt.h_ref_mm, 0.0) - offset_deg * M_PI / 180;
+        M_PI / 2 - ground.EdgeAngle(0, opt.h_ref_mm, 0.0) - offset_deg / base::kDegPerRad;
     FluteMeasurement fm = MeasureFlute(outlines[i0], ground, 0, turn0, opt, camera.pitch_deg);
     fm.frame = static_cast<int>(i0);
     fm.angle_deg = angle(i0) + offset_deg;
@@ -426,7 +427,7 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
       FluteMeasurement& fm = t.flutes[static_cast<size_t>(f)];
       const int e = ((j0 - f) % n + n) % n;
       const double turn0 = M_PI / 2 - nominal.EdgeAngle(e, opt.h_ref_mm, 0.0) -
-                           offsets_deg[static_cast<size_t>(f)] * M_PI / 180;
+                           offsets_deg[static_cast<size_t>(f)] / base::kDegPerRad;
       FluteMeasurement again = MeasureFlute(outlines[static_cast<size_t>(fm.frame)], nominal, e,
                                             turn0, opt, camera.pitch_deg);
       again.frame = fm.frame, again.angle_deg = fm.angle_deg, again.edge = e;

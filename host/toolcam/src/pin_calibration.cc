@@ -1,7 +1,8 @@
 #include "mlp/toolcam/pin_calibration.h"
 
+#include "mlp/base/json_fields.h"
+#include "mlp/base/units.h"
 #include "mlp/geometry/contour.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/toolcam/measure.h"
 
 #include <algorithm>
@@ -204,7 +205,7 @@ ToolCameraModel PinCalibration::CameraFor(const ToolCameraModel& base,
   ToolCameraModel c = base;
   c.mm_per_px = mm_per_px, c.roll_deg = roll_deg, c.pitch_deg = pitch_deg;
   // The tip is (shift_y, shift_z - length) from the gauge point, turned by the roll.
-  const double a = roll_deg * M_PI / 180, dz = shift_z_mm - length_mm;
+  const double a = roll_deg / base::kDegPerRad, dz = shift_z_mm - length_mm;
   c.axis_u_px = gauge_u_px + (std::cos(a) * shift_y_mm - std::sin(a) * dz) / mm_per_px;
   c.tip_v_px = gauge_v_px - (std::sin(a) * shift_y_mm + std::cos(a) * dz) / mm_per_px;
   return c;
@@ -234,7 +235,7 @@ std::string CameraCalibrationJson(const PinCalibration& p,
 }
 
 PinCalibration ParseCameraCalibration(const std::string& text, ToolCameraModel* base) {
-  namespace jf = probe_fw::json_fields;
+  namespace jf = base::json_fields;
   const auto j = jf::ParseDocument<ToolError>(text, "mlprobe-tool-camera/1", "camera calibration");
   const std::string w = "camera calibration";
   base->width_px = jf::Integer<ToolError>(j, "width_px", w);
@@ -300,7 +301,7 @@ PinCalibration CalibrateWithPin(const std::vector<std::vector<std::uint8_t>>& fr
   const Eigen::Vector2d line = a.colPivHouseholderQr().solve(u);
   const double end_v =
       Eigen::Map<const Eigen::VectorXd>(ends.data(), static_cast<Eigen::Index>(ends.size())).mean();
-  p.roll_deg = std::atan(line(1)) * 180 / M_PI;
+  p.roll_deg = std::atan(line(1)) * base::kDegPerRad;
   // The flanks' distance along a row is the diameter over cos(roll).
   p.mm_per_px = pin.diameter_mm / (std::cos(std::atan(line(1))) * w.mean());
   ToolCameraModel first = c;  // the pin's end as the tip
@@ -345,7 +346,7 @@ PinCalibration CalibrateWithPin(const std::vector<std::vector<std::uint8_t>>& fr
       end_h = s(0), t = s(1);
       resid = obs - m * s;
     }
-    p.pitch_deg = std::atan(t) * 180 / M_PI;
+    p.pitch_deg = std::atan(t) * base::kDegPerRad;
     p.pitch_measured = true;
     p.blade_rms_um = std::sqrt(resid.squaredNorm() / static_cast<double>(n)) * 1e3;
   }

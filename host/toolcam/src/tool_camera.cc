@@ -1,5 +1,6 @@
 #include "mlp/toolcam/tool_camera.h"
 
+#include "mlp/base/units.h"
 #include "mlp/grey_image/grey_image.h"
 
 #include <algorithm>
@@ -77,7 +78,7 @@ std::vector<double> Coverage(const ToolDescription& t,
                              const std::vector<Drop>& drops,
                              std::mt19937& rng) {
   std::uniform_real_distribution<double> unit(0, 1);
-  const double tan_pitch = std::tan(c.pitch_deg * M_PI / 180);
+  const double tan_pitch = std::tan(c.pitch_deg / base::kDegPerRad);
   const auto w = static_cast<size_t>(c.width_px);
   std::vector<double> cover(w * static_cast<size_t>(c.height_px), 0.0);
   std::vector<double> tool(w), tool_diff(w + 1), drop(w), drop_diff(w + 1);
@@ -155,13 +156,13 @@ std::vector<double> Resample(const std::vector<double>& canvas,
 }  // namespace
 
 geometry::Vec2 ToolCameraModel::ToolFromPixel(const geometry::Vec2& px) const {
-  const double a = roll_deg * M_PI / 180, du = (px.x() - axis_u_px) * mm_per_px,
+  const double a = roll_deg / base::kDegPerRad, du = (px.x() - axis_u_px) * mm_per_px,
                dv = (tip_v_px - px.y()) * mm_per_px;
   return {std::cos(a) * du + std::sin(a) * dv, std::cos(a) * dv - std::sin(a) * du};
 }
 
 geometry::Vec2 ToolCameraModel::PixelFromTool(const geometry::Vec2& yh) const {
-  const double a = roll_deg * M_PI / 180;
+  const double a = roll_deg / base::kDegPerRad;
   const double du = std::cos(a) * yh.x() - std::sin(a) * yh.y(),
                dv = std::sin(a) * yh.x() + std::cos(a) * yh.y();
   return {axis_u_px + du / mm_per_px, tip_v_px - dv / mm_per_px};
@@ -195,7 +196,7 @@ ToolFrame RenderToolFrame(const ToolDescription& tool,
     for (const double v : {0.0, c.height_px - 1.0})
       corner = std::max(corner, std::hypot(u - c.axis_u_px, v - c.tip_v_px));
   const int margin =
-      2 + static_cast<int>(std::ceil(corner * std::abs(std::sin(c.roll_deg * M_PI / 180))));
+      2 + static_cast<int>(std::ceil(corner * std::abs(std::sin(c.roll_deg / base::kDegPerRad))));
   ToolCameraModel canvas = c;
   canvas.width_px += 2 * margin, canvas.height_px += 2 * margin;
   canvas.axis_u_px += margin, canvas.tip_v_px += margin;
@@ -240,7 +241,7 @@ int RenderToolSequence(const ToolDescription& tool,
     for (const Drop& d : f.drops) drops.push_back({d.y_mm, d.h_mm, d.radius_mm});
     frames.push_back({{"file", name},
                       {"position", plan.position[i]},
-                      {"turn_deg", std::fmod(turn * 180 / M_PI, 360.0)},
+                      {"turn_deg", std::fmod(turn * base::kDegPerRad, 360.0)},
                       {"drops_y_h_r_mm", drops}});
   }
   nlohmann::ordered_json edges = nlohmann::ordered_json::array();
@@ -267,7 +268,7 @@ int RenderToolSequence(const ToolDescription& tool,
         {"pitch_deg", c.pitch_deg}}},
       {"strobe",
        {{"rpm", plan.rpm}, {"positions", plan.positions}, {"pulse_width_us", plan.pulse_width_us}}},
-      {"start_turn_deg", start_turn_rad * 180 / M_PI},
+      {"start_turn_deg", start_turn_rad * base::kDegPerRad},
       {"edges", edges},
       {"frames", frames}};
   std::ofstream((std::filesystem::path(dir) / "truth.json").string()) << truth.dump(1) << "\n";

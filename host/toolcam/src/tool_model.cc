@@ -1,6 +1,8 @@
 #include "mlp/toolcam/tool_model.h"
 
-#include "mlp/probe_fw/json_fields.h"
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
+#include "mlp/base/units.h"
 
 #include <algorithm>
 #include <array>
@@ -11,7 +13,7 @@
 namespace mlp::toolcam {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 using json = nlohmann::json;
 
 [[noreturn]] void Fail(const std::string& what) { throw ToolError("tool: " + what); }
@@ -76,7 +78,7 @@ double ToolDescription::EdgeRadius(int k, double h) const {
 }
 
 double ToolDescription::EdgeAngle(int k, double h, double turn_rad) const {
-  return turn_rad + 2 * M_PI * k / flutes + h * std::tan(helix_deg * M_PI / 180) / Radius();
+  return turn_rad + 2 * M_PI * k / flutes + h * std::tan(helix_deg / base::kDegPerRad) / Radius();
 }
 
 bool ToolDescription::ShadowSpan(double h, double turn, double* lo, double* hi) const {
@@ -259,11 +261,7 @@ std::string ToJson(const ToolDescription& t) {
 }
 
 ToolDescription LoadTool(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ToolError("tool: cannot read " + path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return ParseTool(s.str());
+  return ParseTool(base::ReadFileAs<ToolError>(path, "tool: "));
 }
 
 }  // namespace mlp::toolcam

@@ -1,5 +1,6 @@
 #include "mlp/verify/acceptance.h"
 
+#include "mlp/base/units.h"
 #include "mlp/calib/hand_eye.h"
 #include "mlp/geometry/fit.h"
 
@@ -16,8 +17,8 @@
 namespace mlp::verify {
 namespace {
 
-constexpr double kDegPerRad = 180.0 / M_PI;
-constexpr double kArcsecPerRad = kDegPerRad * 3600.0;
+using base::kArcsecPerRad;
+using base::kDegPerRad;
 // The virtual machine's true mounting M (the demo's): the host never reads it.
 const Vec3 kTrueMountTranslationMm(4.0, -2.5, 35.0);
 const Vec3 kTrueMountRotationVector(0.0185, 0.0185, 0.0);

@@ -8,6 +8,8 @@
 // already for the stripe extractor.
 #include "bmp_io.h"
 
+#include "mlp/base/files.h"
+
 #include <array>
 #include <cstdint>
 #include <fstream>
@@ -29,9 +31,8 @@ constexpr size_t kFileHeaderBytes = 14, kMasksAt = 54;
 }
 
 std::vector<unsigned char> ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw FrameIoError("frames: cannot open " + path);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  const std::string bytes = base::ReadFileAs<FrameIoError>(path, "frames: ");
+  return {bytes.begin(), bytes.end()};
 }
 
 std::uint32_t U32(const std::vector<unsigned char>& b, size_t at) {

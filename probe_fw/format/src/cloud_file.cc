@@ -1,5 +1,7 @@
 #include "mlp/probe_fw/cloud_file.h"
 
+#include "mlp/base/files.h"
+
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -10,7 +12,7 @@
 namespace mlp::probe_fw {
 namespace {
 
-void PutFloat(std::ofstream& out, double v) {
+void PutFloat(std::ostream& out, double v) {
   const float f = static_cast<float>(v);
   char bytes[4];
   std::memcpy(bytes, &f, 4);  // x86-64 and ARMv8 Linux are little-endian, as the header says
@@ -34,9 +36,7 @@ void WriteCloudPly(const std::string& path,
   if (xyz.size() != 3 * quality.size())
     throw CloudFileError("cloud: " + std::to_string(xyz.size()) + " coordinates for " +
                          std::to_string(quality.size()) + " points");
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+  const auto write = [&](std::ostream& out) {
     out << "ply\nformat binary_little_endian 1.0\n"
         << "comment mlprobe cloud, " << OneLine(meta.frame) << " frame, millimetres\n"
         << "comment probe_serial " << OneLine(meta.probe_serial) << "\n"
@@ -60,17 +60,12 @@ void WriteCloudPly(const std::string& path,
       PutFloat(out, xyz[3 * i + 2]);
       PutFloat(out, quality[i]);
     }
-    out.flush();
-    if (!out) {  // a full disk: no half file left behind
-      out.close();
-      std::error_code ignored;
-      std::filesystem::remove(tmp, ignored);
-      throw CloudFileError("cloud: cannot write " + tmp + " (disk full?)");
-    }
+  };
+  try {
+    base::WriteFileAtomically(path, write);
+  } catch (const base::FileError& e) {
+    throw CloudFileError(std::string("cloud: ") + e.what());
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw CloudFileError("cloud: cannot rename " + tmp + " to " + path + ": " + ec.message());
 }
 
 CloudFile ReadCloudPly(const std::string& path) {

@@ -1,6 +1,7 @@
 #include "mlp/probe_fw/frame_io.h"
 
-#include "mlp/probe_fw/json_fields.h"
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
 
 #include <cmath>
 #include <cstdio>
@@ -14,7 +15,7 @@
 namespace mlp::probe_fw {
 namespace {
 
-namespace jf = json_fields;
+namespace jf = base::json_fields;
 using nlohmann::json;
 
 [[noreturn]] void Fail(const std::string& what) { throw FrameIoError("frames: " + what); }
@@ -147,21 +148,18 @@ void WriteCaptureDir(const std::string& dir,
                                   {"aoi", {f.aoi.x0, f.aoi.y0, f.aoi.width, f.aoi.height}},
                                   {"bit_depth", f.bit_depth}});
   }
-  const std::string path = dir + "/frames.json", tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << manifest.dump(1) << "\n";
-    if (!out) Fail("cannot write " + tmp);
+  try {
+    base::WriteFileAtomically(dir + "/frames.json", manifest.dump(1) + "\n");
+  } catch (const base::FileError& e) {
+    Fail(e.what());
   }
-  std::filesystem::rename(tmp, path);
 }
 
 CaptureManifest ReadCaptureManifest(const std::string& dir) {
-  std::ifstream in(dir + "/frames.json");
-  if (!in) Fail("no frames.json in " + dir);
-  std::stringstream text;
-  text << in.rdbuf();
-  const json j = jf::ParseDocument<FrameIoError>(text.str(), "mlprobe-frames/1", "frames.json");
+  if (!std::filesystem::exists(dir + "/frames.json")) Fail("no frames.json in " + dir);
+  const json j = jf::ParseDocument<FrameIoError>(
+      base::ReadFileAs<FrameIoError>(dir + "/frames.json", "frames: "), "mlprobe-frames/1",
+      "frames.json");
   CaptureManifest m;
   m.meta.probe_serial = jf::Text<FrameIoError>(j, "probe_serial", "frames.json");
   m.meta.calibration_id = jf::Text<FrameIoError>(j, "calibration_id", "frames.json");

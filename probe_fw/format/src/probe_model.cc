@@ -1,6 +1,8 @@
 #include "mlp/probe_fw/probe_model.h"
 
-#include "mlp/probe_fw/json_fields.h"
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
+#include "mlp/base/units.h"
 
 #include <cmath>
 #include <cstdio>
@@ -12,7 +14,7 @@ namespace {
 
 using nlohmann::json;
 using nlohmann::ordered_json;
-namespace jf = json_fields;
+namespace jf = base::json_fields;
 
 constexpr const char* kFormat = "mlprobe-probe-model/1";
 // The mirror's cubic and the sheet's smile (issue 16): refused by a firmware that predates them.
@@ -98,7 +100,7 @@ double ProjectorModel::CommandedColumn(double actual) const {
 }
 
 double ProjectorModel::SmileAt(double t) const {
-  const double r = t / std::tan(fan_half_angle_deg * M_PI / 180.0);
+  const double r = t / std::tan(fan_half_angle_deg / base::kDegPerRad);
   return sheet_smile_cols * r * r;
 }
 
@@ -220,11 +222,7 @@ ProbeModel ParseProbeModel(const std::string& json_text) {
 }
 
 ProbeModel LoadProbeModel(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) Fail("cannot open " + path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseProbeModel(text.str());
+  return ParseProbeModel(base::ReadFileAs<ProbeModelError>(path, "probe model: "));
 }
 
 std::string ToJson(const ProbeModel& m) {
@@ -279,14 +277,11 @@ std::string ToJson(const ProbeModel& m) {
 
 void SaveProbeModel(const ProbeModel& model, const std::string& path) {
   model.Validate();
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << ToJson(model);
-    out.flush();
-    if (!out) Fail("cannot write " + tmp);
+  try {
+    base::WriteFileAtomically(path, ToJson(model));
+  } catch (const base::FileError& e) {
+    Fail(e.what());
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) Fail("cannot rename " + tmp + " to " + path);
 }
 
 }  // namespace mlp::probe_fw

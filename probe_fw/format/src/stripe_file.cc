@@ -1,6 +1,7 @@
 #include "mlp/probe_fw/stripe_file.h"
 
-#include "mlp/probe_fw/json_fields.h"
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
 
 #include <cmath>
 #include <cstdio>
@@ -10,7 +11,7 @@
 namespace mlp::probe_fw {
 namespace {
 
-namespace jf = json_fields;
+namespace jf = base::json_fields;
 constexpr const char* kFormat = "mlprobe-stripes/2";
 // Version 1 had row scans only (y_px a whole sensor row); its files read unchanged.
 constexpr const char* kFormatRowsOnly = "mlprobe-stripes/1";
@@ -54,23 +55,16 @@ void SaveStripeFile(const StripeFile& file, const std::string& path) {
   for (const auto& p : file.points)
     j["points"].push_back(
         {Rounded(p.x_px), Rounded(p.y_px), Rounded(p.column), Rounded(p.quality)});
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << j.dump() << "\n";
-    out.flush();
-    if (!out) Fail("cannot write " + tmp);
+  try {
+    base::WriteFileAtomically(path, j.dump() + "\n");
+  } catch (const base::FileError& e) {
+    Fail(e.what());
   }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) Fail("cannot rename " + tmp + " to " + path);
 }
 
 StripeFile LoadStripeFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) Fail("cannot read " + path);
-  std::stringstream text;
-  text << in.rdbuf();
-  const jf::json j =
-      jf::ParseDocument<StripeFileError>(text.str(), {kFormat, kFormatRowsOnly}, path);
+  const jf::json j = jf::ParseDocument<StripeFileError>(base::ReadFileAs<StripeFileError>(path),
+                                                        {kFormat, kFormatRowsOnly}, path);
   StripeFile f;
   f.probe_serial = jf::Text<StripeFileError>(j, "probe_serial", path);
   f.capture_id = jf::Text<StripeFileError>(j, "capture_id", path);

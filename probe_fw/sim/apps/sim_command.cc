@@ -1,9 +1,9 @@
 #include "sim_command.h"
 
+#include "mlp/base/json_fields.h"
 #include "mlp/link/wire.h"
 #include "mlp/probe_fw/cloud_io.h"
 #include "mlp/probe_fw/frame_io.h"
-#include "mlp/probe_fw/json_fields.h"
 #include "mlp/sim/render.h"
 
 #include <chrono>
@@ -60,7 +60,7 @@ void WriteTruth(const std::string& dir,
                 const Capture& capture,
                 const SweepOptions& o,
                 const RenderedCapture& r) {
-  namespace jf = probe_fw::json_fields;
+  namespace jf = base::json_fields;
   nlohmann::ordered_json j;
   j["format"] = "mlprobe-truth/1";
   j["probe_serial"] = probe.model().serial;

@@ -1,6 +1,8 @@
 #include "mlp/sim/as_built.h"
 
-#include "mlp/probe_fw/json_fields.h"
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
+#include "mlp/base/units.h"
 #include "mlp/probe_fw/triangulate.h"
 
 #include <cmath>
@@ -12,7 +14,7 @@
 namespace mlp::sim {
 namespace {
 
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 using nlohmann::json;
 
 constexpr const char* kFormat = "mlprobe-as-built/1";
@@ -46,7 +48,7 @@ void AsBuiltOptics::Validate() const {
   const double norm = window_normal_in_probe.norm();
   if (!(norm > 0.0) || !window_normal_in_probe.allFinite())
     Fail("as-built: window.normal_in_probe must be a non-zero vector");
-  if (window_normal_in_probe.z() / norm < std::cos(kMaxWindowTiltDeg * M_PI / 180.0))
+  if (window_normal_in_probe.z() / norm < std::cos(kMaxWindowTiltDeg / base::kDegPerRad))
     Fail("as-built: window.normal_in_probe must be within 30 degrees of the probe's z axis");
 }
 
@@ -131,11 +133,7 @@ AsBuiltProbe ParseAsBuilt(const std::string& json_text) {
 }
 
 AsBuiltProbe LoadAsBuilt(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) Fail("as-built: cannot open " + path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseAsBuilt(text.str());
+  return ParseAsBuilt(base::ReadFileAs<AsBuiltError>(path, "as-built: "));
 }
 
 }  // namespace mlp::sim

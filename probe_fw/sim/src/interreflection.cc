@@ -8,6 +8,7 @@
 // the sweep as a real one does. The diffuse part of the first face's light is not followed (a
 // wide, weak glow, not a stripe), nor light that bounces twice.
 
+#include "mlp/base/units.h"
 #include "mlp/sim/brdf.h"
 #include "mlp/sim/render.h"
 
@@ -90,7 +91,7 @@ std::vector<GhostSplat> VirtualProbe::Interreflections(const Pose3& pose,
     t_lo = std::min(t_lo, q.y() / q.z()), t_hi = std::max(t_hi, q.y() / q.z());
   }
   if (!(t_hi > t_lo)) return out;
-  const double fan = std::tan(proj.fan_half_angle_deg * M_PI / 180.0), span = t_hi - t_lo;
+  const double fan = std::tan(proj.fan_half_angle_deg / base::kDegPerRad), span = t_hi - t_lo;
   t_lo = std::max(-fan, t_lo - 0.5 * span), t_hi = std::min(fan, t_hi + 0.5 * span);
   const double w = model_.laser.sheet_halfwidth_cols, du = 0.5 * w;
   const double u_lo = proj.ActualColumn(o.first_column) - 3.0 * w;

@@ -1,6 +1,7 @@
 #include "mlp/sim/scene.h"
 
-#include "mlp/probe_fw/json_fields.h"
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
 
 #include <fstream>
 #include <sstream>
@@ -9,7 +10,7 @@ namespace mlp::sim {
 namespace {
 
 using nlohmann::json;
-namespace jf = probe_fw::json_fields;
+namespace jf = base::json_fields;
 
 constexpr double kDefaultReflectance = 0.5;
 
@@ -177,11 +178,7 @@ Scene ParseScene(const std::string& json_text) {
 }
 
 Scene LoadScene(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) Fail("cannot open " + path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseScene(text.str());
+  return ParseScene(base::ReadFileAs<SceneError>(path, "scene: "));
 }
 
 }  // namespace mlp::sim

@@ -24,6 +24,13 @@ class UsageError : public std::runtime_error {
 /// A finite number, the whole of `value`; otherwise UsageError naming `flag`.
 double ParseNumber(const std::string& flag, const std::string& value);
 
+/// A file named on the command line, whole; UsageError (exit kExitBadInput) when unreadable.
+std::string ReadInputFile(const std::string& path);
+
+/// A tool's output file, whole or not at all (base::WriteFileAtomically); UsageError when it
+/// cannot be written.
+void WriteOutputFile(const std::string& path, const std::string& text);
+
 /// The folder of the running program (its siblings: mlp-hostd, mlp-sim, ...).
 std::filesystem::path ProgramDir();
 

@@ -65,7 +65,4 @@ ToolTable LoadToolTable(const std::string& path);
 /// folder), keeping its permission bits. Throws ToolTableError; the old file is then untouched.
 void SaveToolTable(const ToolTable& table, const std::string& path);
 
-/// Writes `text` to `path` atomically (see SaveToolTable); throws std::runtime_error.
-void WriteFileAtomically(const std::string& path, const std::string& text);
-
 }  // namespace mlp::nc

@@ -2,8 +2,6 @@
 /// @file Typed, checked reads of JSON fields shared by the probe model and scene files: each
 /// throws `Error` (the caller's error type) naming the field, never a bare JSON exception.
 
-#include "mlp/geometry/types.h"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -14,9 +12,11 @@
 #include <string_view>
 #include <vector>
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
-namespace mlp::probe_fw::json_fields {
+namespace mlp::base::json_fields {
 
 using nlohmann::json;
 
@@ -78,12 +78,12 @@ const json& Object(const json& j, const char* key, const std::string& where) {
 }
 
 template <class Error>
-geometry::Vec3 Vector3(const json& j, const char* key, const std::string& where) {
+Eigen::Vector3d Vector3(const json& j, const char* key, const std::string& where) {
   const std::string name = where + "." + key;
   if (!j.contains(key) || !j.at(key).is_array() || j.at(key).size() != 3) {
     Fail<Error>(name + " must be an array of 3 numbers");
   }
-  geometry::Vec3 v;
+  Eigen::Vector3d v;
   for (int k = 0; k < 3; ++k) {
     if (!j.at(key)[k].is_number()) Fail<Error>(name + " must be an array of 3 numbers");
     v(k) = j.at(key)[k].get<double>();
@@ -95,22 +95,24 @@ geometry::Vec3 Vector3(const json& j, const char* key, const std::string& where)
 /// A pose: translation [mm] and rotation vector [rad] (axis times angle, as OpenCV's Rodrigues):
 /// no gimbal lock, and what calibration estimates.
 template <class Error>
-geometry::Pose3 Pose(const json& j, const std::string& where) {
-  const geometry::Vec3 t = Vector3<Error>(j, "translation_mm", where);
-  const geometry::Vec3 r = Vector3<Error>(j, "rotation_vector_rad", where);
-  geometry::Pose3 pose = geometry::Pose3::Identity();
+Eigen::Isometry3d Pose(const json& j, const std::string& where) {
+  const Eigen::Vector3d t = Vector3<Error>(j, "translation_mm", where);
+  const Eigen::Vector3d r = Vector3<Error>(j, "rotation_vector_rad", where);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   const double angle = r.norm();
   if (angle > 0.0) pose.linear() = Eigen::AngleAxisd(angle, r / angle).toRotationMatrix();
   pose.translation() = t;
   return pose;
 }
 
-inline nlohmann::ordered_json PoseToJson(const geometry::Pose3& pose) {
+/// [x, y, z]: how every vector is written in the project's JSON files.
+inline nlohmann::ordered_json Vec3ToJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+/// The pose as Pose() reads it.
+inline nlohmann::ordered_json PoseToJson(const Eigen::Isometry3d& pose) {
   const Eigen::AngleAxisd aa(pose.linear());
-  const geometry::Vec3 r = aa.axis() * aa.angle();
-  const geometry::Vec3 t = pose.translation();
-  return {{"translation_mm", {t.x(), t.y(), t.z()}},
-          {"rotation_vector_rad", {r.x(), r.y(), r.z()}}};
+  return {{"translation_mm", Vec3ToJson(pose.translation())},
+          {"rotation_vector_rad", Vec3ToJson(aa.axis() * aa.angle())}};
 }
 
 /// Levenshtein distance (insert, delete, substitute: 1 each), for "did you mean" hints. Written
@@ -181,4 +183,4 @@ json ParseDocument(const std::string& text, const std::string& format, const std
   return ParseDocument<Error>(text, std::initializer_list<std::string>{format}, what);
 }
 
-}  // namespace mlp::probe_fw::json_fields
+}  // namespace mlp::base::json_fields

@@ -1,0 +1,57 @@
+#pragma once
+/// @file Whole files in and out. Every file the project writes (tool tables, NC snippets,
+/// calibration records, probe models, clouds, pictures) is written whole or not at all: a
+/// temporary file beside the target, fsync, rename (or a hard link, when an existing file must
+/// never be replaced), fsync of the folder. A crash or a full disk leaves the old file or none,
+/// never half of one; after a power cut the new file is there or the old one is.
+
+#include <functional>
+#include <iosfwd>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+namespace mlp::base {
+
+/// A file could not be read or written; the message names the path and the reason.
+class FileError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// The whole file as bytes; throws FileError when it cannot be opened or read.
+std::string ReadFile(const std::string& path);
+
+/// ReadFile, its FileError raised as the caller's typed error (`prefix` + the reason): how a
+/// module reads the files it owns.
+template <class Error>
+std::string ReadFileAs(const std::string& path, const std::string& prefix = {}) {
+  try {
+    return ReadFile(path);
+  } catch (const FileError& e) {
+    throw Error(prefix + e.what());
+  }
+}
+
+enum class Replace {
+  kAllowed,  ///< an existing file is replaced; its permission bits are kept
+  kNever,    ///< an existing file is an error and stays as it was (records are never rewritten)
+};
+
+/// Writes `bytes` to `path` atomically (see the file comment). Throws FileError; the old file,
+/// if any, is then untouched and no temporary file is left.
+void WriteFileAtomically(const std::string& path,
+                         std::string_view bytes,
+                         Replace replace = Replace::kAllowed);
+
+/// As above, for content produced by a stream writer (binary clouds, images).
+void WriteFileAtomically(const std::string& path,
+                         const std::function<void(std::ostream&)>& write,
+                         Replace replace = Replace::kAllowed);
+
+/// True for a temporary file a cut-short WriteFileAtomically leaves (".<name>.mlp-tmp.<pid>"),
+/// and for those of earlier versions (".<name>.mlp-tmp", "<cloud>.ply.tmp"): a service removes
+/// them at start-up. Never true for a file the project writes.
+bool IsTemporaryName(std::string_view filename);
+
+}  // namespace mlp::base

@@ -1,0 +1,119 @@
+#include "mlp/base/files.h"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+namespace mlp::base {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Why() { return std::strerror(errno); }
+
+// POSIX gives no other way to make a file's data and its directory entry durable; the C++
+// library has none (std::filesystem has no fsync).
+bool Sync(const std::string& path, int flags) {
+  const int fd = ::open(path.c_str(), flags);
+  if (fd < 0) return false;
+  const bool ok = ::fsync(fd) == 0;
+  ::close(fd);
+  return ok;
+}
+
+constexpr std::string_view kTempMark = ".mlp-tmp";
+
+// A hidden name beside the target, unique per process so two writers never share one.
+std::string TempPathFor(const fs::path& target) {
+  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::string name(1, '.');  // appended piece by piece: GCC 12 -O3 false -Wrestrict on a + b
+  name.append(target.filename().string()).append(kTempMark);
+  name.append(1, '.').append(std::to_string(::getpid()));
+  return (dir / name).string();
+}
+
+[[noreturn]] void Abandon(const std::string& tmp, const std::string& why) {
+  std::error_code ignored;
+  fs::remove(tmp, ignored);
+  throw FileError(why);
+}
+
+void Publish(const std::string& tmp, const std::string& path, Replace replace) {
+  if (replace == Replace::kAllowed) {
+    if (std::rename(tmp.c_str(), path.c_str()) != 0)
+      Abandon(tmp, "cannot replace " + path + ": " + Why());
+    return;
+  }
+  // link() fails when the name exists: a file is never replaced, even by a racing writer.
+  if (::link(tmp.c_str(), path.c_str()) != 0) Abandon(tmp, "cannot create " + path + ": " + Why());
+  std::error_code ignored;
+  fs::remove(tmp, ignored);
+}
+
+}  // namespace
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw FileError("cannot read " + path + ": " + Why());
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  if (in.bad()) throw FileError("cannot read " + path + ": " + Why());
+  return std::move(bytes).str();
+}
+
+bool IsTemporaryName(std::string_view name) {
+  if (name.ends_with(".ply.tmp")) return true;
+  if (name.size() <= kTempMark.size() + 1 || name[0] != '.') return false;
+  const std::size_t mark = name.rfind(kTempMark);
+  if (mark == std::string_view::npos) return false;
+  const std::string_view pid = name.substr(mark + kTempMark.size());
+  return pid.empty() || (pid.size() > 1 && pid[0] == '.' &&
+                         pid.find_first_not_of("0123456789", 1) == std::string_view::npos);
+}
+
+void WriteFileAtomically(const std::string& path,
+                         const std::function<void(std::ostream&)>& write,
+                         Replace replace) {
+  const fs::path target(path);
+  const std::string tmp = TempPathFor(target);
+  struct stat before {};
+  const bool existed = ::stat(path.c_str(), &before) == 0;
+  {
+    std::ofstream out(tmp, std::ios::trunc | std::ios::binary);
+    if (!out) throw FileError("cannot write " + tmp + ": " + Why());
+    try {
+      write(out);
+    } catch (...) {  // the caller's writer gave up: its error, and no temporary left
+      out.close();
+      std::error_code ignored;
+      fs::remove(tmp, ignored);
+      throw;
+    }
+    out.flush();
+    if (!out) Abandon(tmp, "cannot write " + tmp + " (disk full?)");
+  }
+  if (existed && replace == Replace::kAllowed) ::chmod(tmp.c_str(), before.st_mode & 07777);
+  if (!Sync(tmp, O_RDONLY)) Abandon(tmp, "cannot sync " + tmp + ": " + Why());
+  Publish(tmp, path, replace);
+  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  if (!Sync(dir.string(), O_RDONLY | O_DIRECTORY))
+    throw FileError("cannot sync the folder " + dir.string() + ": " + Why());
+}
+
+void WriteFileAtomically(const std::string& path, std::string_view bytes, Replace replace) {
+  WriteFileAtomically(
+      path,
+      [&](std::ostream& out) {
+        out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+      },
+      replace);
+}
+
+}  // namespace mlp::base
