@@ -27,7 +27,7 @@ echo "== Machined face: flatness (minimum zone)"
 run plane --method minzone samples/clouds/top_face.xyz
 echo
 echo "== Real sensor cloud (PCL test data, metres): robust plane"
-run plane --method robust --units m ../shared/data/pcl/sac_plane_test.pcd
+run plane --method robust --units m samples/data/pcl/sac_plane_test.pcd
 echo
 echo "== Virtual probe -> firmware -> fit: the sample block's top face, 120 mm below the probe"
 cap=$(mktemp -d)

@@ -1,5 +1,6 @@
 #pragma once
-// Locating the real data from outside the project (../shared/data beside the checkout).
+// Locating the real data from outside the project: the sets whose licences allow it are in the
+// repository (samples/data); the rest stays in the shared folder beside the checkout.
 
 #include <cstdlib>
 #include <filesystem>
@@ -7,8 +8,14 @@
 
 namespace mlp::test {
 
-/// The shared data folder: $MLP_SHARED_DATA (ctest sets it), else ../shared/data relative to
-/// the source tree. Tests that need it fail, not skip, when it is missing.
+/// The real data kept in the repository (samples/data: PCL clouds, NIST, the line scanner).
+inline std::filesystem::path RepoDataDir() {
+  return std::filesystem::path(MLP_SOURCE_DIR) / "samples" / "data";
+}
+
+/// The shared data folder (only the Blaser images, which may not be copied into the repository):
+/// $MLP_SHARED_DATA (ctest sets it), else ../shared/data relative to the source tree. Tests that
+/// need it fail, not skip, when it is missing.
 inline std::filesystem::path SharedDataDir() {
   if (const char* env = std::getenv("MLP_SHARED_DATA"); env && *env) return env;
   return std::filesystem::path(MLP_SOURCE_DIR) / ".." / "shared" / "data";

@@ -27,7 +27,7 @@ constexpr double kPointRmsMm = 0.245;
 constexpr double kCentreSpreadRmsMm = 1.3;
 
 std::vector<SphereCapture> LineScannerCaptures() {
-  const auto dir = test::SharedDataDir() / "line-scanner-sphere";
+  const auto dir = test::RepoDataDir() / "line-scanner-sphere";
   const auto poses = LoadXyzWprPoses((dir / "robpose.txt").string());
   EXPECT_EQ(poses.size(), 10u);
   std::vector<SphereCapture> captures;

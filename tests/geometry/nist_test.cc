@@ -53,7 +53,7 @@ class NistReference : public testing::TestWithParam<NistCase> {};
 
 TEST_P(NistReference, AgreesToTraCimLimits) {
   const auto& c = GetParam();
-  const auto dir = test::SharedDataDir() / "nist" / c.folder;
+  const auto dir = test::RepoDataDir() / "nist" / c.folder;
   const Points3 pts = ReadDs(dir / (c.name + ".ds"));
   const std::vector<double> ref = ReadFit(dir / (c.name + ".fit"));
   ASSERT_GE(ref.size(), 4u);
@@ -137,7 +137,7 @@ std::vector<NistCase> AllCases() {
 TEST(NistReference, AllThirtySevenPairsArePresent) {
   EXPECT_EQ(AllCases().size(), 37u);
   for (const auto& c : AllCases()) {
-    const auto dir = test::SharedDataDir() / "nist" / c.folder;
+    const auto dir = test::RepoDataDir() / "nist" / c.folder;
     EXPECT_TRUE(std::filesystem::exists(dir / (c.name + ".ds"))) << c.name;
     EXPECT_TRUE(std::filesystem::exists(dir / (c.name + ".fit"))) << c.name;
   }

@@ -26,7 +26,7 @@ double AngleUpToSign(const Vec3& a, const Vec3& b) {
 // A noisy wall scan with a quarter of its points off the plane: least squares is ruined, the
 // robust fit keeps the plane and says which points it used.
 TEST(RealClouds, RobustPlaneOnPclWallScan) {
-  const auto cloud = host::ReadCloud(test::SharedDataDir() / "pcl" / "sac_plane_test.pcd");
+  const auto cloud = host::ReadCloud(test::RepoDataDir() / "pcl" / "sac_plane_test.pcd");
   ASSERT_EQ(cloud.points.cols(), 3283);
   const Points3 p = cloud.points * kMetresToMm;
   const auto ls = FitPlane(p);
@@ -48,7 +48,7 @@ TEST(RealClouds, RobustPlaneOnPclWallScan) {
 // then the mug is a cylinder of radius about 39.6 mm (PCL's own estimate) standing on the table.
 TEST(RealClouds, RobustCylinderFindsTheMug) {
   const auto cloud =
-      host::ReadCloud(test::SharedDataDir() / "pcl" / "table_scene_mug_stereo_textured.pcd");
+      host::ReadCloud(test::RepoDataDir() / "pcl" / "table_scene_mug_stereo_textured.pcd");
   EXPECT_EQ(cloud.points.cols() + static_cast<Eigen::Index>(cloud.dropped_non_finite), 640 * 480);
   std::vector<int> near;
   for (Eigen::Index i = 0; i < cloud.points.cols(); ++i) {

@@ -7,7 +7,6 @@
 
 #include "calib/hand_eye_fixture.h"
 #include "process_run.h"
-#include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -140,18 +139,10 @@ TEST(CalibrateCli, HandEyeThenRecheckAreStoredAndRefusalsStoreNothing) {
 
 TEST(CalibrateCli, RealLineScannerSampleManifest) {
   const fs::path dir = FreshDir("line_scanner");
-  // The sample's cloud paths lead to ../shared/data from the source tree; copy the manifest
-  // with absolute paths so the test holds wherever the data folder is.
-  std::ifstream in(std::string(MLP_SOURCE_DIR) + "/samples/calib/line_scanner_ball.json");
-  json m = json::parse(in);
-  for (auto& c : m["captures"]) {
-    const std::string name = fs::path(c["cloud"].get<std::string>()).filename().string();
-    c["cloud"] = (test::SharedDataDir() / "line-scanner-sphere" / name).string();
-  }
-  std::ofstream(dir / "ball.json") << m.dump(2);
-  const ProcessRun run = Mlp("hand-eye --json --dry-run --store " + (dir / "store").string() +
-                                 " --captures " + (dir / "ball.json").string(),
-                             dir);
+  // The sample as it is in the repository: its cloud paths lead to samples/data, in the clone.
+  const std::string ball = std::string(MLP_SOURCE_DIR) + "/samples/calib/line_scanner_ball.json";
+  const ProcessRun run = Mlp(
+      "hand-eye --json --dry-run --store " + (dir / "store").string() + " --captures " + ball, dir);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const json j = json::parse(run.out);
   EXPECT_LE(j["point_rms_mm"].get<double>(), kLineScannerPointRmsMm);
@@ -160,18 +151,17 @@ TEST(CalibrateCli, RealLineScannerSampleManifest) {
   EXPECT_EQ(j["leave_one_out"]["captures"].size(), 10u);
 
   // Issue 25: the scanner's own scale estimated on request is a diagnosis: said, never stored.
-  const ProcessRun scaled =
-      Mlp("hand-eye --json --estimate scale_x,scale_z --store " + (dir / "store").string() +
-              " --captures " + (dir / "ball.json").string(),
-          dir);
+  const ProcessRun scaled = Mlp("hand-eye --json --estimate scale_x,scale_z --store " +
+                                    (dir / "store").string() + " --captures " + ball,
+                                dir);
   ASSERT_EQ(scaled.exit_code, 0) << scaled.err;
   const json s = json::parse(scaled.out);
   EXPECT_LT(s["point_rms_mm"].get<double>(), j["point_rms_mm"].get<double>());
   EXPECT_FALSE(s["sensor"]["findings"].empty());
   EXPECT_FALSE(fs::exists(dir / "store" / "LINE-SCANNER-BALL"));
-  const ProcessRun bad = Mlp("hand-eye --estimate scale_w --store " + (dir / "store").string() +
-                                 " --captures " + (dir / "ball.json").string(),
-                             dir);
+  const ProcessRun bad =
+      Mlp("hand-eye --estimate scale_w --store " + (dir / "store").string() + " --captures " + ball,
+          dir);
   EXPECT_EQ(bad.exit_code, 2) << bad.err;  // a usage error names the parameters there are
   EXPECT_NE(bad.err.find("scale_x"), std::string::npos) << bad.err;
 }

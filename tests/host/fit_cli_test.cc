@@ -59,7 +59,7 @@ TEST(FitCli, SphereFromXyzTextGivesContractFields) {
 }
 
 TEST(FitCli, EveryShapeAndMethodOnRealOrSyntheticFiles) {
-  const auto pcd = mlp::test::SharedDataDir() / "pcl" / "sac_plane_test.pcd";
+  const auto pcd = mlp::test::RepoDataDir() / "pcl" / "sac_plane_test.pcd";
   const CliRun plane = RunMlp("fit plane --method robust --units m " + pcd.string());
   ASSERT_EQ(plane.exit_code, 0);
   const auto j = nlohmann::json::parse(plane.out);
