@@ -79,7 +79,7 @@ constexpr const char* kUsage =
     "            calibration (what would fix it is printed), 4 recheck: a full calibration is\n"
     "            required, 1 bug; nothing is stored unless the exit code is 0\n";
 
-struct Args {
+struct Command {
   std::string command, captures, store, probe;
   bool json = false, dry_run = false, sphere_moved = false;
   calib::SensorModelOptions estimate;
@@ -106,33 +106,20 @@ calib::SensorModelOptions ParseEstimate(const std::string& list) {
   return o;
 }
 
-Args ParseArgs(const std::vector<std::string>& args) {
+Command ParseArgs(const std::vector<std::string>& args) {
   if (args.empty()) throw UsageError("a sub-command is needed");
-  Args a;
+  const base::Args f({args.begin() + 1, args.end()},
+                     {{"--captures", "--store", "--probe", "--estimate"},
+                      {"--json", "--dry-run", "--sphere-moved"}});
+  Command a;
   a.command = args[0];
-  for (size_t i = 1; i < args.size(); ++i) {
-    const std::string& s = args[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= args.size()) throw UsageError(s + " needs a value");
-      return args[++i];
-    };
-    if (s == "--captures")
-      a.captures = value();
-    else if (s == "--store")
-      a.store = value();
-    else if (s == "--probe")
-      a.probe = value();
-    else if (s == "--json")
-      a.json = true;
-    else if (s == "--dry-run")
-      a.dry_run = true;
-    else if (s == "--sphere-moved")
-      a.sphere_moved = true;
-    else if (s == "--estimate")
-      a.estimate = ParseEstimate(value());
-    else
-      throw UsageError("unknown option " + s);
-  }
+  a.captures = f.Text("--captures", "");
+  a.store = f.Text("--store", "");
+  a.probe = f.Text("--probe", "");
+  a.json = f.Has("--json");
+  a.dry_run = f.Has("--dry-run");
+  a.sphere_moved = f.Has("--sphere-moved");
+  if (f.Has("--estimate")) a.estimate = ParseEstimate(f.Text("--estimate"));
   if (a.store.empty()) throw UsageError("--store DIR is required");
   if (a.command != "list" && a.captures.empty())
     throw UsageError("--captures MANIFEST is required");
@@ -249,7 +236,7 @@ void PrintSensorAndValidation(const calib::HandEyeResult& r, std::ostream& out) 
   }
 }
 
-int HandEye(const Args& a, std::ostream& out, std::ostream& err) {
+int HandEye(const Command& a, std::ostream& out, std::ostream& err) {
   const Manifest m = LoadManifest(a.captures);
   calib::HandEyeOptions o;
   o.sphere_radius_mm = m.radius_mm;
@@ -323,7 +310,7 @@ int HandEye(const Args& a, std::ostream& out, std::ostream& err) {
   return kExitOk;
 }
 
-int Recheck(const Args& a, std::ostream& out, std::ostream& err) {
+int Recheck(const Command& a, std::ostream& out, std::ostream& err) {
   const Manifest m = LoadManifest(a.captures);
   const calib::CalibrationStore store(a.store);
   const auto original = store.Latest(m.probe_serial, calib::RecordKind::kHandEye);
@@ -380,7 +367,7 @@ int Recheck(const Args& a, std::ostream& out, std::ostream& err) {
   return kExitOk;
 }
 
-int List(const Args& a, std::ostream& out) {
+int List(const Command& a, std::ostream& out) {
   const auto all = calib::CalibrationStore(a.store).List(a.probe);
   if (a.json) {
     json j = json::array();
@@ -419,7 +406,7 @@ int RunCalibrateCommand(const std::vector<std::string>& args,
     if (!args.empty() &&
         (args[0] == "line-laser" || args[0] == "board-hand-eye" || args[0] == "map"))
       return RunRobotViewsCommand(args, out, err);
-    const Args a = ParseArgs(args);
+    const Command a = ParseArgs(args);
     if (a.command == "hand-eye") return HandEye(a, out, err);
     if (a.command == "recheck") return Recheck(a, out, err);
     if (a.command == "list") return List(a, out);

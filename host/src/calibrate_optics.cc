@@ -42,22 +42,15 @@ struct Options {
 };
 
 Options Parse(const std::vector<std::string>& args) {
+  const Args a({args.begin() + 1, args.end()},
+               {{"--views", "--design", "--out", "--id"}, {"--json"}});
   Options o;
   o.command = args.at(0);
-  const std::map<std::string, std::string Options::*> valued = {{"--views", &Options::views},
-                                                                {"--design", &Options::design},
-                                                                {"--out", &Options::out},
-                                                                {"--id", &Options::id}};
-  for (size_t i = 1; i < args.size(); ++i) {
-    if (args[i] == "--json") {
-      o.json = true;
-      continue;
-    }
-    const auto it = valued.find(args[i]);
-    if (it == valued.end()) throw UsageError("unknown option " + args[i]);
-    if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
-    o.*(it->second) = args[++i];
-  }
+  o.views = a.Text("--views", "");
+  o.design = a.Text("--design", "");
+  o.out = a.Text("--out", "");
+  o.id = a.Text("--id", "");
+  o.json = a.Has("--json");
   if (o.views.empty()) throw UsageError("--views MANIFEST is required");
   if (o.command == "projector" && (o.design.empty() || o.out.empty()))
     throw UsageError("projector needs --design PROBE_FILE and --out PROBE_FILE");

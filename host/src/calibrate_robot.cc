@@ -39,14 +39,10 @@ struct Options {
   calib::BoardHandEyeOptions hand_eye;
 };
 
-double PositiveNumber(const std::string& flag, const std::string& text) {
-  try {
-    size_t used = 0;
-    const double v = std::stod(text, &used);
-    if (used == text.size() && v > 0 && std::isfinite(v)) return v;
-  } catch (const std::exception&) {
-  }
-  throw UsageError(flag + " needs a positive number, not '" + text + "'");
+double PositiveNumber(const Args& a, const std::string& flag, double fallback) {
+  const double v = a.Number(flag, fallback);
+  if (!(v > 0)) throw UsageError(flag + " needs a positive number");
+  return v;
 }
 
 void Require(bool ok, const char* what) {
@@ -76,34 +72,24 @@ void CheckOptions(const Options& o) {
 }
 
 Options Parse(const std::vector<std::string>& args) {
+  const Args a({args.begin() + 1, args.end()},
+               {{"--views", "--design", "--probe", "--out", "--id", "--store", "--calibration",
+                 "--refined-probe", "--max-std-mm", "--lever-mm"},
+                {"--json", "--dry-run"}});
   Options o;
   o.command = args.at(0);
-  o.hand_eye.max_std_mm = kDefaultMaxStdMm;
-  const std::map<std::string, std::string Options::*> valued = {
-      {"--views", &Options::views},
-      {"--design", &Options::design},
-      {"--probe", &Options::probe},
-      {"--out", &Options::out},
-      {"--id", &Options::id},
-      {"--store", &Options::store},
-      {"--calibration", &Options::calibration},
-      {"--refined-probe", &Options::refined_probe}};
-  for (size_t i = 1; i < args.size(); ++i) {
-    if (args[i] == "--json" || args[i] == "--dry-run") {
-      (args[i] == "--json" ? o.json : o.dry_run) = true;
-      continue;
-    }
-    if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
-    if (args[i] == "--max-std-mm" || args[i] == "--lever-mm") {
-      (args[i] == "--lever-mm" ? o.hand_eye.lever_mm : o.hand_eye.max_std_mm) =
-          PositiveNumber(args[i], args[i + 1]);
-      ++i;
-      continue;
-    }
-    const auto it = valued.find(args[i]);
-    if (it == valued.end()) throw UsageError("unknown option " + args[i]);
-    o.*(it->second) = args[++i];
-  }
+  o.views = a.Text("--views", "");
+  o.design = a.Text("--design", "");
+  o.probe = a.Text("--probe", "");
+  o.out = a.Text("--out", "");
+  o.id = a.Text("--id", "");
+  o.store = a.Text("--store", "");
+  o.calibration = a.Text("--calibration", "");
+  o.refined_probe = a.Text("--refined-probe", "");
+  o.json = a.Has("--json");
+  o.dry_run = a.Has("--dry-run");
+  o.hand_eye.max_std_mm = PositiveNumber(a, "--max-std-mm", kDefaultMaxStdMm);
+  o.hand_eye.lever_mm = PositiveNumber(a, "--lever-mm", o.hand_eye.lever_mm);
   // The plane is refined with the hand-eye only when the refined probe model is written:
   // otherwise the firmware's file and the hand-eye would disagree about it.
   o.hand_eye.refine_plane = !o.refined_probe.empty();

@@ -8,15 +8,6 @@
 
 namespace mlp::host {
 
-double ParseNumber(const std::string& flag, const std::string& value) {
-  char* end = nullptr;
-  const double v = std::strtod(value.c_str(), &end);
-  if (value.empty() || *end != '\0' || !std::isfinite(v)) {
-    throw UsageError(flag + " needs a number, got '" + value + "'");
-  }
-  return v;
-}
-
 std::string ReadInputFile(const std::string& path) {
   try {
     return base::ReadFile(path);

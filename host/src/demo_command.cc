@@ -283,20 +283,13 @@ json DemoPlateAlignRequest(const std::string& machine,
 int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   try {
     std::ostringstream quiet;  // --json: the steps' text goes nowhere, the summary to out
-    const bool as_json = std::find(args.begin(), args.end(), "--json") != args.end();
+    const Args a(args, {{"--dir", "--samples", "--port"}, {"--json"}});
+    const bool as_json = a.Has("--json");
     Demo d{{}, {}, 17420, {}, as_json ? static_cast<std::ostream&>(quiet) : out};
-    for (size_t i = 0; i < args.size(); ++i) {
-      if (args[i] == "--json") continue;
-      if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
-      if (args[i] == "--dir")
-        d.dir = args[++i];
-      else if (args[i] == "--samples")
-        d.samples = args[++i];
-      else if (args[i] == "--port")
-        d.port = std::stoi(args[++i]);
-      else
-        throw UsageError("unknown argument " + args[i]);
-    }
+    d.dir = a.Text("--dir", "");
+    d.samples = a.Text("--samples", "");
+    d.port = static_cast<int>(a.Integer("--port", d.port, 1));
+    if (d.port > 65535) throw UsageError("--port is 1..65535");
     if (d.samples.empty()) d.samples = DefaultSamplesDir();
     if (d.dir.empty())
       d.dir = fs::temp_directory_path() / ("mlprobe-demo-" + std::to_string(getpid()));

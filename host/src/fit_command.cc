@@ -31,40 +31,25 @@ struct FitRequest {
 };
 
 FitRequest ParseArgs(const std::vector<std::string>& args) {
+  const Args a(args, {{"--method", "--units", "--threshold", "--seed"}, {"--text"}, {}, true});
   FitRequest req;
-  std::vector<std::string> positional;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    const auto value = [&]() -> const std::string& {
-      if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
-      return args[++i];
-    };
-    if (a == "--method") {
-      req.method = value();
-    } else if (a == "--units") {
-      const std::string u = value();
-      if (u == "mm")
-        req.unit_scale = 1.0;
-      else if (u == "m")
-        req.unit_scale = 1000.0;
-      else if (u == "um")
-        req.unit_scale = 1e-3;
-      else if (u == "in")
-        req.unit_scale = 25.4;
-      else
-        throw UsageError("--units must be mm, m, um or in");
-    } else if (a == "--text") {
-      req.text = true;
-    } else if (a == "--threshold") {
-      req.robust.inlier_threshold_mm = ParseNumber(a, value());
-    } else if (a == "--seed") {
-      req.robust.random_seed = static_cast<uint64_t>(ParseNumber(a, value()));
-    } else if (a.size() > 1 && a[0] == '-' && a != "-") {
-      throw UsageError("unknown option " + a);
-    } else {
-      positional.push_back(a);
-    }
-  }
+  req.method = a.Text("--method", req.method);
+  const std::string units = a.Text("--units", "mm");
+  if (units == "mm")
+    req.unit_scale = 1.0;
+  else if (units == "m")
+    req.unit_scale = 1000.0;
+  else if (units == "um")
+    req.unit_scale = 1e-3;
+  else if (units == "in")
+    req.unit_scale = 25.4;
+  else
+    throw UsageError("--units must be mm, m, um or in");
+  req.text = a.Has("--text");
+  req.robust.inlier_threshold_mm = a.Number("--threshold", req.robust.inlier_threshold_mm);
+  req.robust.random_seed =
+      static_cast<uint64_t>(a.Integer("--seed", static_cast<long long>(req.robust.random_seed)));
+  const std::vector<std::string>& positional = a.Positionals();
   if (positional.size() != 2) throw UsageError("expected SHAPE and FILE");
   req.shape = positional[0];
   req.path = positional[1];

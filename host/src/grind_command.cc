@@ -36,45 +36,17 @@ constexpr const char* kUsage =
     "  point's actual contour, its error and compensation (x20)\n"
     "exit codes: 0 done, 2 bad arguments or files, 3 a point could not be measured (why), 1 bug\n";
 
-std::map<std::string, std::string> Flags(const std::vector<std::string>& args, bool* json) {
-  std::map<std::string, std::string> f;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--json") {
-      *json = true;
-      continue;
-    }
-    if (args[i].rfind("--", 0) != 0 || i + 1 >= args.size())
-      throw UsageError("unknown argument or missing value: " + args[i]);
-    f[args[i]] = args[i + 1];
-    ++i;
-  }
-  return f;
-}
-
-double Num(const std::map<std::string, std::string>& f, const std::string& k, double fallback) {
-  const auto it = f.find(k);
-  if (it == f.end()) return fallback;
-  char* end = nullptr;
-  const double x = std::strtod(it->second.c_str(), &end);
-  if (end == it->second.c_str() || *end != '\0' || !std::isfinite(x))
-    throw UsageError(k + " takes a number, not \"" + it->second + "\"");
-  return x;
-}
-
 nlohmann::json Pair(const Vec2& v) { return {v.x(), v.y()}; }
 
-int Render(const std::map<std::string, std::string>& f, std::ostream& out, std::ostream& err) {
-  for (const auto& [k, v] : f)
-    if (k != "--out" && k != "--cases" && k != "--seed" && k != "--limit-mm")
-      throw UsageError("unknown argument " + k);
-  if (!f.count("--out")) throw UsageError("mlp grind render needs --out");
-  const std::string dir = f.at("--out");
-  const int n = static_cast<int>(Num(f, "--cases", 8));
+int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const Args f(args, {{"--out", "--cases", "--seed", "--limit-mm"}, {"--json"}});
+  const std::string dir = f.Text("--out");
+  const int n = static_cast<int>(f.Number("--cases", 8));
   if (n < 1 || n > 200) throw UsageError("--cases: 1..200");
-  const auto seed = static_cast<unsigned>(Num(f, "--seed", 7));
+  const auto seed = static_cast<unsigned>(f.Number("--seed", 7));
   grind::GrindJob job;
   job.profile = grind::DemoProfile();
-  job.limit_mm = Num(f, "--limit-mm", job.limit_mm);
+  job.limit_mm = f.Number("--limit-mm", job.limit_mm);
   const geometry::Profile2 p(job.profile);
   const auto cases = grind::SweepCases(p, job.wheel_radius_mm, job.limit_mm, n, seed);
   fs::create_directories(dir);
@@ -99,10 +71,11 @@ int Render(const std::map<std::string, std::string>& f, std::ostream& out, std::
                      {"error_dir", Pair(c.error_dir)},
                      {"error_mm", c.error_mm}});
   }
-  std::ofstream((fs::path(dir) / "job.json").string()) << grind::JobJson(job);
-  std::ofstream((fs::path(dir) / "truth.json").string())
-      << nlohmann::ordered_json{{"format", "mlprobe-grind-truth/1"}, {"points", truth}}.dump(1)
-      << "\n";
+  WriteOutputFile((fs::path(dir) / "job.json").string(), grind::JobJson(job));
+  WriteOutputFile(
+      (fs::path(dir) / "truth.json").string(),
+      nlohmann::ordered_json{{"format", "mlprobe-grind-truth/1"}, {"points", truth}}.dump(1) +
+          "\n");
   out << cases.size() << " cutting points in " << dir << " (job.json, truth.json)\n";
   return kExitOk;
 }
@@ -148,20 +121,19 @@ void Picture(const std::string& path,
   if (!cv::imwrite(path, img)) throw UsageError("cannot write " + path);
 }
 
-int Measure(const std::map<std::string, std::string>& f, bool json, std::ostream& out) {
-  for (const auto& [k, v] : f)
-    if (k != "--job" && k != "--png") throw UsageError("unknown argument " + k);
-  if (!f.count("--job")) throw UsageError("mlp grind measure needs --job");
-  const std::string text = ReadInputFile(f.at("--job"));
+int Measure(const std::vector<std::string>& args, std::ostream& out) {
+  const Args f(args, {{"--job", "--png"}, {"--json"}});
+  const bool json = f.Has("--json");
+  const std::string text = ReadInputFile(f.Text("--job"));
   grind::GrindJob job;
   std::unique_ptr<geometry::Profile2> p;
   try {
     job = grind::ParseJob(text);
     p = std::make_unique<geometry::Profile2>(job.profile);
   } catch (const std::exception& e) {
-    throw UsageError(f.at("--job") + ": " + e.what());
+    throw UsageError(f.Text("--job") + ": " + e.what());
   }
-  const fs::path dir = fs::path(f.at("--job")).parent_path();
+  const fs::path dir = fs::path(f.Text("--job")).parent_path();
   std::vector<grind::PointResult> results;
   for (const auto& pt : job.points) {
     const auto before = ReadGrey((dir / pt.before).string(), job.camera);
@@ -173,7 +145,7 @@ int Measure(const std::map<std::string, std::string>& f, bool json, std::ostream
     results.push_back(
         grind::MeasurePoint(input, *p, job.camera, job.wheel_radius_mm, job.limit_mm));
   }
-  if (f.count("--png")) Picture(f.at("--png"), job, *p, results);
+  if (f.Has("--png")) Picture(f.Text("--png"), job, *p, results);
   nlohmann::ordered_json points = nlohmann::ordered_json::array();
   std::map<std::string, int> counts;
   for (const auto& r : results) {
@@ -208,7 +180,7 @@ int Measure(const std::map<std::string, std::string>& f, bool json, std::ostream
           << r.compensation_mm.y() * 1e3 << ") um";
     out << "\n";
   }
-  if (f.count("--png")) out << "  picture: " << f.at("--png") << "\n";
+  if (f.Has("--png")) out << "  picture: " << f.Text("--png") << "\n";
   return kExitOk;
 }
 
@@ -222,9 +194,8 @@ int RunGrindCommand(const std::vector<std::string>& args, std::ostream& out, std
     }
     if (args.empty() || (args[0] != "render" && args[0] != "measure"))
       throw UsageError("expected: mlp grind render or measure ...");
-    bool json = false;
-    const auto f = Flags({args.begin() + 1, args.end()}, &json);
-    return args[0] == "render" ? Render(f, out, err) : Measure(f, json, out);
+    const std::vector<std::string> rest(args.begin() + 1, args.end());
+    return args[0] == "render" ? Render(rest, out, err) : Measure(rest, out);
   } catch (const UsageError& e) {
     err << "mlp grind: " << e.what() << "\n" << kUsage;
     return kExitBadInput;

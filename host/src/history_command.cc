@@ -24,36 +24,19 @@ struct Options {
   long long job = 0;
 };
 
-long long Whole(const std::string& flag, const std::string& v) {
-  char* end = nullptr;
-  const long long n = std::strtoll(v.c_str(), &end, 10);
-  if (end == v.c_str() || *end != '\0' || n < 1) throw UsageError(flag + " is a whole number >= 1");
-  return n;
-}
-
 Options Parse(const std::vector<std::string>& args) {
+  const Args a(args, {{"--db", "--machine", "--kind", "--since", "--limit", "--job", "--format"}});
   Options o;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
-    const std::string& k = args[i];
-    const std::string v = args[++i];
-    if (k == "--db")
-      o.db = v;
-    else if (k == "--machine")
-      o.filter.machine = v;
-    else if (k == "--kind")
-      o.filter.kind = v;
-    else if (k == "--since")
-      o.filter.since_utc = v;
-    else if (k == "--limit")
-      o.filter.limit = static_cast<int>(std::min(Whole(k, v), 1000000LL));
-    else if (k == "--job")
-      o.job = Whole(k, v);
-    else if (k == "--format" && (v == "text" || v == "csv" || v == "json"))
-      o.format = v;
-    else
-      throw UsageError("unknown argument " + k + " " + v);
-  }
+  o.db = a.Text("--db", "");
+  if (a.Has("--machine")) o.filter.machine = a.Text("--machine");
+  if (a.Has("--kind")) o.filter.kind = a.Text("--kind");
+  if (a.Has("--since")) o.filter.since_utc = a.Text("--since");
+  if (a.Has("--limit"))
+    o.filter.limit = static_cast<int>(std::min(a.Integer("--limit", 0, 1), 1000000LL));
+  o.job = a.Integer("--job", 0, 1);
+  o.format = a.Text("--format", o.format);
+  if (o.format != "text" && o.format != "csv" && o.format != "json")
+    throw UsageError("--format is text, csv or json");
   if (o.db.empty()) {
     const char* env = std::getenv("MLP_HISTORY");
     o.db = env && *env ? env : kDefaultDb;

@@ -25,32 +25,19 @@ struct Options {
 };
 
 Options Parse(const std::vector<std::string>& args, bool takes_file) {
+  const Args a(args, {{"--socket", "--timeout"}, {"--json"}, {}, takes_file});
   Options o;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
-      return args[++i];
-    };
-    if (args[i] == "--socket")
-      o.socket = value();
-    else if (args[i] == "--json")
-      o.json = true;
-    else if (args[i] == "--timeout") {
-      const std::string v = value();
-      char* end = nullptr;
-      o.timeout_s = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end != '\0' || !(o.timeout_s > 0) || o.timeout_s > 86400)
-        throw UsageError("--timeout is seconds, > 0");
-    } else if (takes_file && o.file.empty() && (args[i] == "-" || args[i][0] != '-'))
-      o.file = args[i];
-    else
-      throw UsageError("unknown argument " + args[i]);
-  }
+  o.socket = a.Text("--socket", "");
+  o.json = a.Has("--json");
+  o.timeout_s = a.Number("--timeout", o.timeout_s);
+  if (!(o.timeout_s > 0) || o.timeout_s > 86400) throw UsageError("--timeout is seconds, > 0");
   if (o.socket.empty()) {
     const char* env = std::getenv("MLP_SOCKET");
     o.socket = env && *env ? env : kDefaultSocket;
   }
-  if (takes_file && o.file.empty()) throw UsageError("a request file (or - for stdin) is needed");
+  if (takes_file && a.Positionals().size() != 1)
+    throw UsageError("one request file (or - for stdin) is needed");
+  if (takes_file) o.file = a.Positionals().front();
   return o;
 }
 

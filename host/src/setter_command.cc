@@ -37,45 +37,8 @@ constexpr const char* kUsage =
 
 namespace fs = std::filesystem;
 
-struct Flags {
-  std::map<std::string, std::string> values;
-  std::set<std::string> switches;
-  bool Has(const std::string& k) const { return values.count(k) > 0; }
-  const std::string& Text(const std::string& k) const {
-    const auto it = values.find(k);
-    if (it == values.end()) throw UsageError(k + " is required");
-    return it->second;
-  }
-  double Number(const std::string& k, double fallback) const {
-    if (!Has(k)) return fallback;
-    const std::string& v = values.at(k);
-    char* end = nullptr;
-    const double x = std::strtod(v.c_str(), &end);
-    if (end == v.c_str() || *end != '\0' || !std::isfinite(x))
-      throw UsageError(k + " takes a number, not \"" + v + "\"");
-    return x;
-  }
-};
-
-Flags Parse(const std::vector<std::string>& args, const std::set<std::string>& bare) {
-  Flags f;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (bare.count(args[i])) {
-      f.switches.insert(args[i]);
-      continue;
-    }
-    if (args[i].rfind("--", 0) != 0) throw UsageError("unknown argument " + args[i]);
-    if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
-    f.values[args[i]] = args[i + 1];
-    ++i;
-  }
-  return f;
-}
-
-void Allow(const Flags& f, const std::set<std::string>& known) {
-  for (const auto& [k, v] : f.values)
-    if (!known.count(k)) throw UsageError("unknown argument " + k);
-}
+// Every sub-command takes these switches.
+const std::set<std::string> kSwitches = {"--json", "--leaving"};
 
 // `mlprobe-beam-signal/1`: a header line `# mlprobe-beam-signal/1 sample_rate_hz=H`, then one
 // voltage a line.
@@ -120,9 +83,10 @@ std::vector<double> Radii(const std::string& list) {
   return r;
 }
 
-int Simulate(const Flags& f, std::ostream& out) {
-  Allow(f, {"--out", "--rpm", "--teeth-mm", "--feed-mm-min", "--gap-mm", "--duration-s",
-            "--drops-per-s", "--noise-v", "--sample-rate-hz", "--seed"});
+int Simulate(const std::vector<std::string>& args, std::ostream& out) {
+  const Args f(args, {{"--out", "--rpm", "--teeth-mm", "--feed-mm-min", "--gap-mm", "--duration-s",
+                       "--drops-per-s", "--noise-v", "--sample-rate-hz", "--seed"},
+                      kSwitches});
   setter::BeamModel beam;
   beam.sample_rate_hz = f.Number("--sample-rate-hz", beam.sample_rate_hz);
   beam.noise_v = f.Number("--noise-v", beam.noise_v);
@@ -134,7 +98,7 @@ int Simulate(const Flags& f, std::ostream& out) {
   m.feed_mm_min = f.Number("--feed-mm-min", m.feed_mm_min);
   m.gap_mm = f.Number("--gap-mm", m.gap_mm);
   m.duration_s = f.Number("--duration-s", m.duration_s);
-  m.entering = !f.switches.count("--leaving");
+  m.entering = !f.Has("--leaving");
   const auto seed = static_cast<unsigned>(f.Number("--seed", 1));
   tool.start_turn_rad = 0.37 * seed;
   setter::BeamSignal s;
@@ -160,13 +124,13 @@ int Simulate(const Flags& f, std::ostream& out) {
   return kExitOk;
 }
 
-int Calibrate(const Flags& f, std::ostream& out) {
-  Allow(f, {"--signal", "--feed-mm-min", "--out"});
+int Calibrate(const std::vector<std::string>& args, std::ostream& out) {
+  const Args f(args, {{"--signal", "--feed-mm-min", "--out"}, kSwitches});
   const SignalFile s = ReadSignal(f.Text("--signal"));
   const setter::CalibrationCurve c = setter::CalibrateFromPin(
-      s.volts, s.sample_rate_hz, f.Number("--feed-mm-min", 0.0), !f.switches.count("--leaving"));
+      s.volts, s.sample_rate_hz, f.Number("--feed-mm-min", 0.0), !f.Has("--leaving"));
   WriteOutputFile(f.Text("--out"), setter::CurveJson(c));
-  if (f.switches.count("--json")) {
+  if (f.Has("--json")) {
     out << nlohmann::json::parse(setter::CurveJson(c)).dump() << "\n";
     return kExitOk;
   }
@@ -177,15 +141,17 @@ int Calibrate(const Flags& f, std::ostream& out) {
   return kExitOk;
 }
 
-int Process(const Flags& f, std::ostream& out, std::ostream& err) {
-  Allow(f, {"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min", "--threshold-share"});
+int Process(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const Args f(args,
+               {{"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min", "--threshold-share"},
+                kSwitches});
   const SignalFile s = ReadSignal(f.Text("--signal"));
   setter::ProcessorConfig c;
   c.sample_rate_hz = s.sample_rate_hz;
   c.rpm = f.Number("--rpm", 0.0);
   c.teeth = static_cast<int>(f.Number("--teeth", 1));
   c.feed_mm_min = f.Number("--feed-mm-min", 0.0);
-  c.entering = !f.switches.count("--leaving");
+  c.entering = !f.Has("--leaving");
   c.threshold_share = f.Number("--threshold-share", c.threshold_share);
   try {
     c.curve = setter::ParseCurve(ReadInputFile(f.Text("--curve")));
@@ -231,7 +197,7 @@ int Process(const Flags& f, std::ostream& out, std::ostream& err) {
   j["recent_rejections"] = rejected;
   const int code = p->Triggered() ? kExitOk : kExitNoResult;
   if (!p->Triggered()) err << "mlp setter: no trigger in " << p->Samples() << " samples\n";
-  if (f.switches.count("--json")) {
+  if (f.Has("--json")) {
     out << j.dump() << "\n";
     return code;
   }
@@ -261,10 +227,10 @@ int RunSetterCommand(const std::vector<std::string>& args, std::ostream& out, st
       return kExitOk;
     }
     if (args.empty()) throw UsageError("expected: mlp setter simulate, calibrate or process");
-    const Flags f = Parse({args.begin() + 1, args.end()}, {"--json", "--leaving"});
-    if (args[0] == "simulate") return Simulate(f, out);
-    if (args[0] == "calibrate") return Calibrate(f, out);
-    if (args[0] == "process") return Process(f, out, err);
+    const std::vector<std::string> rest(args.begin() + 1, args.end());
+    if (args[0] == "simulate") return Simulate(rest, out);
+    if (args[0] == "calibrate") return Calibrate(rest, out);
+    if (args[0] == "process") return Process(rest, out, err);
     throw UsageError("expected: mlp setter simulate, calibrate or process");
   } catch (const UsageError& e) {
     err << "mlp setter: " << e.what() << "\n" << kUsage;

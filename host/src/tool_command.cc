@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <set>
 #include <sstream>
 
 #include "tool_commands.h"
@@ -21,17 +22,7 @@
 
 namespace mlp::host {
 
-double tool::Number(const std::string& flag, const std::string& v) {
-  char* end = nullptr;
-  const double x = std::strtod(v.c_str(), &end);
-  if (end == v.c_str() || *end != '\0' || !std::isfinite(x))
-    throw UsageError(flag + " takes a number, not \"" + v + "\"");
-  return x;
-}
-
 namespace {
-
-using tool::Number;
 
 constexpr int kExitCannotPlan = 3;
 constexpr const char* kUsage =
@@ -75,8 +66,12 @@ struct RenderOptions {
   toolcam::SpindleShift shift;
 };
 
-// The render options that set the virtual camera or the spindle; false for any other flag.
-bool SetRenderCamera(const std::string& k, double v, RenderOptions* r) {
+// The render options that set the virtual camera or the spindle.
+const std::set<std::string> kCameraOptions = {"--axis-u-px",   "--tip-v-px", "--roll-deg",
+                                              "--pitch-deg",   "--drops",    "--spindle-y-mm",
+                                              "--spindle-z-mm"};
+
+void SetRenderCamera(const std::string& k, double v, RenderOptions* r) {
   toolcam::ToolCameraModel& c = r->camera;
   if (k == "--axis-u-px" || k == "--tip-v-px") r->placed = true;
   if (k == "--axis-u-px")
@@ -93,63 +88,44 @@ bool SetRenderCamera(const std::string& k, double v, RenderOptions* r) {
     r->shift.y_mm = v;
   else if (k == "--spindle-z-mm")
     r->shift.z_mm = v;
-  else
-    return false;
-  return true;
+}
+
+ArgSpec StrobeSpec(bool rendering) {
+  ArgSpec spec{{"--rpm", "--fps", "--resolution-deg", "--timer-us", "--min-pulse-us",
+                "--blanking-us", "--max-duration-s", "--rpm-tolerance", "--pulse-share"},
+               {"--json", "--free-running"},
+               {}};
+  if (rendering) {
+    spec.valued.insert({"--tool", "--out", "--seed", "--start-deg"});
+    spec.valued.insert(kCameraOptions.begin(), kCameraOptions.end());
+  }
+  return spec;
 }
 
 toolcam::StrobeRequest Parse(const std::vector<std::string>& args,
                              bool* json,
                              RenderOptions* render) {
+  const Args a(args, StrobeSpec(render != nullptr));
+  *json = a.Has("--json");
   toolcam::StrobeRequest r;
-  bool rpm = false, fps = false, res = false;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& k = args[i];
-    if (k == "--json") {
-      *json = true;
-      continue;
-    }
-    if (k == "--free-running") {
-      r.synchronised = false;
-      continue;
-    }
-    if (i + 1 >= args.size()) throw UsageError(k + " needs a value");
-    if (render && (k == "--tool" || k == "--out")) {
-      (k == "--tool" ? render->tool : render->out) = args[++i];
-      continue;
-    }
-    const double v = Number(k, args[++i]);
-    if (render && k == "--seed") {
-      render->seed = static_cast<unsigned>(v);
-      continue;
-    }
-    if (render && k == "--start-deg") {
-      render->start_deg = v;
-      continue;
-    }
-    if (render && SetRenderCamera(k, v, render)) continue;
-    if (k == "--rpm")
-      r.rpm = v, rpm = true;
-    else if (k == "--fps")
-      r.frame_rate_hz = v, fps = true;
-    else if (k == "--resolution-deg")
-      r.resolution_deg = v, res = true;
-    else if (k == "--timer-us")
-      r.timer_resolution_us = v;
-    else if (k == "--min-pulse-us")
-      r.min_pulse_us = v;
-    else if (k == "--blanking-us")
-      r.blanking_us = v;
-    else if (k == "--max-duration-s")
-      r.max_duration_s = v;
-    else if (k == "--rpm-tolerance")
-      r.rpm_tolerance = v;
-    else if (k == "--pulse-share")
-      r.pulse_share = v;
-    else
-      throw UsageError("unknown argument " + k);
+  r.synchronised = !a.Has("--free-running");
+  r.rpm = a.Number("--rpm");
+  r.frame_rate_hz = a.Number("--fps");
+  r.resolution_deg = a.Number("--resolution-deg");
+  r.timer_resolution_us = a.Number("--timer-us", r.timer_resolution_us);
+  r.min_pulse_us = a.Number("--min-pulse-us", r.min_pulse_us);
+  r.blanking_us = a.Number("--blanking-us", r.blanking_us);
+  r.max_duration_s = a.Number("--max-duration-s", r.max_duration_s);
+  r.rpm_tolerance = a.Number("--rpm-tolerance", r.rpm_tolerance);
+  r.pulse_share = a.Number("--pulse-share", r.pulse_share);
+  if (render) {
+    render->tool = a.Text("--tool", "");
+    render->out = a.Text("--out", "");
+    render->seed = static_cast<unsigned>(a.Number("--seed", render->seed));
+    render->start_deg = a.Number("--start-deg", render->start_deg);
+    for (const std::string& k : kCameraOptions)
+      if (a.Has(k)) SetRenderCamera(k, a.Number(k), render);
   }
-  if (!rpm || !fps || !res) throw UsageError("--rpm, --fps and --resolution-deg are required");
   return r;
 }
 

@@ -101,33 +101,6 @@ toolcam::ToolDescription ReadTool(const std::string& path) {
   }
 }
 
-// Flags: "--name value" pairs and bare switches; throws UsageError for anything else.
-struct Flags {
-  std::map<std::string, std::string> values;
-  std::set<std::string> switches;
-  std::string Get(const std::string& k) const {
-    const auto it = values.find(k);
-    return it == values.end() ? "" : it->second;
-  }
-};
-
-Flags ParseFlags(const std::vector<std::string>& args,
-                 const std::set<std::string>& valued,
-                 const std::set<std::string>& bare) {
-  Flags f;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (bare.count(args[i])) {
-      f.switches.insert(args[i]);
-      continue;
-    }
-    if (!valued.count(args[i])) throw UsageError("unknown argument " + args[i]);
-    if (i + 1 >= args.size()) throw UsageError(args[i] + " needs a value");
-    f.values[args[i]] = args[i + 1];
-    ++i;
-  }
-  return f;
-}
-
 // The camera for the tool in these images: the calibration file's (with the spindle's shift
 // from the manifest) or else the manifest's own.
 toolcam::ToolCameraModel CameraFor(const Images& im,
@@ -334,81 +307,80 @@ void SaveReference(const std::string& path,
 }  // namespace
 
 int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Flags f =
-      ParseFlags(args,
-                 {"--images", "--frames", "--tool", "--camera", "--overlay", "--save-reference",
-                  "--tool-table", "--tool-number", "--max-change-mm"},
-                 {"--json", "--accept-findings"});
-  const std::string images = f.Get("--images").empty() ? f.Get("--frames") : f.Get("--images");
-  if (images.empty() || f.Get("--tool").empty())
+  const Args f(args, {{"--images", "--frames", "--tool", "--camera", "--overlay",
+                       "--save-reference", "--tool-table", "--tool-number", "--max-change-mm"},
+                      {"--json", "--accept-findings"}});
+  const std::string images =
+      f.Text("--images", "").empty() ? f.Text("--frames", "") : f.Text("--images", "");
+  if (images.empty() || f.Text("--tool", "").empty())
     throw UsageError("mlp tool measure needs --images (or --frames) and --tool");
-  if (f.Get("--tool-table").empty() != f.Get("--tool-number").empty())
+  if (f.Text("--tool-table", "").empty() != f.Text("--tool-number", "").empty())
     throw UsageError("--tool-table and --tool-number go together");
-  const toolcam::ToolDescription tool = ReadTool(f.Get("--tool"));
+  const toolcam::ToolDescription tool = ReadTool(f.Text("--tool", ""));
   const Images im = ReadImages(images);
   std::vector<std::string> warnings;
   const toolcam::ToolCameraModel camera =
-      CameraFor(im, f.Get("--camera"), tool.length_mm, &warnings);
+      CameraFor(im, f.Text("--camera", ""), tool.length_mm, &warnings);
   for (const auto& w : warnings) err << "mlp tool: warning: " << w << "\n";
   toolcam::MeasureOptions options;
   options.blur_rad = im.blur_rad;
   const toolcam::ToolMeasurement m =
       toolcam::MeasureTool(im.pixels, im.position, im.positions, tool, camera, options);
-  if (!f.Get("--overlay").empty()) WriteOverlay(f.Get("--overlay"), im.pixels, camera, m);
-  if (!f.Get("--save-reference").empty()) SaveReference(f.Get("--save-reference"), tool, m);
+  if (!f.Text("--overlay", "").empty()) WriteOverlay(f.Text("--overlay", ""), im.pixels, camera, m);
+  if (!f.Text("--save-reference", "").empty())
+    SaveReference(f.Text("--save-reference", ""), tool, m);
   nlohmann::json result = MeasurementJson(tool, m);
   result["warnings"] = warnings;
   int code = kExitOk;
-  if (!f.Get("--tool-table").empty()) {
-    const int number = static_cast<int>(Number("--tool-number", f.Get("--tool-number")));
-    const double max_change = f.Get("--max-change-mm").empty()
-                                  ? 0.5
-                                  : Number("--max-change-mm", f.Get("--max-change-mm"));
+  if (!f.Text("--tool-table", "").empty()) {
+    const int number = static_cast<int>(f.Number("--tool-number"));
+    const double max_change = f.Number("--max-change-mm", 0.5);
     try {
-      const TableChange c =
-          UpdateToolTable(f.Get("--tool-table"), number, max_change,
-                          f.switches.count("--accept-findings") > 0, tool, m, images);
+      const TableChange c = UpdateToolTable(f.Text("--tool-table", ""), number, max_change,
+                                            f.Has("--accept-findings"), tool, m, images);
       result["tool_table"] = {
-          {"file", f.Get("--tool-table")},           {"tool", c.tool},
+          {"file", f.Text("--tool-table", "")},      {"tool", c.tool},
           {"length_before_mm", c.length_before},     {"length_after_mm", c.length_after},
           {"diameter_before_mm", c.diameter_before}, {"diameter_after_mm", c.diameter_after}};
     } catch (const RefusedError& e) {
-      result["tool_table"] = {{"file", f.Get("--tool-table")}, {"refused", e.what()}};
+      result["tool_table"] = {{"file", f.Text("--tool-table", "")}, {"refused", e.what()}};
       err << "mlp tool: " << e.what() << "\n";
       code = kExitRefused;
     }
   }
-  if (f.switches.count("--json")) {
+  if (f.Has("--json")) {
     out << result.dump() << "\n";
     return code;
   }
   PrintMeasurement(tool, m, out);
   if (result.contains("tool_table") && !result["tool_table"].contains("refused"))
-    out << std::fixed << std::setprecision(4) << "  tool table " << f.Get("--tool-table") << ": T"
-        << result["tool_table"]["tool"].get<int>() << " Z "
+    out << std::fixed << std::setprecision(4) << "  tool table " << f.Text("--tool-table", "")
+        << ": T" << result["tool_table"]["tool"].get<int>() << " Z "
         << result["tool_table"]["length_before_mm"].get<double>() << " -> "
         << result["tool_table"]["length_after_mm"].get<double>() << " mm, D "
         << result["tool_table"]["diameter_before_mm"].get<double>() << " -> "
         << result["tool_table"]["diameter_after_mm"].get<double>() << " mm\n";
-  if (!f.Get("--overlay").empty()) out << "  overlay: " << f.Get("--overlay") << "\n";
+  if (!f.Text("--overlay", "").empty()) out << "  overlay: " << f.Text("--overlay", "") << "\n";
   return code;
 }
 
 int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Flags f = ParseFlags(args, {"--images", "--frames", "--pin", "--out"}, {"--json"});
-  const std::string images = f.Get("--images").empty() ? f.Get("--frames") : f.Get("--images");
-  if (images.empty() || f.Get("--pin").empty() || f.Get("--out").empty())
+  const Args f(args, {{"--images", "--frames", "--pin", "--out"}, {"--json"}});
+  const std::string images =
+      f.Text("--images", "").empty() ? f.Text("--frames", "") : f.Text("--images", "");
+  if (images.empty() || f.Text("--pin", "").empty() || f.Text("--out", "").empty())
     throw UsageError("mlp tool calibrate needs --images (or --frames), --pin and --out");
-  const toolcam::ToolDescription pin = ReadTool(f.Get("--pin"));
-  if (!pin.pin) throw UsageError(f.Get("--pin") + " is not a pin (\"kind\": \"pin\")");
+  const toolcam::ToolDescription pin = ReadTool(f.Text("--pin", ""));
+  if (!pin.pin) throw UsageError(f.Text("--pin", "") + " is not a pin (\"kind\": \"pin\")");
   const Images im = ReadImages(images);  // its mm_per_px: the lens' nominal scale
   err << "mlp tool: calibrating from " << im.pixels.size() << " images of " << pin.id << "\n";
   const toolcam::PinCalibration p =
       toolcam::CalibrateWithPin(im.pixels, im.position, im.positions, im.camera, pin);
   try {
-    base::WriteFileAtomically(f.Get("--out"), toolcam::CameraCalibrationJson(p, im.camera, pin.id));
+    base::WriteFileAtomically(f.Text("--out", ""),
+                              toolcam::CameraCalibrationJson(p, im.camera, pin.id));
   } catch (const std::runtime_error& e) {
-    throw UsageError("cannot write " + f.Get("--out") + ": " + e.what());
+    throw UsageError("cannot write " + f.Text("--out", "") + ": " + e.what());
   }
   std::vector<std::string> advice;
   if (p.pitch_measured && std::abs(p.pitch_deg) > kPitchWarnDeg)
@@ -416,9 +388,9 @@ int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostr
         "realign the camera about y (tools are measured through the pitch, but the "
         "far side of a large tool leaves the depth of field)");
   if (!p.pitch_measured) advice.push_back("the pin has no blades: the pitch was not measured");
-  if (f.switches.count("--json")) {
+  if (f.Has("--json")) {
     nlohmann::json j = nlohmann::json::parse(toolcam::CameraCalibrationJson(p, im.camera, pin.id));
-    j["file"] = f.Get("--out");
+    j["file"] = f.Text("--out", "");
     j["advice"] = advice;
     out << j.dump() << "\n";
     return kExitOk;
@@ -433,7 +405,7 @@ int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostr
   if (p.pitch_measured)
     out << "; blades in " << p.blade_images << " images, ends rms " << std::setprecision(2)
         << p.blade_rms_um << " um";
-  out << "\n  written to " << f.Get("--out") << "\n";
+  out << "\n  written to " << f.Text("--out", "") << "\n";
   for (const auto& a : advice) out << "  note: " << a << "\n";
   return kExitOk;
 }

@@ -67,12 +67,6 @@ struct Mpe {
   double Length(double length_mm) const { return length_a_um + length_mm / length_k; }
 };
 
-int Count(const std::string& flag, const std::string& text) {
-  const double v = ParseNumber(flag, text);
-  if (v != std::floor(v)) throw UsageError(flag + " needs a whole number");
-  return static_cast<int>(v);
-}
-
 verify::Finish ParseFinish(const std::string& text) {
   verify::Finish f;
   const size_t colon = text.find(':');
@@ -88,62 +82,50 @@ struct Parsed {
   std::string svg_path;  ///< the picture, when asked for
 };
 
+const ArgSpec kSpec = {
+    {"--svg", "--probe", "--calibrated", "--f-number", "--speckle-contrast", "--hand-eye-views",
+     "--probing-views", "--orientations", "--spheres", "--seed", "--mpe-form-um",
+     "--mpe-dispersion-um", "--mpe-size-um", "--mpe-size-1x25-um", "--mpe-length"},
+    {"--json", "--quick"},
+    {"--finish"}};
+
+int Count(const Args& a, const std::string& flag, int fallback) {
+  return static_cast<int>(std::min<long long>(a.Integer(flag, fallback), 1000000));
+}
+
 Parsed ParseArgs(const std::vector<std::string>& args) {
+  const Args a(args, kSpec);
   Parsed p;
-  std::vector<verify::Finish> finishes;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--json") {
-      p.json = true;
-      continue;
-    }
-    if (a == "--quick") {
-      p.options.probing_views = 2;
-      p.options.length_orientations = 2;
-      p.options.gauge_spheres = 3;
-      continue;
-    }
-    if (i + 1 >= args.size()) throw UsageError(a + " needs a value");
-    const std::string& v = args[++i];
-    if (a == "--svg") {
-      p.svg_path = v;
-    } else if (a == "--probe") {
-      p.options.as_built_path = v;
-    } else if (a == "--calibrated") {
-      p.options.calibrated_path = v;
-    } else if (a == "--finish") {
-      finishes.push_back(ParseFinish(v));
-    } else if (a == "--f-number") {
-      p.options.f_number = ParseNumber(a, v);
-    } else if (a == "--speckle-contrast") {
-      p.options.speckle_contrast = ParseNumber(a, v);
-    } else if (a == "--hand-eye-views") {
-      p.options.hand_eye_views = Count(a, v);
-    } else if (a == "--probing-views") {
-      p.options.probing_views = Count(a, v);
-    } else if (a == "--orientations") {
-      p.options.length_orientations = Count(a, v);
-    } else if (a == "--spheres") {
-      p.options.gauge_spheres = Count(a, v);
-    } else if (a == "--seed") {
-      p.options.seed = static_cast<std::uint64_t>(Count(a, v));
-    } else if (a == "--mpe-form-um") {
-      p.mpe.form_um = ParseNumber(a, v);
-    } else if (a == "--mpe-dispersion-um") {
-      p.mpe.dispersion_um = ParseNumber(a, v);
-    } else if (a == "--mpe-size-um") {
-      p.mpe.size_um = ParseNumber(a, v);
-    } else if (a == "--mpe-size-1x25-um") {
-      p.mpe.size_1x25_um = ParseNumber(a, v);
-    } else if (a == "--mpe-length") {
-      const size_t comma = v.find(',');
-      if (comma == std::string::npos) throw UsageError("--mpe-length needs A,K");
-      p.mpe.length_a_um = ParseNumber(a, v.substr(0, comma));
-      p.mpe.length_k = ParseNumber(a, v.substr(comma + 1));
-    } else {
-      throw UsageError("unknown argument " + a);
-    }
+  p.json = a.Has("--json");
+  if (a.Has("--quick")) {  // CI's check; an explicit count below still wins
+    p.options.probing_views = 2;
+    p.options.length_orientations = 2;
+    p.options.gauge_spheres = 3;
   }
+  verify::AcceptanceOptions& o = p.options;
+  p.svg_path = a.Text("--svg", "");
+  o.as_built_path = a.Text("--probe", o.as_built_path);
+  o.calibrated_path = a.Text("--calibrated", o.calibrated_path);
+  if (a.Has("--f-number")) o.f_number = a.Number("--f-number");
+  if (a.Has("--speckle-contrast")) o.speckle_contrast = a.Number("--speckle-contrast");
+  o.hand_eye_views = Count(a, "--hand-eye-views", o.hand_eye_views);
+  o.probing_views = Count(a, "--probing-views", o.probing_views);
+  o.length_orientations = Count(a, "--orientations", o.length_orientations);
+  o.gauge_spheres = Count(a, "--spheres", o.gauge_spheres);
+  o.seed = static_cast<std::uint64_t>(a.Integer("--seed", static_cast<long long>(o.seed)));
+  p.mpe.form_um = a.Number("--mpe-form-um", p.mpe.form_um);
+  p.mpe.dispersion_um = a.Number("--mpe-dispersion-um", p.mpe.dispersion_um);
+  p.mpe.size_um = a.Number("--mpe-size-um", p.mpe.size_um);
+  p.mpe.size_1x25_um = a.Number("--mpe-size-1x25-um", p.mpe.size_1x25_um);
+  if (a.Has("--mpe-length")) {
+    const std::string& v = a.Text("--mpe-length");
+    const size_t comma = v.find(',');
+    if (comma == std::string::npos) throw UsageError("--mpe-length needs A,K");
+    p.mpe.length_a_um = ParseNumber("--mpe-length", v.substr(0, comma));
+    p.mpe.length_k = ParseNumber("--mpe-length", v.substr(comma + 1));
+  }
+  std::vector<verify::Finish> finishes;
+  for (const std::string& f : a.All("--finish")) finishes.push_back(ParseFinish(f));
   if (!finishes.empty()) p.options.finishes = finishes;
   const Mpe& m = p.mpe;
   if (!(m.form_um > 0 && m.dispersion_um > 0 && m.size_um > 0 && m.size_1x25_um > 0 &&

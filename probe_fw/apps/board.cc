@@ -17,10 +17,10 @@ std::optional<double> ReadNumber(const std::string& path) {
 
 }  // namespace
 
-std::unique_ptr<Projector> OpenBoardProjector(const cli::Options& o, const ProbeModel& probe) {
+std::unique_ptr<Projector> OpenBoardProjector(const base::Args& o, const ProbeModel& probe) {
   LinuxProjectorConfig c;
-  c.spi_device = o.Get("--spi", c.spi_device);
-  c.gpio_chip = o.Get("--gpio-chip", c.gpio_chip);
+  c.spi_device = o.Text("--spi", c.spi_device);
+  c.gpio_chip = o.Text("--gpio-chip", c.gpio_chip);
   const double laser = o.Number("--laser-line", c.laser_line);
   const double led = o.Number("--led-line", c.led_line);
   if (!(laser >= 0 && laser < 512 && led >= 0 && led < 512) || laser == led) {
@@ -32,10 +32,10 @@ std::unique_ptr<Projector> OpenBoardProjector(const cli::Options& o, const Probe
   return OpenLinuxProjector(c);
 }
 
-std::function<BoardReading(const AgentStats&)> BoardReadings(const cli::Options& o,
+std::function<BoardReading(const AgentStats&)> BoardReadings(const base::Args& o,
                                                              const link::Log& log) {
-  const std::string battery = o.Get("--battery", "/sys/class/power_supply/BAT0");
-  const std::string thermal = o.Get("--thermal", "/sys/class/thermal/thermal_zone0/temp");
+  const std::string battery = o.Text("--battery", "/sys/class/power_supply/BAT0");
+  const std::string thermal = o.Text("--thermal", "/sys/class/thermal/thermal_zone0/temp");
   auto warned = std::make_shared<bool>(false);
   return [battery, thermal, warned, log](const AgentStats&) {
     BoardReading r;

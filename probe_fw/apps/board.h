@@ -15,13 +15,13 @@ namespace mlp::probe_fw {
 
 /// `--spi DEV --gpio-chip DEV --laser-line N --led-line N` (defaults: LinuxProjectorConfig),
 /// the mirror's range from the probe model. Throws ProjectorError when a device is missing.
-std::unique_ptr<Projector> OpenBoardProjector(const cli::Options& o, const ProbeModel& probe);
+std::unique_ptr<Projector> OpenBoardProjector(const base::Args& o, const ProbeModel& probe);
 
 /// Battery and temperature from the kernel's power-supply and thermal classes
 /// (`--battery DIR`, default /sys/class/power_supply/BAT0; `--thermal FILE`, default
 /// /sys/class/thermal/thermal_zone0/temp). A missing reading reports full / 25 C and is
 /// logged once: a board without a gauge still serves.
-std::function<BoardReading(const AgentStats&)> BoardReadings(const cli::Options& o,
+std::function<BoardReading(const AgentStats&)> BoardReadings(const base::Args& o,
                                                              const link::Log& log);
 
 }  // namespace mlp::probe_fw

@@ -65,21 +65,21 @@ std::vector<double> ParseColumns(const std::string& text) {
 
 // The board's camera and projector: the sweep as the agent takes it (sweep.h), replayed as a
 // source of frames.
-std::unique_ptr<FrameSource> SweepWithCamera(const cli::Options& o, const ProbeModel& probe) {
+std::unique_ptr<FrameSource> SweepWithCamera(const base::Args& o, const ProbeModel& probe) {
   SweepPlan plan;
-  plan.aoi = cli::ParseAoi(o.Required("--aoi"));
+  plan.aoi = cli::ParseAoi(o.Text("--aoi"));
   plan.exposure_us = o.Number("--exposure-us", 100.0);
-  plan.columns = ParseColumns(o.Required("--columns"));
+  plan.columns = ParseColumns(o.Text("--columns"));
   // The camera first: it is the device the command line names, the projector's have defaults.
-  const auto camera = OpenV4l2Camera(o.Required("--camera"), plan, probe.camera.bit_depth);
+  const auto camera = OpenV4l2Camera(o.Text("--camera"), plan, probe.camera.bit_depth);
   const auto projector = OpenBoardProjector(o, probe);
   return MakeFrameList(TakeSweep(*projector, *camera, plan),
                        {probe.serial, probe.calibration_id, "camera"});
 }
 
-std::unique_ptr<FrameSource> OpenSource(const cli::Options& o, const ProbeModel& probe) {
+std::unique_ptr<FrameSource> OpenSource(const base::Args& o, const ProbeModel& probe) {
   if (o.Has("--frames") == o.Has("--camera")) throw UsageError("give either --frames or --camera");
-  if (o.Has("--frames")) return OpenDirectorySource(o.Required("--frames"));
+  if (o.Has("--frames")) return OpenDirectorySource(o.Text("--frames"));
   return SweepWithCamera(o, probe);
 }
 
@@ -160,13 +160,13 @@ CaptureFrames ReadAll(FrameSource& source, Summary* s, std::ostream& err) {
 }
 
 int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const cli::Options o(args,
-                       {"--probe", "--frames", "--camera", "--aoi", "--columns", "--exposure-us",
-                        "--roi", "--out", "--spi", "--gpio-chip", "--laser-line", "--led-line"},
-                       {"--json"});
+  const base::Args o(
+      args, {{"--probe", "--frames", "--camera", "--aoi", "--columns", "--exposure-us", "--roi",
+              "--out", "--spi", "--gpio-chip", "--laser-line", "--led-line"},
+             {"--json"}});
   const auto start = std::chrono::steady_clock::now();
-  const ProbeModel probe = LoadProbeModel(o.Required("--probe"));
-  const std::string roi = o.Required("--roi"), path = o.Required("--out");
+  const ProbeModel probe = LoadProbeModel(o.Text("--probe"));
+  const std::string roi = o.Text("--roi"), path = o.Text("--out");
   auto source = OpenSource(o, probe);
   const CaptureMeta meta = source->Meta();
   if (meta.probe_serial != probe.serial) {
@@ -189,15 +189,15 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
 // Calibration mode: stripe centres with their projector column, no triangulation (the projector
 // is what is being calibrated).
 int Stripes(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const cli::Options o(args, {"--frames", "--roi", "--out"}, {"--json"});
+  const base::Args o(args, {{"--frames", "--roi", "--out"}, {"--json"}});
   const auto start = std::chrono::steady_clock::now();
-  const std::string path = o.Required("--out");
-  const auto source = OpenDirectorySource(o.Required("--frames"));
+  const std::string path = o.Text("--out");
+  const auto source = OpenDirectorySource(o.Text("--frames"));
   const CaptureMeta meta = source->Meta();
   Summary s;
   const CaptureFrames frames = ReadAll(*source, &s, err);
   const RowMask mask =
-      ParseRoi(o.Get("--roi", "full"), frames.laser[0].aoi, frames.led ? &*frames.led : nullptr);
+      ParseRoi(o.Text("--roi", "full"), frames.laser[0].aoi, frames.led ? &*frames.led : nullptr);
   StripeFile file{meta.probe_serial, meta.capture_id, {}};
   std::vector<StripePoint> found;
   StripeExtractor extractor(mask, StripeOptions{});
@@ -247,12 +247,11 @@ Camera RecordedView(const std::string& dir, const ProbeModel& probe, const Proje
 }
 
 int RunServe(const std::vector<std::string>& args, std::ostream& out) {
-  const cli::Options o(args,
-                       {"--probe", "--host", "--port", "--key", "--camera", "--frames-from",
-                        "--projector", "--buffer", "--captures", "--spi", "--gpio-chip",
-                        "--laser-line", "--led-line", "--battery", "--thermal"},
-                       {});
-  const ProbeModel probe = LoadProbeModel(o.Required("--probe"));
+  const base::Args o(args, {{"--probe", "--host", "--port", "--key", "--camera", "--frames-from",
+                             "--projector", "--buffer", "--captures", "--spi", "--gpio-chip",
+                             "--laser-line", "--led-line", "--battery", "--thermal"},
+                            {}});
+  const ProbeModel probe = LoadProbeModel(o.Text("--probe"));
   if (o.Has("--frames-from") == o.Has("--camera")) {
     throw UsageError("give either --camera or --frames-from");
   }
@@ -262,32 +261,32 @@ int RunServe(const std::vector<std::string>& args, std::ostream& out) {
   if (!(buffer >= 1 && buffer <= 4096)) throw UsageError("--buffer must be 1..4096 clouds");
   if (!(captures >= 0 && captures <= 1e9)) throw UsageError("--captures must be 0..1e9");
   ServeOptions options;
-  options.link.host = o.Get("--host", "127.0.0.1");
+  options.link.host = o.Text("--host", "127.0.0.1");
   options.link.port = static_cast<std::uint16_t>(port);
   options.link.serial = probe.serial;
-  options.link.key = link::LoadKeyFile(o.Required("--key"));
+  options.link.key = link::LoadKeyFile(o.Text("--key"));
   options.link.buffer_clouds = static_cast<std::size_t>(buffer);
   options.max_captures = static_cast<std::uint64_t>(captures);
   link::Log log = [&out](const std::string& line) {
     out << "mlp-fw: " << line << "\n" << std::flush;
   };
   options.board = BoardReadings(o, log);
-  const std::string kind = o.Get("--projector", o.Has("--camera") ? "board" : "virtual");
+  const std::string kind = o.Text("--projector", o.Has("--camera") ? "board" : "virtual");
   if (kind != "board" && kind != "virtual") throw UsageError("--projector is board or virtual");
   // A camera missing at start is a device fault (exit 3, a service manager retries), not a
   // failure of every request that comes.
-  if (o.Has("--camera")) CheckV4l2Camera(o.Required("--camera"));
+  if (o.Has("--camera")) CheckV4l2Camera(o.Text("--camera"));
   const std::unique_ptr<Projector> projector =
       kind == "board" ? OpenBoardProjector(o, probe)
                       : std::make_unique<VirtualProjector>(probe.projector.columns - 1.0);
   Camera camera;
   if (o.Has("--camera")) {
-    camera = [device = o.Required("--camera"), depth = probe.camera.bit_depth](
+    camera = [device = o.Text("--camera"), depth = probe.camera.bit_depth](
                  const link::CaptureRequest&, const SweepPlan& plan) {
       return OpenV4l2Camera(device, plan, depth);
     };
   } else {
-    camera = RecordedView(o.Required("--frames-from"), probe, *projector);
+    camera = RecordedView(o.Text("--frames-from"), probe, *projector);
   }
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);

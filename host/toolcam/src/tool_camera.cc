@@ -1,5 +1,6 @@
 #include "mlp/toolcam/tool_camera.h"
 
+#include "mlp/base/files.h"
 #include "mlp/base/units.h"
 #include "mlp/grey_image/grey_image.h"
 
@@ -271,7 +272,8 @@ int RenderToolSequence(const ToolDescription& tool,
       {"start_turn_deg", start_turn_rad * base::kDegPerRad},
       {"edges", edges},
       {"frames", frames}};
-  std::ofstream((std::filesystem::path(dir) / "truth.json").string()) << truth.dump(1) << "\n";
+  base::WriteFileAtomically((std::filesystem::path(dir) / "truth.json").string(),
+                            truth.dump(1) + "\n");
   // What a real tool camera records beside its images (no truth): the measurement's input.
   nlohmann::ordered_json images = nlohmann::ordered_json::array();
   for (const auto& f : frames)
@@ -282,7 +284,8 @@ int RenderToolSequence(const ToolDescription& tool,
       {"strobe", truth.at("strobe")},
       {"spindle", {{"y_mm", shift.y_mm}, {"z_mm", shift.z_mm}}},
       {"images", images}};
-  std::ofstream((std::filesystem::path(dir) / "images.json").string()) << manifest.dump(1) << "\n";
+  base::WriteFileAtomically((std::filesystem::path(dir) / "images.json").string(),
+                            manifest.dump(1) + "\n");
   return static_cast<int>(plan.position.size());
 }
 

@@ -26,28 +26,27 @@ constexpr double kBoardTemperatureC = 35.0;
 
 int RunServeCommand(const std::vector<std::string>& args, std::ostream& out) {
   using probe_fw::cli::UsageError;
-  const probe_fw::cli::Options o(args,
-                                 {"--probe", "--scene", "--host", "--port", "--key", "--seed",
-                                  "--buffer", "--captures", "--firmware-model"},
-                                 {});
+  const base::Args o(args, {{"--probe", "--scene", "--host", "--port", "--key", "--seed",
+                             "--buffer", "--captures", "--firmware-model"},
+                            {}});
   // The frames come from the probe as built; its firmware knows only a model (the calibrated
   // one): an as-built file is never given to the firmware.
-  const AsBuiltProbe as_built = LoadAsBuilt(o.Required("--probe"));
+  const AsBuiltProbe as_built = LoadAsBuilt(o.Text("--probe"));
   if (!as_built.plain_model && !o.Has("--firmware-model"))
     throw UsageError(
         "--probe is an as-built file, which the firmware must not know: give the firmware its "
         "probe model (the calibrated file) with --firmware-model");
   const probe_fw::ProbeModel firmware_model =
-      o.Has("--firmware-model") ? probe_fw::LoadProbeModel(o.Get("--firmware-model", ""))
+      o.Has("--firmware-model") ? probe_fw::LoadProbeModel(o.Text("--firmware-model", ""))
                                 : as_built.model;
-  auto probe = std::make_shared<const VirtualProbe>(as_built, LoadScene(o.Required("--scene")));
+  auto probe = std::make_shared<const VirtualProbe>(as_built, LoadScene(o.Text("--scene")));
   const double port = o.Number("--port", 0.0);
   if (!(port >= 1.0 && port <= 65535.0)) throw UsageError("--port must be 1..65535");
   probe_fw::ServeOptions options;
-  options.link.host = o.Get("--host", "127.0.0.1");
+  options.link.host = o.Text("--host", "127.0.0.1");
   options.link.port = static_cast<std::uint16_t>(port);
   options.link.serial = firmware_model.serial;
-  options.link.key = link::LoadKeyFile(o.Required("--key"));
+  options.link.key = link::LoadKeyFile(o.Text("--key"));
   options.link.buffer_clouds = static_cast<std::size_t>(o.Number("--buffer", 64));
   options.max_captures =
       static_cast<std::uint64_t>(o.Number("--captures", 0.0));  // 0: until a signal

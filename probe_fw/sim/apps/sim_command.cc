@@ -90,19 +90,18 @@ void WriteTruth(const std::string& dir,
 }
 
 int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const probe_fw::cli::Options o(
-      args,
-      {"--probe", "--scene", "--out", "--seed", "--capture", "--aoi", "--columns", "--column-count",
-       "--led-supersampling", "--format", "--exposure"},
-      {"--noiseless", "--json"});
+  const base::Args o(args,
+                     {{"--probe", "--scene", "--out", "--seed", "--capture", "--aoi", "--columns",
+                       "--column-count", "--led-supersampling", "--format", "--exposure"},
+                      {"--noiseless", "--json"}});
   const auto start = std::chrono::steady_clock::now();
-  const VirtualProbe probe(LoadAsBuilt(o.Required("--probe")), LoadScene(o.Required("--scene")));
-  const std::string dir = o.Required("--out");
-  const std::string format = o.Get("--format", "png");
+  const VirtualProbe probe(LoadAsBuilt(o.Text("--probe")), LoadScene(o.Text("--scene")));
+  const std::string dir = o.Text("--out");
+  const std::string format = o.Text("--format", "png");
   if (format != "png" && format != "pgm") throw UsageError("--format is png or pgm");
-  const Capture& capture = FindCapture(probe.scene(), o.Get("--capture", ""));
+  const Capture& capture = FindCapture(probe.scene(), o.Text("--capture", ""));
   SweepOptions sweep;
-  const std::string aoi = o.Get("--aoi", "");
+  const std::string aoi = o.Text("--aoi", "");
   sweep.aoi = aoi == "full" ? probe_fw::Aoi{0, 0, probe.model().camera.width_px,
                                             probe.model().camera.height_px}
               : aoi.empty() ? DefaultAoi(probe.model().camera)
@@ -123,7 +122,7 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
     throw UsageError("give --columns or --column-count, not both");
   if (o.Has("--columns")) {
     char c1 = 0, c2 = 0;
-    const std::string text = o.Get("--columns", "");
+    const std::string text = o.Text("--columns", "");
     if (std::sscanf(text.c_str(), "%lf%c%lf%c%lf", &sweep.first_column, &c1, &sweep.last_column,
                     &c2, &sweep.column_step) != 5 ||
         c1 != ':' || c2 != ':') {

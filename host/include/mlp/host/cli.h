@@ -1,28 +1,25 @@
 #pragma once
-/// @file What the host's command-line tools share: exit codes, the error for unusable
-/// arguments, reading a number argument, and where the programs and the samples are.
+/// @file What the host's command-line tools share: the argument parser and exit codes (base's),
+/// input and output files, and where the programs and the samples are.
+
+#include "mlp/base/args.h"
 
 #include <filesystem>
-#include <stdexcept>
 #include <string>
 
 namespace mlp::host {
 
-/// Exit codes of the command-line tools.
-enum ExitCode : int {
-  kExitOk = 0,
-  kExitInternal = 1,  ///< a bug: please report
-  kExitBadInput = 2,  ///< unusable arguments, file or points; nothing was written on stdout
-};
-
-/// Unusable arguments: the tool prints the reason and its usage, and exits kExitBadInput.
-class UsageError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-/// A finite number, the whole of `value`; otherwise UsageError naming `flag`.
-double ParseNumber(const std::string& flag, const std::string& value);
+// The exit codes, the error for unusable arguments and the one argument parser are base's,
+// shared with the probe's programs.
+using base::Args;
+using base::ArgSpec;
+using base::ExitCode;
+using base::kExitBadInput;
+using base::kExitInternal;
+using base::kExitOk;
+using base::ParseInteger;
+using base::ParseNumber;
+using base::UsageError;
 
 /// A file named on the command line, whole; UsageError (exit kExitBadInput) when unreadable.
 std::string ReadInputFile(const std::string& path);
