@@ -5,6 +5,7 @@
 #include "mlp/calib/camera_calib.h"
 #include "mlp/calib/capture_io.h"
 #include "mlp/calib/hand_eye.h"
+#include "mlp/calib/hand_eye_json.h"
 #include "mlp/calib/recheck.h"
 #include "mlp/calib/record.h"
 #include "mlp/host/cli.h"
@@ -199,26 +200,6 @@ Manifest LoadManifest(const std::string& path) {
   return m;
 }
 
-json JVec(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
-
-json PoseJson(const Pose3& p) { return jf::PoseToJson(p); }
-
-json SensorJson(const calib::SensorEstimate& e) {
-  return {{"scale", JVec(e.scale)},
-          {"scale_std", JVec(e.scale_std)},
-          {"incidence_bias_mm", e.incidence_bias_mm},
-          {"incidence_bias_std_mm", e.incidence_bias_std_mm},
-          {"scale_bias_correlation", e.scale_bias_correlation},
-          {"findings", e.findings}};
-}
-
-json LeaveOneOutJson(const calib::LeaveOneOut& v) {
-  json caps = json::array();
-  for (const auto& c : v.captures)
-    caps.push_back({{"id", c.id}, {"rms_mm", c.rms_mm}, {"centre_error_mm", c.centre_error_mm}});
-  return {{"rms_mm", v.rms_mm}, {"centre_error_rms_mm", v.centre_error_rms_mm}, {"captures", caps}};
-}
-
 void PrintSensorAndValidation(const calib::HandEyeResult& r, std::ostream& out) {
   const calib::SensorEstimate& e = r.sensor;
   if (e.estimated) {
@@ -257,33 +238,8 @@ int HandEye(const Command& a, std::ostream& out, std::ostream& err) {
   }
   const Eigen::AngleAxisd aa(r.flange_from_probe.linear());
   if (a.json) {
-    json j;
-    j["calibration_id"] = id;
-    j["probe_serial"] = m.probe_serial;
-    j["flange_from_probe"] = PoseJson(r.flange_from_probe);
-    json sd;
-    for (int k = 0; k < 9; ++k)
-      sd[calib::kHandEyeParameters[static_cast<size_t>(k)]] = std::sqrt(r.covariance(k, k));
-    j["std_dev"] = sd;
-    j["sphere_centre_mcs_mm"] = JVec(r.centre_mcs);
-    j["point_rms_mm"] = r.point_rms_mm;
-    j["points_used"] = r.points_used;
-    j["points_rejected"] = r.points_rejected;
-    j["centre_spread_rms_mm"] = r.centre_spread_rms_mm;
-    j["centre_spread_max_mm"] = r.centre_spread_max_mm;
-    j["centre_mean_offset_mm"] = r.centre_mean_offset_mm;
-    json caps = json::array();
-    for (const auto& c : r.captures) {
-      caps.push_back({{"id", c.id},
-                      {"points", c.points},
-                      {"inliers", c.inliers},
-                      {"rms_mm", c.rms_mm},
-                      {"centre_mcs_mm", JVec(c.centre_mcs)}});
-    }
-    j["captures"] = caps;
-    if (r.sensor.estimated) j["sensor"] = SensorJson(r.sensor);
-    j["leave_one_out"] = LeaveOneOutJson(r.leave_one_out);
-    j["warnings"] = r.warnings;
+    json j = {{"calibration_id", id}, {"probe_serial", m.probe_serial}};
+    j.update(calib::HandEyeResultJson(r));
     out << j.dump(2) << "\n";
     return kExitOk;
   }
@@ -331,21 +287,8 @@ int Recheck(const Command& a, std::ostream& out, std::ostream& err) {
   std::string id;
   if (!r.full_calibration_required) id = store.Save(calib::MakeRecord(*original, r, captures));
   if (a.json) {
-    json j;
-    j["calibration_id"] = id;
-    j["parent_id"] = original->calibration_id;
-    j["full_calibration_required"] = r.full_calibration_required;
-    j["flange_from_probe"] = PoseJson(r.flange_from_probe);
-    j["reason"] = r.reason;
-    j["offset_in_flange_mm"] = JVec(r.offset_in_flange_mm);
-    j["rotation_in_flange_rad"] = JVec(r.rotation_in_flange_rad);
-    j["centre_shift_mm"] = JVec(r.centre_shift_mm);
-    j["residual_before_mm"] = r.residual_before_mm;
-    j["residual_after_mm"] = r.residual_after_mm;
-    j["apparent_radius_change_mm"] = r.apparent_radius_change_mm;
-    j["depth_scale"] = r.depth_scale;
-    j["depth_scale_std"] = r.depth_scale_std;
-    j["not_determined"] = r.not_determined;
+    json j = {{"calibration_id", id}, {"parent_id", original->calibration_id}};
+    j.update(calib::RecheckResultJson(r));
     out << j.dump(2) << "\n";
   } else {
     out << "recheck of probe " << m.probe_serial << " against " << original->calibration_id << "\n"

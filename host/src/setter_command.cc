@@ -3,6 +3,7 @@
 #include "mlp/host/cli.h"
 #include "mlp/setter/beam_processor.h"
 #include "mlp/setter/beam_signal.h"
+#include "mlp/setter/beam_signal_file.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -40,33 +41,13 @@ namespace fs = std::filesystem;
 // Every sub-command takes these switches.
 const std::set<std::string> kSwitches = {"--json", "--leaving"};
 
-// `mlprobe-beam-signal/1`: a header line `# mlprobe-beam-signal/1 sample_rate_hz=H`, then one
-// voltage a line.
-struct SignalFile {
-  double sample_rate_hz = 0;
-  std::vector<float> volts;
-};
-
-SignalFile ReadSignal(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw UsageError("cannot read " + path);
-  SignalFile s;
-  std::string line;
-  if (!std::getline(in, line) || line.rfind("# mlprobe-beam-signal/1 sample_rate_hz=", 0) != 0)
-    throw UsageError(path + ": not a mlprobe-beam-signal/1 file");
-  s.sample_rate_hz = std::atof(line.substr(line.find('=') + 1).c_str());
-  if (!(s.sample_rate_hz > 0)) throw UsageError(path + ": no sample rate");
-  long n = 1;
-  while (std::getline(in, line)) {
-    ++n;
-    if (line.empty() || line[0] == '#') continue;
-    char* end = nullptr;
-    const double v = std::strtod(line.c_str(), &end);
-    if (end == line.c_str() || !std::isfinite(v))
-      throw UsageError(path + ":" + std::to_string(n) + ": not a voltage");
-    s.volts.push_back(static_cast<float>(v));
+// A signal file that cannot be read is bad input (exit 2), not a measurement without result.
+setter::BeamSignal ReadSignal(const std::string& path) {
+  try {
+    return setter::ParseBeamSignal(ReadInputFile(path), path);
+  } catch (const setter::SetterError& e) {
+    throw UsageError(e.what());
   }
-  return s;
 }
 
 std::vector<double> Radii(const std::string& list) {
@@ -107,18 +88,9 @@ int Simulate(const std::vector<std::string>& args, std::ostream& out) {
   } catch (const setter::SetterError& e) {
     throw UsageError(e.what());
   }
-  std::ostringstream text;
-  text << "# mlprobe-beam-signal/1 sample_rate_hz=" << s.sample_rate_hz << "\n"
-       << std::setprecision(7);
-  for (float v : s.volts) text << v << "\n";
   const std::string path = f.Text("--out");
-  WriteOutputFile(path, text.str());
-  const nlohmann::ordered_json truth = {{"format", "mlprobe-beam-truth/1"},
-                                        {"axis_start_mm", s.axis_start_mm},
-                                        {"axis_feed_mm_per_sample", s.axis_feed_mm_per_sample},
-                                        {"axis_at_edge_mm", s.axis_at_edge_mm},
-                                        {"drop_times_s", s.drop_times_s}};
-  WriteOutputFile(path + ".truth.json", truth.dump(1) + "\n");
+  WriteOutputFile(path, setter::BeamSignalText(s));
+  WriteOutputFile(path + ".truth.json", setter::BeamTruthJson(s));
   out << s.volts.size() << " samples at " << s.sample_rate_hz << " Hz in " << path << " ("
       << s.drop_times_s.size() << " drops; truth in " << path << ".truth.json)\n";
   return kExitOk;
@@ -126,7 +98,7 @@ int Simulate(const std::vector<std::string>& args, std::ostream& out) {
 
 int Calibrate(const std::vector<std::string>& args, std::ostream& out) {
   const Args f(args, {{"--signal", "--feed-mm-min", "--out"}, kSwitches});
-  const SignalFile s = ReadSignal(f.Text("--signal"));
+  const setter::BeamSignal s = ReadSignal(f.Text("--signal"));
   const setter::CalibrationCurve c = setter::CalibrateFromPin(
       s.volts, s.sample_rate_hz, f.Number("--feed-mm-min", 0.0), !f.Has("--leaving"));
   WriteOutputFile(f.Text("--out"), setter::CurveJson(c));
@@ -145,7 +117,7 @@ int Process(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   const Args f(args,
                {{"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min", "--threshold-share"},
                 kSwitches});
-  const SignalFile s = ReadSignal(f.Text("--signal"));
+  const setter::BeamSignal s = ReadSignal(f.Text("--signal"));
   setter::ProcessorConfig c;
   c.sample_rate_hz = s.sample_rate_hz;
   c.rpm = f.Number("--rpm", 0.0);

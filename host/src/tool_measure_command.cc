@@ -8,6 +8,7 @@
 #include "mlp/nc/tool_table.h"
 #include "mlp/toolcam/measure.h"
 #include "mlp/toolcam/pin_calibration.h"
+#include "mlp/toolcam/tool_images.h"
 
 #include <chrono>
 #include <cmath>
@@ -41,54 +42,28 @@ class RefusedError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-struct Images {
-  toolcam::ToolCameraModel camera;
-  bool calibrated = false;  ///< the manifest holds the camera's calibration
-  toolcam::SpindleShift shift;
-  int positions = 0;
-  double blur_rad = 0;  ///< the tool's turn during a pulse
-  std::vector<int> position;
+struct Images : toolcam::ToolImages {
   std::vector<std::vector<std::uint8_t>> pixels;
 };
 
-// DIR/images.json (`mlprobe-tool-images/1`) and the images it lists (any format OpenCV reads).
+// DIR/images.json (`mlprobe-tool-images/1`, read by toolcam) and the images it lists (any
+// format OpenCV reads).
 Images ReadImages(const std::string& dir) {
   const std::string manifest = (fs::path(dir) / "images.json").string();
-  const auto j =
-      jf::ParseDocument<UsageError>(ReadInputFile(manifest), "mlprobe-tool-images/1", manifest);
-  const auto& c = jf::Object<UsageError>(j, "camera", "images.json");
   Images im;
-  im.camera.width_px = jf::Integer<UsageError>(c, "width_px", "camera");
-  im.camera.height_px = jf::Integer<UsageError>(c, "height_px", "camera");
-  im.camera.distortion_k1 = jf::NumberOr<UsageError>(c, "distortion_k1", 0.0, "camera");
-  // The lens' scale (nominal, or calibrated with the rest); the axis and tip when calibrated.
-  im.camera.mm_per_px = jf::Number<UsageError>(c, "mm_per_px", "camera");
-  im.calibrated = c.contains("axis_u_px") && c.contains("tip_v_px");
-  if (im.calibrated) {
-    im.camera.axis_u_px = jf::Number<UsageError>(c, "axis_u_px", "camera");
-    im.camera.tip_v_px = jf::Number<UsageError>(c, "tip_v_px", "camera");
-    im.camera.roll_deg = jf::NumberOr<UsageError>(c, "roll_deg", 0.0, "camera");
-    im.camera.pitch_deg = jf::NumberOr<UsageError>(c, "pitch_deg", 0.0, "camera");
+  try {
+    static_cast<toolcam::ToolImages&>(im) =
+        toolcam::ParseToolImages(ReadInputFile(manifest), manifest);
+  } catch (const toolcam::ToolError& e) {
+    throw UsageError(e.what());
   }
-  if (j.contains("spindle")) {
-    const auto& s = jf::Object<UsageError>(j, "spindle", "images.json");
-    im.shift.y_mm = jf::NumberOr<UsageError>(s, "y_mm", 0.0, "spindle");
-    im.shift.z_mm = jf::NumberOr<UsageError>(s, "z_mm", 0.0, "spindle");
-  }
-  const auto& strobe = jf::Object<UsageError>(j, "strobe", "images.json");
-  im.positions = jf::Integer<UsageError>(strobe, "positions", "strobe");
-  im.blur_rad = jf::NumberOr<UsageError>(strobe, "pulse_width_us", 0.0, "strobe") * 1e-6 *
-                jf::Number<UsageError>(strobe, "rpm", "strobe") / 60 * 2 * M_PI;
-  if (!j.contains("images") || !j.at("images").is_array())
-    throw UsageError("images.json: images must list the images");
-  for (const auto& e : j.at("images")) {
-    const std::string file = (fs::path(dir) / jf::Text<UsageError>(e, "file", "image")).string();
+  for (const std::string& name : im.files) {
+    const std::string file = (fs::path(dir) / name).string();
     const cv::Mat g = cv::imread(file, cv::IMREAD_GRAYSCALE);
     if (g.empty() || g.cols != im.camera.width_px || g.rows != im.camera.height_px)
       throw UsageError("cannot read " + file + " as a " + std::to_string(im.camera.width_px) +
                        " x " + std::to_string(im.camera.height_px) + " grey image");
     im.pixels.emplace_back(g.begin<std::uint8_t>(), g.end<std::uint8_t>());
-    im.position.push_back(jf::Integer<UsageError>(e, "position", "image"));
   }
   return im;
 }

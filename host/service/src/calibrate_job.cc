@@ -1,5 +1,6 @@
 #include "mlp/base/json_fields.h"
 #include "mlp/calib/hand_eye.h"
+#include "mlp/calib/hand_eye_json.h"
 #include "mlp/calib/recheck.h"
 
 #include "job_common.h"
@@ -9,9 +10,6 @@ namespace {
 
 namespace jf = base::json_fields;
 using json = nlohmann::json;
-using geometry::Vec3;
-
-json Vec(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 double Radius(const json& r) {
   const double radius = jf::Number<JobInputError>(r, "sphere_radius_mm", "request");
@@ -42,21 +40,8 @@ json RunCalibrateJob(JobContext& ctx, const json& r) {
     const std::string id =
         calib::CalibrationStore(ctx.config.CalibrationDir())
             .Save(calib::MakeRecord(ctx.machine.probe_serial, h, captures, o.sphere_radius_mm));
-    const Eigen::AngleAxisd aa(h.flange_from_probe.linear());
-    json sd;
-    for (int k = 0; k < 9; ++k)
-      sd[calib::kHandEyeParameters[static_cast<size_t>(k)]] = std::sqrt(h.covariance(k, k));
-    run.reply.update({{"calibration_id", id},
-                      {"flange_from_probe",
-                       {{"translation_mm", Vec(h.flange_from_probe.translation())},
-                        {"rotation_vector_rad", Vec(aa.axis() * aa.angle())}}},
-                      {"std_dev", sd},
-                      {"sphere_centre_mcs_mm", Vec(h.centre_mcs)},
-                      {"point_rms_mm", h.point_rms_mm},
-                      {"points_used", h.points_used},
-                      {"centre_spread_rms_mm", h.centre_spread_rms_mm},
-                      {"centre_mean_offset_mm", h.centre_mean_offset_mm},
-                      {"warnings", h.warnings}});
+    run.reply["calibration_id"] = id;
+    run.reply.update(json(calib::HandEyeResultJson(h)));
     ctx.history.AddResult(run.job, {"hand-eye", run.reply, json::object()});
     return run.Finish(history::JobStatus::kDone, true);
   } catch (const calib::HandEyeError& e) {
@@ -88,15 +73,8 @@ json RunRecheckJob(JobContext& ctx, const json& r) {
     for (auto& s : LoadStoredCaptures(ctx, r.at("captures"), run.job))
       captures.push_back({s.id, s.mcs_from_flange, std::move(s.points_in_probe)});
     const calib::RecheckResult c = calib::Recheck(captures, o);
-    run.reply.update({{"parent_id", original->calibration_id},
-                      {"offset_in_flange_mm", Vec(c.offset_in_flange_mm)},
-                      {"rotation_in_flange_rad", Vec(c.rotation_in_flange_rad)},
-                      {"centre_shift_mm", Vec(c.centre_shift_mm)},
-                      {"residual_after_rms_mm", c.residual_after_rms_mm},
-                      {"apparent_radius_change_mm", c.apparent_radius_change_mm},
-                      {"depth_scale", c.depth_scale},
-                      {"depth_scale_std", c.depth_scale_std},
-                      {"not_determined", c.not_determined}});
+    run.reply["parent_id"] = original->calibration_id;
+    run.reply.update(json(calib::RecheckResultJson(c)));
     ctx.history.AddResult(run.job, {"recheck", run.reply, json::object()});
     if (c.full_calibration_required) {
       run.reply["error"] = "full calibration required: " + c.reason;

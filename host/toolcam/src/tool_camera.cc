@@ -3,6 +3,7 @@
 #include "mlp/base/files.h"
 #include "mlp/base/units.h"
 #include "mlp/grey_image/grey_image.h"
+#include "mlp/toolcam/tool_images.h"
 
 #include <algorithm>
 #include <array>
@@ -11,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "camera_json.h"
 #include <nlohmann/json.hpp>
 
 namespace mlp::toolcam {
@@ -232,12 +234,14 @@ int RenderToolSequence(const ToolDescription& tool,
   std::mt19937 rng(seed);
   const double blur = plan.pulse_width_us * 1e-6 * plan.rpm / 60 * 2 * M_PI;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
+  std::vector<std::string> files;
   for (size_t i = 0; i < plan.position.size(); ++i) {
     const double turn = start_turn_rad + 2 * M_PI * plan.position[i] / plan.positions;
     const ToolFrame f = RenderToolFrame(tool, c, turn, blur, rng);
     char name[32];
     std::snprintf(name, sizeof name, "frame_%04zu.pgm", i);
     WritePgm((std::filesystem::path(dir) / name).string(), c.width_px, c.height_px, f.pixels);
+    files.emplace_back(name);
     nlohmann::ordered_json drops = nlohmann::ordered_json::array();
     for (const Drop& d : f.drops) drops.push_back({d.y_mm, d.h_mm, d.radius_mm});
     frames.push_back({{"file", name},
@@ -258,15 +262,7 @@ int RenderToolSequence(const ToolDescription& tool,
   const nlohmann::ordered_json truth = {
       {"format", "mlprobe-tool-frames/1"},
       {"tool", tool.id},
-      {"camera",
-       {{"width_px", c.width_px},
-        {"height_px", c.height_px},
-        {"mm_per_px", c.mm_per_px},
-        {"axis_u_px", c.axis_u_px},
-        {"tip_v_px", c.tip_v_px},
-        {"distortion_k1", c.distortion_k1},
-        {"roll_deg", c.roll_deg},
-        {"pitch_deg", c.pitch_deg}}},
+      {"camera", CameraJson(c)},
       {"strobe",
        {{"rpm", plan.rpm}, {"positions", plan.positions}, {"pulse_width_us", plan.pulse_width_us}}},
       {"start_turn_deg", start_turn_rad * base::kDegPerRad},
@@ -275,17 +271,8 @@ int RenderToolSequence(const ToolDescription& tool,
   base::WriteFileAtomically((std::filesystem::path(dir) / "truth.json").string(),
                             truth.dump(1) + "\n");
   // What a real tool camera records beside its images (no truth): the measurement's input.
-  nlohmann::ordered_json images = nlohmann::ordered_json::array();
-  for (const auto& f : frames)
-    images.push_back({{"file", f.at("file")}, {"position", f.at("position")}});
-  const nlohmann::ordered_json manifest = {
-      {"format", "mlprobe-tool-images/1"},
-      {"camera", truth.at("camera")},
-      {"strobe", truth.at("strobe")},
-      {"spindle", {{"y_mm", shift.y_mm}, {"z_mm", shift.z_mm}}},
-      {"images", images}};
   base::WriteFileAtomically((std::filesystem::path(dir) / "images.json").string(),
-                            manifest.dump(1) + "\n");
+                            ToolImagesJson(c, plan, shift, files, plan.position));
   return static_cast<int>(plan.position.size());
 }
 
