@@ -1,7 +1,12 @@
 # Project-wide helpers: warnings applied per target (PRIVATE), library and test registration.
 
+# -Wshadow: a name that hides another is a bug waiting (a loop's `c` over the function's `c`);
+# -Wconversion: a silent narrowing (a 64-bit count into an int, a size into a double past 2^53)
+# is written out as a cast where it is meant. Clang's -Wconversion also includes
+# -Wsign-conversion, which GCC's does not: turned off there so both compilers mean the same.
 function(mlp_set_warnings target)
-  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Werror)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Werror
+                                           $<$<CXX_COMPILER_ID:Clang>:-Wno-sign-conversion>)
 endfunction()
 
 # mlp_add_library(<name> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])

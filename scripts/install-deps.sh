@@ -8,7 +8,7 @@ if [ "$(id -u)" -ne 0 ]; then
 fi
 export DEBIAN_FRONTEND=noninteractive
 packages=(
-  build-essential cmake ninja-build pkg-config git clang-format
+  build-essential cmake ninja-build pkg-config git clang-format clang-tidy
   libeigen3-dev libceres-dev libpcl-dev libflann-dev liblz4-dev libopencv-dev libpng-dev
   libboost-dev libboost-system-dev nlohmann-json3-dev
   libssl-dev libsqlite3-dev libsqlitecpp-dev

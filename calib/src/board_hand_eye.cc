@@ -497,8 +497,8 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
       const Pose3 camera_from_board =
           (images[i].base_from_flange * r.flange_from_camera).inverse() * r.base_from_board;
       double s2 = 0.0;
-      for (size_t c = 0; c < corners.size(); ++c) {
-        s2 += (k.Project(camera_from_board * corners[c]) - f.corners[c]).squaredNorm();
+      for (size_t n = 0; n < corners.size(); ++n) {
+        s2 += (k.Project(camera_from_board * corners[n]) - f.corners[n]).squaredNorm();
       }
       im.corners = static_cast<int>(corners.size());
       im.corner_rms_px = std::sqrt(s2 / double(corners.size()));
@@ -506,9 +506,9 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
     }
     if (f.HasLaser()) {
       double s2 = 0.0;
-      for (const Vec3& p :
+      for (const Vec3& point :
            LaserPointsInBase(f, images[i].base_from_flange, k, r.plane, r.flange_from_camera)) {
-        const double h = (board_from_base * p).z();
+        const double h = (board_from_base * point).z();
         s2 += h * h, im.laser_max_mm = std::max(im.laser_max_mm, std::abs(h)), ++im.laser_points;
       }
       im.laser_rms_mm = im.laser_points > 0 ? std::sqrt(s2 / im.laser_points) : 0.0;

@@ -278,13 +278,14 @@ T OneMinusCosIncidence(const T& n_probe_z) {
 // frame about the closed form's rotation R0 (no singularity near the solution). The normal for
 // the angle is taken at S p (the bias is a small correction of a small correction).
 struct PointOnSphere {
-  PointOnSphere(const Vec3& point, const Mat3& r0, const Pose3& h, double radius, bool with_bias)
+  PointOnSphere(
+      const Vec3& point, const Mat3& rotation0, const Pose3& h, double radius_mm, bool bias)
       : p(point),
-        r0(r0),
+        r0(rotation0),
         rh(h.linear()),
         th(h.translation()),
-        radius(radius),
-        with_bias(with_bias) {}
+        radius(radius_mm),
+        with_bias(bias) {}
   // x = H (exp(dtheta) R0 q + t)
   template <class T>
   void Map(const T* dtheta, const T* t, const T* q, T* x) const {

@@ -256,7 +256,7 @@ void PlaneStats(const std::vector<Vec3>& points,
   }
   r->plane_points = static_cast<int>(points.size());
   r->plane_inliers = static_cast<int>(inliers.size());
-  r->plane_rms_mm = std::sqrt(s2 / std::max<size_t>(1, inliers.size()));
+  r->plane_rms_mm = std::sqrt(s2 / static_cast<double>(std::max<size_t>(1, inliers.size())));
   r->plane_max_mm = mx;
 }
 

@@ -378,7 +378,7 @@ ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
     const double r = residuals[i];
     (i < nc ? corner_ss : stripe_ss) += r * r;
   }
-  result.corner_rms_px = std::sqrt(corner_ss / nc) * kCornerSigmaPx;
+  result.corner_rms_px = std::sqrt(corner_ss / static_cast<double>(nc)) * kCornerSigmaPx;
   result.stripe_rms_columns = std::sqrt(stripe_ss / result.stripes_used) * kStripeSigmaColumns;
   return result;
 }

@@ -93,7 +93,8 @@ bool KasaSphere(const Points3& points, const Vec3& origin, Vec3* center, double*
 
 Mat3 AlgebraicQuadric(const Points3& centred) {
   // Scale to unit RMS so the ten columns have comparable magnitude.
-  const double scale = std::sqrt(centred.squaredNorm() / std::max<Eigen::Index>(1, centred.cols()));
+  const double scale = std::sqrt(centred.squaredNorm() /
+                                 static_cast<double>(std::max<Eigen::Index>(1, centred.cols())));
   const double inv = scale > 0.0 ? 1.0 / scale : 1.0;
   Eigen::Matrix<double, 10, 10> dtd = Eigen::Matrix<double, 10, 10>::Zero();
   Eigen::Matrix<double, 10, 1> row;

@@ -67,7 +67,7 @@ double HalfLevel(const GreyView& im) {
   const auto percentile = [&](double share) {
     long seen = 0;
     for (int g = 0; g < 256; ++g)
-      if ((seen += histogram[static_cast<size_t>(g)]) >= share * total) return g;
+      if (static_cast<double>(seen += histogram[static_cast<size_t>(g)]) >= share * total) return g;
     return 255;
   };
   return (percentile(0.02) + percentile(0.98)) / 2.0;

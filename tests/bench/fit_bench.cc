@@ -81,7 +81,7 @@ double AngleUrad(const Vec3& a, const Vec3& b) {
 // ---- mlprobe ----
 
 void BM_MlpPlane(benchmark::State& state) {
-  const auto& d = Cached("plane", state.range(0));
+  const auto& d = Cached("plane", static_cast<int>(state.range(0)));
   FitResult<Plane> fit;
   for (auto _ : state) benchmark::DoNotOptimize(fit = FitPlane(d.points));
   state.counters["dir_err_urad"] = AngleUrad(fit.shape.normal, kAxis);
@@ -89,7 +89,7 @@ void BM_MlpPlane(benchmark::State& state) {
 }
 
 void BM_MlpSphere(benchmark::State& state) {
-  const auto& d = Cached("sphere", state.range(0));
+  const auto& d = Cached("sphere", static_cast<int>(state.range(0)));
   FitResult<Sphere> fit;
   for (auto _ : state) benchmark::DoNotOptimize(fit = FitSphere(d.points));
   state.counters["pos_err_um"] = 1e3 * (fit.shape.center - kCenter).norm();
@@ -97,7 +97,7 @@ void BM_MlpSphere(benchmark::State& state) {
 }
 
 void BM_MlpCircle(benchmark::State& state) {
-  const auto& d = Cached("circle", state.range(0));
+  const auto& d = Cached("circle", static_cast<int>(state.range(0)));
   FitResult<Circle3> fit;
   for (auto _ : state) benchmark::DoNotOptimize(fit = FitCircle3(d.points));
   state.counters["pos_err_um"] = 1e3 * (fit.shape.center - kCenter).norm();
@@ -106,7 +106,7 @@ void BM_MlpCircle(benchmark::State& state) {
 }
 
 void BM_MlpCylinder(benchmark::State& state) {
-  const auto& d = Cached("cylinder", state.range(0));
+  const auto& d = Cached("cylinder", static_cast<int>(state.range(0)));
   FitResult<Cylinder> fit;
   for (auto _ : state) benchmark::DoNotOptimize(fit = FitCylinder(d.points));
   state.counters["pos_err_um"] = 1e3 * (kCenter - fit.shape.point).cross(fit.shape.axis).norm();
@@ -115,7 +115,8 @@ void BM_MlpCylinder(benchmark::State& state) {
 }
 
 void BM_MlpLine(benchmark::State& state) {
-  auto d = Cached("cylinder", state.range(0));  // the axis direction spread: a thick line
+  auto d = Cached("cylinder",
+                  static_cast<int>(state.range(0)));  // the axis direction spread: a thick line
   FitResult<Line3> fit;
   for (auto _ : state) benchmark::DoNotOptimize(fit = FitLine3(d.points));
 }
@@ -144,7 +145,7 @@ void BM_MlpCone(benchmark::State& state) {
 }
 
 void BM_MlpEllipse(benchmark::State& state) {
-  auto d = Cached("circle", state.range(0));
+  auto d = Cached("circle", static_cast<int>(state.range(0)));
   // Squash the circle into an ellipse (semi-axes 12.7 and 8.89 mm) in its plane.
   for (Eigen::Index i = 0; i < d.points.cols(); ++i) {
     const Vec3 q = d.points.col(i) - kCenter;
@@ -156,13 +157,13 @@ void BM_MlpEllipse(benchmark::State& state) {
 }
 
 void BM_MlpFlatnessMinZone(benchmark::State& state) {
-  const auto& d = Cached("plane", state.range(0));
+  const auto& d = Cached("plane", static_cast<int>(state.range(0)));
   MinZonePlaneFit fit;
   for (auto _ : state) benchmark::DoNotOptimize(fit = FitMinZonePlane(d.points));
 }
 
 void BM_MlpRoundnessMinZone(benchmark::State& state) {
-  const auto& d = Cached("circle", state.range(0));
+  const auto& d = Cached("circle", static_cast<int>(state.range(0)));
   MinZoneCircleFit fit;
   for (auto _ : state) benchmark::DoNotOptimize(fit = FitMinZoneCircle(d.points));
 }
@@ -200,7 +201,7 @@ pcl::ModelCoefficients RunPcl(benchmark::State& state, Seg& seg) {
 }
 
 void BM_PclPlane(benchmark::State& state) {
-  const auto cloud = ToPcl(Cached("plane", state.range(0)));
+  const auto cloud = ToPcl(Cached("plane", static_cast<int>(state.range(0))));
   pcl::SACSegmentation<pcl::PointNormal> seg;
   seg.setModelType(pcl::SACMODEL_PLANE);
   seg.setInputCloud(cloud);
@@ -211,7 +212,7 @@ void BM_PclPlane(benchmark::State& state) {
 }
 
 void BM_PclSphere(benchmark::State& state) {
-  const auto cloud = ToPcl(Cached("sphere", state.range(0)));
+  const auto cloud = ToPcl(Cached("sphere", static_cast<int>(state.range(0))));
   pcl::SACSegmentation<pcl::PointNormal> seg;
   seg.setModelType(pcl::SACMODEL_SPHERE);
   seg.setInputCloud(cloud);
@@ -222,7 +223,7 @@ void BM_PclSphere(benchmark::State& state) {
 }
 
 void BM_PclCircle(benchmark::State& state) {
-  const auto cloud = ToPcl(Cached("circle", state.range(0)));
+  const auto cloud = ToPcl(Cached("circle", static_cast<int>(state.range(0))));
   pcl::SACSegmentation<pcl::PointNormal> seg;
   seg.setModelType(pcl::SACMODEL_CIRCLE3D);
   seg.setInputCloud(cloud);
@@ -236,7 +237,7 @@ void BM_PclCircle(benchmark::State& state) {
 // PCL's cylinder model needs normals: it gets the exact ones, so its time excludes normal
 // estimation (which would add a k-d tree search per point).
 void BM_PclCylinder(benchmark::State& state) {
-  const auto cloud = ToPcl(Cached("cylinder", state.range(0)));
+  const auto cloud = ToPcl(Cached("cylinder", static_cast<int>(state.range(0))));
   pcl::SACSegmentationFromNormals<pcl::PointNormal, pcl::PointNormal> seg;
   seg.setModelType(pcl::SACMODEL_CYLINDER);
   seg.setNormalDistanceWeight(0.1);
@@ -254,7 +255,7 @@ void BM_PclCylinder(benchmark::State& state) {
 // ---- baseline: reading the points once (memory bandwidth bound) ----
 
 void BM_MemoryReadBaseline(benchmark::State& state) {
-  const auto& d = Cached("plane", state.range(0));
+  const auto& d = Cached("plane", static_cast<int>(state.range(0)));
   for (auto _ : state) {
     double sum = Eigen::Map<const Eigen::VectorXd>(d.points.data(), d.points.size()).sum();
     benchmark::DoNotOptimize(sum);

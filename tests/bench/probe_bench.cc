@@ -107,7 +107,8 @@ void BM_StripeExtract(benchmark::State& state) {
     found += points.size();
   }
   SetRates(state, frames[0].pixels.size());
-  state.counters["points_per_frame"] = static_cast<double>(found) / state.iterations();
+  state.counters["points_per_frame"] =
+      static_cast<double>(found) / static_cast<double>(state.iterations());
 }
 
 // Naive baseline: per row, OpenCV's maximum, then the centre of mass of +-3 px around it.

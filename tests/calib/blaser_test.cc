@@ -357,7 +357,8 @@ TEST(Blaser, BmpAndRawBayerFramesGiveThePngsFindings) {
     double c2 = 0;
     for (size_t k = 0; k < std::min(raw[i].corners.size(), png[i].corners.size()); ++k)
       c2 += (raw[i].corners[k] - png[i].corners[k]).squaredNorm();
-    const double corner_rms = raw[i].corners.empty() ? 0 : std::sqrt(c2 / raw[i].corners.size());
+    const double corner_rms =
+        raw[i].corners.empty() ? 0 : std::sqrt(c2 / static_cast<double>(raw[i].corners.size()));
     // Stripe centres compared column by column (the line runs along the rows).
     std::map<long, double> png_rows;
     for (const Vec2& p : png[i].stripe_px) png_rows[std::lround(p.x())] = p.y();

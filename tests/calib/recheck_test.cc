@@ -119,7 +119,8 @@ TEST(Recheck, TooLargeOrNonRigidChangesAskForAFullCalibration) {
   // A bent probe: each orientation sees the sphere 10-30 um off in its own direction.
   auto captures = Measure(truth, testing::PoseSet::kFiveAxis, 5, 7);
   for (size_t i = 0; i < captures.size(); ++i) {
-    const Vec3 shift(0.01 * std::sin(2.0 * i), 0.02 * std::cos(3.0 * i), 0.015 * (i % 2 ? 1 : -1));
+    const double x = static_cast<double>(i);
+    const Vec3 shift(0.01 * std::sin(2.0 * x), 0.02 * std::cos(3.0 * x), 0.015 * (i % 2 ? 1 : -1));
     captures[i].points_in_probe.colwise() += shift;
   }
   const RecheckResult bent = Recheck(captures, Original(truth));

@@ -143,9 +143,10 @@ TEST(NistReference, AllThirtySevenPairsArePresent) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Nist, NistReference, testing::ValuesIn(AllCases()), [](const auto& info) {
-  return info.param.name;
-});
+INSTANTIATE_TEST_SUITE_P(Nist,
+                         NistReference,
+                         testing::ValuesIn(AllCases()),
+                         [](const auto& test_info) { return test_info.param.name; });
 
 }  // namespace
 }  // namespace mlp::geometry

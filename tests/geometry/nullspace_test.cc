@@ -259,9 +259,9 @@ TEST_P(NullSpace, Ellipse3) {
   FitResult<Ellipse3> fit;
   try {
     fit = FitEllipse3(pts);
-  } catch (const GeometryError& e) {
-    ASSERT_TRUE(narrow) << e.what();
-    EXPECT_TRUE(e.code() == ErrorCode::kNotConverged || e.code() == ErrorCode::kDegenerate);
+  } catch (const GeometryError& error) {
+    ASSERT_TRUE(narrow) << error.what();
+    EXPECT_TRUE(error.code() == ErrorCode::kNotConverged || error.code() == ErrorCode::kDegenerate);
     return;
   }
   const Ellipse3 truth{center, normal, std::cos(angle) * u + std::sin(angle) * v, a, b};
@@ -316,7 +316,7 @@ INSTANTIATE_TEST_SUITE_P(Hard,
                                          Case{1000, 360.0, 1000.0, 0.0},
                                          Case{20000, 120.0, 1000.0, 0.02},
                                          Case{1000000, 200.0, 1000.0, 0.03}),
-                         [](const auto& info) { return Name(info.param); });
+                         [](const auto& test_info) { return Name(test_info.param); });
 
 }  // namespace
 }  // namespace mlp::geometry

@@ -35,7 +35,7 @@ TEST(RealClouds, RobustPlaneOnPclWallScan) {
   RobustOptions fixed;
   fixed.inlier_threshold_mm = 10.0;
   const auto robust10 = FitPlaneRobust(p, fixed);
-  EXPECT_GT(robust.inliers.size(), 0.6 * p.cols());
+  EXPECT_GT(static_cast<double>(robust.inliers.size()), 0.6 * static_cast<double>(p.cols()));
   EXPECT_LT(robust.fit.stats.rms, 5.0);                  // mm: the wall's own noise
   EXPECT_GT(ls.stats.rms, 10.0 * robust.fit.stats.rms);  // outliers dominate plain LS
   EXPECT_LT(AngleUpToSign(robust.fit.shape.normal, robust10.fit.shape.normal), 0.5 * kDeg);
@@ -72,7 +72,7 @@ TEST(RealClouds, RobustCylinderFindsTheMug) {
     SCOPED_TRACE(threshold_mm);
     EXPECT_NEAR(mug.fit.shape.radius, 39.6, 1.0);  // mm, stereo noise ~1.5 mm RMS
     EXPECT_LT(AngleUpToSign(mug.fit.shape.axis, table.fit.shape.normal), 2.0 * kDeg);
-    EXPECT_GT(mug.inliers.size(), 0.7 * objects.cols());
+    EXPECT_GT(static_cast<double>(mug.inliers.size()), 0.7 * static_cast<double>(objects.cols()));
   }
 }
 

@@ -66,8 +66,8 @@ TEST(CloudCodec, FirmwareCloudUnderFourBytesPerPointWithoutLoss) {
   const LinkCloud cloud = FirmwareCloud();
   ASSERT_GT(cloud.size(), 20000u);
   const Bytes raw = EncodeCloud(cloud, false), packed = EncodeCloud(cloud, true);
-  const double raw_bpp = static_cast<double>(raw.size()) / cloud.size();
-  const double packed_bpp = static_cast<double>(packed.size()) / cloud.size();
+  const double raw_bpp = static_cast<double>(raw.size()) / static_cast<double>(cloud.size());
+  const double packed_bpp = static_cast<double>(packed.size()) / static_cast<double>(cloud.size());
   std::printf("cloud of %zu points: %.2f bytes/point raw varints, %.2f with zstd\n", cloud.size(),
               raw_bpp, packed_bpp);
   EXPECT_LT(packed_bpp, kTargetBytesPerPoint);

@@ -104,7 +104,7 @@ class FaultRelay {
           if (ec) return p->Close();
           // Per chunk read (up to 4 KB, a few clouds): 3 % cut, 3 % one corrupted byte, 2 %
           // truncated then cut.
-          const unsigned roll = gen_() % 1000;
+          const auto roll = static_cast<unsigned>(gen_() % 1000);
           if (roll < 30) {  // cut
             ++faults_;
             return p->Close();

@@ -130,10 +130,10 @@ TEST(DirectMotion, FollowsTheBaseline) {
   EXPECT_EQ(column, 0.0);
   // On a face at 120 mm, the sheets of columns 500 and 501 on the line y = 0: the stripe's image
   // moves along x the way DirectMotion says.
-  const auto image_x = [&](double column) {
+  const auto image_x = [&](double projector_column) {
     Vec3 n;
     double d = 0.0;
-    m.projector.PlaneOf(column, &n, &d);
+    m.projector.PlaneOf(projector_column, &n, &d);
     return m.camera.Project(Vec3((d - n.z() * 120.0) / n.x(), 0.0, 120.0)).x();
   };
   EXPECT_GT((image_x(501.0) - image_x(500.0)) * row, 0.0);

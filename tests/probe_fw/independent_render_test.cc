@@ -279,7 +279,7 @@ TEST(IndependentRenderer, TheFirmwareMeetsAFlatFaceItDidNotRender) {
   const auto frames = RenderSweep(probe, face, nominal, 11);
   ASSERT_GT(frames.size(), 20u);
   const CloudCheck c = RunFirmware(probe, face, frames, "nominal");
-  EXPECT_GT(c.points, kMinRowsWithAPoint * nominal.height * frames.size());
+  EXPECT_GT(c.points, kMinRowsWithAPoint * nominal.height * static_cast<double>(frames.size()));
   EXPECT_LT(c.rms_um, kNominalRmsUm);
   EXPECT_LT(c.max_um, kNominalMaxUm);
 }
@@ -300,7 +300,7 @@ TEST(IndependentRenderer, SpeckleWithAGrainSizeStaysWithinTheBudget) {
   speckle.speckle_contrast = 0.3;
   const auto frames = RenderSweep(probe, face, speckle, 13);
   const CloudCheck c = RunFirmware(probe, face, frames, "speckle");
-  EXPECT_GT(c.points, kMinRowsWithAPoint * speckle.height * frames.size());
+  EXPECT_GT(c.points, kMinRowsWithAPoint * speckle.height * static_cast<double>(frames.size()));
   EXPECT_LT(c.rms_um, kSpeckleRmsUm);
   EXPECT_EQ(c.beyond_50um, 0u);
 }
@@ -327,7 +327,7 @@ TEST(IndependentRenderer, NoReflectionGhostReachesTheCloudWhateverItsMotionOrThe
       const CloudCheck c =
           RunFirmware(probe, face, RenderSweep(probe, face, ghost, seed++), "ghost");
       EXPECT_LT(c.max_um, kGhostPointUm) << "drift " << drift << ", speckle " << contrast;
-      EXPECT_GT(c.points, kKeptWithGhost * nominal_points)
+      EXPECT_GT(c.points, kKeptWithGhost * static_cast<double>(nominal_points))
           << "drift " << drift << ", speckle " << contrast;
     }
   }
@@ -373,20 +373,20 @@ TEST(IndependentRenderer, AProbeTurnedBy90DegreesKeepsItsPoints) {
   const auto frames = RenderSweep(probe, face, look, 31);
   ASSERT_GT(frames.size(), 20u);
   const CloudCheck nominal = RunFirmware(probe, face, frames, "turned", file);
-  EXPECT_GT(nominal.points, kMinRowsWithAPoint * look.width * frames.size());
+  EXPECT_GT(nominal.points, kMinRowsWithAPoint * look.width * static_cast<double>(frames.size()));
   EXPECT_LT(nominal.rms_um, kNominalRmsUm);
   EXPECT_LT(nominal.max_um, kNominalMaxUm);
   look.speckle_contrast = 0.3;
   const CloudCheck speckled =
       RunFirmware(probe, face, RenderSweep(probe, face, look, 32), "turned_speckle", file);
-  EXPECT_GT(speckled.points, kMinRowsWithAPoint * look.width * frames.size());
+  EXPECT_GT(speckled.points, kMinRowsWithAPoint * look.width * static_cast<double>(frames.size()));
   EXPECT_LT(speckled.rms_um, kSpeckleRmsUm);
   EXPECT_EQ(speckled.beyond_50um, 0u);
   look.ghost_ratio = 0.5;
   const CloudCheck ghost =
       RunFirmware(probe, face, RenderSweep(probe, face, look, 33), "turned_ghost", file);
   EXPECT_LT(ghost.max_um, kGhostPointUm);
-  EXPECT_GT(ghost.points, kKeptWithGhost * nominal.points);
+  EXPECT_GT(ghost.points, kKeptWithGhost * static_cast<double>(nominal.points));
   fs::remove(file);
 }
 

@@ -30,7 +30,8 @@ void ExpectPlanKeepsItsPromises(const StrobeRequest& r, const StrobePlan& p) {
       const double start = p.first_pulse_us[i] + k * p.pulse_spacing_us;
       EXPECT_GE(start, r.blanking_us - 1e-9) << "image " << i;
       EXPECT_LE(start + p.pulse_width_us, frame_us - r.blanking_us + 1e-9) << "image " << i;
-      const double centre_rev = (i * frame_us + start + p.pulse_width_us / 2) / rev_us;
+      const double centre_rev =
+          (static_cast<double>(i) * frame_us + start + p.pulse_width_us / 2) / rev_us;
       if (i == 0 && k == 0) angle0 = centre_rev;
       // Degrees from where this image's position says, wrapped to +-180.
       double off =

@@ -67,14 +67,15 @@ bool BeamProcessor::Push(float volts) {
   smooth_[slot] = share;
   bool fired = false;
   if (n_ >= kSmooth - 1) {
-    const double y = smooth_sum_ / kSmooth, t = (n_ - kSmooth / 2) / cfg_.sample_rate_hz;
+    const double y = smooth_sum_ / kSmooth,
+                 t = static_cast<double>(n_ - kSmooth / 2) / cfg_.sample_rate_hz;
     if (cfg_.rpm > 0)
       Smoothed(y, t);
     else
       PinStep(y, t);
     prev_ = y, prev_t_ = t;
   }
-  const double now = n_ / cfg_.sample_rate_hz;
+  const double now = static_cast<double>(n_) / cfg_.sample_rate_hz;
   if (!Triggered() && cfg_.rpm > 0 && !std::isnan(due_t_) && now >= due_t_) {
     trigger_ = {n_, now, due_t_, dir_ * feed_mm_s_ * (now - due_t_), due_tooth_, due_extremes_};
     fired = true;
@@ -135,7 +136,7 @@ double BeamProcessor::RawCross(double level, bool falling, double smoothed_t) co
     const double a = smooth_[static_cast<size_t>(j % kSmooth)],
                  b = smooth_[static_cast<size_t>((j + 1) % kSmooth)];
     if (falling ? !(a >= level && b < level) : !(a < level && b >= level)) continue;
-    const double tc = (j + (a - level) / (a - b)) / cfg_.sample_rate_hz;
+    const double tc = (static_cast<double>(j) + (a - level) / (a - b)) / cfg_.sample_rate_hz;
     if (std::abs(tc - smoothed_t) < best_gap) best = tc, best_gap = std::abs(tc - smoothed_t);
   }
   return best;
@@ -273,7 +274,7 @@ void BeamProcessor::AddWidth(Tooth* th, const Dip& d) {
 // it crosses the threshold. A tooth ahead with too few extremes yet (drops spoiled its dips)
 // holds the trigger back rather than let a shorter tooth fire it.
 void BeamProcessor::UpdatePrediction() {
-  const double now = n_ / cfg_.sample_rate_hz;
+  const double now = static_cast<double>(n_) / cfg_.sample_rate_hz;
   double best = -1e300;
   Fit lead;
   int lead_k = -1;

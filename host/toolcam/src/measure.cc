@@ -242,7 +242,7 @@ std::vector<std::pair<double, double>> Profile(const std::vector<FitPoint>& pts,
   const ToolDescription ground = Ground(model);
   std::vector<std::pair<double, double>> profile;
   for (const auto& [bin, sum] : bins) {
-    const double h = bin * kBinMm;
+    const double h = static_cast<double>(bin) * kBinMm;
     const double own = model.EdgeRadius(edge, h) - ground.EdgeRadius(edge, h) -
                        model.edges[static_cast<size_t>(edge)].radial_offset_mm;
     profile.emplace_back(h, own + sum.first / sum.second);

@@ -319,8 +319,8 @@ struct HostLink::Impl {
       if (!ec) from = " from " + remote.address().to_string() + ":" + std::to_string(remote.port());
       who = "unauthenticated peer" + from;
       asio::co_spawn(io, Watchdog(c), asio::detached);
-      HostHandshake hs([this](const std::string& serial) -> std::optional<Key> {
-        const auto it = cfg.probes.find(serial);
+      HostHandshake hs([this](const std::string& claimed) -> std::optional<Key> {
+        const auto it = cfg.probes.find(claimed);
         if (it == cfg.probes.end()) return std::nullopt;
         return it->second;
       });
