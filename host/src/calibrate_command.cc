@@ -33,8 +33,6 @@ using calib::Pose3;
 using calib::Vec3;
 using json = nlohmann::ordered_json;
 
-constexpr const char* kManifestFormat = "mlprobe-sphere-captures/1";
-
 constexpr const char* kUsage =
     "usage: mlp calibrate camera    --views MANIFEST [--out CAMERA.json] [--json]\n"
     "       mlp calibrate projector --views MANIFEST --design PROBE_FILE --out PROBE_FILE\n"
@@ -129,75 +127,11 @@ Command ParseArgs(const std::vector<std::string>& args) {
   return a;
 }
 
-struct Manifest {
-  std::string probe_serial;
-  double radius_mm = 0.0;
-  std::array<std::optional<double>, 3> known_centre;
-  std::optional<double> max_std_mm, lever_mm;
-  std::vector<calib::SphereCapture> captures;
-};
-
-Pose3 CapturePose(const jf::json& c, const std::string& where) {
-  if (c.contains("mcs_from_flange"))
-    return jf::Pose<UsageError>(jf::Object<UsageError>(c, "mcs_from_flange", where),
-                                where + ".mcs_from_flange");
-  if (c.contains("mcs_from_flange_xyzwpr") && c.at("mcs_from_flange_xyzwpr").is_array() &&
-      c.at("mcs_from_flange_xyzwpr").size() == 6) {
-    double v[6];
-    for (size_t k = 0; k < 6; ++k) {
-      if (!c.at("mcs_from_flange_xyzwpr")[k].is_number())
-        throw UsageError(where + ".mcs_from_flange_xyzwpr must hold 6 numbers");
-      v[k] = c.at("mcs_from_flange_xyzwpr")[k].get<double>();
-    }
-    return calib::PoseFromXyzWpr(v[0], v[1], v[2], v[3], v[4], v[5]);
-  }
-  throw UsageError(where +
-                   " needs mcs_from_flange {translation_mm, rotation_vector_rad} or "
-                   "mcs_from_flange_xyzwpr [x, y, z, w, p, r]");
-}
-
-geometry::Points3 ReadPoints(const fs::path& path, const jf::json& c, const std::string& where) {
-  const std::string ext = path.extension().string();
-  if (ext == ".yml" || ext == ".yaml") {
-    const std::string key = c.contains("cloud_key") ? jf::Text<UsageError>(c, "cloud_key", where)
-                                                    : std::string("scan_line");
-    return calib::LoadFileStorageProfile(path.string(), key);
-  }
-  return ReadCloud(path.string()).points;
-}
-
-Manifest LoadManifest(const std::string& path) {
-  const jf::json j = jf::ParseDocument<UsageError>(ReadInputFile(path), kManifestFormat, path);
-  Manifest m;
-  m.probe_serial = jf::Text<UsageError>(j, "probe_serial", "manifest");
-  m.radius_mm = jf::Number<UsageError>(j, "sphere_radius_mm", "manifest");
-  if (j.contains("known_centre_mcs_mm")) {
-    const auto& k = jf::Object<UsageError>(j, "known_centre_mcs_mm", "manifest");
-    const char* axes[3] = {"x", "y", "z"};
-    for (int a = 0; a < 3; ++a) {
-      if (k.contains(axes[a]))
-        m.known_centre[a] = jf::Number<UsageError>(k, axes[a], "manifest.known_centre_mcs_mm");
-    }
-  }
-  // What counts as determined: a machine tool wants 0.05 mm (the default), a robot cell accepts
-  // more; the lever is about the probe's stand-off.
-  if (j.contains("max_std_mm")) m.max_std_mm = jf::Number<UsageError>(j, "max_std_mm", "manifest");
-  if (j.contains("lever_mm")) m.lever_mm = jf::Number<UsageError>(j, "lever_mm", "manifest");
-  if (!j.contains("captures") || !j.at("captures").is_array())
-    throw UsageError("manifest.captures must be an array");
-  const fs::path base = fs::path(path).parent_path();
-  for (size_t i = 0; i < j.at("captures").size(); ++i) {
-    const auto& c = j.at("captures")[i];
-    const std::string where = "manifest.captures[" + std::to_string(i) + "]";
-    calib::SphereCapture cap;
-    cap.id = jf::Text<UsageError>(c, "id", where);
-    cap.mcs_from_flange = CapturePose(c, where);
-    cap.single_profile = c.contains("single_profile") && c.at("single_profile").is_boolean() &&
-                         c.at("single_profile").get<bool>();
-    cap.points_in_probe = ReadPoints(base / jf::Text<UsageError>(c, "cloud", where), c, where);
-    m.captures.push_back(std::move(cap));
-  }
-  return m;
+// The manifest is calib's format; the clouds it names other than line-scanner profiles are read
+// by the host's cloud reader (.xyz, .pcd, .ply).
+calib::SphereCaptureManifest LoadManifest(const std::string& path) {
+  return calib::LoadSphereCaptureManifest(
+      path, [](const std::string& cloud) { return ReadCloud(cloud).points; });
 }
 
 void PrintSensorAndValidation(const calib::HandEyeResult& r, std::ostream& out) {
@@ -218,10 +152,10 @@ void PrintSensorAndValidation(const calib::HandEyeResult& r, std::ostream& out) 
 }
 
 int HandEye(const Command& a, std::ostream& out, std::ostream& err) {
-  const Manifest m = LoadManifest(a.captures);
+  const calib::SphereCaptureManifest m = LoadManifest(a.captures);
   calib::HandEyeOptions o;
-  o.sphere_radius_mm = m.radius_mm;
-  o.known_centre_mcs = m.known_centre;
+  o.sphere_radius_mm = m.sphere_radius_mm;
+  o.known_centre_mcs = m.known_centre_mcs;
   if (m.max_std_mm) o.max_std_mm = *m.max_std_mm;
   if (m.lever_mm) o.lever_mm = *m.lever_mm;
   o.sensor = a.estimate;
@@ -234,7 +168,7 @@ int HandEye(const Command& a, std::ostream& out, std::ostream& err) {
                                     : "(not stored: --dry-run)";
   if (!a.dry_run && !a.estimate.Any()) {
     id = calib::CalibrationStore(a.store).Save(
-        calib::MakeRecord(m.probe_serial, r, m.captures, m.radius_mm));
+        calib::MakeRecord(m.probe_serial, r, m.captures, m.sphere_radius_mm));
   }
   const Eigen::AngleAxisd aa(r.flange_from_probe.linear());
   if (a.json) {
@@ -267,7 +201,7 @@ int HandEye(const Command& a, std::ostream& out, std::ostream& err) {
 }
 
 int Recheck(const Command& a, std::ostream& out, std::ostream& err) {
-  const Manifest m = LoadManifest(a.captures);
+  const calib::SphereCaptureManifest m = LoadManifest(a.captures);
   const calib::CalibrationStore store(a.store);
   const auto original = store.Latest(m.probe_serial, calib::RecordKind::kHandEye);
   if (!original)
@@ -277,7 +211,7 @@ int Recheck(const Command& a, std::ostream& out, std::ostream& err) {
                      original->calibration_id + ") was measured against a board: a recheck " +
                      "needs a sphere calibration (mlp calibrate hand-eye)");
   calib::RecheckOptions o;
-  o.sphere_radius_mm = m.radius_mm;
+  o.sphere_radius_mm = m.sphere_radius_mm;
   o.original_flange_from_probe = original->flange_from_probe;
   o.original_centre_mcs = original->sphere_centre_mcs;
   o.sphere_moved = a.sphere_moved;

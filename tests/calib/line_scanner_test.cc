@@ -6,6 +6,11 @@
 #include "mlp/calib/capture_io.h"
 #include "mlp/calib/hand_eye.h"
 
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
 #include "test_data.h"
 #include <gtest/gtest.h>
 
@@ -147,6 +152,63 @@ TEST(LineScannerSphere, TheScannersOwnScaleIsFoundAndPredictsHeldOutProfilesBett
   EXPECT_TRUE(Says(both, "angle of incidence"));
   EXPECT_GE(KeptOfTheBall(both), kKeptOfTheBall);
   EXPECT_LT(both.leave_one_out.rms_mm, scaled.leave_one_out.rms_mm);
+}
+
+// The sample manifest as it is in the repository: every field read, every profile loaded by
+// calib itself (FileStorage); the host's cloud reader is never asked for a .yml.
+TEST(SphereCaptureManifest, TheSampleReadsWholeWithItsProfiles) {
+  const CloudReader refuse = [](const std::string& path) -> geometry::Points3 {
+    throw CaptureIoError("no reader for " + path);
+  };
+  const SphereCaptureManifest m = LoadSphereCaptureManifest(
+      std::string(MLP_SOURCE_DIR) + "/samples/calib/line_scanner_ball.json", refuse);
+  EXPECT_EQ(m.probe_serial, "LINE-SCANNER-BALL");
+  EXPECT_DOUBLE_EQ(m.sphere_radius_mm, 12.7);
+  EXPECT_EQ(m.max_std_mm, 1.0);
+  EXPECT_EQ(m.lever_mm, 200.0);
+  ASSERT_EQ(m.captures.size(), 10u);
+  for (const SphereCapture& c : m.captures) {
+    EXPECT_GT(c.points_in_probe.cols(), 100) << c.id;
+    EXPECT_TRUE(c.mcs_from_flange.matrix().allFinite()) << c.id;
+  }
+}
+
+// A field of the wrong kind is refused naming it; other clouds go to the caller's reader.
+TEST(SphereCaptureManifest, RefusesNamingTheFieldAndAsksTheCallerForOtherClouds) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / "mlp_sphere_manifest_test";
+  std::filesystem::create_directories(dir);
+  const auto write = [&](const std::string& capture) {
+    std::ofstream((dir / "m.json").string())
+        << R"({"format": "mlprobe-sphere-captures/1", "probe_serial": "P", )"
+        << R"("sphere_radius_mm": 12.7, "captures": [)" << capture << "]}";
+    return (dir / "m.json").string();
+  };
+  std::vector<std::string> asked;
+  const CloudReader reader = [&](const std::string& path) {
+    asked.push_back(path);
+    return geometry::Points3(geometry::Points3::Zero(3, 4));
+  };
+  const std::string pose = R"("mcs_from_flange_xyzwpr": [1, 2, 3, 0, 0, 90])";
+  const auto m =
+      LoadSphereCaptureManifest(write(R"({"id": "a", "cloud": "a.xyz", )" + pose + "}"), reader);
+  ASSERT_EQ(asked.size(), 1u);
+  EXPECT_EQ(asked[0], (dir / "a.xyz").string());
+  EXPECT_NEAR(m.captures.at(0).mcs_from_flange.translation().y(), 2.0, 1e-12);
+  const auto message = [&](const std::string& capture) -> std::string {
+    try {
+      LoadSphereCaptureManifest(write(capture), reader);
+    } catch (const CaptureIoError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_NE(message(R"({"id": "a", "cloud": "a.xyz"})").find("captures[0] needs mcs_from_flange"),
+            std::string::npos);
+  EXPECT_NE(message(R"({"id": "a", "cloud": "a.xyz", "single_profile": 1, )" + pose + "}")
+                .find("single_profile"),
+            std::string::npos);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
