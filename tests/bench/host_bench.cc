@@ -22,7 +22,7 @@
 #include <filesystem>
 #include <random>
 
-#include "../host/feature_points.h"
+#include "../jobs/feature_points.h"
 #include <benchmark/benchmark.h>
 
 namespace {
