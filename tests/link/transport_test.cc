@@ -284,7 +284,8 @@ TEST(Transport, SeveralProbesAtOnce) {
     probes.push_back(std::make_unique<ProbeLink>(ProbeConfig(serial, key, host.Port()),
                                                  [](const std::string&) {}));
     probes.back()->Start();
-    feeders.emplace_back([&probe = *probes.back(), serial] {
+    // serial = serial: clang 14 cannot capture a structured binding itself.
+    feeders.emplace_back([&probe = *probes.back(), serial = serial] {
       std::mt19937 gen(7);
       std::vector<LinkCloud> clouds;
       for (int i = 0; i < 150; ++i) clouds.push_back(MakeCloud(serial, i, &gen));
