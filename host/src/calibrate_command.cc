@@ -1,6 +1,5 @@
 #include "mlp/host/calibrate_command.h"
 
-#include "mlp/base/json_fields.h"
 #include "mlp/base/units.h"
 #include "mlp/calib/camera_calib.h"
 #include "mlp/calib/capture_io.h"
@@ -14,7 +13,6 @@
 #include "mlp/probe_fw/probe_model.h"
 
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <map>
 #include <ostream>
@@ -27,7 +25,6 @@
 namespace mlp::host {
 namespace {
 
-namespace jf = base::json_fields;
 namespace fs = std::filesystem;
 using calib::Pose3;
 using calib::Vec3;

@@ -3,7 +3,6 @@
 // written and read; the measured tool into a LinuxCNC tool table (atomically, bounded, logged).
 
 #include "mlp/base/files.h"
-#include "mlp/base/json_fields.h"
 #include "mlp/host/cli.h"
 #include "mlp/nc/tool_table.h"
 #include "mlp/toolcam/measure.h"
@@ -28,7 +27,6 @@
 namespace mlp::host::tool {
 namespace {
 
-namespace jf = base::json_fields;
 namespace fs = std::filesystem;
 
 constexpr int kExitRefused = 4;  // measured, but the tool table was not changed (the reason)
