@@ -1,14 +1,12 @@
 #include "mlp/calib/record.h"
 
+#include "mlp/base/clock.h"
 #include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
 
 #include <algorithm>
 #include <cerrno>
-#include <chrono>
-#include <cstdio>
 #include <cstring>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -36,26 +34,6 @@ void CheckSerial(const std::string& serial) {
     throw RecordError("probe serial '" + serial +
                       "' must be 1-64 letters, digits, '-', '_' or '.' (it names a folder)");
   }
-}
-
-// UTC time in `format`, with milliseconds appended when asked: records made within one second
-// still sort in the order they were made.
-std::string UtcNow(const char* format, bool millis) {
-  const auto now = std::chrono::system_clock::now();
-  const std::time_t seconds = std::chrono::system_clock::to_time_t(now);
-  std::tm tm{};
-  gmtime_r(&seconds, &tm);
-  char buf[40];
-  std::strftime(buf, sizeof buf, format, &tm);
-  std::string out = buf;
-  if (millis) {
-    const auto ms =
-        std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()) % 1000;
-    char frac[8];
-    std::snprintf(frac, sizeof frac, ".%03dZ", static_cast<int>(ms.count()));
-    out += frac;
-  }
-  return out;
 }
 
 std::vector<OrientationDatum> Orientations(const Pose3& m,
@@ -280,10 +258,10 @@ std::string CalibrationStore::Save(CalibrationRecord record) const {
   CheckSerial(record.probe_serial);
   std::random_device rd;
   std::ostringstream id;
-  id << record.probe_serial << "-" << UtcNow("%Y%m%dT%H%M%SZ", false) << "-" << std::hex
+  id << record.probe_serial << "-" << base::UtcNow("%Y%m%dT%H%M%SZ", false) << "-" << std::hex
      << (rd() & 0xffffffu);
   record.calibration_id = id.str();
-  record.created_utc = UtcNow("%Y-%m-%dT%H:%M:%S", true);
+  record.created_utc = base::UtcNow("%Y-%m-%dT%H:%M:%S", true);
   const fs::path dir = fs::path(root_) / record.probe_serial;
   std::error_code ec;
   fs::create_directories(dir, ec);

@@ -2,6 +2,7 @@
 // service, logs JSON lines on stderr (the journal keeps them), stops gracefully on SIGINT or
 // SIGTERM.
 
+#include "mlp/base/clock.h"
 #include "mlp/history/history.h"
 #include "mlp/host/cli.h"
 #include "mlp/service/hostd.h"
@@ -30,7 +31,7 @@ void Log(const std::string& level, const std::string& message) {
   const std::lock_guard lock(log_m);
   // DumpSafe: a message may quote a peer's bytes that are not UTF-8 (a serial, a file name).
   std::cerr << mlp::service::DumpSafe(
-                   {{"time", mlp::history::UtcNow()}, {"level", level}, {"msg", message}})
+                   {{"time", mlp::base::UtcTimestamp()}, {"level", level}, {"msg", message}})
             << std::endl;
 }
 

@@ -5,6 +5,7 @@
 #include "mlp/base/files.h"
 #include "mlp/host/cli.h"
 #include "mlp/nc/tool_table.h"
+#include "mlp/nc/tool_table_update.h"
 #include "mlp/toolcam/measure.h"
 #include "mlp/toolcam/pin_calibration.h"
 #include "mlp/toolcam/tool_images.h"
@@ -189,65 +190,34 @@ nlohmann::json MeasurementJson(const toolcam::ToolDescription& tool,
           {"flutes", flutes}};
 }
 
-struct TableChange {
-  int tool = 0;
-  double length_before = 0, length_after = 0, diameter_before = 0, diameter_after = 0;
-};
-
-// The measured length (Z) and diameter (D) into tool `number` of a LinuxCNC tool table: refused
-// (nothing written) beyond `max_change_mm` from the table's values or with wear / build-up
-// found unless accepted; whole or not at all; a line per change appended to
-// mlp-tool-changes.csv beside the table (before and after).
-TableChange UpdateToolTable(const std::string& file,
-                            int number,
-                            double max_change_mm,
-                            bool accept_findings,
-                            const toolcam::ToolDescription& tool,
-                            const toolcam::ToolMeasurement& m,
-                            const std::string& images) {
-  nc::ToolTable table;
-  try {
-    table = nc::LoadToolTable(file);
-  } catch (const nc::ToolTableError& e) {
-    throw UsageError(e.what());
-  }
-  const auto record = table.Find(number);
-  if (!record) throw UsageError("tool " + std::to_string(number) + " is not in " + file);
-  TableChange c{number, record->Get('Z'), tool.length_mm - m.tip_h_mm, record->Get('D'),
-                2 * m.radius_mm};
+// The measured length (Z) and diameter (D) into tool `number` of a LinuxCNC tool table,
+// through nc's one writer (checked, whole or not at all, logged beside the table). Wear or
+// build-up found refuses unless accepted: a tool to look at is not a tool to set.
+nc::ToolTableUpdateResult UpdateToolTable(const std::string& file,
+                                          int number,
+                                          double max_change_mm,
+                                          bool accept_findings,
+                                          const toolcam::ToolDescription& tool,
+                                          const toolcam::ToolMeasurement& m,
+                                          const std::string& images) {
   int findings = 0;
   for (const auto& f : m.flutes) findings += static_cast<int>(f.findings.size());
-  std::ostringstream why;
-  why << std::fixed << std::setprecision(4);
   if (findings > 0 && !accept_findings)
-    why << findings << " finding(s) of wear or build-up: look at the tool (--accept-findings "
-        << "writes it anyway)";
-  else if (std::abs(c.length_after - c.length_before) > max_change_mm ||
-           std::abs(c.diameter_after - c.diameter_before) > max_change_mm)
-    why << "the change is beyond " << max_change_mm << " mm (length " << c.length_before << " -> "
-        << c.length_after << ", diameter " << c.diameter_before << " -> " << c.diameter_after
-        << "): a wrong tool or a wrong number? (--max-change-mm)";
-  if (!why.str().empty()) throw RefusedError("tool table not changed: " + why.str());
+    throw RefusedError("tool table not changed: " + std::to_string(findings) +
+                       " finding(s) of wear or build-up: look at the tool (--accept-findings "
+                       "writes it anyway)");
+  nc::ToolUpdate update;
+  update.tool = number;
+  update.tool_id = tool.id;
+  update.length_mm = tool.length_mm - m.tip_h_mm;
+  update.diameter_mm = 2 * m.radius_mm;
   try {
-    table.Set(number, 'Z', c.length_after);
-    table.Set(number, 'D', c.diameter_after);
-    nc::SaveToolTable(table, file);
-  } catch (const nc::ToolTableError& e) {
-    throw RefusedError(std::string("tool table not changed: ") + e.what());
+    return nc::UpdateToolTable(file, {update}, {max_change_mm, max_change_mm}, images);
+  } catch (const nc::ToolChangeRefused& e) {
+    throw RefusedError(std::string(e.what()) + " (--max-change-mm)");
+  } catch (const nc::ToolTableError& e) {  // the table, its log or the tool number: the input
+    throw UsageError(e.what());
   }
-  const fs::path log = fs::path(file).parent_path() / "mlp-tool-changes.csv";
-  const bool fresh = !fs::exists(log);
-  std::ofstream out(log, std::ios::app);
-  if (fresh)
-    out << "time_utc,tool,tool_id,length_before_mm,length_after_mm,diameter_before_mm,diameter_"
-           "after_mm,images\n";
-  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  out << std::put_time(&utc, "%Y-%m-%dT%H:%M:%SZ") << "," << number << "," << tool.id << ","
-      << std::fixed << std::setprecision(5) << c.length_before << "," << c.length_after << ","
-      << c.diameter_before << "," << c.diameter_after << "," << images << "\n";
-  return c;
 }
 
 void PrintMeasurement(const toolcam::ToolDescription& tool,
@@ -309,12 +279,21 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     const int number = static_cast<int>(f.Number("--tool-number"));
     const double max_change = f.Number("--max-change-mm", 0.5);
     try {
-      const TableChange c = UpdateToolTable(f.Text("--tool-table", ""), number, max_change,
-                                            f.Has("--accept-findings"), tool, m, images);
-      result["tool_table"] = {
-          {"file", f.Text("--tool-table", "")},      {"tool", c.tool},
-          {"length_before_mm", c.length_before},     {"length_after_mm", c.length_after},
-          {"diameter_before_mm", c.diameter_before}, {"diameter_after_mm", c.diameter_after}};
+      const nc::ToolTableUpdateResult u =
+          UpdateToolTable(f.Text("--tool-table", ""), number, max_change,
+                          f.Has("--accept-findings"), tool, m, images);
+      const nc::ToolTableChange& c = u.changes.front();
+      result["tool_table"] = {{"file", f.Text("--tool-table", "")},
+                              {"tool", c.tool},
+                              {"length_before_mm", c.length_before_mm},
+                              {"length_after_mm", c.length_after_mm},
+                              {"diameter_before_mm", c.diameter_before_mm},
+                              {"diameter_after_mm", c.diameter_after_mm},
+                              {"log", u.log_file}};
+      if (!u.log_error.empty()) {
+        result["tool_table"]["log_error"] = u.log_error;
+        err << "mlp tool: warning: " << u.log_error << "\n";
+      }
     } catch (const RefusedError& e) {
       result["tool_table"] = {{"file", f.Text("--tool-table", "")}, {"refused", e.what()}};
       err << "mlp tool: " << e.what() << "\n";

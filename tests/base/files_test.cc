@@ -3,10 +3,15 @@
 
 #include "mlp/base/files.h"
 
+#include "mlp/base/clock.h"
+#include "mlp/base/csv.h"
+
 #include <filesystem>
 #include <fstream>
 #include <ostream>
+#include <sstream>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -114,6 +119,48 @@ TEST(TemporaryNames, AreRecognisedAndRealFilesAreNot) {
   EXPECT_FALSE(IsTemporaryName("a.mlp-tmp.1"));  // not hidden: not ours
   EXPECT_FALSE(IsTemporaryName(".a.mlp-tmp.12x"));
   EXPECT_FALSE(IsTemporaryName(".a.mlp-tmp."));
+}
+
+TEST(Csv, FieldsAreQuotedOnlyWhenTheyMustBe) {  // RFC 4180 section 2
+  EXPECT_EQ(CsvField("T13-EM10"), "T13-EM10");
+  EXPECT_EQ(CsvField("DR6, spare"), "\"DR6, spare\"");
+  EXPECT_EQ(CsvField("6\" drill"), "\"6\"\" drill\"");
+  EXPECT_EQ(CsvField("two\nlines"), "\"two\nlines\"");
+  EXPECT_EQ(CsvField(""), "");
+}
+
+TEST(Clock, UtcTimestampIsIso8601WithMilliseconds) {
+  const std::string t = UtcTimestamp();  // e.g. 2026-11-21T23:57:01.123Z
+  ASSERT_EQ(t.size(), 24u) << t;
+  EXPECT_EQ(t[4], '-');
+  EXPECT_EQ(t[10], 'T');
+  EXPECT_EQ(t[19], '.');
+  EXPECT_EQ(t.back(), 'Z');
+  EXPECT_EQ(UtcNow("%Y%m%dT%H%M%SZ", false).size(), 16u);
+}
+
+TEST_F(FilesTest, AppendRecordWritesTheHeaderOnceAndWholeLines) {
+  const std::string log = Path("changes.csv");
+  AppendRecord(log, "a,b\n", "1,2\n");
+  AppendRecord(log, "a,b\n", "3,4\n");
+  EXPECT_EQ(ReadFile(log), "a,b\n1,2\n3,4\n");
+  // Two writers at once: every line arrives whole (one write() per record on O_APPEND).
+  constexpr int kLinesPerWriter = 300;
+  const std::string long_a(200, 'a'), long_b(200, 'b');
+  const auto writer = [&](const std::string& text) {
+    for (int i = 0; i < kLinesPerWriter; ++i) AppendRecord(log, "a,b\n", text + "\n");
+  };
+  std::thread first(writer, long_a), second(writer, long_b);
+  first.join();
+  second.join();
+  std::istringstream lines(ReadFile(log));
+  std::string line;
+  int a = 0, b = 0, other = 0;
+  while (std::getline(lines, line)) (line == long_a ? a : line == long_b ? b : other)++;
+  EXPECT_EQ(a, kLinesPerWriter);
+  EXPECT_EQ(b, kLinesPerWriter);
+  EXPECT_EQ(other, 3);  // the header and the two short records
+  EXPECT_THROW(AppendRecord(Path("no/such/folder.csv"), "h\n", "x\n"), FileError);
 }
 
 }  // namespace

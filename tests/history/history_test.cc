@@ -151,7 +151,6 @@ TEST(History, HashesCloudFiles) {
   EXPECT_EQ(Sha256OfFile(p.string()),
             "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");  // FIPS 180-2
   EXPECT_THROW(Sha256OfFile((p.string() + ".missing")), HistoryError);
-  EXPECT_EQ(UtcNow().size(), 24u);  // 2026-11-21T23:57:01.123Z
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include "mlp/history/history.h"
 #include "mlp/link/transport.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <future>
@@ -327,6 +328,12 @@ TEST(HostileClient, ARepeatedRequestCompensatesOnce) {
   EXPECT_EQ(a.at("earlier_job"), f.at("job_id"));
   EXPECT_EQ(a.at("update"), f.at("update"));
   EXPECT_EQ(test::ReadText(site.dir / "tool.tbl"), table_after);  // compensated once
+  // Logged once too, beside the table, by the one tool-table writer the CLI also uses.
+  const std::string log = test::ReadText(site.dir / "mlp-tool-changes.csv");
+  EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 2) << log;  // the header and one change
+  EXPECT_NE(log.find("job " + std::to_string(f.at("job_id").get<int>()) + " on lcnc-1"),
+            std::string::npos)
+      << log;
   EXPECT_EQ(hostd.Stop(), 0);
   history::History h((site.dir / "data" / "history.sqlite").string());
   const json job = h.ExportJob(f.at("job_id"));

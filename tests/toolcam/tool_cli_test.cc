@@ -143,6 +143,11 @@ TEST(ToolCli, CalibratesTheCameraThenMeasuresIntoTheToolTable) {
   const std::string measure = kMlp + " tool measure --frames " + images + " --tool " + tools +
                               "endmill_d10_z4_new.json --tool-table " + table + " --tool-number 3";
   EXPECT_EQ(RunProcess(measure).exit_code, 2);  // no calibration anywhere: bad input
+  const auto no_tool = RunProcess(kMlp + " tool measure --frames " + images + " --tool " + tools +
+                                  "endmill_d10_z4_new.json --tool-table " + table +
+                                  " --tool-number 9 --camera " + dir + "/camera.json");
+  EXPECT_EQ(no_tool.exit_code, 2) << no_tool.err;  // T9 is not in the table: the input is wrong
+  EXPECT_NE(no_tool.err.find("T9 is not in"), std::string::npos) << no_tool.err;
   const auto tight = RunProcess(measure + " --camera " + dir + "/camera.json --max-change-mm 1e-6");
   EXPECT_EQ(tight.exit_code, 4) << tight.err;
   EXPECT_NE(tight.err.find("beyond"), std::string::npos) << tight.err;

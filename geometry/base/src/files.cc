@@ -107,6 +107,24 @@ void WriteFileAtomically(const std::string& path,
     throw FileError("cannot sync the folder " + dir.string() + ": " + Why());
 }
 
+void AppendRecord(const std::string& path, std::string_view header, std::string_view line) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) throw FileError("cannot append to " + path + ": " + Why());
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) throw FileError("cannot append to " + path + ": " + Why());
+  std::string text;
+  if (st.st_size == 0) text.append(header);
+  text.append(line);
+  const ssize_t written = ::write(fd, text.data(), text.size());
+  if (written != static_cast<ssize_t>(text.size()))
+    throw FileError("cannot append to " + path + ": " + (written < 0 ? Why() : "disk full?"));
+  if (::fsync(fd) != 0) throw FileError("cannot sync " + path + ": " + Why());
+}
+
 void WriteFileAtomically(const std::string& path, std::string_view bytes, Replace replace) {
   WriteFileAtomically(
       path,

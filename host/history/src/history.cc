@@ -1,8 +1,8 @@
 #include "mlp/history/history.h"
 
-#include <chrono>
-#include <cstdio>
-#include <ctime>
+#include "mlp/base/clock.h"
+#include "mlp/base/csv.h"
+
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -92,20 +92,6 @@ JobStatus JobStatusFrom(const std::string& text) {
   Fail("unknown job status '" + text + "'");
 }
 
-std::string UtcNow() {
-  const auto now = std::chrono::system_clock::now();
-  const std::time_t t = std::chrono::system_clock::to_time_t(now);
-  const auto ms =
-      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
-  std::tm utc{};
-  gmtime_r(&t, &utc);
-  char buf[40];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%S", &utc);
-  char out[48];
-  std::snprintf(out, sizeof out, "%s.%03dZ", buf, static_cast<int>(ms));
-  return out;
-}
-
 struct History::Impl {
   std::string path;
   SQLite::Database db;
@@ -139,7 +125,7 @@ struct History::Impl {
     q.bind(3, r.target);
     q.bind(4, Text(r.before));
     q.bind(5, Text(r.after));
-    q.bind(6, UtcNow());
+    q.bind(6, base::UtcTimestamp());
     q.bind(7, state);
     q.exec();
   }
@@ -156,7 +142,7 @@ struct History::Impl {
       u.bind(3);  // keep what the job has
     else
       u.bind(3, Text(*timings_ms));
-    u.bind(4, UtcNow());
+    u.bind(4, base::UtcTimestamp());
     u.bind(5, job);
     u.exec();
   }
@@ -241,7 +227,7 @@ std::int64_t History::StartJob(const JobStart& s) {
     q.bind(4, s.calibration_id);
     q.bind(5, Text(s.request));
     q.bind(6, ToString(JobStatus::kRunning));
-    q.bind(7, UtcNow());
+    q.bind(7, base::UtcTimestamp());
     q.exec();
     return impl_->db.getLastInsertRowid();
   } catch (const SQLite::Exception& e) {
@@ -312,7 +298,7 @@ void History::MarkWritesDone(std::int64_t job) {
     SQLite::Statement q(impl_->db,
                         "UPDATE offset_writes SET state = 'written', written_utc = ? "
                         "WHERE job_id = ? AND state = 'intent'");
-    q.bind(1, UtcNow());
+    q.bind(1, base::UtcTimestamp());
     q.bind(2, job);
     q.exec();
   } catch (const SQLite::Exception& e) {
@@ -429,7 +415,7 @@ std::vector<std::int64_t> History::CloseInterruptedJobs(const std::string& reaso
                         "UPDATE jobs SET status = 'failed', reply = ?, finished_utc = ? "
                         "WHERE status = 'running'");
     u.bind(1, Text(json{{"error", reason}}));
-    u.bind(2, UtcNow());
+    u.bind(2, base::UtcTimestamp());
     u.exec();
     t.commit();
   } catch (const SQLite::Exception& e) {
@@ -550,12 +536,7 @@ json History::ExportJob(std::int64_t job) const {
 }
 
 std::string JobsCsv(const std::vector<JobSummary>& jobs) {
-  const auto quote = [](const std::string& s) {
-    if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-    std::string q = "\"";
-    for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-    return q + "\"";
-  };
+  const auto quote = [](const std::string& s) { return base::CsvField(s); };
   std::ostringstream out;
   out << "id,machine,kind,probe_serial,calibration_id,status,started_utc,finished_utc\r\n";
   for (const auto& j : jobs)

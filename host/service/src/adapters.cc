@@ -1,9 +1,12 @@
 #include "mlp/service/adapters.h"
 
+#include "mlp/base/csv.h"
 #include "mlp/base/files.h"
 #include "mlp/nc/tool_table.h"
+#include "mlp/nc/tool_table_update.h"
 #include "mlp/service/request_json.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -18,19 +21,39 @@ bool IsLength(nc::ToolRegister r) {
   return r == nc::ToolRegister::kLengthGeometry || r == nc::ToolRegister::kLengthWear;
 }
 
-// One CSV line per job for SPC: appended whole (one write of one line).
+// One CSV line per job for SPC, appended whole and durably (base::AppendRecord).
 void AppendCsv(const fs::path& path, const nlohmann::json& r) {
-  const bool fresh = !fs::exists(path);
   std::ostringstream line;
-  if (fresh) line << "job_id,machine,feature,status,size_mm,error_mm,offset_change_mm,time_utc\n";
-  line << r.value("job_id", 0) << "," << r.value("machine", "") << "," << r.value("feature", "")
-       << "," << r.value("status", "") << "," << r.value("size_mm", 0.0) << ","
-       << r.value("error_mm", 0.0) << "," << r.value("offset_change_mm", 0.0) << ","
-       << r.value("time_utc", "") << "\n";
-  std::ofstream out(path, std::ios::app);
-  out << line.str();
-  out.flush();
-  if (!out) throw std::runtime_error("cannot append to " + path.string());
+  line << r.value("job_id", 0) << "," << base::CsvField(r.value("machine", "")) << ","
+       << base::CsvField(r.value("feature", "")) << "," << r.value("status", "") << ","
+       << r.value("size_mm", 0.0) << "," << r.value("error_mm", 0.0) << ","
+       << r.value("offset_change_mm", 0.0) << "," << r.value("time_utc", "") << "\n";
+  base::AppendRecord(path.string(),
+                     "job_id,machine,feature,status,size_mm,error_mm,offset_change_mm,time_utc\n",
+                     line.str());
+}
+
+// LinuxCNC's changes (absolute, with the values they were decided on) as the tool table's words:
+// length Z, radius as the diameter D; one update per tool.
+std::vector<nc::ToolUpdate> ToolUpdates(const std::vector<nc::ToolOffsetChange>& changes) {
+  std::vector<nc::ToolUpdate> updates;
+  for (const nc::ToolOffsetChange& t : changes) {
+    auto u = std::find_if(updates.begin(), updates.end(),
+                          [&](const nc::ToolUpdate& x) { return x.tool == t.tool; });
+    if (u == updates.end()) {
+      nc::ToolUpdate fresh;
+      fresh.tool = t.tool;
+      u = updates.insert(updates.end(), fresh);
+    }
+    if (t.reg == nc::ToolRegister::kLengthGeometry) {
+      u->length_mm = t.after_mm;
+      u->length_before_mm = t.before_mm;
+    } else {
+      u->diameter_mm = 2 * t.after_mm;
+      u->diameter_before_mm = 2 * t.before_mm;
+    }
+  }
+  return updates;
 }
 
 }  // namespace
@@ -98,40 +121,40 @@ bool WritesReachedController(const ControllerConfig& c,
   }
 }
 
-std::vector<std::string> WriteResult(const ControllerConfig& c,
-                                     const std::string& machine,
-                                     std::int64_t job,
-                                     const nc::NcResult& r,
-                                     const nlohmann::json& result) {
+WrittenFiles WriteResult(const ControllerConfig& c,
+                         const nc::ToolChangeLimits& limits,
+                         const std::string& machine,
+                         std::int64_t job,
+                         const nc::NcResult& r,
+                         const nlohmann::json& result) {
   const fs::path dir(c.result_dir);
   fs::create_directories(dir);
   const std::string stem = machine + "-job" + std::to_string(job);
-  std::vector<std::string> files;
+  WrittenFiles written;
   // The controller's file first: if it cannot be written, nothing else claims a result.
   if (c.kind == ControllerConfig::Kind::kLinuxCnc) {
     const fs::path p = dir / "mlp_result.ngc";
     base::WriteFileAtomically(p.string(), nc::LinuxCncSubroutine("mlp_result", r));
-    files.push_back(p.string());
+    written.files.push_back(p.string());
     if (c.write_tool_table && !r.tools.empty()) {
-      nc::ToolTable table = nc::LoadToolTable(c.tool_table);
-      for (const nc::ToolOffsetChange& t : r.tools) {
-        const bool length = t.reg == nc::ToolRegister::kLengthGeometry;
-        table.Set(t.tool, length ? 'Z' : 'D', length ? t.after_mm : 2 * t.after_mm);
-      }
-      nc::SaveToolTable(table, c.tool_table);
-      files.push_back(c.tool_table);
+      const auto u = nc::UpdateToolTable(c.tool_table, ToolUpdates(r.tools), limits,
+                                         "job " + std::to_string(job) + " on " + machine);
+      written.files.push_back(c.tool_table);
+      written.files.push_back(u.log_file);
+      // The history holds the same before / after; a full disk here is said, not fatal.
+      if (!u.log_error.empty()) written.warnings.push_back(u.log_error);
     }
   } else if (c.kind == ControllerConfig::Kind::kFanucStyle) {
     const fs::path p = dir / (stem + ".nc");
     base::WriteFileAtomically(p.string(), nc::FanucStyleSnippet(c.map, r));
-    files.push_back(p.string());
+    written.files.push_back(p.string());
   }
   const fs::path json_path = dir / (stem + ".json");
   base::WriteFileAtomically(json_path.string(), DumpSafe(result, 2) + "\n");
-  files.push_back(json_path.string());
+  written.files.push_back(json_path.string());
   AppendCsv(dir / "results.csv", result);
-  files.push_back((dir / "results.csv").string());
-  return files;
+  written.files.push_back((dir / "results.csv").string());
+  return written;
 }
 
 }  // namespace mlp::service

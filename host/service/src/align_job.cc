@@ -1,3 +1,4 @@
+#include "mlp/base/clock.h"
 #include "mlp/base/json_fields.h"
 #include "mlp/calib/record.h"
 #include "mlp/geometry/datum.h"
@@ -123,7 +124,7 @@ json RunAlignJob(JobContext& ctx, const json& r) {
          {"origin_mm", JsonVec(wo.origin_mm)},
          {"rotation_z_deg", wo.rotation_z_deg},
          {"tilt_deg", wo.tilt_deg},
-         {"time_utc", history::UtcNow()}});
+         {"time_utc", base::UtcTimestamp()}});
     ctx.history.AddResult(
         job, {"alignment",
               reply,

@@ -81,9 +81,13 @@ std::vector<std::string> WriteToController(JobContext& ctx,
   for (auto& r : rows)
     r.adapter = ctx.machine.name + ":" + ControllerFile(c, ctx.machine.name, job);
   ctx.history.AddWriteIntents(job, rows, reply);
-  const std::vector<std::string> files = WriteResult(c, ctx.machine.name, job, out, reply);
+  // The gate checked the change (a radius change for D); the writer holds the same limit again.
+  const double max_mm = ctx.machine.limits.max_offset_change_mm;
+  const WrittenFiles written =
+      WriteResult(c, {max_mm, 2 * max_mm}, ctx.machine.name, job, out, reply);
   ctx.history.MarkWritesDone(job);
-  return files;
+  for (const std::string& w : written.warnings) ctx.log("job " + std::to_string(job) + ": " + w);
+  return written.files;
 }
 
 std::string RequestId(const json& r) {

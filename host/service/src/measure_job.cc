@@ -1,3 +1,4 @@
+#include "mlp/base/clock.h"
 #include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
 #include "mlp/calib/record.h"
@@ -191,7 +192,7 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
                   {"verdict", verdict},
                   {"reason", reason + d.reason},
                   {"offset_change_mm", d.offset_change_mm},
-                  {"time_utc", history::UtcNow()}});
+                  {"time_utc", base::UtcTimestamp()}});
     ctx.history.AddResult(job, {ms.feature,
                                 reply,
                                 {{"verdict", verdict},

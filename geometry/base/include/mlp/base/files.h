@@ -49,6 +49,13 @@ void WriteFileAtomically(const std::string& path,
                          const std::function<void(std::ostream&)>& write,
                          Replace replace = Replace::kAllowed);
 
+/// Appends one record (a line, its newline included) to a log such as an audit CSV: the file is
+/// created with `header` first when it is absent or empty; the text goes out in one write() on
+/// an O_APPEND descriptor, so records of concurrent writers never interleave (POSIX: the offset
+/// and the write are one atomic step), then fsync: an appended record survives a power cut.
+/// Throws FileError (a short write is an error; the log then ends in part of a line at most).
+void AppendRecord(const std::string& path, std::string_view header, std::string_view line);
+
 /// True for a temporary file a cut-short WriteFileAtomically leaves (".<name>.mlp-tmp.<pid>"),
 /// and for those of earlier versions (".<name>.mlp-tmp", "<cloud>.ply.tmp"): a service removes
 /// them at start-up. Never true for a file the project writes.

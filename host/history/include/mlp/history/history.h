@@ -148,9 +148,6 @@ class History {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Now, UTC, ISO 8601 with milliseconds: "2026-11-21T23:57:01.123Z".
-std::string UtcNow();
-
 /// Jobs as CSV (RFC 4180 quoting), one line per job with a header line.
 std::string JobsCsv(const std::vector<JobSummary>& jobs);
 

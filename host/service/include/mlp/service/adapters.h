@@ -5,6 +5,7 @@
 /// (LinuxCNC's tool table), else the change is written as an increment the control applies.
 
 #include "mlp/nc/nc_output.h"
+#include "mlp/nc/tool_table_update.h"
 #include "mlp/service/config.h"
 
 #include <cstdint>
@@ -28,13 +29,22 @@ nc::ToolOffsetChange ResolveToolChange(const ControllerConfig& c,
 /// Writes the job's result where the controller's macro and the shop's systems read it, and
 /// returns the files written: always `<machine>-job<N>.json` (the result, for MES/SPC) and
 /// `results.csv` (a line appended per job); LinuxCNC: `mlp_result.ngc`, the subroutine the macro
-/// calls after its M-code (G10 lines and `#<_mlp_...>` parameters); Fanuc-style:
-/// `<machine>-job<N>.nc` (G10 lines or macro variables, per the machine's map).
-std::vector<std::string> WriteResult(const ControllerConfig& c,
-                                     const std::string& machine,
-                                     std::int64_t job,
-                                     const nc::NcResult& nc_result,
-                                     const nlohmann::json& result);
+/// calls after its M-code (G10 lines and `#<_mlp_...>` parameters), and with `write_tool_table`
+/// the tool table itself through nc::UpdateToolTable (within `limits`, the values decided on
+/// still there, logged to `mlp-tool-changes.csv` beside it); Fanuc-style:
+/// `<machine>-job<N>.nc` (G10 lines or macro variables, per the machine's map). Throws: nothing
+/// after the failed file is written.
+struct WrittenFiles {
+  std::vector<std::string> files;     ///< in the order written
+  std::vector<std::string> warnings;  ///< written, but something beside them was not (a log line)
+};
+
+WrittenFiles WriteResult(const ControllerConfig& c,
+                         const nc::ToolChangeLimits& limits,
+                         const std::string& machine,
+                         std::int64_t job,
+                         const nc::NcResult& nc_result,
+                         const nlohmann::json& result);
 
 /// The file that carries job `job`'s changes to the controller (written first by WriteResult):
 /// LinuxCNC `mlp_result.ngc`, Fanuc-style `<machine>-job<N>.nc`, files `<machine>-job<N>.json`.

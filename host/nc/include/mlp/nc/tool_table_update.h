@@ -1,0 +1,72 @@
+#pragma once
+/// @file The one way mlprobe changes a LinuxCNC tool table: the service's jobs and
+/// `mlp tool measure` both go through UpdateToolTable. It reads the table once, checks every
+/// change, sets them all, replaces the file whole (SaveToolTable: temporary, fsync, rename) and
+/// appends one line per tool to the audit log beside the table, before and after.
+
+#include "mlp/nc/tool_table.h"
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace mlp::nc {
+
+/// A change the checks refuse: beyond the limit, not finite, or decided on a value the table no
+/// longer holds. (Plain ToolTableError: the table or its log cannot be read or written, or a
+/// tool is not in it.)
+class ToolChangeRefused : public ToolTableError {
+ public:
+  using ToolTableError::ToolTableError;
+};
+
+/// One tool's new length (Z) and/or diameter (D), in the table's units (mm).
+struct ToolUpdate {
+  int tool = 0;
+  std::string tool_id;  ///< what the caller calls the tool, for the log only (may be empty)
+  std::optional<double> length_mm, diameter_mm;
+  /// The values the decision was made on. The table must still hold them (within
+  /// kStaleToleranceMm), or someone changed it in between and the update is refused. Unset: the
+  /// decision did not read the table (`mlp tool measure` measures the absolute value).
+  std::optional<double> length_before_mm, diameter_before_mm;
+};
+
+/// Machine safety: no single update moves a value further than this.
+struct ToolChangeLimits {
+  double max_length_change_mm = 0.5;
+  double max_diameter_change_mm = 0.5;
+};
+
+/// What was written, per tool: the values before and after (an unchanged word: before = after).
+struct ToolTableChange {
+  int tool = 0;
+  std::string tool_id;
+  double length_before_mm = 0, length_after_mm = 0;
+  double diameter_before_mm = 0, diameter_after_mm = 0;
+};
+
+struct ToolTableUpdateResult {
+  std::vector<ToolTableChange> changes;
+  std::string log_file;   ///< the audit log the changes were appended to
+  std::string log_error;  ///< non-empty: the table is written but its log line is not (a full disk)
+};
+
+/// The table's value read back differs from the one decided on by more than this: the table
+/// holds at least 4 decimals (LinuxCNC writes 6).
+inline constexpr double kStaleToleranceMm = 1e-6;
+
+/// The audit log beside `table_path`: `mlp-tool-changes.csv`, one line per tool changed
+/// (time_utc, tool, tool_id, length and diameter before and after, source).
+std::string ToolChangeLogFor(const std::string& table_path);
+
+/// Applies `updates` to the tool table at `table_path` as one change and logs it, `source`
+/// saying who asked (a job, a folder of images). Nothing is written, the table and the log as
+/// they were, when it throws: ToolChangeRefused for a value that is not finite or no longer the
+/// one decided on, or a change beyond `limits`; ToolTableError for an unreadable table or log, a
+/// tool not in the table or named twice.
+ToolTableUpdateResult UpdateToolTable(const std::string& table_path,
+                                      const std::vector<ToolUpdate>& updates,
+                                      const ToolChangeLimits& limits,
+                                      const std::string& source);
+
+}  // namespace mlp::nc

@@ -1,0 +1,114 @@
+#include "mlp/nc/tool_table_update.h"
+
+#include "mlp/base/clock.h"
+#include "mlp/base/csv.h"
+#include "mlp/base/files.h"
+
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <set>
+#include <sstream>
+
+namespace mlp::nc {
+namespace {
+
+constexpr const char* kLogHeader =
+    "time_utc,tool,tool_id,length_before_mm,length_after_mm,diameter_before_mm,"
+    "diameter_after_mm,source\n";
+
+[[noreturn]] void Refuse(const std::string& why) {
+  throw ToolChangeRefused("tool table not changed: " + why);
+}
+
+[[noreturn]] void Fail(const std::string& why) {
+  throw ToolTableError("tool table not changed: " + why);
+}
+
+// "T12"; appended, not `"T" + std::to_string(n)`: GCC 12 at -O3 warns falsely (-Wrestrict).
+std::string ToolName(int tool) {
+  std::string name(1, 'T');
+  return name.append(std::to_string(tool));
+}
+
+std::string Mm(double v) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(5) << v;
+  return s.str();
+}
+
+// One word: checked against the value decided on and the limit, then the new value.
+double Checked(const ToolRecord& record,
+               char word,
+               const std::optional<double>& after,
+               const std::optional<double>& decided_before,
+               double max_change_mm) {
+  const double now = record.Get(word);
+  if (!after) return now;
+  const std::string name = std::string(1, word) + " of " + ToolName(record.tool);
+  if (!std::isfinite(*after)) Refuse(name + ": the new value is not finite");
+  if (decided_before && std::abs(now - *decided_before) > kStaleToleranceMm)
+    Refuse(name + " is " + Mm(now) + " mm, not the " + Mm(*decided_before) +
+           " mm the change was decided on: the table changed in between");
+  if (std::abs(*after - now) > max_change_mm)
+    Refuse(name + ": the change " + Mm(now) + " -> " + Mm(*after) + " mm is beyond " +
+           Mm(max_change_mm) + " mm: a wrong tool or a wrong number?");
+  return *after;
+}
+
+std::string LogLine(const std::string& time, const ToolTableChange& c, const std::string& source) {
+  return time + "," + std::to_string(c.tool) + "," + base::CsvField(c.tool_id) + "," +
+         Mm(c.length_before_mm) + "," + Mm(c.length_after_mm) + "," + Mm(c.diameter_before_mm) +
+         "," + Mm(c.diameter_after_mm) + "," + base::CsvField(source) + "\n";
+}
+
+}  // namespace
+
+std::string ToolChangeLogFor(const std::string& table_path) {
+  const std::filesystem::path table(table_path);
+  return (table.has_parent_path() ? table.parent_path() / "mlp-tool-changes.csv"
+                                  : std::filesystem::path("mlp-tool-changes.csv"))
+      .string();
+}
+
+ToolTableUpdateResult UpdateToolTable(const std::string& table_path,
+                                      const std::vector<ToolUpdate>& updates,
+                                      const ToolChangeLimits& limits,
+                                      const std::string& source) {
+  ToolTable table = LoadToolTable(table_path);
+  ToolTableUpdateResult result;
+  std::set<int> seen;
+  for (const ToolUpdate& u : updates) {
+    if (!seen.insert(u.tool).second) Fail(ToolName(u.tool) + " is named twice");
+    const auto record = table.Find(u.tool);
+    if (!record) Fail(ToolName(u.tool) + " is not in " + table_path);
+    ToolTableChange c{u.tool, u.tool_id, record->Get('Z'), 0, record->Get('D'), 0};
+    c.length_after_mm =
+        Checked(*record, 'Z', u.length_mm, u.length_before_mm, limits.max_length_change_mm);
+    c.diameter_after_mm =
+        Checked(*record, 'D', u.diameter_mm, u.diameter_before_mm, limits.max_diameter_change_mm);
+    if (u.length_mm) table.Set(u.tool, 'Z', c.length_after_mm);
+    if (u.diameter_mm) table.Set(u.tool, 'D', c.diameter_after_mm);
+    result.changes.push_back(c);
+  }
+  // The log must take the lines before the table changes: an empty record creates it (with its
+  // header) or proves it writable; what can still fail after the table is written is a full disk.
+  result.log_file = ToolChangeLogFor(table_path);
+  try {
+    base::AppendRecord(result.log_file, kLogHeader, "");
+  } catch (const base::FileError& e) {
+    Fail(std::string("its change log cannot be written: ") + e.what());
+  }
+  SaveToolTable(table, table_path);
+  const std::string time = base::UtcTimestamp();
+  std::string lines;  // one record: the lines of one update arrive together
+  for (const ToolTableChange& c : result.changes) lines += LogLine(time, c, source);
+  try {
+    base::AppendRecord(result.log_file, kLogHeader, lines);
+  } catch (const base::FileError& e) {
+    result.log_error = std::string("the tool table is written but not logged: ") + e.what();
+  }
+  return result;
+}
+
+}  // namespace mlp::nc

@@ -1,0 +1,121 @@
+// The one tool-table writer: every change checked against the table, the machine's limit and
+// the value it was decided on; all written or none; each logged before and after.
+
+#include "mlp/nc/tool_table_update.h"
+
+#include "mlp/base/files.h"
+#include "mlp/nc/tool_table.h"
+
+#include <filesystem>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+namespace mlp::nc {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kTable =
+    "; mill tool table\n"
+    "T1 P1 Z+120.5 D10.0 ;10 mm end mill\n"
+    "T2 P2 Z95.25 D6 ;6 mm drill\n";
+
+// The values a table holds are read back to this (LinuxCNC's files carry 4 to 6 decimals).
+constexpr double kReadBackMm = 1e-9;
+
+class ToolTableUpdateTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("mlp_nc_update_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    base::WriteFileAtomically(Table(), kTable);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string Table() const { return (dir_ / "tool.tbl").string(); }
+  std::string Log() const { return (dir_ / "mlp-tool-changes.csv").string(); }
+  fs::path dir_;
+};
+
+TEST_F(ToolTableUpdateTest, WritesEveryChangeAndLogsBeforeAndAfter) {
+  ToolUpdate t1{1, "EM10", 120.4987, 9.9962, 120.5, 10.0};
+  ToolUpdate t2{2, "DR6, spare", std::nullopt, 5.998, std::nullopt, std::nullopt};
+  const auto r = UpdateToolTable(Table(), {t1, t2}, {}, "job 7 on mill-1");
+  EXPECT_TRUE(r.log_error.empty()) << r.log_error;
+  EXPECT_EQ(r.log_file, Log());
+  ASSERT_EQ(r.changes.size(), 2u);
+  EXPECT_NEAR(r.changes[0].length_before_mm, 120.5, kReadBackMm);
+  EXPECT_NEAR(r.changes[1].length_after_mm, 95.25, kReadBackMm);  // not asked: unchanged
+  const ToolTable after = LoadToolTable(Table());
+  EXPECT_NEAR(after.Find(1)->Get('Z'), 120.4987, kReadBackMm);
+  EXPECT_NEAR(after.Find(1)->Get('D'), 9.9962, kReadBackMm);
+  EXPECT_NEAR(after.Find(2)->Get('Z'), 95.25, kReadBackMm);
+  EXPECT_NEAR(after.Find(2)->Get('D'), 5.998, kReadBackMm);
+  EXPECT_EQ(after.Find(2)->comment, "6 mm drill");
+  std::istringstream log(base::ReadFile(Log()));
+  std::string header, line1, line2, rest;
+  std::getline(log, header), std::getline(log, line1), std::getline(log, line2);
+  EXPECT_EQ(header,
+            "time_utc,tool,tool_id,length_before_mm,length_after_mm,diameter_before_mm,"
+            "diameter_after_mm,source");
+  EXPECT_NE(line1.find(",1,EM10,120.50000,120.49870,10.00000,9.99620,job 7 on mill-1"),
+            std::string::npos)
+      << line1;
+  EXPECT_NE(line2.find(",2,\"DR6, spare\",95.25000,95.25000,6.00000,5.99800,"), std::string::npos)
+      << line2;  // a comma in a field is quoted (RFC 4180)
+  EXPECT_FALSE(std::getline(log, rest));
+}
+
+TEST_F(ToolTableUpdateTest, ARefusalWritesNothingAtAll) {
+  const auto refused = [&](const std::vector<ToolUpdate>& updates, const ToolChangeLimits& limits,
+                           const std::string& why) {
+    try {
+      UpdateToolTable(Table(), updates, limits, "test");
+      ADD_FAILURE() << "not refused: " << why;
+    } catch (const ToolTableError& e) {
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(base::ReadFile(Table()), kTable) << why;
+    EXPECT_FALSE(fs::is_regular_file(Log())) << why;  // no log line either
+  };
+  const ToolUpdate good{1, "", 120.45, std::nullopt, std::nullopt, std::nullopt};
+  // The second tool's problem stops the first tool's good change too.
+  refused({good, {7, "", 100.0, std::nullopt, std::nullopt, std::nullopt}}, {}, "T7 is not in");
+  refused({good, {2, "", 96.0, std::nullopt, std::nullopt, std::nullopt}}, {}, "beyond");
+  refused({good, {2, "", std::nullopt, 6.3, std::nullopt, std::nullopt}},
+          {.max_length_change_mm = 1.0, .max_diameter_change_mm = 0.2}, "beyond");
+  refused({good, {2, "", 95.3, std::nullopt, 95.2, std::nullopt}}, {}, "changed in between");
+  refused(
+      {good,
+       {2, "", std::numeric_limits<double>::quiet_NaN(), std::nullopt, std::nullopt, std::nullopt}},
+      {}, "not finite");
+  refused({good, good}, {}, "named twice");
+  EXPECT_THROW(UpdateToolTable(Table(), {{2, "", 96.0, std::nullopt, std::nullopt, std::nullopt}},
+                               {}, "test"),
+               ToolChangeRefused);  // a refusal of the value, not of the input
+  EXPECT_THROW(UpdateToolTable((dir_ / "absent.tbl").string(), {good}, {}, "test"), ToolTableError);
+  // A log that cannot be appended to is found before the table is touched.
+  fs::create_directories(Log());  // a folder where the log should be
+  refused({good}, {}, "change log");
+}
+
+TEST_F(ToolTableUpdateTest, TheLogKeepsEveryUpdateInOrder) {
+  for (int i = 1; i <= 3; ++i)
+    UpdateToolTable(Table(),
+                    {{1, "EM10", 120.5 - 0.01 * i, std::nullopt, std::nullopt, std::nullopt}}, {},
+                    "run " + std::to_string(i));
+  std::istringstream log(base::ReadFile(Log()));
+  std::string line;
+  std::vector<std::string> lines;
+  while (std::getline(log, line)) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 4u);  // the header once
+  EXPECT_NE(lines[1].find("120.50000,120.49000"), std::string::npos) << lines[1];
+  EXPECT_NE(lines[3].find("120.48000,120.47000,10.00000,10.00000,run 3"), std::string::npos)
+      << lines[3];
+}
+
+}  // namespace
+}  // namespace mlp::nc
