@@ -273,7 +273,8 @@ AxialSolution SolveAxial(const Points3& points,
     summary = internal::SolveLm(model, state, options.max_iterations, &ne);
     summary.iterations += coarse_iterations;
   }
-  if (!summary.converged || !valid(state)) internal::ThrowNotConverged(shape, summary.iterations);
+  if (!valid(state) || (!summary.converged && options.require_convergence))
+    internal::ThrowNotConverged(shape, summary.iterations);
   // Points spread only across the axis (one circle) leave its direction free: any small tilt
   // changes the distances only at second order, so no rank test on J can see it reliably.
   const Eigen::VectorXd h = state.axis.transpose() * (coarse.colwise() - m.centroid);
@@ -287,6 +288,7 @@ AxialSolution SolveAxial(const Points3& points,
   AxialSolution sol;
   sol.state = state;
   sol.stats = internal::StatsFrom(ne, points.cols(), summary.iterations);
+  sol.stats.converged = summary.converged;
   sol.covariance.matrix = internal::CovarianceFrom(ne, static_cast<int>(points.cols()));
   internal::OrthonormalBasis(state.axis, &sol.covariance.u, &sol.covariance.v);
   sol.state.point += m.centroid;

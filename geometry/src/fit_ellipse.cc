@@ -145,7 +145,8 @@ FitResult<Ellipse2> FitEllipse2(const Points2& points, const FitOptions& options
   }
   EllipseModel model(centred, scale);
   const auto summary = internal::SolveLm(model, state, options.max_iterations);
-  if (!summary.converged || !state.allFinite() || !(state(2) > 0.0) || !(state(3) > 0.0)) {
+  if (!state.allFinite() || !(state(2) > 0.0) || !(state(3) > 0.0) ||
+      (!summary.converged && options.require_convergence)) {
     internal::ThrowNotConverged("ellipse", summary.iterations);
   }
   const auto ne = model.Linearize(state);
@@ -154,6 +155,7 @@ FitResult<Ellipse2> FitEllipse2(const Points2& points, const FitOptions& options
   FitResult<Ellipse2> fit;
   fit.shape = Canonical(state, m.centroid);
   fit.stats = internal::StatsFrom(ne, points.cols(), summary.iterations);
+  fit.stats.converged = summary.converged;
   fit.covariance.parameters = {"center_x", "center_y", "semi_axis_1", "semi_axis_2", "angle"};
   fit.covariance.matrix = internal::CovarianceFrom(ne, static_cast<int>(points.cols()));
   return fit;

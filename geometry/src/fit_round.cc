@@ -204,7 +204,8 @@ NSphereSolution SolveNSphere(const NSphereModel<N>& coarse_model,
     summary = internal::SolveLm(*full, state, options.max_iterations, &ne);
     summary.iterations += coarse_iterations;
   }
-  if (!summary.converged || !state.allFinite() || !(state(N) > 0.0)) {
+  if (!state.allFinite() || !(state(N) > 0.0) ||
+      (!summary.converged && options.require_convergence)) {
     internal::ThrowNotConverged(shape, summary.iterations);
   }
   if (internal::IsRankDeficient(ne)) internal::ThrowDegenerate(shape, "parameters not separable");
@@ -212,6 +213,7 @@ NSphereSolution SolveNSphere(const NSphereModel<N>& coarse_model,
   sol.center = state.template head<N>() + m.centroid;
   sol.radius = state(N);
   sol.stats = internal::StatsFrom(ne, count, summary.iterations);
+  sol.stats.converged = summary.converged;
   sol.covariance = internal::CovarianceFrom(ne, static_cast<int>(count));
   return sol;
 }

@@ -5,6 +5,8 @@
 #include "mlp/geometry/fit.h"
 #include "mlp/geometry/robust.h"
 
+#include <cmath>
+#include <cstdlib>
 #include <functional>
 
 #include <gtest/gtest.h>
@@ -81,6 +83,50 @@ TEST(BadInput, CoplanarPointsDoNotDetermineSphereCylinderCone) {
   }
   EXPECT_EQ(CodeOf(AllFits()[3].second, p), ErrorCode::kDegenerate);
   EXPECT_EQ(CodeOf(AllFits()[4].second, p), ErrorCode::kDegenerate);
+}
+
+// An iteration limit reached is an expected numerical outcome: by default a typed error; with
+// require_convergence off, the last iterate as a result that says so (docs/DEVELOPING.md).
+TEST(NotConverged, IsAnErrorByDefaultOrAResultThatSaysSo) {
+  constexpr int kPoints = 400;
+  Points3 cap(3, kPoints), wall(3, kPoints), ring(3, kPoints);
+  std::srand(7);  // Eigen's Random draws from rand(): seeded
+  const Points3 noise = 0.01 * Points3::Random(3, kPoints);
+  for (int i = 0; i < kPoints; ++i) {
+    const double a = 0.02 * i, b = 0.4 * std::sin(0.37 * i);  // a 60 deg cap, a 460 deg wall
+    cap.col(i) =
+        Vec3(25 * std::sin(b) * std::cos(a), 25 * std::sin(b) * std::sin(a), 25 * std::cos(b)) +
+        noise.col(i);
+    wall.col(i) = Vec3(6 * std::cos(a), 6 * std::sin(a), 0.05 * i) + noise.col(i);
+    ring.col(i) = Vec3(6 * std::cos(a), 6 * std::sin(a), 0.0) + noise.col(i);
+  }
+  FitOptions one;
+  one.max_iterations = 1;
+  FitOptions estimate = one;
+  estimate.require_convergence = false;
+  const auto check = [&](const char* name, auto fit, const Points3& p) {
+    SCOPED_TRACE(name);
+    EXPECT_EQ(CodeOf([&](const Points3& q) { fit(q, one); }, p), ErrorCode::kNotConverged);
+    const auto last = fit(p, estimate);
+    EXPECT_FALSE(last.stats.converged);
+    const auto converged = fit(p, FitOptions{});
+    EXPECT_TRUE(converged.stats.converged);
+    // The estimate is finite and no better than the stationary point (least squares).
+    EXPECT_TRUE(std::isfinite(last.stats.rms));
+    EXPECT_GE(last.stats.rms, converged.stats.rms * (1 - 1e-12));
+  };
+  check(
+      "sphere", [](const Points3& p, const FitOptions& o) { return FitSphere(p, o); }, cap);
+  check(
+      "circle", [](const Points3& p, const FitOptions& o) { return FitCircle3(p, o); }, ring);
+  // The cylinder's own start is near exact here: started 10 deg off and 1 mm wide instead.
+  Cylinder off;
+  off.point = Vec3(0.5, 0, 0);
+  off.axis = Vec3(std::sin(0.17), 0, std::cos(0.17));
+  off.radius = 7;
+  check(
+      "cylinder", [&](const Points3& p, const FitOptions& o) { return FitCylinder(p, o, off); },
+      wall);
 }
 
 TEST(BadInput, BadOptionsAreRejected) {

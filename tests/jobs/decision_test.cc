@@ -116,6 +116,12 @@ TEST(Plausibility, EveryReasonIsListed) {
   ASSERT_EQ(align.size(), 2u);
   EXPECT_NE(align[0].find("7.500 mm from where it was expected"), std::string::npos) << align[0];
   EXPECT_NE(align[1].find("tilted 0.800 deg"), std::string::npos) << align[1];
+  e.work_shift_mm.reset();
+  e.tilt_deg.reset();
+  e.converged = false;  // a fit that stopped at its iteration limit: an estimate, never written
+  const auto estimate = PlausibilityProblems(e, l);
+  ASSERT_EQ(estimate.size(), 1u);
+  EXPECT_NE(estimate[0].find("before converging"), std::string::npos) << estimate[0];
   e = {};
   e.points = 5000;
   e.job_probe = "MLP-2";

@@ -135,7 +135,11 @@ PcdMeasurement MeasurePcd(const geometry::Points3& points, const PcdNominal& n) 
     }
     centres.col(static_cast<Eigen::Index>(k)) = m.holes.back().top_centre_mcs;
   }
-  const auto circle = geometry::FitCircle3(centres);
+  geometry::FitOptions options;
+  options.require_convergence = false;  // the gate refuses an estimate
+  const auto circle = geometry::FitCircle3(centres, options);
+  m.converged = circle.stats.converged;
+  for (const BoreMeasurement& hole : m.holes) m.converged = m.converged && hole.converged;
   m.centre_mcs = circle.shape.center;
   m.diameter_mm = 2 * circle.shape.radius;
   m.rms_mm = circle.stats.rms;
@@ -177,8 +181,11 @@ EllipseMeasurement MeasureEllipse(const geometry::Points3& points, const Ellipse
                        " points on the nominal wall, at least 50 needed");
   geometry::Points2 pts(2, static_cast<Eigen::Index>(wall.size()));
   for (size_t k = 0; k < wall.size(); ++k) pts.col(static_cast<Eigen::Index>(k)) = wall[k];
-  const auto fit = geometry::FitEllipse2(pts);
+  geometry::FitOptions options;
+  options.require_convergence = false;  // the gate refuses an estimate
+  const auto fit = geometry::FitEllipse2(pts, options);
   EllipseMeasurement m;
+  m.converged = fit.stats.converged;
   m.top_centre_mcs = n.top_centre_mcs + fit.shape.center.x() * u + fit.shape.center.y() * v;
   m.major_mm = 2 * fit.shape.semi_major;
   m.minor_mm = 2 * fit.shape.semi_minor;

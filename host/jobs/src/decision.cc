@@ -89,6 +89,8 @@ std::vector<std::string> PlausibilityProblems(const FitEvidence& e, const Plausi
     s << "the points cover " << *e.area_mm2 << " mm2, at least " << l.min_area_mm2 << " mm2 needed";
     add(s.str());
   }
+  if (!e.converged)
+    add("a fit stopped at its iteration limit before converging: its values are an estimate");
   if (!(e.rms_mm <= l.max_rms_mm))
     add("fit residual RMS " + Um(e.rms_mm) + " above the limit " + Um(l.max_rms_mm));
   if (e.calibration_probe.empty())

@@ -105,6 +105,7 @@ Measured Cylindrical(const json& r, const Evidence& ev, bool boss) {
   m.fe.points = b.points;
   m.fe.arc_span_deg = b.arc_span_deg;
   m.fe.rms_mm = b.rms_mm;
+  m.fe.converged = b.converged;
   m.bore = b;
   return m;
 }
@@ -293,6 +294,7 @@ Measured Pcd(const json& r, const Evidence& ev) {
   m.spec = Spec(r, "tolerance", n.diameter_mm, "mm");
   json holes = json::array();
   m.fe.arc_span_deg = 360.0;
+  m.fe.converged = p.converged;
   for (size_t k = 0; k < p.holes.size(); ++k) {
     const jobs::BoreMeasurement& h = p.holes[k];
     holes.push_back({{"centre_mm", JsonVec(h.top_centre_mcs)},
@@ -353,6 +355,7 @@ Measured Ellipse(const json& r, const Evidence& ev, bool inside) {
   m.found_mcs = e.top_centre_mcs, m.nominal_mcs = n.top_centre_mcs;
   m.fe.points = e.points;
   m.fe.rms_mm = e.rms_mm;
+  m.fe.converged = e.converged;
   return m;
 }
 

@@ -7,8 +7,9 @@
 /// analytic Jacobians in a locally minimal parametrisation (Forbes, NPL DITC 140/89; Shakarji,
 /// J. Res. NIST 103 (1998) 633), and stop at a stationary point of the sum of squares.
 ///
-/// Errors: GeometryError (kTooFewPoints, kNonFinite, kDegenerate, kNotConverged). Results are
-/// always finite.
+/// Errors: GeometryError (kTooFewPoints, kNonFinite, kDegenerate, kNotConverged unless
+/// FitOptions::require_convergence is off: then stats.converged says). Results are always
+/// finite.
 
 #include "mlp/geometry/distance.h"
 #include "mlp/geometry/fit_result.h"
@@ -25,6 +26,12 @@ struct FitOptions {
   /// the points and of an algebraic quadric) on a subsample and keep the best. Off: only the
   /// quadric's axis is tried.
   bool multi_start = true;
+  /// On (the default): reaching max_iterations without a stationary point throws
+  /// GeometryError(kNotConverged). Off: the last iterate is returned, when it is a valid shape,
+  /// with stats.converged = false, so that the caller weighs it with its other evidence (an
+  /// expected numerical outcome is a result, docs/DEVELOPING.md). A state that is not a valid
+  /// shape (not finite, radius <= 0) throws either way.
+  bool require_convergence = true;
   void Check() const;
 };
 

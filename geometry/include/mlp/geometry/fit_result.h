@@ -16,6 +16,10 @@ struct FitStats {
   double min_residual = 0.0;  ///< most negative signed residual [mm]
   double max_residual = 0.0;  ///< most positive signed residual [mm]
   int iterations = 0;         ///< solver iterations (0 for closed-form fits)
+  /// False only when FitOptions::require_convergence is off and the iteration limit came
+  /// before a stationary point: the shape is then the last iterate (finite, valid), an
+  /// estimate for the caller's own judgement (the jobs' gate refuses to write from it).
+  bool converged = true;
 };
 
 /// Parameter covariance sigma^2 (J^T J)^-1 with sigma^2 = SS / (m - p), in the named local

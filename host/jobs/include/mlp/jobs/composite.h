@@ -103,6 +103,9 @@ struct PcdMeasurement {
   geometry::Vec3 centre_mcs = geometry::Vec3::Zero();  ///< of the circle through the centres
   double diameter_mm = 0.0;
   double rms_mm = 0.0;  ///< of the centres about that circle
+  /// The circle of the centres and every hole's fit reached a stationary point; false: it stopped
+  /// at its iteration limit and the values are an estimate (the jobs' gate then refuses to write).
+  bool converged = true;
   /// Per hole: true position (ISO 1101: twice the distance from its nominal position, across
   /// the hole's nominal axis) [mm].
   std::vector<double> true_position_mm;
@@ -130,6 +133,9 @@ struct EllipseMeasurement {
   /// Turn of the major axis about the nominal axis from its nominal direction, -90..90 [deg].
   double rotation_deg = 0.0;
   double rms_mm = 0.0, max_abs_mm = 0.0;
+  /// The fit reached a stationary point; false: it stopped at its iteration limit and the
+  /// values are an estimate (the jobs' gate then refuses to write).
+  bool converged = true;
   int points = 0;
 };
 

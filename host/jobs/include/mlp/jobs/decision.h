@@ -71,6 +71,7 @@ struct PlausibilityLimits {
 
 struct FitEvidence {
   int points = 0;
+  bool converged = true;  ///< every fit behind the result reached a stationary point
   std::optional<double> arc_span_deg, area_mm2;
   double rms_mm = 0.0;
   std::string calibration_probe, job_probe;

@@ -44,6 +44,9 @@ struct BoreMeasurement {
   double rms_mm = 0.0, max_abs_mm = 0.0;
   int points = 0;
   double arc_span_deg = 0.0;  ///< 360 minus the largest angular gap between wall points
+  /// The fit reached a stationary point; false: it stopped at its iteration limit and the
+  /// values are an estimate (the jobs' gate then refuses to write).
+  bool converged = true;
   /// Radial deviation from the fitted cylinder [mm] per degree of angle around the axis (mean of
   /// the points in each 1-degree bin; NaN where none): the roundness profile a report draws.
   /// Angles from the axis' first perpendicular (machine +X for a vertical bore).
