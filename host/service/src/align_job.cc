@@ -5,7 +5,9 @@
 #include "mlp/jobs/decision.h"
 #include "mlp/service/adapters.h"
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "job_common.h"
 
@@ -52,113 +54,163 @@ geometry::Line3 Intersection(const Plane& a, const Plane& b) {
   return l;
 }
 
-}  // namespace
+// What an align request asks for, read once before any capture is loaded.
+struct AlignRequest {
+  std::string method;  ///< plane-circle-circle, plane-line-point, plane-plane-plane
+  int work_offset = 0;
+  std::optional<Vec3> expected_origin_mm;
+};
 
-json RunAlignJob(JobContext& ctx, const json& r) {
-  const MachineConfig& mc = ctx.machine;
-  JobRun run(ctx, "align", r);
-  json& reply = run.reply;
-  const std::int64_t job = run.job;
-  try {
-    const calib::CalibrationRecord* cal = &run.Calibration();
-    const std::string method = jf::Text<JobInputError>(r, "method", "request");
-    const int index = jf::Integer<JobInputError>(r, "work_offset", "request");
-    std::string probe;
-    const jobs::PlaneMeasurement a =
-        MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_a", "request"), "request.plane_a",
-                    cal->flange_from_probe, job, &probe);
-    jobs::FitEvidence fe;
-    fe.points = a.points;
-    fe.rms_mm = a.rms_mm;
-    geometry::Pose3 mcs_from_work;
-    if (method == "plane-circle-circle") {
-      Vec3 centres[2];
-      const char* names[2] = {"circle_b", "circle_c"};
-      double min_span = 360.0;
-      for (int k = 0; k < 2; ++k) {
-        const std::string w = std::string("request.") + names[k];
-        const json& f = jf::Object<JobInputError>(r, names[k], "request");
-        if (!f.contains("captures")) throw JobInputError(w + ".captures must list capture jobs");
-        const Evidence ev = LoadCaptures(ctx, f.at("captures"), cal->flange_from_probe, job);
-        const jobs::BoreMeasurement b = jobs::MeasureBore(
-            ev.points_mcs,
-            ParseBoreNominal(jf::Object<JobInputError>(f, "nominal", w), w + ".nominal"));
-        centres[k] = AxisOnPlane(b, a.plane);
-        min_span = std::min(min_span, b.arc_span_deg);
-        fe.rms_mm = std::max(fe.rms_mm, b.rms_mm);
-        fe.points = std::min(fe.points, b.points);
-        reply[names[k]] = {{"centre_mm", JsonVec(centres[k])},
+AlignRequest ParseAlignRequest(const json& r) {
+  AlignRequest a;
+  a.method = jf::Text<JobInputError>(r, "method", "request");
+  if (a.method != "plane-circle-circle" && a.method != "plane-line-point" &&
+      a.method != "plane-plane-plane")
+    throw JobInputError(
+        "method must be plane-circle-circle, plane-line-point or plane-plane-plane");
+  a.work_offset = jf::Integer<JobInputError>(r, "work_offset", "request");
+  if (r.contains("expected_origin_mm"))
+    a.expected_origin_mm = jf::Vector3<JobInputError>(r, "expected_origin_mm", "request");
+  return a;
+}
+
+// The datum frame found, with what the gate weighs and what the reply says of its features.
+struct Datum {
+  geometry::Pose3 mcs_from_work = geometry::Pose3::Identity();
+  jobs::FitEvidence fe;
+  std::string probe;
+  json fields;
+};
+
+// Plane A, then the two bores' axes where they meet it: the origin at the first, X towards
+// the second.
+void PlaneCircleCircle(JobContext& ctx,
+                       const json& r,
+                       const geometry::Pose3& m,
+                       std::int64_t job,
+                       const jobs::PlaneMeasurement& a,
+                       Datum* d) {
+  Vec3 centres[2];
+  const char* names[2] = {"circle_b", "circle_c"};
+  double min_span = 360.0;
+  for (int k = 0; k < 2; ++k) {
+    const std::string w = std::string("request.") + names[k];
+    const json& f = jf::Object<JobInputError>(r, names[k], "request");
+    if (!f.contains("captures")) throw JobInputError(w + ".captures must list capture jobs");
+    const Evidence ev = LoadCaptures(ctx, f.at("captures"), m, job);
+    const jobs::BoreMeasurement b = jobs::MeasureBore(
+        ev.points_mcs,
+        ParseBoreNominal(jf::Object<JobInputError>(f, "nominal", w), w + ".nominal"));
+    centres[k] = AxisOnPlane(b, a.plane);
+    min_span = std::min(min_span, b.arc_span_deg);
+    d->fe.rms_mm = std::max(d->fe.rms_mm, b.rms_mm);
+    d->fe.points = std::min(d->fe.points, b.points);
+    d->fe.converged = d->fe.converged && b.converged;
+    d->fields[names[k]] = {{"centre_mm", JsonVec(centres[k])},
                            {"diameter_mm", b.diameter_mm},
                            {"rms_mm", b.rms_mm},
                            {"points", b.points},
                            {"arc_span_deg", b.arc_span_deg}};
-      }
-      fe.arc_span_deg = min_span;
-      mcs_from_work = geometry::DatumPlaneCircleCircle(a.plane, centres[0], centres[1]);
-    } else if (method == "plane-plane-plane" || method == "plane-line-point") {
-      // The 3-2-1 alignment: with a line probe the "line" is face B's trace on A and the
-      // "point" is face C, each a whole face rather than 2 and 1 touch points.
-      const jobs::PlaneMeasurement b =
-          MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_b", "request"), "request.plane_b",
-                      cal->flange_from_probe, job, &probe);
-      const jobs::PlaneMeasurement c =
-          MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_c", "request"), "request.plane_c",
-                      cal->flange_from_probe, job, &probe);
-      fe.rms_mm = std::max({a.rms_mm, b.rms_mm, c.rms_mm});
-      fe.points = std::min({a.points, b.points, c.points});
-      // 3-2-1: A's normal is Z, the edge where B meets A sets X, C fixes the origin along it.
-      geometry::Line3 edge = Intersection(a.plane, b.plane);
-      const Vec3 corner = Intersection(b.plane, c.plane).point;
-      mcs_from_work = geometry::DatumPlaneLinePoint(a.plane, edge, corner);
-    } else {
-      throw JobInputError(
-          "method must be plane-circle-circle, plane-line-point or plane-plane-plane");
-    }
-    const geometry::WorkOffsetReading wo = geometry::ReadWorkOffset(mcs_from_work);
-    reply.update(
-        {{"method", method},
-         {"calibration_id", cal->calibration_id},
-         {"plane_a",
-          {{"normal", JsonVec(a.plane.normal)}, {"rms_mm", a.rms_mm}, {"points", a.points}}},
-         {"work_offset", index},
-         {"origin_mm", JsonVec(wo.origin_mm)},
-         {"rotation_z_deg", wo.rotation_z_deg},
-         {"tilt_deg", wo.tilt_deg},
-         {"time_utc", base::UtcTimestamp()}});
+  }
+  d->fe.arc_span_deg = min_span;
+  d->mcs_from_work = geometry::DatumPlaneCircleCircle(a.plane, centres[0], centres[1]);
+}
+
+// The 3-2-1 alignment: with a line probe the "line" is face B's trace on A and the "point" is
+// face C, each a whole face rather than 2 and 1 touch points. A's normal is Z, the edge where
+// B meets A sets X, C fixes the origin along it.
+void ThreePlanes(JobContext& ctx,
+                 const json& r,
+                 const geometry::Pose3& m,
+                 std::int64_t job,
+                 const jobs::PlaneMeasurement& a,
+                 Datum* d) {
+  const jobs::PlaneMeasurement b =
+      MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_b", "request"), "request.plane_b", m,
+                  job, &d->probe);
+  const jobs::PlaneMeasurement c =
+      MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_c", "request"), "request.plane_c", m,
+                  job, &d->probe);
+  d->fe.rms_mm = std::max({a.rms_mm, b.rms_mm, c.rms_mm});
+  d->fe.points = std::min({a.points, b.points, c.points});
+  const geometry::Line3 edge = Intersection(a.plane, b.plane);
+  const Vec3 corner = Intersection(b.plane, c.plane).point;
+  d->mcs_from_work = geometry::DatumPlaneLinePoint(a.plane, edge, corner);
+}
+
+Datum MeasureDatum(JobContext& ctx,
+                   const json& r,
+                   const AlignRequest& request,
+                   const geometry::Pose3& flange_from_probe,
+                   std::int64_t job) {
+  Datum d;
+  const jobs::PlaneMeasurement a =
+      MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_a", "request"), "request.plane_a",
+                  flange_from_probe, job, &d.probe);
+  d.fe.points = a.points;
+  d.fe.rms_mm = a.rms_mm;
+  d.fields["plane_a"] = {
+      {"normal", JsonVec(a.plane.normal)}, {"rms_mm", a.rms_mm}, {"points", a.points}};
+  if (request.method == "plane-circle-circle")
+    PlaneCircleCircle(ctx, r, flange_from_probe, job, a, &d);
+  else
+    ThreePlanes(ctx, r, flange_from_probe, job, a, &d);
+  return d;
+}
+
+}  // namespace
+
+// The pipeline: request -> evidence and datum -> record -> gate -> write -> record.
+json RunAlignJob(JobContext& ctx, const json& r) {
+  const MachineConfig& mc = ctx.machine;
+  JobRun run(ctx, "align", r);
+  json& reply = run.reply;
+  try {
+    const AlignRequest request = ParseAlignRequest(r);
+    const calib::CalibrationRecord& cal = run.Calibration();
+    Datum d = MeasureDatum(ctx, r, request, cal.flange_from_probe, run.job);
+    const geometry::WorkOffsetReading wo = geometry::ReadWorkOffset(d.mcs_from_work);
+    reply.update(d.fields);
+    reply.update({{"method", request.method},
+                  {"calibration_id", cal.calibration_id},
+                  {"work_offset", request.work_offset},
+                  {"origin_mm", JsonVec(wo.origin_mm)},
+                  {"rotation_z_deg", wo.rotation_z_deg},
+                  {"tilt_deg", wo.tilt_deg},
+                  {"time_utc", base::UtcTimestamp()}});
     ctx.history.AddResult(
-        job, {"alignment",
-              reply,
-              {{"origin_mm", JsonVec(wo.origin_mm)}, {"rotation_z_deg", wo.rotation_z_deg}}});
-    fe.calibration_probe = cal->probe_serial;
-    fe.job_probe = probe;
-    fe.calibration_age_h = AgeHours(cal->created_utc);
-    fe.tilt_deg = wo.tilt_deg;
-    if (r.contains("expected_origin_mm"))
-      fe.work_shift_mm =
-          (wo.origin_mm - jf::Vector3<JobInputError>(r, "expected_origin_mm", "request")).norm();
-    const auto problems = jobs::PlausibilityProblems(fe, mc.limits);
+        run.job, {"alignment",
+                  reply,
+                  {{"origin_mm", JsonVec(wo.origin_mm)}, {"rotation_z_deg", wo.rotation_z_deg}}});
+    d.fe.calibration_probe = cal.probe_serial;
+    d.fe.job_probe = d.probe;
+    d.fe.calibration_age_h = AgeHours(cal.created_utc);
+    d.fe.tilt_deg = wo.tilt_deg;
+    if (request.expected_origin_mm)
+      d.fe.work_shift_mm = (wo.origin_mm - *request.expected_origin_mm).norm();
+    const auto problems = jobs::PlausibilityProblems(d.fe, mc.limits);
     if (!problems.empty()) {
       reply["problems"] = problems;
       reply["error"] = "nothing written: " + problems.front();
       return run.Finish(history::JobStatus::kRefused, false);
     }
     nc::NcResult out;
-    out.header = "mlprobe job " + std::to_string(job) + ": " + method + " alignment";
+    out.header = "mlprobe job " + std::to_string(run.job) + ": " + request.method + " alignment";
     nc::WorkOffsetChange w;
-    w.index = index;
+    w.index = request.work_offset;
     for (int k = 0; k < 3; ++k) w.after_mm[k] = wo.origin_mm(k);
     w.rotation_after_deg = wo.rotation_z_deg;
     out.work.push_back(w);
     if (mc.controller.kind == ControllerConfig::Kind::kLinuxCnc)
       out.named = {{"status", 0.0}, {"rotation", wo.rotation_z_deg}};
+    const nc::Dialect dialect = mc.controller.kind == ControllerConfig::Kind::kFanucStyle
+                                    ? mc.controller.map.dialect
+                                    : nc::Dialect::kLinuxCnc;
     reply["status"] = "done";  // what the job is, should a stop come before it is recorded
     reply["files"] = WriteToController(
-        ctx, job, out, reply,
+        ctx, run.job, out, reply,
         {{"",
-          nc::WorkOffsetName(mc.controller.kind == ControllerConfig::Kind::kFanucStyle
-                                 ? mc.controller.map.dialect
-                                 : nc::Dialect::kLinuxCnc,
-                             index),
+          nc::WorkOffsetName(dialect, request.work_offset),
           json(),
           {{"origin_mm", JsonVec(wo.origin_mm)}, {"rotation_z_deg", wo.rotation_z_deg}}}});
     return run.Finish(history::JobStatus::kDone, true);

@@ -9,6 +9,7 @@
 #include "mlp/service/adapters.h"
 
 #include <algorithm>
+#include <array>
 #include <filesystem>
 #include <iomanip>
 #include <optional>
@@ -35,27 +36,100 @@ nc::ToolRegister RegisterOf(const std::string& s) {
       s + "\"");
 }
 
-jobs::Feedback ParseUpdate(const json& r, const Measured& ms) {
-  jobs::Feedback f;
-  if (!r.contains("update")) return f;  // report only
-  if (!ms.change_per_error)
-    throw JobInputError("request.update: a " + ms.feature + " moves no tool offset (report only)");
-  f.change_per_error = *ms.change_per_error;
-  const json& u = jf::Object<JobInputError>(r, "update", "request");
+// What a measure request asks for besides the feature itself (which MeasureFeature reads): read
+// once, every field checked, before any capture is loaded.
+struct ToolUpdateRequest {
+  int offset = 0;
+  nc::ToolRegister reg = nc::ToolRegister::kRadiusWear;
+  jobs::Feedback
+      feedback;  ///< percent, null band, upper limit, experience (change_per_error later)
+};
+
+struct WorkUpdateRequest {
+  int offset = 0;
+  std::array<bool, 3> axes{};
+};
+
+struct MeasureRequest {
+  std::string feature;
+  std::optional<ToolUpdateRequest> update;
+  std::optional<WorkUpdateRequest> update_work;
+  bool report = true;
+};
+
+ToolUpdateRequest ParseToolUpdate(const json& u) {
   const std::string w = "request.update";
-  f.offset_number = jf::Integer<JobInputError>(u, "offset", w);
-  f.reg = RegisterOf(jf::Text<JobInputError>(u, "register", w));
-  const bool length_register =
-      f.reg == nc::ToolRegister::kLengthGeometry || f.reg == nc::ToolRegister::kLengthWear;
-  if (length_register != ms.moves_length)
-    throw JobInputError("request.update.register: a " + ms.feature + " moves a tool's " +
-                        (ms.moves_length ? "length" : "radius") + ", not its " +
-                        (length_register ? "length" : "radius"));
+  ToolUpdateRequest t;
+  t.offset = jf::Integer<JobInputError>(u, "offset", w);
+  t.reg = RegisterOf(jf::Text<JobInputError>(u, "register", w));
+  jobs::Feedback& f = t.feedback;
+  f.offset_number = t.offset;
+  f.reg = t.reg;
   f.percent = jf::NumberOr<JobInputError>(u, "percent", f.percent, w);
   f.null_band_mm = jf::NumberOr<JobInputError>(u, "null_band_mm", f.null_band_mm, w);
   f.upper_limit_mm = jf::NumberOr<JobInputError>(u, "upper_limit_mm", f.upper_limit_mm, w);
   f.experience_mm = jf::NumberOr<JobInputError>(u, "experience_mm", f.experience_mm, w);
+  return t;
+}
+
+// "update_work": {"offset": n, "axes": "xy"}: the work offset moved by where the feature was
+// found against its nominal (a part set up on one feature), in the control (incremental).
+WorkUpdateRequest ParseWorkUpdate(const json& u) {
+  WorkUpdateRequest w;
+  w.offset = jf::Integer<JobInputError>(u, "offset", "request.update_work");
+  const std::string axes = jf::Text<JobInputError>(u, "axes", "request.update_work");
+  if (axes.empty() || axes.find_first_not_of("xyz") != std::string::npos)
+    throw JobInputError("request.update_work.axes: one or more of x, y, z (\"xy\")");
+  for (size_t a = 0; a < 3; ++a) w.axes[a] = axes.find("xyz"[a]) != std::string::npos;
+  return w;
+}
+
+MeasureRequest ParseMeasureRequest(const json& r) {
+  MeasureRequest m;
+  m.feature = jf::Text<JobInputError>(r, "feature", "request");
+  CheckFeatureName(m.feature);
+  if (!r.contains("captures"))
+    throw JobInputError("request.captures must list the capture jobs to use");
+  if (r.contains("update"))
+    m.update = ParseToolUpdate(jf::Object<JobInputError>(r, "update", "request"));
+  if (r.contains("update_work"))
+    m.update_work = ParseWorkUpdate(jf::Object<JobInputError>(r, "update_work", "request"));
+  m.report = jf::FlagOr<JobInputError>(r, "report", true, "request");
+  return m;
+}
+
+// The feedback for the decision: none (report only), or the update asked for, checked against
+// what the measured feature moves.
+jobs::Feedback FeedbackFor(const std::optional<ToolUpdateRequest>& u, const Measured& ms) {
+  if (!u) return {};
+  if (!ms.change_per_error)
+    throw JobInputError("request.update: a " + ms.feature + " moves no tool offset (report only)");
+  const bool length_register =
+      u->reg == nc::ToolRegister::kLengthGeometry || u->reg == nc::ToolRegister::kLengthWear;
+  if (length_register != ms.moves_length)
+    throw JobInputError("request.update.register: a " + ms.feature + " moves a tool's " +
+                        (ms.moves_length ? "length" : "radius") + ", not its " +
+                        (length_register ? "length" : "radius"));
+  jobs::Feedback f = u->feedback;
+  f.change_per_error = *ms.change_per_error;
   return f;
+}
+
+// The work offset change asked for: where the feature was found against its nominal.
+std::optional<nc::WorkOffsetChange> WorkChangeFor(const std::optional<WorkUpdateRequest>& u,
+                                                  const Measured& ms) {
+  if (!u) return std::nullopt;
+  if (!ms.found_mcs)
+    throw JobInputError("request.update_work: a " + ms.feature + " has no position to set");
+  nc::WorkOffsetChange w;
+  w.index = u->offset;
+  w.incremental = true;
+  const geometry::Vec3 shift = *ms.found_mcs - ms.nominal_mcs;
+  for (int a = 0; a < 3; ++a) {
+    w.axes[a] = u->axes[static_cast<size_t>(a)];
+    w.after_mm[a] = w.axes[a] ? shift[a] : 0.0;
+  }
+  return w;
 }
 
 // The feature's numbers, a line each, as the picture lists them ("width 16.0140 mm"). Built
@@ -140,122 +214,146 @@ std::string WriteReport(JobContext& ctx,
   return path;
 }
 
-// "update_work": {"offset": n, "axes": "xy"}: the work offset moved by where the feature was
-// found against its nominal (a part set up on one feature), in the control (incremental).
-std::optional<nc::WorkOffsetChange> ParseWorkUpdate(const json& r, const Measured& ms) {
-  if (!r.contains("update_work")) return std::nullopt;
-  const json& u = jf::Object<JobInputError>(r, "update_work", "request");
-  if (!ms.found_mcs)
-    throw JobInputError("request.update_work: a " + ms.feature + " has no position to set");
-  nc::WorkOffsetChange w;
-  w.index = jf::Integer<JobInputError>(u, "offset", "request.update_work");
-  const std::string axes = jf::Text<JobInputError>(u, "axes", "request.update_work");
-  if (axes.empty() || axes.find_first_not_of("xyz") != std::string::npos)
-    throw JobInputError("request.update_work.axes: one or more of x, y, z (\"xy\")");
-  w.incremental = true;
-  const geometry::Vec3 shift = *ms.found_mcs - ms.nominal_mcs;
-  for (int a = 0; a < 3; ++a) {
-    w.axes[a] = axes.find("xyz"[a]) != std::string::npos;
-    w.after_mm[a] = w.axes[a] ? shift[a] : 0.0;
+// The verdict in words: out of tolerance too when another tolerance of the job is exceeded
+// (flatness, true position, a rectangle's second size); the reason lists those first.
+struct Outcome {
+  bool in_tolerance = false;
+  std::string verdict, reason;
+};
+
+Outcome OutcomeOf(const Measured& ms, const jobs::SizeDecision& d) {
+  Outcome o;
+  const bool size_ok = d.verdict == jobs::Verdict::kInTolerance;
+  o.in_tolerance = size_ok && ms.problems.empty();
+  o.verdict =
+      size_ok && !ms.problems.empty() ? std::string("out of tolerance") : jobs::ToString(d.verdict);
+  for (const auto& p : ms.problems) o.reason += p + "; ";
+  o.reason += d.reason;
+  return o;
+}
+
+json ResultFields(const Measured& ms,
+                  const calib::CalibrationRecord& cal,
+                  const jobs::SizeDecision& d,
+                  const Outcome& o) {
+  json fields = ms.fields;
+  fields.update({{"feature", ms.feature},
+                 {"calibration_id", cal.calibration_id},
+                 {"size_" + ms.unit, ms.size},
+                 {"error_" + ms.unit, d.error_mm},
+                 {"verdict", o.verdict},
+                 {"reason", o.reason},
+                 {"offset_change_mm", d.offset_change_mm},
+                 {"time_utc", base::UtcTimestamp()}});
+  return fields;
+}
+
+// Everything the gate weighs: the fit's evidence, the calibration, every change to be written.
+jobs::FitEvidence GateEvidence(const Measured& ms,
+                               const calib::CalibrationRecord& cal,
+                               const Evidence& ev,
+                               const jobs::SizeDecision& d,
+                               const std::optional<nc::WorkOffsetChange>& work) {
+  jobs::FitEvidence fe = ms.fe;
+  fe.calibration_probe = cal.probe_serial;
+  fe.job_probe = ev.probe_serial;
+  fe.calibration_age_h = AgeHours(cal.created_utc);
+  if (d.update) fe.offset_changes_mm = {d.offset_change_mm};
+  if (work)
+    fe.work_shift_mm =
+        geometry::Vec3(work->after_mm[0], work->after_mm[1], work->after_mm[2]).norm();
+  return fe;
+}
+
+// What goes to the controller (the macro's parameters, the tool change, the work offset
+// change), each also said in the reply. Beyond the upper tolerance limit the feature is not
+// what the program expects: no work offset follows it.
+nc::NcResult ControllerResult(const MachineConfig& m,
+                              std::int64_t job,
+                              const Measured& ms,
+                              const jobs::SizeDecision& d,
+                              const Outcome& o,
+                              const jobs::Feedback& fb,
+                              const std::optional<nc::WorkOffsetChange>& work,
+                              json* reply) {
+  nc::NcResult out;
+  out.header = "mlprobe job " + std::to_string(job) + ": " + ms.feature + " " + o.verdict;
+  if (m.controller.kind == ControllerConfig::Kind::kLinuxCnc)
+    out.named = {
+        {"status", o.in_tolerance ? 0.0 : 1.0}, {ms.size_name, ms.size}, {"error", d.error_mm}};
+  if (d.update) {
+    std::string note;
+    const nc::ToolOffsetChange t =
+        ResolveToolChange(m.controller, fb.offset_number, fb.reg, d.offset_change_mm, &note);
+    out.tools.push_back(t);
+    (*reply)["update"] = {{"offset", t.tool},
+                          {"register", nc::ToString(t.reg)},
+                          {"before_mm", t.incremental ? json() : json(t.before_mm)},
+                          {"after_mm", t.incremental ? json() : json(t.after_mm)},
+                          {"change_mm", d.offset_change_mm}};
+    if (!note.empty()) (*reply)["update"]["note"] = note;
   }
-  return w;
+  if (work && d.verdict != jobs::Verdict::kUpperLimitExceeded) {
+    out.work.push_back(*work);
+    (*reply)["update_work"] = {
+        {"offset", work->index},
+        {"shift_mm", {work->after_mm[0], work->after_mm[1], work->after_mm[2]}}};
+  }
+  return out;
+}
+
+// The history's record of each change, announced before it is written.
+std::vector<history::OffsetWriteRow> WriteRows(const nc::NcResult& out) {
+  std::vector<history::OffsetWriteRow> rows;
+  for (const auto& t : out.tools)
+    rows.push_back(
+        {"", "offset " + std::to_string(t.tool) + " " + nc::ToString(t.reg),
+         t.incremental ? json() : json(t.before_mm),
+         t.incremental ? json{{"change_mm", t.after_mm - t.before_mm}} : json(t.after_mm)});
+  for (const auto& w : out.work)
+    rows.push_back({"",
+                    "work offset " + std::to_string(w.index),
+                    json(),
+                    {{"shift_mm", {w.after_mm[0], w.after_mm[1], w.after_mm[2]}}}});
+  return rows;
 }
 
 }  // namespace
 
+// The pipeline: request -> evidence -> measure -> decide -> record -> gate -> write -> record.
 json RunMeasureJob(JobContext& ctx, const json& r) {
-  const MachineConfig& m = ctx.machine;
   JobRun run(ctx, "measure", r);
   json& reply = run.reply;
-  const std::int64_t job = run.job;
   try {
-    CheckFeatureName(jf::Text<JobInputError>(r, "feature", "request"));
-    const calib::CalibrationRecord* cal = &run.Calibration();
-    if (!r.contains("captures"))
-      throw JobInputError("request.captures must list the capture jobs to use");
-    const Evidence ev = LoadCaptures(ctx, r.at("captures"), cal->flange_from_probe, job);
+    const MeasureRequest request = ParseMeasureRequest(r);
+    const calib::CalibrationRecord& cal = run.Calibration();
+    const Evidence ev = LoadCaptures(ctx, r.at("captures"), cal.flange_from_probe, run.job);
     const Measured ms = MeasureFeature(r, ev, ctx.config.data_dir);
-    const jobs::Feedback fb = ParseUpdate(r, ms);
-    const auto work = ParseWorkUpdate(r, ms);
+    const jobs::Feedback fb = FeedbackFor(request.update, ms);
+    const auto work = WorkChangeFor(request.update_work, ms);
     const jobs::SizeDecision d = jobs::DecideSize(ms.size, ms.spec, fb);
-    const bool in_tolerance = d.verdict == jobs::Verdict::kInTolerance && ms.problems.empty();
-    const std::string verdict = d.verdict == jobs::Verdict::kInTolerance && !ms.problems.empty()
-                                    ? std::string("out of tolerance")
-                                    : jobs::ToString(d.verdict);
-    std::string reason;
-    for (const auto& p : ms.problems) reason += p + "; ";
-    reply.update(ms.fields);
-    reply.update({{"feature", ms.feature},
-                  {"calibration_id", cal->calibration_id},
-                  {"size_" + ms.unit, ms.size},
-                  {"error_" + ms.unit, d.error_mm},
-                  {"verdict", verdict},
-                  {"reason", reason + d.reason},
-                  {"offset_change_mm", d.offset_change_mm},
-                  {"time_utc", base::UtcTimestamp()}});
-    ctx.history.AddResult(job, {ms.feature,
-                                reply,
-                                {{"verdict", verdict},
-                                 {"error_" + ms.unit, d.error_mm},
-                                 {"offset_change_mm", d.offset_change_mm},
-                                 {"reason", reply["reason"]}}});
-    jobs::FitEvidence fe = ms.fe;
-    fe.calibration_probe = cal->probe_serial;
-    fe.job_probe = ev.probe_serial;
-    fe.calibration_age_h = AgeHours(cal->created_utc);
-    if (d.update) fe.offset_changes_mm = {d.offset_change_mm};
-    if (work)
-      fe.work_shift_mm =
-          geometry::Vec3(work->after_mm[0], work->after_mm[1], work->after_mm[2]).norm();
-    const auto problems = jobs::PlausibilityProblems(fe, m.limits);
+    const Outcome o = OutcomeOf(ms, d);
+    reply.update(ResultFields(ms, cal, d, o));
+    ctx.history.AddResult(run.job, {ms.feature,
+                                    reply,
+                                    {{"verdict", o.verdict},
+                                     {"error_" + ms.unit, d.error_mm},
+                                     {"offset_change_mm", d.offset_change_mm},
+                                     {"reason", o.reason}}});
+    const auto problems =
+        jobs::PlausibilityProblems(GateEvidence(ms, cal, ev, d, work), ctx.machine.limits);
     if (!problems.empty()) {
       reply["problems"] = problems;
       reply["error"] = "nothing written: " + problems.front();
       return run.Finish(history::JobStatus::kRefused, false);
     }
-    nc::NcResult out;
-    out.header = "mlprobe job " + std::to_string(job) + ": " + ms.feature + " " + verdict;
-    if (m.controller.kind == ControllerConfig::Kind::kLinuxCnc)
-      out.named = {
-          {"status", in_tolerance ? 0.0 : 1.0}, {ms.size_name, ms.size}, {"error", d.error_mm}};
-    if (d.update) {
-      std::string note;
-      const nc::ToolOffsetChange t =
-          ResolveToolChange(m.controller, fb.offset_number, fb.reg, d.offset_change_mm, &note);
-      out.tools.push_back(t);
-      reply["update"] = {{"offset", t.tool},
-                         {"register", nc::ToString(t.reg)},
-                         {"before_mm", t.incremental ? json() : json(t.before_mm)},
-                         {"after_mm", t.incremental ? json() : json(t.after_mm)},
-                         {"change_mm", d.offset_change_mm}};
-      if (!note.empty()) reply["update"]["note"] = note;
-    }
-    // Beyond the upper tolerance limit the feature is not what the program expects: no offset
-    // follows it, the work offset neither.
-    if (work && d.verdict != jobs::Verdict::kUpperLimitExceeded) {
-      out.work.push_back(*work);
-      reply["update_work"] = {
-          {"offset", work->index},
-          {"shift_mm", {work->after_mm[0], work->after_mm[1], work->after_mm[2]}}};
-    }
-    if (jf::FlagOr<JobInputError>(r, "report", true, "request"))
-      reply["report"] = WriteReport(ctx, job, ms, d, reply);
+    const nc::NcResult out = ControllerResult(ctx.machine, run.job, ms, d, o, fb, work, &reply);
+    if (request.report) reply["report"] = WriteReport(ctx, run.job, ms, d, reply);
     if (d.verdict == jobs::Verdict::kUpperLimitExceeded) reply["alarm"] = d.reason;
-    std::vector<history::OffsetWriteRow> rows;
-    for (const auto& t : out.tools)
-      rows.push_back(
-          {"", "offset " + std::to_string(t.tool) + " " + nc::ToString(t.reg),
-           t.incremental ? json() : json(t.before_mm),
-           t.incremental ? json{{"change_mm", t.after_mm - t.before_mm}} : json(t.after_mm)});
-    for (const auto& w : out.work)
-      rows.push_back({"",
-                      "work offset " + std::to_string(w.index),
-                      json(),
-                      {{"shift_mm", {w.after_mm[0], w.after_mm[1], w.after_mm[2]}}}});
-    reply["status"] = in_tolerance ? "in_tolerance" : "out_of_tolerance";  // if a stop comes
-    reply["files"] = WriteToController(ctx, job, out, reply, std::move(rows));
+    reply["status"] = o.in_tolerance ? "in_tolerance" : "out_of_tolerance";  // if a stop comes
+    reply["files"] = WriteToController(ctx, run.job, out, reply, WriteRows(out));
     return run.Finish(
-        in_tolerance ? history::JobStatus::kInTolerance : history::JobStatus::kOutOfTolerance,
+        o.in_tolerance ? history::JobStatus::kInTolerance : history::JobStatus::kOutOfTolerance,
         true);
   } catch (const std::exception& e) {
     return run.Fail(e);
