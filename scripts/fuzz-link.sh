@@ -8,7 +8,8 @@ seconds=${1:-20}
 out=build-fuzz
 mkdir -p "$out/corpus"
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-  -Iprobe_fw/link/include probe_fw/link/src/{wire,auth,cloud_codec,messages}.cc tests/fuzz/link_frame_fuzz.cc \
+  -Iprobe_fw/link/include -Igeometry/base/include -I/usr/include/eigen3 \
+  probe_fw/link/src/{wire,auth,cloud_codec,messages}.cc tests/fuzz/link_frame_fuzz.cc \
   -lcrypto -lzstd -o "$out/link_frame_fuzz"
 "$out/link_frame_fuzz" -max_total_time="$seconds" -max_len=4096 -rss_limit_mb=1024 \
   -print_final_stats=1 "$out/corpus" 2>&1 | tail -n 12

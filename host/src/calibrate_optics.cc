@@ -3,6 +3,7 @@
 #include "mlp/base/json_fields.h"
 #include "mlp/base/units.h"
 #include "mlp/calib/board_views.h"
+#include "mlp/calib/camera_json.h"
 #include "mlp/calib/capture_io.h"
 #include "mlp/calib/probe_calib.h"
 #include "mlp/host/cli.h"
@@ -14,10 +15,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
-#include <map>
 #include <ostream>
 
-#include "calibration_json.h"
 #include "format_numbers.h"
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
@@ -29,7 +28,6 @@ namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;
 using geometry::Vec3;
 
-constexpr const char* kCameraFormat = "mlprobe-camera/1";
 // Above these the fit is suspect (a wrong board size, a blurred view, stripes on checker
 // edges): the result is written but the summary says so. The virtual probe at nominal noise
 // gives 0.04 px and 0.02 columns.
@@ -67,27 +65,6 @@ std::vector<calib::GrayImage> Leds(const calib::BoardViews& v) {
   return out;
 }
 
-json BoardJson(const calib::ChessboardSpec& b) {
-  return {{"inner_cols", b.inner_cols}, {"inner_rows", b.inner_rows}, {"square_mm", b.square_mm}};
-}
-
-// Per view: its capture id and RMS, or why it was not used.
-json ViewsJson(const calib::BoardViews& v, const calib::CameraCalibration& c) {
-  json views = json::array();
-  std::map<int, double> rms;
-  for (size_t k = 0; k < c.views_used.size(); ++k) rms[c.views_used[k]] = c.view_rms_px[k];
-  for (size_t i = 0; i < v.views.size(); ++i) {
-    const auto it = rms.find(static_cast<int>(i));
-    json e = {{"capture_id", v.views[i].capture_id}, {"dir", v.views[i].dir}};
-    if (it != rms.end())
-      e["rms_px"] = it->second;
-    else
-      e["skipped"] = "no complete board found";
-    views.push_back(e);
-  }
-  return views;
-}
-
 void PrintIntrinsics(std::ostream& out, const calib::Intrinsics& k, const calib::Intrinsics* sd) {
   const auto pm = [&](double v, double s, int digits) {
     return Fixed(v, digits) + (sd ? " +- " + Fixed(s, digits) : std::string());
@@ -106,15 +83,7 @@ int Camera(const Options& o, std::ostream& out, std::ostream& err) {
   const calib::BoardViews v = calib::LoadBoardViews(o.views, false);
   err << "mlp calibrate: camera calibration from " << v.views.size() << " LED frames\n";
   const calib::CameraCalibration c = calib::CalibrateCamera(Leds(v), v.board);
-  json j;
-  j["format"] = kCameraFormat;
-  j["probe_serial"] = v.probe_serial;
-  j["board"] = BoardJson(v.board);
-  j["image_size_px"] = {v.views.front().led.width, v.views.front().led.height};
-  j["intrinsics"] = IntrinsicsJson(c.intrinsics);
-  j["std_dev"] = IntrinsicsJson(c.std_dev);
-  j["rms_reprojection_px"] = c.rms_reprojection_px;
-  j["views"] = ViewsJson(v, c);
+  const json j = calib::CameraFileJson(v, c);
   if (!o.out.empty()) WriteOutputFile(o.out, j.dump(2) + "\n");
   if (o.json) {
     out << j.dump(2) << "\n";
@@ -140,7 +109,7 @@ json ProjectorJson(const probe_fw::ProbeModel& m,
   j["probe_model"] = path;
   j["calibration_id"] = m.calibration_id;
   j["probe_serial"] = m.serial;
-  j["views"] = ViewsJson(v, r.camera_start);
+  j["views"] = calib::BoardViewsJson(v, r.camera_start);
   j["corners_used"] = r.result.corners_used;
   j["stripe_points"] = {{"found", r.stripes_found},
                         {"on_uniform_light", r.stripes_on_light},
@@ -148,7 +117,7 @@ json ProjectorJson(const probe_fw::ProbeModel& m,
                         {"stride", r.stripe_stride}};
   j["corner_rms_px"] = r.result.corner_rms_px;
   j["stripe_rms_columns"] = r.result.stripe_rms_columns;
-  j["camera"] = IntrinsicsJson(r.result.camera);
+  j["camera"] = calib::IntrinsicsJson(r.result.camera);
   j["projector"] = {{"f_px", r.result.projector.f_px},
                     {"c_px", r.result.projector.c_px},
                     {"camera_from_projector",

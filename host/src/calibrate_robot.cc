@@ -3,6 +3,7 @@
 #include "mlp/base/json_fields.h"
 #include "mlp/base/units.h"
 #include "mlp/calib/board_hand_eye.h"
+#include "mlp/calib/camera_json.h"
 #include "mlp/calib/line_laser.h"
 #include "mlp/calib/record.h"
 #include "mlp/calib/robot_views.h"
@@ -17,7 +18,6 @@
 #include <ostream>
 #include <stdexcept>
 
-#include "calibration_json.h"
 #include "format_numbers.h"
 #include <nlohmann/json.hpp>
 
@@ -158,7 +158,7 @@ int LineLaser(const Options& o, std::ostream& out, std::ostream& err) {
             {"boards_used", cal.board_images.size()},
             {"corner_rms_px", cal.camera.rms_reprojection_px},
             {"stripe_scatter_px", cal.scatter_rms_px},
-            {"camera", IntrinsicsJson(cal.camera.intrinsics)},
+            {"camera", calib::IntrinsicsJson(cal.camera.intrinsics)},
             {"plane", PlaneJson(cal)},
             {"notes", cal.notes}};
   if (o.json) {
@@ -313,13 +313,6 @@ int BoardHandEye(const Options& o, std::ostream& out, std::ostream& err) {
   return kExitOk;
 }
 
-std::array<double, 16> RowMajor(const Pose3& p) {
-  std::array<double, 16> h{};
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) h[size_t(4 * r + c)] = p.matrix()(r, c);
-  return h;
-}
-
 // The image's stripe centres triangulated by the firmware with the probe model (column 0: the
 // one light plane) and mapped by F_i X into the robot's base frame.
 std::vector<Vec3> CloudInBase(const calib::ImageFindings& f,
@@ -362,8 +355,8 @@ int Map(const Options& o, std::ostream& out, std::ostream& err) {
     for (const Vec3& p : cloud) xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
     const std::string file =
         (fs::path(o.out) / (fs::path(found[i].name).stem().string() + ".ply")).string();
-    probe_fw::CloudFileMeta meta{model.serial, record->calibration_id, found[i].name,
-                                 RowMajor(flange), "base"};
+    probe_fw::CloudFileMeta meta{model.serial, record->calibration_id, found[i].name, flange,
+                                 "base"};
     probe_fw::WriteCloudPly(file, xyz, std::vector<float>(cloud.size(), 1.0f), meta);
     e["cloud"] = file, e["points"] = cloud.size();
     images.push_back(e);

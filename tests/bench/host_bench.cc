@@ -55,8 +55,8 @@ std::vector<std::string> WriteHole(const std::string& name,
       quality.push_back(1.0f);
     }
     const std::string path = (kDir / (name + std::to_string(q) + ".ply")).string();
-    std::array<double, 16> h{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-    mlp::probe_fw::WriteCloudPly(path, xyz, quality, {"P", "c", name, h});
+    mlp::probe_fw::WriteCloudPly(path, xyz, quality,
+                                 {"P", "c", name, Eigen::Isometry3d::Identity()});
     files.push_back(path);
   }
   return files;

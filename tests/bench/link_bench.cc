@@ -27,7 +27,6 @@ LinkCloud MakeCloud(int index) {
   c.capture_id = "bench-" + std::to_string(index);
   c.probe_serial = "P-1";
   c.calibration_id = "cal";
-  c.mcs_from_flange[0] = c.mcs_from_flange[5] = c.mcs_from_flange[10] = c.mcs_from_flange[15] = 1;
   for (int i = 0; i < kPoints; ++i) {
     const int frame = i / 300, row = i % 300;
     c.xyz.insert(c.xyz.end(), {-3.9 + 0.052 * frame, -3.9 + 0.026 * row, 120.0 + noise(gen)});

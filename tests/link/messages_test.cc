@@ -21,7 +21,7 @@ CaptureRequest GoodRequest() {
   r.exposure_us = 250.0;
   r.first_column = 100.0, r.last_column = 900.0, r.column_step = 2.0;
   const double c = std::cos(0.3), s = std::sin(0.3);
-  r.mcs_from_flange = {c, -s, 0, 10.5, s, c, 0, -20.25, 0, 0, 1, 300.125, 0, 0, 0, 1};
+  r.mcs_from_flange.matrix() << c, -s, 0, 10.5, s, c, 0, -20.25, 0, 0, 1, 300.125, 0, 0, 0, 1;
   return r;
 }
 
@@ -31,7 +31,7 @@ TEST(Messages, RoundTripsAreExact) {
   EXPECT_EQ(back.capture_id, r.capture_id);
   EXPECT_EQ(back.roi, r.roi);
   EXPECT_EQ(back.aoi_width, r.aoi_width);
-  EXPECT_EQ(back.mcs_from_flange, r.mcs_from_flange);
+  EXPECT_TRUE(back.mcs_from_flange.matrix() == r.mcs_from_flange.matrix());  // exact
   EXPECT_EQ(back.column_step, r.column_step);
   EXPECT_EQ(SweepFrames(r), 401u);
 
@@ -63,10 +63,10 @@ TEST(Messages, RequestsThatCannotBeCarriedOutAreRefusedBeforeSending) {
       [](CaptureRequest* r) { r->column_step = 0.0; },
       [](CaptureRequest* r) { r->last_column = r->first_column - 1; },
       [](CaptureRequest* r) { r->column_step = 0.01; },  // 80001 frames
-      [](CaptureRequest* r) { r->mcs_from_flange[0] = NAN; },
-      [](CaptureRequest* r) { r->mcs_from_flange[15] = 2.0; },
-      [](CaptureRequest* r) { r->mcs_from_flange[0] = 1.1; },    // scaled, not a rotation
-      [](CaptureRequest* r) { r->mcs_from_flange[10] = -1.0; },  // a reflection
+      [](CaptureRequest* r) { r->mcs_from_flange.matrix()(0, 0) = NAN; },
+      [](CaptureRequest* r) { r->mcs_from_flange.matrix()(3, 3) = 2.0; },
+      [](CaptureRequest* r) { r->mcs_from_flange.matrix()(0, 0) = 1.1; },   // scaled
+      [](CaptureRequest* r) { r->mcs_from_flange.matrix()(2, 2) = -1.0; },  // a reflection
   };
   for (size_t i = 0; i < defects.size(); ++i) {
     CaptureRequest r = GoodRequest();

@@ -40,9 +40,9 @@ inline CaptureRequest TopRequest(const sim::VirtualProbe& probe,
   r.aoi_x0 = static_cast<std::uint16_t>((probe.model().camera.width_px - aoi_px) / 2);
   r.aoi_y0 = static_cast<std::uint16_t>((probe.model().camera.height_px - aoi_px) / 2);
   // Looking down: the flange turned half a turn about X, 120 mm above the face.
-  r.mcs_from_flange = {1, 0, 0, 1 + dx_mm, 0, -1, 0, 2, 0, 0, -1, 120, 0, 0, 0, 1};
+  r.mcs_from_flange.matrix() << 1, 0, 0, 1 + dx_mm, 0, -1, 0, 2, 0, 0, -1, 120, 0, 0, 0, 1;
   sim::Capture c;
-  c.mcs_from_flange = sim::PoseOf(r.mcs_from_flange);
+  c.mcs_from_flange = r.mcs_from_flange;
   probe.ColumnsReaching(c, {r.aoi_x0, r.aoi_y0, aoi_px, aoi_px}, &r.first_column, &r.last_column);
   r.column_step = 2.0;
   return r;

@@ -238,15 +238,26 @@ TEST(StripeFile, BadFilesNameTheEntry) {
 
 TEST(CloudFile, RoundTripWithThePose) {
   const std::string path = ::testing::TempDir() + "/cloud.ply";
-  const std::array<double, 16> h = {1, 0, 0,  30.125,        0, -1, 0, 30,
-                                    0, 0, -1, 120.000000001, 0, 0,  0, 1};
+  Eigen::Isometry3d h;
+  h.matrix() << 1, 0, 0, 30.125, 0, -1, 0, 30, 0, 0, -1, 120.000000001, 0, 0, 0, 1;
   WriteCloudPly(path, {1.5, -2.25, 120.0, 0, 0, 99.5}, {0.5f, 1.0f}, {"P-1", "cal-7", "c1", h});
   const CloudFile f = ReadCloudPly(path);
   EXPECT_EQ(f.meta.probe_serial, "P-1");
   EXPECT_EQ(f.meta.calibration_id, "cal-7");
   EXPECT_EQ(f.meta.capture_id, "c1");
   ASSERT_TRUE(f.meta.mcs_from_flange);
-  EXPECT_EQ(*f.meta.mcs_from_flange, h);  // exact: 17 digits
+  EXPECT_TRUE(f.meta.mcs_from_flange->matrix() == h.matrix());  // exact: 17 digits
+  // A file whose pose is not a rigid transform (scaled here) is refused, naming why.
+  Eigen::Isometry3d scaled = h;
+  scaled.matrix()(0, 0) = 1.1;
+  WriteCloudPly(path, {1.5, -2.25, 120.0}, {0.5f}, {"P-1", "cal-7", "c1", scaled});
+  try {
+    ReadCloudPly(path);
+    ADD_FAILURE() << "a scaled pose was read";
+  } catch (const CloudFileError& e) {
+    EXPECT_NE(std::string(e.what()).find("not orthonormal"), std::string::npos) << e.what();
+  }
+  WriteCloudPly(path, {1.5, -2.25, 120.0, 0, 0, 99.5}, {0.5f, 1.0f}, {"P-1", "cal-7", "c1", h});
   EXPECT_EQ(f.xyz, (std::vector<double>{1.5, -2.25, 120.0, 0, 0, 99.5}));
   EXPECT_EQ(f.quality, (std::vector<float>{0.5f, 1.0f}));
   EXPECT_THROW(WriteCloudPly(path, {1, 2}, {1.0f}, {}), CloudFileError);  // sizes differ

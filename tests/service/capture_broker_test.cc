@@ -55,7 +55,8 @@ TEST(CaptureBroker, CloudsComeBackToTheJobThatAsked) {
   const link::LinkCloud ca = a.get(), cb = b.get();
   EXPECT_EQ(ca.capture_id, "job-a");
   EXPECT_EQ(cb.capture_id, "job-b");
-  EXPECT_EQ(cb.mcs_from_flange[3], 5.0);  // H travelled with its capture (x = 1 + 4 mm)
+  EXPECT_EQ(cb.mcs_from_flange.translation().x(),
+            5.0);  // H travelled with its capture (x = 1 + 4 mm)
   EXPECT_GT(ca.size(), 5000u);
 
   link::CaptureRequest bad = TopRequest(*probe, "bad", 0.0);

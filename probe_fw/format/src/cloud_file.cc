@@ -1,6 +1,7 @@
 #include "mlp/probe_fw/cloud_file.h"
 
 #include "mlp/base/files.h"
+#include "mlp/base/pose.h"
 
 #include <cstdio>
 #include <cstring>
@@ -45,7 +46,7 @@ void WriteCloudPly(const std::string& path,
     if (meta.mcs_from_flange) {
       out << "comment mcs_from_flange";  // row-major, exact (17 significant digits)
       char number[32];
-      for (double v : *meta.mcs_from_flange) {
+      for (double v : base::RowMajor(*meta.mcs_from_flange)) {
         std::snprintf(number, sizeof number, " %.17g", v);
         out << number;
       }
@@ -104,7 +105,10 @@ CloudFile ReadCloudPly(const std::string& path) {
         std::istringstream numbers(rest);
         for (double& v : h)
           if (!(numbers >> v)) throw fail("mcs_from_flange must hold 16 numbers");
-        f.meta.mcs_from_flange = h;
+        Eigen::Isometry3d pose;
+        std::string why;
+        if (!base::PoseFromRowMajor(h, &pose, &why)) throw fail("mcs_from_flange: " + why);
+        f.meta.mcs_from_flange = pose;
       }
     } else if (key == "element") {
       std::string name;

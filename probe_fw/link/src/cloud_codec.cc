@@ -1,5 +1,7 @@
 #include "mlp/link/cloud_codec.h"
 
+#include "mlp/base/pose.h"
+
 #include <cmath>
 #include <limits>
 
@@ -109,10 +111,11 @@ Bytes EncodeCloud(const LinkCloud& c, bool compress) {
   PutString(&out, c.capture_id);
   PutString(&out, c.probe_serial);
   PutString(&out, c.calibration_id);
-  for (double h : c.mcs_from_flange) {
-    if (!std::isfinite(h)) Bad("non-finite flange pose");
-    PutF64(&out, h);
-  }
+  std::string why;
+  Eigen::Isometry3d checked;
+  const std::array<double, 16> h = base::RowMajor(c.mcs_from_flange);
+  if (!base::PoseFromRowMajor(h, &checked, &why)) Bad("flange pose: " + why);
+  for (double v : h) PutF64(&out, v);
   PutU64(&out, static_cast<std::uint64_t>(c.first_frame_ns));
   PutU64(&out, static_cast<std::uint64_t>(c.last_frame_ns));
   PutU64(&out, static_cast<std::uint64_t>(c.processed_ns));
@@ -140,7 +143,10 @@ LinkCloud DecodeCloud(const Bytes& payload) {
   c.capture_id = r.String(kMaxIdBytes);
   c.probe_serial = r.String(kMaxIdBytes);
   c.calibration_id = r.String(kMaxIdBytes);
-  for (double& h : c.mcs_from_flange) h = r.F64();
+  std::array<double, 16> h{};
+  for (double& v : h) v = r.F64();
+  std::string why;
+  if (!base::PoseFromRowMajor(h, &c.mcs_from_flange, &why)) Bad("flange pose: " + why);
   c.first_frame_ns = static_cast<std::int64_t>(r.U64());
   c.last_frame_ns = static_cast<std::int64_t>(r.U64());
   c.processed_ns = static_cast<std::int64_t>(r.U64());

@@ -1,5 +1,7 @@
 #include "mlp/link/messages.h"
 
+#include "mlp/base/pose.h"
+
 #include <cmath>
 
 namespace mlp::link {
@@ -17,26 +19,12 @@ void CheckText(const std::string& s, std::size_t max_bytes, const char* what, bo
   }
 }
 
-// A homogeneous rigid transform, row-major: finite, last row 0 0 0 1, rotation orthonormal with
-// determinant +1 to 1e-6 (poses come from a controller as doubles; anything further off is not
-// a pose).
-void CheckPose(const std::array<double, 16>& h) {
-  for (double v : h) {
-    if (!std::isfinite(v)) Bad("pose holds a non-finite number");
-  }
-  if (h[12] != 0.0 || h[13] != 0.0 || h[14] != 0.0 || h[15] != 1.0)
-    Bad("pose's last row is not 0 0 0 1");
-  constexpr double kTol = 1e-6;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      double dot = 0.0;
-      for (int k = 0; k < 3; ++k) dot += h[4 * k + i] * h[4 * k + j];
-      if (std::abs(dot - (i == j ? 1.0 : 0.0)) > kTol) Bad("pose's rotation is not orthonormal");
-    }
-  }
-  const double det = h[0] * (h[5] * h[10] - h[6] * h[9]) - h[1] * (h[4] * h[10] - h[6] * h[8]) +
-                     h[2] * (h[4] * h[9] - h[5] * h[8]);
-  if (det < 0.0) Bad("pose's rotation is a reflection");
+// H on the wire: 16 numbers row by row, a rigid transform (base/pose.h) or a malformed payload.
+Eigen::Isometry3d CheckedPose(const std::array<double, 16>& row_major) {
+  Eigen::Isometry3d pose;
+  std::string why;
+  if (!base::PoseFromRowMajor(row_major, &pose, &why)) Bad(why);
+  return pose;
 }
 
 void Check(const CaptureRequest& r) {
@@ -48,7 +36,7 @@ void Check(const CaptureRequest& r) {
   if (!(r.last_column >= r.first_column)) Bad("sweep's last column before its first");
   if (SweepFrames(r) > kMaxSweepFrames)
     Bad("sweep of more than " + std::to_string(kMaxSweepFrames) + " frames");
-  CheckPose(r.mcs_from_flange);
+  CheckedPose(base::RowMajor(r.mcs_from_flange));
 }
 
 void Check(const ProbeStatus& s) {
@@ -100,7 +88,7 @@ Bytes Encode(const CaptureRequest& r) {
   PutString(&b, r.roi);
   for (std::uint16_t v : {r.aoi_x0, r.aoi_y0, r.aoi_width, r.aoi_height}) PutU16(&b, v);
   for (double v : {r.exposure_us, r.first_column, r.last_column, r.column_step}) PutF64(&b, v);
-  for (double v : r.mcs_from_flange) PutF64(&b, v);
+  for (double v : base::RowMajor(r.mcs_from_flange)) PutF64(&b, v);
   return b;
 }
 
@@ -111,7 +99,9 @@ CaptureRequest DecodeCaptureRequest(const Bytes& payload) {
   r.roi = in.String(kMaxRoiBytes);
   for (std::uint16_t* v : {&r.aoi_x0, &r.aoi_y0, &r.aoi_width, &r.aoi_height}) *v = in.U16();
   for (double* v : {&r.exposure_us, &r.first_column, &r.last_column, &r.column_step}) *v = in.F64();
-  for (double& v : r.mcs_from_flange) v = in.F64();
+  std::array<double, 16> h{};
+  for (double& v : h) v = in.F64();
+  r.mcs_from_flange = CheckedPose(h);
   in.ExpectEnd();
   Check(r);
   return r;

@@ -5,22 +5,13 @@
 
 namespace mlp::sim {
 
-Pose3 PoseOf(const std::array<double, 16>& h) {
-  Eigen::Matrix4d m;
-  for (int k = 0; k < 16; ++k) m(k / 4, k % 4) = h[static_cast<size_t>(k)];
-  Pose3 p = Pose3::Identity();
-  p.linear() = m.topLeftCorner<3, 3>();
-  p.translation() = m.topRightCorner<3, 1>();
-  return p;
-}
-
 probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe,
                                    std::uint64_t seed,
                                    const probe_fw::Projector& projector) {
   return [probe, seed, &projector](const link::CaptureRequest& r, const probe_fw::SweepPlan& plan) {
     Capture capture;
     capture.id = r.capture_id;
-    capture.mcs_from_flange = PoseOf(r.mcs_from_flange);
+    capture.mcs_from_flange = r.mcs_from_flange;
     SweepOptions o;
     o.aoi = plan.aoi;
     o.first_column = plan.columns.front();

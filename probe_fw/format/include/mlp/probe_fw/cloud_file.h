@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 namespace mlp::probe_fw {
 
 class CloudFileError : public std::runtime_error {
@@ -20,7 +22,7 @@ class CloudFileError : public std::runtime_error {
 
 struct CloudFileMeta {
   std::string probe_serial, calibration_id, capture_id;
-  std::optional<std::array<double, 16>> mcs_from_flange;  ///< H, row-major 4 x 4
+  std::optional<Eigen::Isometry3d> mcs_from_flange;  ///< H (a comment of 16 numbers row by row)
   std::string frame = "probe";  ///< the frame x y z are in: "probe" or "base" (a robot's)
 };
 

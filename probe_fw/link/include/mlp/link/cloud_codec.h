@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 namespace mlp::link {
 
 constexpr double kResolutionMm = 1e-4;
@@ -22,7 +24,8 @@ struct LinkCloud {
   std::string capture_id;
   std::string probe_serial;
   std::string calibration_id;
-  std::array<double, 16> mcs_from_flange{};  ///< H at capture, row-major 4 x 4
+  /// H at capture; on the wire 16 numbers row by row (base/pose.h)
+  Eigen::Isometry3d mcs_from_flange = Eigen::Isometry3d::Identity();
   /// The acquisition on the probe's clock [ns]: from arming the camera for the first frame (a
   /// virtual probe renders then) to the last frame in.
   std::int64_t first_frame_ns = 0;

@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <string>
 
+#include <Eigen/Geometry>
+
 namespace mlp::link {
 
 constexpr std::size_t kMaxRoiBytes = 128;       ///< "full", "rect:X,Y,W,H", "hole:X,Y", ...
@@ -25,8 +27,9 @@ struct CaptureRequest {
   double exposure_us = 100.0;                                           ///< per frame, (0, 1e6]
   double first_column = 0.0;  ///< projector columns of the sweep, inclusive
   double last_column = 0.0;
-  double column_step = 1.0;                  ///< > 0; at most kMaxSweepFrames laser frames
-  std::array<double, 16> mcs_from_flange{};  ///< H at capture, row-major 4 x 4
+  double column_step = 1.0;  ///< > 0; at most kMaxSweepFrames laser frames
+  /// H at capture; on the wire 16 numbers row by row (base/pose.h)
+  Eigen::Isometry3d mcs_from_flange = Eigen::Isometry3d::Identity();
 };
 
 enum StatusFlags : std::uint8_t {

@@ -22,7 +22,4 @@ probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe,
                                    std::uint64_t seed,
                                    const probe_fw::Projector& projector);
 
-/// H of a request as a pose.
-Pose3 PoseOf(const std::array<double, 16>& row_major);
-
 }  // namespace mlp::sim
