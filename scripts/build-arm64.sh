@@ -15,10 +15,11 @@ for tool in aarch64-linux-gnu-g++ qemu-aarch64; do
   }
 done
 sysroot=$(bash scripts/arm64-sysroot.sh)
+source scripts/build-env.sh
 echo "build-arm64: configuring build-arm64 (sysroot $sysroot)"
 cmake -S . -B build-arm64 -G Ninja -DCMAKE_TOOLCHAIN_FILE=cmake/aarch64-linux-gnu.cmake \
   -DMLP_ARM64_SYSROOT="$sysroot" -DMLP_FIRMWARE_ONLY=ON -DMLP_BUILD_TESTS=ON \
-  -DCMAKE_BUILD_TYPE=Release >/dev/null
+  -DCMAKE_BUILD_TYPE=Release "${mlp_launcher[@]}" >/dev/null
 cmake --build build-arm64 -j "${MLP_JOBS:-2}"
 echo "build-arm64: the firmware's tests under qemu-aarch64"
 ctest --test-dir build-arm64 --output-on-failure -j 2 --timeout 900

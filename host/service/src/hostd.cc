@@ -59,19 +59,12 @@ std::int64_t NextFreeJobNumber(const HostdConfig& c) {
   return highest + 1;
 }
 
-std::array<double, 16> RowMajor(const geometry::Pose3& p) {
-  std::array<double, 16> m{};
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) m[static_cast<size_t>(4 * r + c)] = p.matrix()(r, c);
-  return m;
-}
-
 // A capture request from the job's JSON: pose H, ROI, AOI and sweep (docs/HOSTD.md).
 link::CaptureRequest ParseCapture(const json& j, const std::string& capture_id) {
   link::CaptureRequest r;
   r.capture_id = capture_id;
-  r.mcs_from_flange = RowMajor(jf::Pose<RequestError>(
-      jf::Object<RequestError>(j, "mcs_from_flange", "request"), "request.mcs_from_flange"));
+  r.mcs_from_flange = jf::Pose<RequestError>(
+      jf::Object<RequestError>(j, "mcs_from_flange", "request"), "request.mcs_from_flange");
   r.roi = j.contains("roi") ? jf::Text<RequestError>(j, "roi", "request") : "full";
   if (!j.contains("aoi") || !j.at("aoi").is_array() || j.at("aoi").size() != 4)
     throw RequestError("request.aoi must be [x0, y0, width, height] in sensor pixels");

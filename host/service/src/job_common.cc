@@ -207,9 +207,7 @@ std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
     StoredCapture s;
     s.id = row.at("capture_id");
     s.probe_serial = f.meta.probe_serial;
-    for (int i = 0; i < 3; ++i)
-      for (int k = 0; k < 4; ++k)
-        s.mcs_from_flange.matrix()(i, k) = (*f.meta.mcs_from_flange)[4 * i + k];
+    s.mcs_from_flange = *f.meta.mcs_from_flange;
     s.points_in_probe = Eigen::Map<const Eigen::Matrix3Xd>(
         f.xyz.data(), 3, static_cast<Eigen::Index>(f.quality.size()));
     ctx.history.AddCapture(job, {row.at("capture_id"), row.at("pose"), path, row.at("cloud_sha256"),
