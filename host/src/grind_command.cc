@@ -54,7 +54,7 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
     std::vector<std::uint8_t> before, after;
     grind::RenderCase(p, job, cases[i], seed * 1000 + 2 * static_cast<unsigned>(i), &before,
                       &after);
-    char b[32], a[32];
+    char b[48], a[48];  // "point_" + up to 20 digits + "_before.pgm"
     std::snprintf(b, sizeof b, "point_%02zu_before.pgm", i);
     std::snprintf(a, sizeof a, "point_%02zu_after.pgm", i);
     grind::WritePgm((fs::path(dir) / b).string(), job.camera.width_px, job.camera.height_px,
