@@ -47,7 +47,9 @@ Data Make(const std::string& shape, int n) {
     const Vec3 radial = std::cos(t) * U() + std::sin(t) * V();
     Vec3 p, nrm;
     if (shape == "plane") {
-      p = kCenter + 100 * (uni(rng) - 0.5) * U() + 100 * (uni(rng) - 0.5) * V();
+      const double v = uni(rng);  // one draw per statement, in the order GCC took them
+      const double u = uni(rng);
+      p = kCenter + 100 * (u - 0.5) * U() + 100 * (v - 0.5) * V();
       nrm = kAxis;
     } else if (shape == "sphere") {
       const double polar = std::acos(uni(rng));

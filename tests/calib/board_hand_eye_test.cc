@@ -15,6 +15,7 @@
 #include <random>
 #include <string>
 
+#include "seeded_draw.h"
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
@@ -127,11 +128,13 @@ Views Observe(const World& w, bool two_axes, unsigned seed) {
     for (int r = 1; r <= kBoard.inner_rows && !dark; ++r)
       for (int c = 1; c <= kBoard.inner_cols; ++c)
         f.corners.push_back(w.camera.Project(poses[i] * Vec3(c * 5.0, r * 5.0, 0)) +
-                            Vec2(px(rng), px(rng)));
+                            test::DrawVec2(px, rng));
     AddStripe(w, poses[i], rng, &f);
     // The flange pose the robot reports: the true one, off by the robot's error.
     const Pose3 flange = w.b * poses[i].inverse() * w.x.inverse();
-    const Pose3 error = Turn(Vec3(deg(rng), deg(rng), deg(rng)), Vec3(mm(rng), mm(rng), mm(rng)));
+    const Vec3 error_mm = test::DrawVec3(mm, rng);  // before the angles: tests/seeded_draw.h
+    const Vec3 error_deg = test::DrawVec3(deg, rng);
+    const Pose3 error = Turn(error_deg, error_mm);
     v.images.push_back({f.name, f.name, flange * error});
     v.findings.push_back(std::move(f));
   }

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "seeded_draw.h"
 #include <gtest/gtest.h>
 
 namespace mlp::calib::testing {
@@ -100,12 +101,12 @@ inline std::vector<SphereCapture> SyntheticCaps(const Truth& truth,
     pts->resize(3, points);
     for (int k = 0; k < points; ++k) {
       if (unit(gen) * 0.5 + 0.5 < outlier_fraction) {
-        pts->col(k) = q + 1.5 * truth.radius_mm * Vec3(unit(gen), unit(gen), unit(gen));
+        pts->col(k) = q + 1.5 * truth.radius_mm * test::DrawVec3(unit, gen);
         continue;
       }
       Vec3 n;
       do {
-        n = Vec3(normal(gen), normal(gen), normal(gen)).normalized();
+        n = test::DrawVec3(normal, gen).normalized();
       } while (n.dot(-q.normalized()) < std::cos(M_PI / 3));
       pts->col(k) = q + (truth.radius_mm + noise_mm * normal(gen)) * n;
     }

@@ -8,6 +8,7 @@
 #include <random>
 
 #include "calib/probe_truth.h"
+#include "seeded_draw.h"
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
@@ -77,10 +78,12 @@ Synthetic Observe(const probe_fw::ProbeModel& truth, const probe_fw::ProbeModel&
     for (int j = 1; j <= kBoard.inner_rows; ++j)
       for (int i = 1; i <= kBoard.inner_cols; ++i)
         corners.push_back(k.Project(pose * Vec3(i * kBoard.square_mm, j * kBoard.square_mm, 0)) +
-                          Vec2(corner_noise(rng), corner_noise(rng)));
+                          test::DrawVec2(corner_noise, rng));
     in.corners.push_back(corners);
     for (int n = 0; n < kStripesPerView; ++n) {
-      const Vec3 p = pose * Vec3(on_board_x(rng), on_board_y(rng), 0);
+      const double y = on_board_y(rng);  // y drawn first: tests/seeded_draw.h
+      const double x = on_board_x(rng);
+      const Vec3 p = pose * Vec3(x, y, 0);
       const Vec2 px = k.Project(p);
       const double column = proj.ColumnOf(p);
       if (px.x() < 0 || px.y() < 0 || px.x() > truth.camera.width_px ||

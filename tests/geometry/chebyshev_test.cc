@@ -10,6 +10,7 @@
 #include <random>
 
 #include "nullspace.h"
+#include "seeded_draw.h"
 #include <gtest/gtest.h>
 
 namespace mlp::geometry {
@@ -29,7 +30,7 @@ TEST(MinZonePlane, ExactSlabWithInterlacedContacts) {
   std::vector<Vec3> pts;
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
   for (int i = 0; i < 500; ++i)
-    pts.push_back(Vec3(30 * uni(rng), 20 * uni(rng), 0.9 * half * uni(rng)));
+    pts.push_back(test::DrawVec3(uni, rng).cwiseProduct(Vec3(30, 20, 0.9 * half)));
   for (double s : {-1.0, 1.0}) {
     pts.push_back(Vec3(30 * s, 0, half));
     pts.push_back(Vec3(0, 20 * s, -half));
@@ -52,13 +53,18 @@ TEST(MinZonePlane, NoTiltBeatsItOnRandomData) {
   std::normal_distribution<double> g(0.0, 0.01);
   std::uniform_real_distribution<double> uni(-50.0, 50.0);
   Points3 p(3, 2000);
-  for (int i = 0; i < 2000; ++i) p.col(i) = Vec3(uni(rng), uni(rng), 0.001 * uni(rng) + g(rng));
+  for (int i = 0; i < 2000; ++i) {
+    const double z_form = uni(rng);  // z's two draws first: tests/seeded_draw.h
+    const double z_noise = g(rng);
+    const Vec2 xy = test::DrawVec2(uni, rng);
+    p.col(i) = Vec3(xy.x(), xy.y(), 0.001 * z_form + z_noise);
+  }
   const auto mz = FitMinZonePlane(p);
   const auto ls = FitPlane(p);
   EXPECT_LE(mz.flatness, ls.stats.max_residual - ls.stats.min_residual + 1e-12);
   for (int k = 0; k < 4000; ++k) {
     std::normal_distribution<double> tilt(0.0, 2e-4);
-    const Vec3 n = (mz.plane.normal + Vec3(tilt(rng), tilt(rng), tilt(rng))).normalized();
+    const Vec3 n = (mz.plane.normal + test::DrawVec3(tilt, rng)).normalized();
     const Eigen::VectorXd h = n.transpose() * p;
     EXPECT_GE(h.maxCoeff() - h.minCoeff(), mz.flatness - 1e-12);
   }
@@ -70,8 +76,11 @@ TEST(MinZoneLine, ExactProfileWithAlternatingContacts) {
   Points3 p(3, 203);
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
-  for (int i = 0; i < 200; ++i)
-    p.col(i) = Vec3(10, 20, 30) + dir * 40 * uni(rng) + across * 0.8 * half * uni(rng);
+  for (int i = 0; i < 200; ++i) {
+    const double t_across = uni(rng);  // the last term's draw first: tests/seeded_draw.h
+    const double t_along = uni(rng);
+    p.col(i) = Vec3(10, 20, 30) + dir * 40 * t_along + across * 0.8 * half * t_across;
+  }
   p.col(200) = Vec3(10, 20, 30) - dir * 40 + across * half;
   p.col(201) = Vec3(10, 20, 30) + across * -half;
   p.col(202) = Vec3(10, 20, 30) + dir * 40 + across * half;

@@ -8,6 +8,7 @@
 
 #include <random>
 
+#include "seeded_draw.h"
 #include <gtest/gtest.h>
 
 namespace mlp::geometry {
@@ -30,7 +31,7 @@ Points3 Noisy(const Pose3& mcs_from_work, std::vector<Vec3> pts_in_work, std::mt
   std::normal_distribution<double> noise(0.0, 0.001);
   Points3 out(3, pts_in_work.size());
   for (size_t i = 0; i < pts_in_work.size(); ++i) {
-    out.col(i) = mcs_from_work * pts_in_work[i] + Vec3(noise(rng), noise(rng), noise(rng));
+    out.col(i) = mcs_from_work * pts_in_work[i] + test::DrawVec3(noise, rng);
   }
   return out;
 }
@@ -41,7 +42,10 @@ TEST(Datum, PlaneCircleCircleRecoversThePartPose) {
   const Pose3 truth = TruePose();
   std::uniform_real_distribution<double> uni(-40.0, 40.0);
   std::vector<Vec3> face, hole_b, hole_c;
-  for (int i = 0; i < 400; ++i) face.push_back(Vec3(uni(rng), uni(rng) + 30, 0));
+  for (int i = 0; i < 400; ++i) {
+    const Vec2 xy = test::DrawVec2(uni, rng);
+    face.push_back(Vec3(xy.x(), xy.y() + 30, 0));
+  }
   for (int i = 0; i < 90; ++i) {
     const double t = 2 * M_PI * i / 90;
     hole_b.push_back(Vec3(6 * std::cos(t), 6 * std::sin(t), -2.0));
@@ -68,7 +72,10 @@ TEST(Datum, PlaneLinePointRecoversThePartPose) {
   const Pose3 truth = TruePose();
   std::uniform_real_distribution<double> uni(0.0, 80.0);
   std::vector<Vec3> face, edge;
-  for (int i = 0; i < 300; ++i) face.push_back(Vec3(uni(rng) + 5, uni(rng) + 5, 0));
+  for (int i = 0; i < 300; ++i) {
+    const Vec2 xy = test::DrawVec2(uni, rng);
+    face.push_back(Vec3(xy.x() + 5, xy.y() + 5, 0));
+  }
   for (int i = 0; i < 100; ++i) edge.push_back(Vec3(uni(rng), 0, -1.5));  // side face at y = 0
   const auto plane = FitPlane(Noisy(truth, face, rng));
   const auto line = FitLine3(Noisy(truth, edge, rng));

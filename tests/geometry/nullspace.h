@@ -9,6 +9,7 @@
 
 #include <random>
 
+#include "seeded_draw.h"
 #include <Eigen/Cholesky>
 
 namespace mlp::test {
@@ -40,7 +41,7 @@ inline void Frame(const Vec3& w, Vec3* u, Vec3* v) {
 /// A random unit vector.
 inline Vec3 RandomDirection(std::mt19937_64& rng) {
   std::normal_distribution<double> g(0.0, 1.0);
-  return Vec3(g(rng), g(rng), g(rng)).normalized();
+  return DrawVec3(g, rng).normalized();
 }
 
 }  // namespace mlp::test

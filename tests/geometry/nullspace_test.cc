@@ -9,6 +9,7 @@
 
 #include <sstream>
 
+#include "seeded_draw.h"
 #include <gtest/gtest.h>
 
 namespace mlp::geometry {
@@ -283,7 +284,7 @@ TEST_P(NullSpace, PlaneAndLine) {
   Eigen::MatrixXd jac(c.n, 3), jac_line(c.n, 2);
   Points2 xy(2, c.n);
   for (int i = 0; i < c.n; ++i) {
-    xy.col(i) = Vec2(uni(rng_), 0.4 * uni(rng_));
+    xy.col(i) = test::DrawVec2(uni, rng_).cwiseProduct(Vec2(1.0, 0.4));
     jac.row(i) << 1.0, xy.col(i).transpose();
     jac_line.row(i) << 1.0, xy(0, i);
   }

@@ -42,7 +42,10 @@ Points3 Patch(
   const Vec3 u = w.unitOrthogonal(), v = w.cross(u);
   Points3 p(3, n);
   for (int i = 0; i < n; ++i) {
-    p.col(i) = Vec3::Constant(offset_mm) + along(gen) * u + along(gen) * v + noise(gen) * w;
+    const double h = noise(gen);  // the last term's draw first: tests/seeded_draw.h
+    const double b = along(gen);
+    const double a = along(gen);
+    p.col(i) = Vec3::Constant(offset_mm) + a * u + b * v + h * w;
   }
   return p;
 }

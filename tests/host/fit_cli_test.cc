@@ -6,6 +6,7 @@
 #include <fstream>
 #include <random>
 
+#include "seeded_draw.h"
 #include "test_data.h"
 #include <Eigen/Core>
 #include <gtest/gtest.h>
@@ -41,7 +42,8 @@ TEST(FitCli, SphereFromXyzTextGivesContractFields) {
   std::normal_distribution<double> g(0.0, 1.0), noise(0.0, 0.001);
   std::string text = "# reference sphere, r = 12.7 mm at (100, -50, 20)\n";
   for (int i = 0; i < 500; ++i) {
-    Eigen::Vector3d d(g(rng), g(rng), std::abs(g(rng)));
+    Eigen::Vector3d d = mlp::test::DrawVec3(g, rng);
+    d.z() = std::abs(d.z());
     d.normalize();
     const Eigen::Vector3d p = Eigen::Vector3d(100, -50, 20) + (12.7 + noise(rng)) * d;
     text +=

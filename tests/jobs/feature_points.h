@@ -20,7 +20,11 @@ class CloudMaker {
   void Patch(const Vec3& origin, const Vec3& u, const Vec3& v, double su, double sv, int count) {
     std::uniform_real_distribution<double> a(0, su), b(0, sv);
     const Vec3 normal = u.cross(v).normalized();
-    for (int i = 0; i < count; ++i) Add(origin + a(rng_) * u + b(rng_) * v, normal);
+    for (int i = 0; i < count; ++i) {
+      const double t_v = b(rng_);  // the last term's draw first: tests/seeded_draw.h
+      const double t_u = a(rng_);
+      Add(origin + t_u * u + t_v * v, normal);
+    }
   }
 
   // The wall of a vertical cylinder (axis +Z) from z0 to z1, angles a0..a1 [deg].

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "feature_points.h"
+#include "seeded_draw.h"
 #include <gtest/gtest.h>
 
 namespace mlp::jobs {
@@ -102,12 +103,19 @@ TEST(Plane, FaceThroughChipsAndBurrs) {
   const Vec3 normal = Vec3(0.001, -0.002, 1).normalized();  // a face 0.13 deg off level
   std::vector<Vec3> p;
   for (int i = 0; i < 5000; ++i) {
-    const Vec3 q(u(rng), u(rng), 0);
+    const Eigen::Vector2d xy = mlp::test::DrawVec2(u, rng);
+    const Vec3 q(xy.x(), xy.y(), 0);
     p.push_back(q - (q.dot(normal) - 5.0 * normal.z()) / normal.z() * Vec3::UnitZ() +
                 noise(rng) * normal);
   }
-  for (int i = 0; i < 50; ++i) p.emplace_back(u(rng), u(rng), 5.0 + 0.05);  // chips, 50 um
-  for (int i = 0; i < 500; ++i) p.emplace_back(u(rng), u(rng), 2.0);        // a lower step
+  for (int i = 0; i < 50; ++i) {  // chips, 50 um
+    const Eigen::Vector2d xy = mlp::test::DrawVec2(u, rng);
+    p.emplace_back(xy.x(), xy.y(), 5.0 + 0.05);
+  }
+  for (int i = 0; i < 500; ++i) {  // a lower step
+    const Eigen::Vector2d xy = mlp::test::DrawVec2(u, rng);
+    p.emplace_back(xy.x(), xy.y(), 2.0);
+  }
   geometry::Points3 m(3, static_cast<Eigen::Index>(p.size()));
   for (size_t i = 0; i < p.size(); ++i) m.col(static_cast<Eigen::Index>(i)) = p[i];
   PlaneNominal n;

@@ -71,7 +71,11 @@ std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,
         int inside = 0;
         for (int i = 0; i < kSub; ++i)
           for (int j = 0; j < kSub; ++j) {
-            const Vec2 q(u - 0.5 + (i + unit(rng)) / kSub, v - 0.5 + (j + unit(rng)) / kSub);
+            // One draw per statement, v's first: the order GCC gave the former one-expression
+            // form (C++ leaves it open), so the frames stay as they were on every compiler.
+            const double jitter_v = unit(rng);
+            const double jitter_u = unit(rng);
+            const Vec2 q(u - 0.5 + (i + jitter_u) / kSub, v - 0.5 + (j + jitter_v) / kSub);
             inside += Material(nominal, stock_mm, strokes, c.ToMm(q)) < 0;
           }
         share = static_cast<double>(inside) / (kSub * kSub);

@@ -220,7 +220,11 @@ ViewPlan RandomPlan(std::mt19937_64& rng, double standoff_mm) {
   p.azimuth_rad = 2 * M_PI * unit(rng);
   p.spin_rad = 2 * M_PI * unit(rng);
   p.standoff_mm = standoff_mm;
-  p.offset_mm = kMaxOffsetMm * geometry::Vec2(2 * unit(rng) - 1, 2 * unit(rng) - 1);
+  // One draw per statement, y first: the order GCC gave the former one-expression form (C++
+  // leaves it open), so the views stay as they were on every compiler.
+  const double offset_y = 2 * unit(rng) - 1;
+  const double offset_x = 2 * unit(rng) - 1;
+  p.offset_mm = kMaxOffsetMm * geometry::Vec2(offset_x, offset_y);
   p.aoi_px = kCentreAoiPx;
   return p;
 }
