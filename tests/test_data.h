@@ -8,9 +8,15 @@
 
 namespace mlp::test {
 
+/// The checkout the tests were built from (tests/test_paths.cc).
+std::string SourceDir();
+
+/// A program of this build by its file name ("mlp", "mlp-hostd", "mlp-sim", "mlp-fw").
+std::string Program(const std::string& name);
+
 /// The real data kept in the repository (samples/data: PCL clouds, NIST, the line scanner).
 inline std::filesystem::path RepoDataDir() {
-  return std::filesystem::path(MLP_SOURCE_DIR) / "samples" / "data";
+  return std::filesystem::path(SourceDir()) / "samples" / "data";
 }
 
 /// The shared data folder (only the Blaser images, which may not be copied into the repository):
@@ -18,7 +24,7 @@ inline std::filesystem::path RepoDataDir() {
 /// need it fail, not skip, when it is missing.
 inline std::filesystem::path SharedDataDir() {
   if (const char* env = std::getenv("MLP_SHARED_DATA"); env && *env) return env;
-  return std::filesystem::path(MLP_SOURCE_DIR) / ".." / "shared" / "data";
+  return std::filesystem::path(SourceDir()) / ".." / "shared" / "data";
 }
 
 }  // namespace mlp::test

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "seeded_draw.h"
+#include "test_data.h"
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
@@ -143,7 +144,7 @@ Views Observe(const World& w, bool two_axes, unsigned seed) {
 
 probe_fw::ProbeModel TrueProbe(const World& w) {
   return LineLaserProbeModel(
-      probe_fw::LoadProbeModel(std::string(MLP_SOURCE_DIR) + "/samples/probes/blaser_design.json"),
+      probe_fw::LoadProbeModel(mlp::test::SourceDir() + "/samples/probes/blaser_design.json"),
       w.camera, w.plane, "truth");
 }
 

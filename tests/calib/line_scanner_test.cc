@@ -161,7 +161,7 @@ TEST(SphereCaptureManifest, TheSampleReadsWholeWithItsProfiles) {
     throw CaptureIoError("no reader for " + path);
   };
   const SphereCaptureManifest m = LoadSphereCaptureManifest(
-      std::string(MLP_SOURCE_DIR) + "/samples/calib/line_scanner_ball.json", refuse);
+      mlp::test::SourceDir() + "/samples/calib/line_scanner_ball.json", refuse);
   EXPECT_EQ(m.probe_serial, "LINE-SCANNER-BALL");
   EXPECT_DOUBLE_EQ(m.sphere_radius_mm, 12.7);
   EXPECT_EQ(m.max_std_mm, 1.0);

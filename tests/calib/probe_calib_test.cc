@@ -9,6 +9,7 @@
 
 #include "calib/probe_truth.h"
 #include "seeded_draw.h"
+#include "test_data.h"
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
@@ -19,7 +20,7 @@ using geometry::Pose3;
 using geometry::Vec2;
 using geometry::Vec3;
 
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
 constexpr double kTriangulationRmsTolMm = 0.005;  // issue 5
 constexpr double kCornerNoisePx = 0.05;           // what the rendered views show (0.042)
 constexpr double kStripeNoisePx = 0.05;

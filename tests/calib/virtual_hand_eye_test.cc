@@ -10,6 +10,7 @@
 #include <chrono>
 
 #include "hand_eye_fixture.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 
 namespace mlp::calib {
@@ -21,7 +22,7 @@ constexpr double kCentreTolMm = 0.002;
 constexpr int kAoiPx = 400;        // the central part of the sphere's image (radius ~470 px)
 constexpr double kColumnStep = 4;  // every fourth projector column
 
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
 
 sim::Scene SphereScene(const testing::Truth& truth) {
   sim::Scene s;

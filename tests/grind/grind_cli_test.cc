@@ -5,13 +5,14 @@
 #include <fstream>
 
 #include "process_run.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 namespace {
 
 using mlp::test::RunProcess;
-const std::string kMlp = MLP_BINARY;
+const std::string kMlp = mlp::test::Program("mlp");
 constexpr double kDTolMm = 0.001;
 
 TEST(GrindCli, RendersAndMeasuresASweepIntoCompensations) {

@@ -7,6 +7,7 @@
 
 #include "calib/hand_eye_fixture.h"
 #include "process_run.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -22,7 +23,7 @@ constexpr double kLineScannerPointRmsMm = 0.245;  // measured 0.242, see line_sc
 using test::ProcessRun;
 
 ProcessRun Mlp(const std::string& args, const fs::path&) {
-  return test::RunProcess(std::string(MLP_BINARY) + " calibrate " + args);
+  return test::RunProcess(mlp::test::Program("mlp") + " calibrate " + args);
 }
 
 fs::path FreshDir(const std::string& name) {
@@ -140,7 +141,7 @@ TEST(CalibrateCli, HandEyeThenRecheckAreStoredAndRefusalsStoreNothing) {
 TEST(CalibrateCli, RealLineScannerSampleManifest) {
   const fs::path dir = FreshDir("line_scanner");
   // The sample as it is in the repository: its cloud paths lead to samples/data, in the clone.
-  const std::string ball = std::string(MLP_SOURCE_DIR) + "/samples/calib/line_scanner_ball.json";
+  const std::string ball = mlp::test::SourceDir() + "/samples/calib/line_scanner_ball.json";
   const ProcessRun run = Mlp(
       "hand-eye --json --dry-run --store " + (dir / "store").string() + " --captures " + ball, dir);
   ASSERT_EQ(run.exit_code, 0) << run.err;

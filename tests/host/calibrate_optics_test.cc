@@ -18,6 +18,7 @@
 #include "calib/as_built_truth.h"
 #include "calib/probe_truth.h"
 #include "process_run.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -28,17 +29,16 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 using test::RunProcess;
 
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
-const std::string kAsBuilt =
-    std::string(MLP_SOURCE_DIR) + "/samples/probes/as_built/MLP-AB-0001.json";
+const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
+const std::string kAsBuilt = mlp::test::SourceDir() + "/samples/probes/as_built/MLP-AB-0001.json";
 const std::string kAsBuiltCalibrated =
-    std::string(MLP_SOURCE_DIR) + "/samples/probes/as_built/MLP-AB-0001.calibrated.json";
-const std::string kBoardScene = std::string(MLP_SOURCE_DIR) + "/samples/calib/board_scene.json";
-const std::string kRenderViews =
-    std::string(MLP_SOURCE_DIR) + "/samples/calib/render_board_views.sh";
-const std::string kSim = MLP_SIM_BINARY, kMlp = MLP_BINARY;  // mlp-fw: beside mlp-sim
-constexpr int kViews = 16;                                   // the sample scene's captures
-constexpr double kTriangulationRmsTolMm = 0.005;             // issue 5
+    mlp::test::SourceDir() + "/samples/probes/as_built/MLP-AB-0001.calibrated.json";
+const std::string kBoardScene = mlp::test::SourceDir() + "/samples/calib/board_scene.json";
+const std::string kRenderViews = mlp::test::SourceDir() + "/samples/calib/render_board_views.sh";
+const std::string kSim = mlp::test::Program("mlp-sim"),
+                  kMlp = mlp::test::Program("mlp");  // mlp-fw: beside mlp-sim
+constexpr int kViews = 16;                           // the sample scene's captures
+constexpr double kTriangulationRmsTolMm = 0.005;     // issue 5
 constexpr double kFocalRelTol = 0.001;  // camera-only focal length vs truth: 0.1 % (~5 px)
 constexpr double kCentreTolPx = 12.0;   // principal point: ~3 sigma of 16 views with this lens
 

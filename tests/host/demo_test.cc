@@ -9,6 +9,7 @@
 #include <filesystem>
 
 #include "process_run.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -35,8 +36,9 @@ constexpr double kRadiusBeforeMm = 4.999;                        // T12 D9.998 i
 TEST(Demo, TheWholeChainMeetsTheTruth) {
   const fs::path dir = fs::temp_directory_path() / "mlp_demo_test";
   fs::remove_all(dir);
-  const auto run = test::RunProcess(std::string(MLP_BINARY) + " demo --json --port 17436 --dir " +
-                                    dir.string() + " --samples " + MLP_SOURCE_DIR "/samples");
+  const auto run =
+      test::RunProcess(mlp::test::Program("mlp") + " demo --json --port 17436 --dir " +
+                       dir.string() + " --samples " + mlp::test::SourceDir() + "/samples");
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
   const json s = json::parse(run.out);
   std::printf("%s\n", s.dump().c_str());

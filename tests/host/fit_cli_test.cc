@@ -22,7 +22,7 @@ struct CliRun {
 
 // Runs the mlp binary with a shell command line; stderr is discarded by the caller's redirect.
 CliRun RunMlp(const std::string& args) {
-  const std::string cmd = std::string(MLP_BINARY) + " " + args;
+  const std::string cmd = mlp::test::Program("mlp") + " " + args;
   FILE* pipe = popen(cmd.c_str(), "r");
   std::string out;
   char buf[4096];

@@ -13,6 +13,7 @@
 #include <cstring>
 
 #include "hostd_site.h"
+#include "test_data.h"
 
 namespace mlp {
 namespace {
@@ -25,7 +26,7 @@ using test::Site;
 using json = nlohmann::json;
 namespace fs = std::filesystem;
 
-const std::string kFw = MLP_FW_BINARY;
+const std::string kFw = mlp::test::Program("mlp-fw");
 constexpr int kPort = 17460;
 constexpr size_t kMinPoints = 5000;  // the top face fills the 200 x 200 px window
 

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "process_run.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <sys/wait.h>
@@ -30,18 +31,17 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 using namespace std::chrono_literals;
 
-inline const std::string kMlp = MLP_BINARY, kHostd = MLP_HOSTD_BINARY, kSim = MLP_SIM_BINARY;
-inline const std::string kProbe =
-    std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
-inline const std::string kScene = std::string(MLP_SOURCE_DIR) + "/samples/scenes/bore_block.json";
+inline const std::string kMlp = mlp::test::Program("mlp"), kHostd = mlp::test::Program("mlp-hostd"),
+                         kSim = mlp::test::Program("mlp-sim");
+inline const std::string kProbe = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
+inline const std::string kScene = mlp::test::SourceDir() + "/samples/scenes/bore_block.json";
 // The probe as built (the virtual probe renders with it) and its calibration, made by the
 // product's chain (the firmware and the host use only that): issue 16, docs/PROBE.md.
 inline const std::string kAsBuilt =
-    std::string(MLP_SOURCE_DIR) + "/samples/probes/as_built/MLP-AB-0001.json";
+    mlp::test::SourceDir() + "/samples/probes/as_built/MLP-AB-0001.json";
 inline const std::string kCalibratedModel =
-    std::string(MLP_SOURCE_DIR) + "/samples/probes/as_built/MLP-AB-0001.calibrated.json";
-inline const std::string kDemoPlate =
-    std::string(MLP_SOURCE_DIR) + "/samples/scenes/demo_plate.json";
+    mlp::test::SourceDir() + "/samples/probes/as_built/MLP-AB-0001.calibrated.json";
+inline const std::string kDemoPlate = mlp::test::SourceDir() + "/samples/scenes/demo_plate.json";
 constexpr int kLinkPort = 17431;  // each test that runs a probe link has its own port
 
 // A child process with its stderr in a file; SIGTERM and wait on destruction.

@@ -10,13 +10,13 @@
 #include <cstdio>
 
 #include "hostd_site.h"
+#include "test_data.h"
 
 namespace mlp::test {
 namespace {
 
 constexpr int kInspectPort = 17439;  // this test's probe link
-const std::string kFeaturesBlock =
-    std::string(MLP_SOURCE_DIR) + "/samples/scenes/features_block.json";
+const std::string kFeaturesBlock = mlp::test::SourceDir() + "/samples/scenes/features_block.json";
 constexpr double kSizeTolMm = 0.002;          // issue 6: sizes within 2 um (as the bore)
 constexpr double kPositionTolMm = 0.005;      // positions within 5 um (as the alignment origin)
 constexpr double kAngleTolDeg = 10.0 / 3600;  // angles within 10 arcsec

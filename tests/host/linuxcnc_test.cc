@@ -10,6 +10,7 @@
 #include <future>
 
 #include "hostd_site.h"
+#include "test_data.h"
 
 namespace mlp {
 namespace {
@@ -21,8 +22,8 @@ using test::Site;
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
-const std::string kConfig = std::string(MLP_SOURCE_DIR) + "/samples/linuxcnc/mlprobe-sim";
-const std::string kDriver = std::string(MLP_SOURCE_DIR) + "/tests/linuxcnc/lcnc.py";
+const std::string kConfig = mlp::test::SourceDir() + "/samples/linuxcnc/mlprobe-sim";
+const std::string kDriver = mlp::test::SourceDir() + "/tests/linuxcnc/lcnc.py";
 constexpr int kPort = 17433;              // this test's probe link
 constexpr int kAlignPort = 17438;         // the alignment test's
 constexpr int kPosePort = 17440;          // the controller-pose test's

@@ -37,7 +37,7 @@ constexpr double kHeldOutRmsMm = 0.41;  // measured 0.338 mm
 constexpr double kHeldOutMaxMm = 1.06;  // measured 0.880 mm
 
 test::ProcessRun Mlp(const std::string& args) {
-  return test::RunProcess(std::string(MLP_BINARY) + " calibrate " + args);
+  return test::RunProcess(mlp::test::Program("mlp") + " calibrate " + args);
 }
 
 // A poses file of the images whose number satisfies `keep`, and a manifest for it.
@@ -51,7 +51,7 @@ std::string Manifest(const fs::path& dir, const std::string& name, bool held_out
   for (size_t i = 0; i + 2 < lines.size(); i += 3)
     if (((i / 3) % 5 == 0) == held_out)
       poses << lines[i] << "\n" << lines[i + 1] << "\n" << lines[i + 2] << "\n";
-  std::ifstream sample(std::string(MLP_SOURCE_DIR) + "/samples/robot/blaser_views.json");
+  std::ifstream sample(mlp::test::SourceDir() + "/samples/robot/blaser_views.json");
   json m = json::parse(sample);
   m["images"] = fs::absolute(data).string();
   m["poses"]["file"] = (dir / (name + ".txt")).string();
@@ -65,7 +65,7 @@ TEST(RobotViewsCli, LineLaserHandEyeAndMapOnHeldOutRealImages) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string fit = Manifest(dir, "fit", false), held = Manifest(dir, "held_out", true);
-  const std::string design = std::string(MLP_SOURCE_DIR) + "/samples/probes/blaser_design.json";
+  const std::string design = mlp::test::SourceDir() + "/samples/probes/blaser_design.json";
   const std::string probe = (dir / "probe.json").string(),
                     refined = (dir / "refined.json").string();
   const std::string store = (dir / "store").string();
@@ -131,7 +131,7 @@ TEST(RobotViewsCli, LineLaserHandEyeAndMapOnHeldOutRealImages) {
   const auto twice = Mlp("map --views " + held + " --probe " + refined + " --store " + store +
                          " --out " + clouds.string());
   EXPECT_EQ(twice.exit_code, 2) << twice.err;
-  const auto mems = Mlp("map --views " + held + " --probe " + std::string(MLP_SOURCE_DIR) +
+  const auto mems = Mlp("map --views " + held + " --probe " + mlp::test::SourceDir() +
                         "/samples/probes/reference_probe.json --store " + store + " --out " +
                         (dir / "mems").string());
   EXPECT_EQ(mems.exit_code, 2) << mems.err;

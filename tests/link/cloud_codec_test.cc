@@ -9,6 +9,7 @@
 #include <cmath>
 #include <random>
 
+#include "test_data.h"
 #include <gtest/gtest.h>
 
 namespace mlp::link {
@@ -17,7 +18,7 @@ namespace {
 constexpr double kLossMm = 0.5 * kResolutionMm;  // rounding to the 0.1 um grid
 constexpr double kTargetBytesPerPoint = 4.0;     // issue 4, typical ROI cloud, compressed
 
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
 
 // A typical ROI cloud: the firmware's reconstruction of a 300 x 300 px face patch.
 LinkCloud FirmwareCloud() {

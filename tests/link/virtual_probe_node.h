@@ -14,12 +14,14 @@
 #include <string>
 #include <thread>
 
+#include "test_data.h"
+
 namespace mlp::link::testing {
 
 using namespace std::chrono_literals;
 
 inline const std::string kReferenceProbe =
-    std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+    mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
 
 // A box whose top face is z = 0 in the MCS, seen by the reference probe looking down.
 inline std::shared_ptr<const sim::VirtualProbe> BoxProbe(const std::string& serial) {

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "scenes.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 
 namespace mlp::sim {
@@ -20,9 +21,8 @@ namespace {
 
 using probe_fw::CloudPoint;
 
-const std::string kSample =
-    std::string(MLP_SOURCE_DIR) + "/samples/probes/as_built/MLP-AB-0001.json";
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kSample = mlp::test::SourceDir() + "/samples/probes/as_built/MLP-AB-0001.json";
+const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
 
 constexpr double kExactMm = 1e-12;
 constexpr double kExactCols = 1e-9;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <sys/wait.h>
@@ -29,9 +30,10 @@ ProcessRun Exec(const std::string& cmd) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
 }
 
-const std::string kProbe = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
-const std::string kScene = std::string(MLP_SOURCE_DIR) + "/samples/scenes/bore_block.json";
-const std::string kSim = MLP_SIM_BINARY, kFw = MLP_FW_BINARY, kMlp = MLP_BINARY;
+const std::string kProbe = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
+const std::string kScene = mlp::test::SourceDir() + "/samples/scenes/bore_block.json";
+const std::string kSim = mlp::test::Program("mlp-sim"), kFw = mlp::test::Program("mlp-fw"),
+                  kMlp = mlp::test::Program("mlp");
 
 fs::path TempDir(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("mlp_probe_cli_" + name);
@@ -135,7 +137,7 @@ TEST(ProbeCli, MissingCameraIsExitThreeWithAClearReason) {
 // unit does not retry) and, with no camera or mirror driver on this machine, names the missing
 // device (exit 3, retried).
 TEST(ProbeCli, TheBoardsSystemdUnitIsValidAndItsCommandLineRuns) {
-  const fs::path samples = fs::path(MLP_SOURCE_DIR) / "samples" / "probe_board";
+  const fs::path samples = fs::path(mlp::test::SourceDir()) / "samples" / "probe_board";
   const fs::path dir = TempDir("unit");
   fs::create_directories(dir);
   std::ifstream unit_in(samples / "mlp-fw.service");
@@ -225,8 +227,7 @@ TEST(ProbeCli, ServeRefusesABadKeyAMissingBoardAndAForeignRecording) {
 // file: `mlp-sim serve` refuses to start without the model the firmware is to use.
 TEST(ProbeCli, AnAsBuiltProbeRendersButItsFirmwareNeverReadsIt) {
   const fs::path dir = TempDir("as_built");
-  const std::string as_built =
-      std::string(MLP_SOURCE_DIR) + "/samples/probes/as_built/MLP-AB-0001.json";
+  const std::string as_built = mlp::test::SourceDir() + "/samples/probes/as_built/MLP-AB-0001.json";
   ProcessRun r = Exec(kSim + " render --probe " + as_built + " --scene " + kScene + " --out " +
                       (dir / "frames").string() + " --capture top_face --aoi 924,668,64,64");
   ASSERT_EQ(r.exit_code, 0) << r.out;

@@ -4,6 +4,7 @@
 
 #include "mlp/probe_fw/ghost.h"
 
+#include "test_data.h"
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
@@ -122,8 +123,7 @@ TEST(RejectIndirectLight, AOneFrameGhostJustPastTheTraceEndLoses) {
 // The reference probe's projector sits along +x: direct light moves along the rows as the column
 // grows, not along the columns. Turned by 90 deg about the optical axis, the other way round.
 TEST(DirectMotion, FollowsTheBaseline) {
-  ProbeModel m =
-      LoadProbeModel(std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json");
+  ProbeModel m = LoadProbeModel(mlp::test::SourceDir() + "/samples/probes/reference_probe.json");
   double row = 0.0, column = 0.0;
   DirectMotion(m, &row, &column);
   EXPECT_NE(row, 0.0);

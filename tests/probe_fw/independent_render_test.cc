@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "test_data.h"
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -32,8 +33,8 @@ namespace fs = std::filesystem;
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 
-const std::string kProbeFile = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
-const std::string kFw = MLP_FW_BINARY;
+const std::string kProbeFile = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
+const std::string kFw = mlp::test::Program("mlp-fw");
 
 struct Camera {
   double fx = 0, fy = 0, cx = 0, cy = 0, k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;

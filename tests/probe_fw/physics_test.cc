@@ -15,12 +15,13 @@
 #include <numeric>
 
 #include "scenes.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 
 namespace mlp::sim {
 namespace {
 
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
 
 struct Moments {
   double mean = 0.0, contrast = 0.0, neighbour_correlation = 0.0;

@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include "scenes.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 
 namespace mlp::sim {
@@ -21,7 +22,7 @@ constexpr double kStripeRmsPx = 0.05;
 constexpr double kPointRmsMm = 0.005;
 constexpr double kPlaneMm = 0.002;
 
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
 
 // The sample block's top face, 100 mm square.
 Scene FlatScene(double reflectance) { return testing::FlatScene(reflectance, 50.0); }

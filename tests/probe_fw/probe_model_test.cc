@@ -10,12 +10,13 @@
 #include <fstream>
 #include <random>
 
+#include "test_data.h"
 #include <gtest/gtest.h>
 
 namespace mlp::probe_fw {
 namespace {
 
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
 
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path);

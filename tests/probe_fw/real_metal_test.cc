@@ -10,6 +10,7 @@
 #include <cstdio>
 
 #include "scenes.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 
 namespace mlp::sim {
@@ -17,7 +18,7 @@ namespace {
 
 using probe_fw::CloudPoint;
 
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
 
 using testing::WallCapture;
 

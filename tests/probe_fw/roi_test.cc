@@ -10,6 +10,7 @@
 
 #include <cmath>
 
+#include "test_data.h"
 #include <gtest/gtest.h>
 
 namespace mlp::sim {
@@ -24,7 +25,7 @@ constexpr double kCentreTolPx = 0.1;
 constexpr double kRadiusTolPx = 0.25;
 constexpr double kHoleRadiusMm = 6.0;
 
-const std::string kReference = std::string(MLP_SOURCE_DIR) + "/samples/probes/reference_probe.json";
+const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
 
 // A block with a 12 mm through-hole at (10, -5), the probe 120 mm straight above the hole.
 VirtualProbe HoleProbe() {

@@ -2,12 +2,13 @@
 
 #include "mlp/service/config.h"
 
+#include "test_data.h"
 #include <gtest/gtest.h>
 
 namespace mlp::service {
 namespace {
 
-const std::string kSample = std::string(MLP_SOURCE_DIR) + "/samples/hostd/hostd.json";
+const std::string kSample = mlp::test::SourceDir() + "/samples/hostd/hostd.json";
 
 TEST(HostdConfig, TheSampleReads) {
   const HostdConfig c = LoadHostdConfig(kSample);

@@ -9,12 +9,13 @@
 
 #include <cmath>
 
+#include "test_data.h"
 #include <gtest/gtest.h>
 
 namespace mlp::toolcam {
 namespace {
 
-const std::string kTools = std::string(MLP_SOURCE_DIR) + "/samples/tools/";
+const std::string kTools = mlp::test::SourceDir() + "/samples/tools/";
 constexpr double kCleanTolMm = 0.001;   // issue 7: radius and length within 1 um, clean tool
 constexpr double kDropsTolMm = 0.002;   // and within 2 um with coolant drops
 constexpr double kPitchTolDeg = 0.005;  // 0.09 um per mm of depth

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -16,7 +17,7 @@ namespace mlp::toolcam {
 namespace {
 
 namespace fs = std::filesystem;
-const std::string kTools = std::string(MLP_SOURCE_DIR) + "/samples/tools/";
+const std::string kTools = mlp::test::SourceDir() + "/samples/tools/";
 constexpr double kEdgeTolPx = 0.03;  // the renderer's sub-rows and blur samples
 // A near-level edge: its cover is found on 32 sub-rows a pixel, to 1/64 px (tool_camera.cc),
 // and the linear crossing below is biased by up to 0.02 px by the blur's curvature.

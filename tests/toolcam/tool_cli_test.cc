@@ -7,13 +7,14 @@
 #include <fstream>
 
 #include "process_run.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 namespace {
 
 using mlp::test::RunProcess;
-const std::string kMlp = MLP_BINARY;
+const std::string kMlp = mlp::test::Program("mlp");
 
 TEST(ToolCli, PlansTheStrobe) {
   const auto text = RunProcess(kMlp + " tool strobe --rpm 7200 --fps 45 --resolution-deg 3.6");
@@ -40,7 +41,7 @@ TEST(ToolCli, ExitCodesSayWhatWentWrong) {
 TEST(ToolCli, RendersTheVirtualToolCamerasFrames) {
   const std::string dir = "/tmp/mlp_tool_cli_render";
   std::filesystem::remove_all(dir);
-  const std::string tool = std::string(MLP_SOURCE_DIR) + "/samples/tools/endmill_d10_z4_new.json";
+  const std::string tool = mlp::test::SourceDir() + "/samples/tools/endmill_d10_z4_new.json";
   const auto run = RunProcess(kMlp + " tool render --tool " + tool + " --out " + dir +
                               " --rpm 5000 --fps 50 --resolution-deg 90 --seed 4");
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -55,7 +56,7 @@ TEST(ToolCli, RendersTheVirtualToolCamerasFrames) {
 TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
   const std::string dir = "/tmp/mlp_tool_cli_measure";
   std::filesystem::remove_all(dir);
-  const std::string tools = std::string(MLP_SOURCE_DIR) + "/samples/tools/";
+  const std::string tools = mlp::test::SourceDir() + "/samples/tools/";
   const auto render =
       RunProcess(kMlp + " tool render --tool " + tools + "endmill_d10_z4_worn.json --out " + dir +
                  " --rpm 5000 --fps 50 --resolution-deg 7.2 --seed 5");
@@ -99,7 +100,7 @@ TEST(ToolCli, CalibratesTheCameraThenMeasuresIntoTheToolTable) {
   const std::string dir = "/tmp/mlp_tool_cli_calibrate";
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
-  const std::string tools = std::string(MLP_SOURCE_DIR) + "/samples/tools/";
+  const std::string tools = mlp::test::SourceDir() + "/samples/tools/";
   // The true camera: turned 0.3 deg about x, 0.03 about y, the pin's end at (505.7, 400.6).
   mlp::toolcam::ToolCameraModel truth;
   truth.axis_u_px = 505.7, truth.tip_v_px = 400.6, truth.roll_deg = -0.3, truth.pitch_deg = 0.03;

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "process_run.h"
+#include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -18,7 +19,7 @@ namespace {
 
 using mlp::test::RunProcess;
 using nlohmann::json;
-const std::string kMlp = MLP_BINARY;
+const std::string kMlp = mlp::test::Program("mlp");
 
 // Issue 16, done means, end to end through calibration: under speckle of C 0.3 with grains of
 // 1.5 px the clouds <= 10 um RMS; a bore's diameter <= 2 um on a matt face and <= 5 um on ground
