@@ -387,13 +387,9 @@ bool Settled(const ClassSigmas& a, const ClassSigmas& b) {
   return close(a.px, b.px) && close(a.mm, b.mm) && close(a.robot_mm, b.robot_mm);
 }
 
-}  // namespace
-
-BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
-                                     const std::vector<RobotImage>& images,
-                                     const LineLaserCalibration& cal,
-                                     const ChessboardSpec& board,
-                                     const BoardHandEyeOptions& o) {
+void CheckBoardInput(const std::vector<ImageFindings>& findings,
+                     const std::vector<RobotImage>& images,
+                     const LineLaserCalibration& cal) {
   using Kind = HandEyeError::Kind;
   if (findings.size() != images.size())
     throw HandEyeError(Kind::kBadInput, "board hand-eye: one pose per image is needed");
@@ -401,90 +397,126 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
     throw HandEyeError(Kind::kBadInput, "board hand-eye: the board was used in " +
                                             std::to_string(cal.board_images.size()) +
                                             " images; at least 3 with different orientations");
-  BoardHandEyeResult r;
-  std::vector<Pose3> flange_poses;
-  for (int i : cal.board_images)
-    flange_poses.push_back(images[static_cast<size_t>(i)].base_from_flange);
-  r.start_flange_from_camera = ParkMartin(flange_poses, cal.camera.camera_from_board);
-  if (!r.start_flange_from_camera.matrix().allFinite())
-    throw HandEyeError(Kind::kUnderDetermined,
-                       "board hand-eye: AX = XB has no solution from these views: the board "
-                       "views need rotations about two different axes");
+}
+
+// The start: AX = XB (Park & Martin) from the board views, B through the first of them, the
+// light plane from the line-laser calibration, no robot error.
+JointParams StartParams(const std::vector<ImageFindings>& findings,
+                        const std::vector<Pose3>& flange_poses,
+                        const LineLaserCalibration& cal,
+                        const Pose3& start_flange_from_camera) {
   JointParams p;
-  p.x = ToParams(r.start_flange_from_camera);
-  p.b = ToParams(flange_poses[0] * r.start_flange_from_camera * cal.camera.camera_from_board[0]);
+  p.x = ToParams(start_flange_from_camera);
+  p.b = ToParams(flange_poses[0] * start_flange_from_camera * cal.camera.camera_from_board[0]);
   p.n = cal.plane.normal.normalized();
   p.d = p.n.dot(cal.plane.point);
   p.robot.assign(findings.size(), std::array<double, 6>{});
-  // The robot's noise starts from the corners' spread in the base through the start (each
-  // view's board pose, F_i and X): the pose error is most of it.
-  const Spread start = CornerSpreadInBase(cal.camera.camera_from_board, flange_poses,
-                                          r.start_flange_from_camera, board);
-  const double robot_cap_mm = std::max(kMinRobotMm, start.rms_mm);
-  ClassSigmas sigmas{std::max(0.05, cal.camera.rms_reprojection_px),
-                     std::max(0.005, cal.plane_rms_mm),
-                     o.robot_rotation_sigma_deg / base::kDegPerRad, robot_cap_mm};
+  return p;
+}
+
+// Joint solves until every class's noise settles (variance components): each pass weighs the
+// corners, the laser and the robot by the sigmas the last pass saw. Returns the last problem.
+std::unique_ptr<JointProblem> SolveUntilSigmasSettle(const std::vector<ImageFindings>& findings,
+                                                     const std::vector<RobotImage>& images,
+                                                     const LineLaserCalibration& cal,
+                                                     const ChessboardSpec& board,
+                                                     const BoardHandEyeOptions& o,
+                                                     double robot_cap_mm,
+                                                     ClassSigmas* sigmas,
+                                                     JointParams* p,
+                                                     BoardHandEyeResult* r) {
   std::unique_ptr<JointProblem> joint;
-  ceres::Solver::Summary summary;
   for (int pass = 0; pass < kMaxVariancePasses; ++pass) {
-    joint = std::make_unique<JointProblem>(findings, images, cal, board, o, sigmas, &p);
-    summary = joint->Solve();
-    r.iterations += static_cast<int>(summary.iterations.size());
+    joint = std::make_unique<JointProblem>(findings, images, cal, board, o, *sigmas, p);
+    const ceres::Solver::Summary summary = joint->Solve();
+    r->iterations += static_cast<int>(summary.iterations.size());
     if (!summary.IsSolutionUsable())
-      throw HandEyeError(Kind::kBadInput, "board hand-eye: the solver failed: " + summary.message);
+      throw HandEyeError(HandEyeError::Kind::kBadInput,
+                         "board hand-eye: the solver failed: " + summary.message);
     const ClassSigmas seen = joint->ResidualSigmas(robot_cap_mm);
-
-    ++r.variance_passes;
-    if (Settled(seen, sigmas)) break;
-    sigmas = seen;
+    ++r->variance_passes;
+    if (Settled(seen, *sigmas)) break;
+    *sigmas = seen;
   }
-  r.corner_sigma_px = sigmas.px, r.laser_sigma_mm = sigmas.mm;
-  r.robot_sigma_mm = sigmas.robot_mm, r.robot_sigma_deg = sigmas.robot_rad * base::kDegPerRad;
-  r.corners_used = joint->corners(), r.laser_points_used = joint->laser_points();
-  r.flange_from_camera = FromParams(p.x.data());
-  r.base_from_board = FromParams(p.b.data());
-  r.plane.normal = p.n.normalized();
-  r.plane.point = r.plane.normal * p.d;
-  ceres::Problem& problem = joint->problem();
-  std::array<double, 6>& x = p.x;
-  const auto corners = BoardCorners(board);
-  const Intrinsics& k = cal.camera.intrinsics;
+  return joint;
+}
 
-  // Observability: X's covariance (the robot's errors and the plane marginalised).
+// Observability: X's covariance (the robot's errors and the plane marginalised), not scaled by
+// a variance factor (every class's noise was estimated from the solution already). Throws when
+// the least determined combination, rotations at the lever arm, is above the limit.
+void MountingCovariance(ceres::Problem* problem,
+                        std::array<double, 6>* x,
+                        const BoardHandEyeOptions& o,
+                        BoardHandEyeResult* r) {
+  using Kind = HandEyeError::Kind;
   ceres::Covariance::Options co;
   ceres::Covariance covariance(co);
-  const std::vector<std::pair<const double*, const double*>> blocks = {{x.data(), x.data()}};
+  const std::vector<std::pair<const double*, const double*>> blocks = {{x->data(), x->data()}};
   double c[36];
-  // Not scaled by the residuals' variance factor: every class's noise was estimated from the
-  // solution already.
-  const double variance = 1.0;
-  if (!covariance.Compute(blocks, &problem) ||
-      !covariance.GetCovarianceBlock(x.data(), x.data(), c))
+  if (!covariance.Compute(blocks, problem) ||
+      !covariance.GetCovarianceBlock(x->data(), x->data(), c))
     throw HandEyeError(Kind::kUnderDetermined,
                        "board hand-eye: the mounting is not determined (rank-deficient): "
                        "the board views need rotations about two different axes");
-  r.covariance = Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(c) * variance;
-  Eigen::Matrix<double, 6, 6> scaled = r.covariance;
+  r->covariance = Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(c);
+  Eigen::Matrix<double, 6, 6> scaled = r->covariance;
   scaled.topRows<3>() *= o.lever_mm;
   scaled.leftCols<3>() *= o.lever_mm;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(scaled);
-  r.worst_std_mm = std::sqrt(std::max(0.0, eig.eigenvalues()(5)));
-  if (r.worst_std_mm > o.max_std_mm) {
-    static const char* names[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
-    int dominant = 0;
-    eig.eigenvectors().col(5).cwiseAbs().maxCoeff(&dominant);
-    std::ostringstream msg;
-    msg << "board hand-eye: the mounting is determined to " << r.worst_std_mm
-        << " mm (1 sigma, rotations at " << o.lever_mm << " mm), above " << o.max_std_mm
-        << " mm; mostly " << names[dominant]
-        << ": add board views turned about another axis, or farther apart";
-    throw HandEyeError(Kind::kUnderDetermined, msg.str());
-  }
+  r->worst_std_mm = std::sqrt(std::max(0.0, eig.eigenvalues()(5)));
+  if (r->worst_std_mm <= o.max_std_mm) return;
+  static const char* names[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
+  int dominant = 0;
+  eig.eigenvectors().col(5).cwiseAbs().maxCoeff(&dominant);
+  std::ostringstream msg;
+  msg << "board hand-eye: the mounting is determined to " << r->worst_std_mm
+      << " mm (1 sigma, rotations at " << o.lever_mm << " mm), above " << o.max_std_mm
+      << " mm; mostly " << names[dominant]
+      << ": add board views turned about another axis, or farther apart";
+  throw HandEyeError(Kind::kUnderDetermined, msg.str());
+}
 
-  // Per image: corners through the solution, laser heights above the board.
+// Image i's corners through the solution: their squared reprojection errors [px^2] summed.
+double CornerSquares(const ImageFindings& f,
+                     const Pose3& base_from_flange,
+                     const BoardHandEyeResult& r,
+                     const Intrinsics& k,
+                     const std::vector<Vec3>& corners) {
+  const Pose3 camera_from_board =
+      (base_from_flange * r.flange_from_camera).inverse() * r.base_from_board;
+  double s2 = 0.0;
+  for (size_t n = 0; n < corners.size(); ++n)
+    s2 += (k.Project(camera_from_board * corners[n]) - f.corners[n]).squaredNorm();
+  return s2;
+}
+
+// Image i's laser points' heights above the solved board [mm].
+void LaserHeights(const ImageFindings& f,
+                  const Pose3& base_from_flange,
+                  const BoardHandEyeResult& r,
+                  const Intrinsics& k,
+                  BoardHandEyeImage* im) {
+  const Pose3 board_from_base = r.base_from_board.inverse();
+  double s2 = 0.0;
+  for (const Vec3& point :
+       LaserPointsInBase(f, base_from_flange, k, r.plane, r.flange_from_camera)) {
+    const double h = (board_from_base * point).z();
+    s2 += h * h, im->laser_max_mm = std::max(im->laser_max_mm, std::abs(h)), ++im->laser_points;
+  }
+  im->laser_rms_mm = im->laser_points > 0 ? std::sqrt(s2 / im->laser_points) : 0.0;
+}
+
+// Per image: the robot error found, corners through the solution, laser heights above the board.
+void PerImageResiduals(const std::vector<ImageFindings>& findings,
+                       const std::vector<RobotImage>& images,
+                       const LineLaserCalibration& cal,
+                       const ChessboardSpec& board,
+                       const JointParams& p,
+                       BoardHandEyeResult* r) {
   double corner_sum2 = 0.0;
   int corner_count = 0;
-  const Pose3 board_from_base = r.base_from_board.inverse();
+  const auto corners = BoardCorners(board);
+  const Intrinsics& k = cal.camera.intrinsics;
   for (size_t i = 0; i < findings.size(); ++i) {
     const ImageFindings& f = findings[i];
     BoardHandEyeImage im;
@@ -494,28 +526,54 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
     im.robot_error_deg = Eigen::AngleAxisd(d.linear()).angle() * base::kDegPerRad;
     const auto used = std::find(cal.board_images.begin(), cal.board_images.end(), int(i));
     if (used != cal.board_images.end()) {
-      const Pose3 camera_from_board =
-          (images[i].base_from_flange * r.flange_from_camera).inverse() * r.base_from_board;
-      double s2 = 0.0;
-      for (size_t n = 0; n < corners.size(); ++n) {
-        s2 += (k.Project(camera_from_board * corners[n]) - f.corners[n]).squaredNorm();
-      }
+      const double s2 = CornerSquares(f, images[i].base_from_flange, *r, k, corners);
       im.corners = static_cast<int>(corners.size());
       im.corner_rms_px = std::sqrt(s2 / double(corners.size()));
       corner_sum2 += s2, corner_count += im.corners;
     }
-    if (f.HasLaser()) {
-      double s2 = 0.0;
-      for (const Vec3& point :
-           LaserPointsInBase(f, images[i].base_from_flange, k, r.plane, r.flange_from_camera)) {
-        const double h = (board_from_base * point).z();
-        s2 += h * h, im.laser_max_mm = std::max(im.laser_max_mm, std::abs(h)), ++im.laser_points;
-      }
-      im.laser_rms_mm = im.laser_points > 0 ? std::sqrt(s2 / im.laser_points) : 0.0;
-    }
-    r.images.push_back(im);
+    if (f.HasLaser()) LaserHeights(f, images[i].base_from_flange, *r, k, &im);
+    r->images.push_back(im);
   }
-  r.corner_rms_px = corner_count > 0 ? std::sqrt(corner_sum2 / corner_count) : 0.0;
+  r->corner_rms_px = corner_count > 0 ? std::sqrt(corner_sum2 / corner_count) : 0.0;
+}
+
+}  // namespace
+
+BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
+                                     const std::vector<RobotImage>& images,
+                                     const LineLaserCalibration& cal,
+                                     const ChessboardSpec& board,
+                                     const BoardHandEyeOptions& o) {
+  CheckBoardInput(findings, images, cal);
+  BoardHandEyeResult r;
+  std::vector<Pose3> flange_poses;
+  for (int i : cal.board_images)
+    flange_poses.push_back(images[static_cast<size_t>(i)].base_from_flange);
+  r.start_flange_from_camera = ParkMartin(flange_poses, cal.camera.camera_from_board);
+  if (!r.start_flange_from_camera.matrix().allFinite())
+    throw HandEyeError(HandEyeError::Kind::kUnderDetermined,
+                       "board hand-eye: AX = XB has no solution from these views: the board "
+                       "views need rotations about two different axes");
+  JointParams p = StartParams(findings, flange_poses, cal, r.start_flange_from_camera);
+  // The robot's noise starts from the corners' spread in the base through the start (each
+  // view's board pose, F_i and X): the pose error is most of it.
+  const Spread start = CornerSpreadInBase(cal.camera.camera_from_board, flange_poses,
+                                          r.start_flange_from_camera, board);
+  const double robot_cap_mm = std::max(kMinRobotMm, start.rms_mm);
+  ClassSigmas sigmas{std::max(0.05, cal.camera.rms_reprojection_px),
+                     std::max(0.005, cal.plane_rms_mm),
+                     o.robot_rotation_sigma_deg / base::kDegPerRad, robot_cap_mm};
+  const std::unique_ptr<JointProblem> joint =
+      SolveUntilSigmasSettle(findings, images, cal, board, o, robot_cap_mm, &sigmas, &p, &r);
+  r.corner_sigma_px = sigmas.px, r.laser_sigma_mm = sigmas.mm;
+  r.robot_sigma_mm = sigmas.robot_mm, r.robot_sigma_deg = sigmas.robot_rad * base::kDegPerRad;
+  r.corners_used = joint->corners(), r.laser_points_used = joint->laser_points();
+  r.flange_from_camera = FromParams(p.x.data());
+  r.base_from_board = FromParams(p.b.data());
+  r.plane.normal = p.n.normalized();
+  r.plane.point = r.plane.normal * p.d;
+  MountingCovariance(&joint->problem(), &p.x, o, &r);
+  PerImageResiduals(findings, images, cal, board, p, &r);
   return r;
 }
 

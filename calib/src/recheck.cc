@@ -149,6 +149,122 @@ struct State {
   }
 };
 
+void CheckCaptureCount(int n, const RecheckOptions& o) {
+  if (n == 0) Bad("no capture of the sphere");
+  if (o.sphere_moved && n < 3) {
+    throw HandEyeError(Kind::kUnderDetermined,
+                       "with the sphere re-mounted, its position and the probe's change can be "
+                       "told apart only from three orientations or more; " +
+                           std::to_string(n) + " measured",
+                       {"measure the sphere at three or more spindle orientations (M19 0, 120, "
+                        "240 degrees) or head orientations"});
+  }
+}
+
+// Unknowns (rotation x lever | offset | centre shift); one orientation: the offset only.
+std::vector<int> ActiveUnknowns(int n, bool sphere_moved) {
+  std::vector<int> active;
+  if (n >= 2) active = {0, 1, 2};
+  for (int k = 3; k < 6; ++k) active.push_back(k);
+  if (sphere_moved) active.insert(active.end(), {6, 7, 8});
+  return active;
+}
+
+// Gauss-Newton on h_i (R q_i + t) = c over the active unknowns, each step through the SVD:
+// directions the orientations do not determine are kept from the original and listed.
+State SolveMountChange(const std::vector<RecheckCapture>& captures,
+                       const std::vector<Vec3>& q,
+                       const std::vector<int>& active,
+                       const State& original,
+                       double lever_mm,
+                       std::vector<detail::Vec9>* undetermined) {
+  const int n = static_cast<int>(captures.size()), m = static_cast<int>(active.size());
+  State s = original;
+  for (int step = 0; step < kGaussNewtonSteps; ++step) {
+    Eigen::MatrixXd j(3 * n, m);
+    Eigen::VectorXd e(3 * n);
+    for (int i = 0; i < n; ++i) {
+      const Pose3& h = captures[static_cast<size_t>(i)].mcs_from_flange;
+      const Vec3 a = s.rotation * q[static_cast<size_t>(i)];
+      Eigen::Matrix<double, 3, 9> full;
+      full << -h.linear() * Skew(a) / lever_mm, h.linear(), -Mat3::Identity();
+      for (int c = 0; c < m; ++c)
+        j.block<3, 1>(3 * i, c) = full.col(active[static_cast<size_t>(c)]);
+      e.segment<3>(3 * i) = s.Residual(h, q[static_cast<size_t>(i)]);
+    }
+    Eigen::JacobiSVD<Eigen::MatrixXd> svd(j, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    const Eigen::VectorXd sv = svd.singularValues();
+    Eigen::VectorXd dx = Eigen::VectorXd::Zero(m);
+    undetermined->clear();
+    for (int k = 0; k < sv.size(); ++k) {
+      if (sv(k) > kRankTolerance * sv(0)) {
+        dx -= svd.matrixV().col(k) * (svd.matrixU().col(k).dot(e) / sv(k));
+      } else {
+        detail::Vec9 v = detail::Vec9::Zero();
+        for (int c = 0; c < m; ++c) v(active[static_cast<size_t>(c)]) = svd.matrixV()(c, k);
+        undetermined->push_back(v);
+      }
+    }
+    detail::Vec9 full_dx = detail::Vec9::Zero();
+    for (int c = 0; c < m; ++c) full_dx(active[static_cast<size_t>(c)]) = dx(c);
+    s.rotation = Exp(full_dx.head<3>() / lever_mm) * s.rotation;
+    s.translation += full_dx.segment<3>(3);
+    s.centre += full_dx.tail<3>();
+  }
+  return s;
+}
+
+// The change found against the original, and the centres' disagreement before and after it.
+void FillChange(const std::vector<RecheckCapture>& captures,
+                const std::vector<Vec3>& q,
+                const State& original,
+                const State& s,
+                RecheckResult* result) {
+  result->flange_from_probe.linear() = s.rotation;
+  result->flange_from_probe.translation() = s.translation;
+  result->centre_mcs = s.centre;
+  result->offset_in_flange_mm = s.translation - original.translation;
+  const Eigen::AngleAxisd change(s.rotation * original.rotation.transpose());
+  result->rotation_in_flange_rad = change.axis() * change.angle();
+  result->centre_shift_mm = s.centre - original.centre;
+  double ss = 0.0;
+  for (size_t i = 0; i < captures.size(); ++i) {
+    const Pose3& h = captures[i].mcs_from_flange;
+    result->residual_before_mm.push_back(original.Residual(h, q[i]).norm());
+    const double after = s.Residual(h, q[i]).norm();
+    result->residual_after_mm.push_back(after);
+    ss += after * after;
+  }
+  result->residual_after_rms_mm = std::sqrt(ss / double(captures.size()));
+}
+
+// Why a quick fix will not do (empty: it will), the first limit passed.
+std::string WhyFullCalibration(const RecheckResult& r,
+                               const DepthScale& depth,
+                               bool scale_changed,
+                               const RecheckOptions& o) {
+  const double turned_deg = r.rotation_in_flange_rad.norm() * base::kDegPerRad;
+  std::ostringstream why;
+  why.precision(4);
+  if (scale_changed) {
+    why << "the probe's depth scale changed by " << 100.0 * (depth.scale - 1.0)
+        << " % (its readings fit the sphere x" << depth.scale << " +- " << depth.std << ", limit "
+        << 100.0 * o.max_depth_scale_change
+        << " %): its camera/projector calibration no longer holds; recalibrate the probe";
+  } else if (r.offset_in_flange_mm.norm() > o.max_offset_mm) {
+    why << "the mount moved " << r.offset_in_flange_mm.norm() << " mm (quick fix limit "
+        << o.max_offset_mm << " mm)";
+  } else if (turned_deg > o.max_rotation_deg) {
+    why << "the mount turned " << turned_deg << " degrees (quick fix limit " << o.max_rotation_deg
+        << " degrees)";
+  } else if (r.residual_after_rms_mm > o.max_residual_mm) {
+    why << "after the best rigid correction the sphere centres still disagree by "
+        << r.residual_after_rms_mm * 1e3 << " um RMS (limit " << o.max_residual_mm * 1e3
+        << " um): the change is not a rigid shift of the mount";
+  }
+  return why.str();
+}
+
 }  // namespace
 
 void RecheckOptions::Check() const {
@@ -162,16 +278,8 @@ void RecheckOptions::Check() const {
 
 RecheckResult Recheck(const std::vector<RecheckCapture>& captures, const RecheckOptions& o) {
   o.Check();
-  if (captures.empty()) Bad("no capture of the sphere");
   const int n = static_cast<int>(captures.size());
-  if (o.sphere_moved && n < 3) {
-    throw HandEyeError(Kind::kUnderDetermined,
-                       "with the sphere re-mounted, its position and the probe's change can be "
-                       "told apart only from three orientations or more; " +
-                           std::to_string(n) + " measured",
-                       {"measure the sphere at three or more spindle orientations (M19 0, 120, "
-                        "240 degrees) or head orientations"});
-  }
+  CheckCaptureCount(n, o);
   std::vector<Vec3> q;
   std::vector<OnSphere> spheres;
   RecheckResult result;
@@ -189,89 +297,18 @@ RecheckResult Recheck(const std::vector<RecheckCapture>& captures, const Recheck
   const bool scale_changed =
       scale_change > o.max_depth_scale_change && scale_change > 3.0 * depth.std;
   if (scale_changed) q = depth.centres;
-  // Unknowns (rotation x lever | offset | centre shift); one orientation: the offset only.
-  std::vector<int> active;
-  if (n >= 2) active = {0, 1, 2};
-  for (int k = 3; k < 6; ++k) active.push_back(k);
-  if (o.sphere_moved) active.insert(active.end(), {6, 7, 8});
-  const int m = static_cast<int>(active.size());
 
   const State original{o.original_flange_from_probe.linear(),
                        o.original_flange_from_probe.translation(), o.original_centre_mcs};
-  State s = original;
   std::vector<detail::Vec9> undetermined;
-  for (int step = 0; step < kGaussNewtonSteps; ++step) {
-    Eigen::MatrixXd j(3 * n, m);
-    Eigen::VectorXd e(3 * n);
-    for (int i = 0; i < n; ++i) {
-      const Pose3& h = captures[static_cast<size_t>(i)].mcs_from_flange;
-      const Vec3 a = s.rotation * q[static_cast<size_t>(i)];
-      Eigen::Matrix<double, 3, 9> full;
-      full << -h.linear() * Skew(a) / o.lever_mm, h.linear(), -Mat3::Identity();
-      for (int c = 0; c < m; ++c)
-        j.block<3, 1>(3 * i, c) = full.col(active[static_cast<size_t>(c)]);
-      e.segment<3>(3 * i) = s.Residual(h, q[static_cast<size_t>(i)]);
-    }
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(j, Eigen::ComputeThinU | Eigen::ComputeThinV);
-    const Eigen::VectorXd sv = svd.singularValues();
-    Eigen::VectorXd dx = Eigen::VectorXd::Zero(m);
-    undetermined.clear();
-    for (int k = 0; k < sv.size(); ++k) {
-      if (sv(k) > kRankTolerance * sv(0)) {
-        dx -= svd.matrixV().col(k) * (svd.matrixU().col(k).dot(e) / sv(k));
-      } else {
-        detail::Vec9 v = detail::Vec9::Zero();
-        for (int c = 0; c < m; ++c) v(active[static_cast<size_t>(c)]) = svd.matrixV()(c, k);
-        undetermined.push_back(v);
-      }
-    }
-    detail::Vec9 full_dx = detail::Vec9::Zero();
-    for (int c = 0; c < m; ++c) full_dx(active[static_cast<size_t>(c)]) = dx(c);
-    s.rotation = Exp(full_dx.head<3>() / o.lever_mm) * s.rotation;
-    s.translation += full_dx.segment<3>(3);
-    s.centre += full_dx.tail<3>();
-  }
+  const State s = SolveMountChange(captures, q, ActiveUnknowns(n, o.sphere_moved), original,
+                                   o.lever_mm, &undetermined);
   for (const auto& v : undetermined)
     result.not_determined.push_back(detail::Describe(v) + " (kept from the original)");
   if (n == 1)
     result.not_determined.push_back("M's rotation (one orientation: the correction is an offset)");
-
-  result.flange_from_probe.linear() = s.rotation;
-  result.flange_from_probe.translation() = s.translation;
-  result.centre_mcs = s.centre;
-  result.offset_in_flange_mm = s.translation - original.translation;
-  const Eigen::AngleAxisd change(s.rotation * original.rotation.transpose());
-  result.rotation_in_flange_rad = change.axis() * change.angle();
-  result.centre_shift_mm = s.centre - original.centre;
-  double ss = 0.0;
-  for (int i = 0; i < n; ++i) {
-    const Pose3& h = captures[static_cast<size_t>(i)].mcs_from_flange;
-    result.residual_before_mm.push_back(original.Residual(h, q[static_cast<size_t>(i)]).norm());
-    const double after = s.Residual(h, q[static_cast<size_t>(i)]).norm();
-    result.residual_after_mm.push_back(after);
-    ss += after * after;
-  }
-  result.residual_after_rms_mm = std::sqrt(ss / n);
-
-  std::ostringstream why;
-  why.precision(4);
-  if (scale_changed) {
-    why << "the probe's depth scale changed by " << 100.0 * (depth.scale - 1.0)
-        << " % (its readings fit the sphere x" << depth.scale << " +- " << depth.std << ", limit "
-        << 100.0 * o.max_depth_scale_change
-        << " %): its camera/projector calibration no longer holds; recalibrate the probe";
-  } else if (result.offset_in_flange_mm.norm() > o.max_offset_mm) {
-    why << "the mount moved " << result.offset_in_flange_mm.norm() << " mm (quick fix limit "
-        << o.max_offset_mm << " mm)";
-  } else if (change.angle() * base::kDegPerRad > o.max_rotation_deg) {
-    why << "the mount turned " << change.angle() * base::kDegPerRad << " degrees (quick fix limit "
-        << o.max_rotation_deg << " degrees)";
-  } else if (result.residual_after_rms_mm > o.max_residual_mm) {
-    why << "after the best rigid correction the sphere centres still disagree by "
-        << result.residual_after_rms_mm * 1e3 << " um RMS (limit " << o.max_residual_mm * 1e3
-        << " um): the change is not a rigid shift of the mount";
-  }
-  result.reason = why.str();
+  FillChange(captures, q, original, s, &result);
+  result.reason = WhyFullCalibration(result, depth, scale_changed, o);
   result.full_calibration_required = !result.reason.empty();
   if (!result.flange_from_probe.matrix().allFinite() || !result.centre_mcs.allFinite())
     Bad("the correction did not converge");

@@ -319,6 +319,140 @@ void Eccentricity(ToolMeasurement* t) {
   t->eccentricity_deg = std::atan2(c(2), c(1)) * base::kDegPerRad;
 }
 
+// The frames' outlines and reference heights, in angular order; `top` the image whose outline
+// reaches farthest at the reference height (a flute's edge nearest the +y extreme).
+struct IndexedImages {
+  std::vector<Outline> outlines;
+  std::vector<double> ref;
+  std::vector<size_t> order;
+  std::vector<double> angle_deg;
+  size_t top = 0;
+  double step_deg = 0;
+};
+
+IndexedImages IndexImages(const std::vector<std::vector<std::uint8_t>>& frames,
+                          const std::vector<int>& positions,
+                          int position_count,
+                          const ToolCameraModel& camera,
+                          const MeasureOptions& opt) {
+  IndexedImages x;
+  for (const auto& f : frames) {
+    x.outlines.push_back(ExtractOutline(f, camera));
+    x.ref.push_back(ReferenceY(x.outlines.back(), opt));
+  }
+  x.order.resize(frames.size());
+  for (size_t i = 0; i < x.order.size(); ++i) x.order[i] = i;
+  std::sort(x.order.begin(), x.order.end(),
+            [&](size_t a, size_t b) { return positions[a] < positions[b]; });
+  x.step_deg = 360.0 / position_count;
+  for (int p : positions) x.angle_deg.push_back(p * x.step_deg);
+  for (size_t i = 0; i < x.ref.size(); ++i)
+    if (std::isfinite(x.ref[i]) && (!std::isfinite(x.ref[x.top]) || x.ref[i] > x.ref[x.top]))
+      x.top = i;
+  if (!std::isfinite(x.ref[x.top])) Fail("no image shows the outline at the reference height");
+  return x;
+}
+
+// Flute f's principal image: the highest reference height within half a pitch of where the
+// flute should be (in order, k); order.size() when there is none.
+size_t PrincipalImage(const IndexedImages& x, int f, int n) {
+  const double want = x.angle_deg[x.top] + f * 360.0 / n;
+  size_t k_best = x.order.size();
+  for (size_t k = 0; k < x.order.size(); ++k) {
+    double off = std::fmod(x.angle_deg[x.order[k]] - want, 360.0);
+    off -= 360.0 * std::round(off / 360.0);
+    if (std::abs(off) > 180.0 / n || !std::isfinite(x.ref[x.order[k]])) continue;
+    if (k_best == x.order.size() || x.ref[x.order[k]] > x.ref[x.order[k_best]]) k_best = k;
+  }
+  return k_best;
+}
+
+// Each flute measured in its principal image against the ground (unworn) tool; the flutes'
+// angular offsets from their principal images [deg] in `offsets_deg`.
+std::vector<FluteMeasurement> MeasureFlutes(const IndexedImages& x,
+                                            const ToolDescription& nominal,
+                                            const MeasureOptions& opt,
+                                            double pitch_deg,
+                                            std::vector<double>* offsets_deg) {
+  const int n = nominal.flutes;
+  const ToolDescription ground = Ground(nominal);
+  std::vector<FluteMeasurement> flutes;
+  for (int f = 0; f < n; ++f) {
+    const size_t k_best = PrincipalImage(x, f, n);
+    if (k_best == x.order.size()) Fail("no image near flute " + std::to_string(f + 1));
+    // The maximum between images: a parabola through the principal image and its neighbours.
+    const size_t i0 = x.order[k_best];
+    const double ym = x.ref[x.order[(k_best + x.order.size() - 1) % x.order.size()]];
+    const double yp = x.ref[x.order[(k_best + 1) % x.order.size()]];
+    const double curve = ym - 2 * x.ref[i0] + yp;
+    const double offset_deg = curve < 0 ? x.step_deg * (ym - yp) / (2 * curve) : 0.0;
+    // The principal image's turn: its flute at +y at the reference height, less the offset.
+    const double turn0 =
+        M_PI / 2 - ground.EdgeAngle(0, opt.h_ref_mm, 0.0) - offset_deg / base::kDegPerRad;
+    FluteMeasurement fm = MeasureFlute(x.outlines[i0], ground, 0, turn0, opt, pitch_deg);
+    fm.frame = static_cast<int>(i0);
+    fm.angle_deg = x.angle_deg[i0] + offset_deg;
+    offsets_deg->push_back(offset_deg);
+    flutes.push_back(fm);
+  }
+  return flutes;
+}
+
+// Flute f (one pitch further round from the highest peak) faces the camera one edge earlier:
+// edge (j0 - f) mod n; j0 the turn of the order that fits radii and tips best.
+int FirstEdge(const std::vector<FluteMeasurement>& flutes, const ToolDescription& nominal) {
+  const int n = nominal.flutes;
+  int j0 = 0;
+  double best = 1e300;
+  for (int j = 0; j < n; ++j) {
+    double cost = 0;
+    for (int f = 0; f < n; ++f) {
+      const int e = ((j - f) % n + n) % n;
+      const double dr = flutes[static_cast<size_t>(f)].radius_mm -
+                        (nominal.Radius() + nominal.edges[static_cast<size_t>(e)].radial_offset_mm);
+      const double dt = flutes[static_cast<size_t>(f)].tip_h_mm - nominal.TipH(e);
+      cost += dr * dr + dt * dt;
+    }
+    if (cost < best) best = cost, j0 = j;
+  }
+  return j0;
+}
+
+// With a measured reference tool: each flute measured again against its own edge's reference.
+void MeasureAgainstReference(const IndexedImages& x,
+                             const ToolDescription& nominal,
+                             const MeasureOptions& opt,
+                             double pitch_deg,
+                             const std::vector<double>& offsets_deg,
+                             std::vector<FluteMeasurement>* flutes) {
+  const int n = nominal.flutes;
+  const int j0 = FirstEdge(*flutes, nominal);
+  for (int f = 0; f < n; ++f) {
+    FluteMeasurement& fm = (*flutes)[static_cast<size_t>(f)];
+    const int e = ((j0 - f) % n + n) % n;
+    const double turn0 = M_PI / 2 - nominal.EdgeAngle(e, opt.h_ref_mm, 0.0) -
+                         offsets_deg[static_cast<size_t>(f)] / base::kDegPerRad;
+    FluteMeasurement again =
+        MeasureFlute(x.outlines[static_cast<size_t>(fm.frame)], nominal, e, turn0, opt, pitch_deg);
+    again.frame = fm.frame, again.angle_deg = fm.angle_deg, again.edge = e;
+    fm = again;
+  }
+}
+
+// The tool from its flutes: the largest radius, the lowest tip, runout and eccentricity.
+void Summarise(ToolMeasurement* t) {
+  t->radius_mm = 0;
+  double smallest = 1e300;
+  t->tip_h_mm = 1e300;
+  for (const auto& f : t->flutes) {
+    t->radius_mm = std::max(t->radius_mm, f.radius_mm);
+    smallest = std::min(smallest, f.radius_mm);
+    t->tip_h_mm = std::min(t->tip_h_mm, f.tip_h_mm);
+  }
+  t->runout_mm = t->radius_mm - smallest;
+  Eccentricity(t);
+}
+
 }  // namespace
 
 Vec2 Undistort(const Vec2& px, const ToolCameraModel& c) {
@@ -359,91 +493,15 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
   if (frames.size() != positions.size() || position_count < 3 * n ||
       frames.size() < static_cast<size_t>(3 * n))
     Fail("at least 3 images per flute, each with its angular position, are needed");
-  std::vector<Outline> outlines;
-  std::vector<double> ref;
-  for (const auto& f : frames) {
-    outlines.push_back(ExtractOutline(f, camera));
-    ref.push_back(ReferenceY(outlines.back(), opt));
-  }
   // The images in angular order; the flutes are the maxima of the reference height's extreme.
-  std::vector<size_t> order(frames.size());
-  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(),
-            [&](size_t a, size_t b) { return positions[a] < positions[b]; });
-  const double step_deg = 360.0 / position_count;
-  const auto angle = [&](size_t i) { return positions[i] * step_deg; };
-  size_t top = 0;
-  for (size_t i = 0; i < ref.size(); ++i)
-    if (std::isfinite(ref[i]) && (!std::isfinite(ref[top]) || ref[i] > ref[top])) top = i;
-  if (!std::isfinite(ref[top])) Fail("no image shows the outline at the reference height");
+  const IndexedImages x = IndexImages(frames, positions, position_count, camera, opt);
   ToolMeasurement t;
-  const ToolDescription ground = Ground(nominal);
   std::vector<double> offsets_deg;
-  for (int f = 0; f < n; ++f) {
-    const double want = angle(top) + f * 360.0 / n;
-    size_t k_best = order.size();
-    for (size_t k = 0; k < order.size(); ++k) {
-      double off = std::fmod(angle(order[k]) - want, 360.0);
-      off -= 360.0 * std::round(off / 360.0);
-      if (std::abs(off) > 180.0 / n || !std::isfinite(ref[order[k]])) continue;
-      if (k_best == order.size() || ref[order[k]] > ref[order[k_best]]) k_best = k;
-    }
-    if (k_best == order.size()) Fail("no image near flute " + std::to_string(f + 1));
-    // The maximum between images: a parabola through the principal image and its neighbours.
-    const size_t i0 = order[k_best];
-    const double ym = ref[order[(k_best + order.size() - 1) % order.size()]];
-    const double yp = ref[order[(k_best + 1) % order.size()]];
-    const double curve = ym - 2 * ref[i0] + yp;
-    const double offset_deg = curve < 0 ? step_deg * (ym - yp) / (2 * curve) : 0.0;
-    // The principal image's turn: its flute at +y at the reference height, less the offset.
-    const double turn0 =
-        M_PI / 2 - ground.EdgeAngle(0, opt.h_ref_mm, 0.0) - offset_deg / base::kDegPerRad;
-    FluteMeasurement fm = MeasureFlute(outlines[i0], ground, 0, turn0, opt, camera.pitch_deg);
-    fm.frame = static_cast<int>(i0);
-    fm.angle_deg = angle(i0) + offset_deg;
-    offsets_deg.push_back(offset_deg);
-    t.flutes.push_back(fm);
-  }
+  t.flutes = MeasureFlutes(x, nominal, opt, camera.pitch_deg, &offsets_deg);
   const bool reference = std::any_of(nominal.edges.begin(), nominal.edges.end(),
                                      [](const CuttingEdge& e) { return e.Measured(); });
-  if (reference) {
-    // Flute f (one pitch further round from the highest peak) faces the camera one edge
-    // earlier: edge (j0 - f) mod n; j0 the turn of the order that fits radii and tips best.
-    int j0 = 0;
-    double best = 1e300;
-    for (int j = 0; j < n; ++j) {
-      double cost = 0;
-      for (int f = 0; f < n; ++f) {
-        const int e = ((j - f) % n + n) % n;
-        const double dr =
-            t.flutes[static_cast<size_t>(f)].radius_mm -
-            (nominal.Radius() + nominal.edges[static_cast<size_t>(e)].radial_offset_mm);
-        const double dt = t.flutes[static_cast<size_t>(f)].tip_h_mm - nominal.TipH(e);
-        cost += dr * dr + dt * dt;
-      }
-      if (cost < best) best = cost, j0 = j;
-    }
-    for (int f = 0; f < n; ++f) {
-      FluteMeasurement& fm = t.flutes[static_cast<size_t>(f)];
-      const int e = ((j0 - f) % n + n) % n;
-      const double turn0 = M_PI / 2 - nominal.EdgeAngle(e, opt.h_ref_mm, 0.0) -
-                           offsets_deg[static_cast<size_t>(f)] / base::kDegPerRad;
-      FluteMeasurement again = MeasureFlute(outlines[static_cast<size_t>(fm.frame)], nominal, e,
-                                            turn0, opt, camera.pitch_deg);
-      again.frame = fm.frame, again.angle_deg = fm.angle_deg, again.edge = e;
-      fm = again;
-    }
-  }
-  t.radius_mm = t.tip_h_mm = 0;
-  double smallest = 1e300;
-  t.tip_h_mm = 1e300;
-  for (const auto& f : t.flutes) {
-    t.radius_mm = std::max(t.radius_mm, f.radius_mm);
-    smallest = std::min(smallest, f.radius_mm);
-    t.tip_h_mm = std::min(t.tip_h_mm, f.tip_h_mm);
-  }
-  t.runout_mm = t.radius_mm - smallest;
-  Eccentricity(&t);
+  if (reference) MeasureAgainstReference(x, nominal, opt, camera.pitch_deg, offsets_deg, &t.flutes);
+  Summarise(&t);
   return t;
 }
 

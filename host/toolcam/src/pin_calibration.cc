@@ -196,6 +196,130 @@ std::vector<double> Depths(const std::vector<double>& angle,
   return x;
 }
 
+void CheckPinInput(const std::vector<std::vector<std::uint8_t>>& frames,
+                   const std::vector<int>& positions,
+                   int position_count,
+                   const ToolDescription& pin) {
+  if (!pin.pin) Fail("the calibration needs a pin (\"kind\": \"pin\")");
+  if (frames.empty() || frames.size() != positions.size() || position_count < 1)
+    Fail("each image needs its angular position");
+  if (pin.blades.size() == 2 &&
+      std::abs(pin.blades[0].extends_mm - pin.blades[1].extends_mm) < 0.05)
+    Fail("the blades must differ in length by 0.05 mm or more (which is which)");
+}
+
+// Pass 1's findings over every image: the flank rows above the pin's end (width, middle), the
+// end's row per image, and each image's view and shadow level for pass 2.
+struct FlankRows {
+  std::vector<double> width, mid_u, mid_v, ends;
+  std::vector<geometry::GreyView> views;
+  std::vector<double> levels;
+};
+
+FlankRows FindFlankRows(const std::vector<std::vector<std::uint8_t>>& frames,
+                        const ToolCameraModel& c,
+                        const ToolDescription& pin) {
+  FlankRows r;
+  for (const auto& px : frames) {
+    if (px.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
+      Fail("an image's size is not the camera's");
+    r.views.push_back({px.data(), c.width_px, c.height_px});
+    r.levels.push_back(ShadowLevel(px));
+    const Flanks f = FindFlanks(r.views.back(), r.levels.back(), c);
+    r.ends.push_back(f.end_v);
+    // Flank rows stop above the end's edge round and its blur, allowing for a roll of 1 deg
+    // across the pin (its corner a flank's width x 0.02 higher on one side): rows in the
+    // round's blur on one flank only bent the axis (2 millidegrees over 200 rows).
+    const double margin_px =
+        pin.corner_radius_mm / c.mm_per_px + 20 + 0.01 * (f.right.front().x() - f.left.front().x());
+    for (size_t k = 0; k < f.left.size(); ++k) {
+      if (f.left[k].y() > f.end_v - margin_px) continue;
+      r.width.push_back(f.right[k].x() - f.left[k].x());
+      r.mid_u.push_back((f.left[k].x() + f.right[k].x()) / 2), r.mid_v.push_back(f.left[k].y());
+    }
+  }
+  if (r.width.size() < 50) Fail("too few flank rows above the pin's end");
+  return r;
+}
+
+// The scale from the flanks' width, the roll from their middle line u = a + b v (least
+// squares); returns the camera with the pin's end as the tip, pitch not yet known.
+ToolCameraModel ScaleAndRoll(const FlankRows& rows,
+                             const ToolCameraModel& c,
+                             const ToolDescription& pin,
+                             PinCalibration* p) {
+  p->rows = static_cast<int>(rows.width.size());
+  const Eigen::Map<const Eigen::VectorXd> w(rows.width.data(),
+                                            static_cast<Eigen::Index>(rows.width.size()));
+  p->width_rms_px = std::sqrt((w.array() - w.mean()).square().mean());
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(rows.mid_u.size()), 2);
+  Eigen::VectorXd u(static_cast<Eigen::Index>(rows.mid_u.size()));
+  for (size_t k = 0; k < rows.mid_u.size(); ++k)
+    a.row(static_cast<Eigen::Index>(k)) << 1, rows.mid_v[k],
+        u(static_cast<Eigen::Index>(k)) = rows.mid_u[k];
+  const Eigen::Vector2d line = a.colPivHouseholderQr().solve(u);
+  const double end_v = Eigen::Map<const Eigen::VectorXd>(
+                           rows.ends.data(), static_cast<Eigen::Index>(rows.ends.size()))
+                           .mean();
+  p->roll_deg = std::atan(line(1)) * base::kDegPerRad;
+  // The flanks' distance along a row is the diameter over cos(roll).
+  p->mm_per_px = pin.diameter_mm / (std::cos(std::atan(line(1))) * w.mean());
+  ToolCameraModel first = c;  // the pin's end as the tip
+  first.mm_per_px = p->mm_per_px, first.roll_deg = p->roll_deg, first.pitch_deg = 0;
+  first.axis_u_px = line(0) + line(1) * end_v, first.tip_v_px = end_v;
+  return first;
+}
+
+// Pass 2: the blades' ends against their depths: tan(pitch) and the pin end's height in the
+// first pass' frame [mm], returned.
+double PitchFromBlades(const FlankRows& rows,
+                       const std::vector<int>& positions,
+                       int position_count,
+                       const ToolCameraModel& first,
+                       const ToolDescription& pin,
+                       PinCalibration* p) {
+  std::vector<double> angle, y[2], h[2], chord[2];
+  for (size_t i = 0; i < rows.views.size(); ++i) {
+    BladeSeen seen[2];
+    if (!FindBlades(rows.views[i], rows.levels[i], first, pin, seen)) continue;
+    angle.push_back(2 * M_PI * positions[i] / position_count);
+    for (int k = 0; k < 2; ++k)
+      y[k].push_back(seen[k].y), h[k].push_back(seen[k].end_h), chord[k].push_back(seen[k].chord);
+  }
+  p->blade_images = static_cast<int>(angle.size());
+  if (p->blade_images < kMinBladeImages)
+    Fail("the blades stood apart in " + std::to_string(p->blade_images) + " images, " +
+         std::to_string(kMinBladeImages) + " are needed (images round the whole turn)");
+  const int longer = pin.blades[0].extends_mm > pin.blades[1].extends_mm ? 0 : 1;
+  const PinBlade* blade[2] = {&pin.blades[static_cast<size_t>(longer)],
+                              &pin.blades[static_cast<size_t>(1 - longer)]};
+  std::vector<double> x[2];
+  for (int k = 0; k < 2; ++k) x[k] = Depths(angle, y[k], blade[k]->offset_mm, k);
+  // end_h_seen + extends + chord r |t| = end_h - x t (the rod's round end shows lower by its
+  // chord's depth times |t|): linear in (end_h, t) once |t| is known; three rounds.
+  const auto n = static_cast<Eigen::Index>(2 * angle.size());
+  double t = 0, end_h = 0;
+  Eigen::VectorXd resid;
+  for (int round = 0; round < 3; ++round) {
+    Eigen::MatrixXd m(n, 2);
+    Eigen::VectorXd obs(n);
+    for (int k = 0; k < 2; ++k)
+      for (size_t i = 0; i < angle.size(); ++i) {
+        const auto row = static_cast<Eigen::Index>(k * angle.size() + i);
+        m.row(row) << 1, -x[k][i];
+        obs(row) =
+            h[k][i] + blade[k]->extends_mm + chord[k][i] * blade[k]->width_mm / 2 * std::abs(t);
+      }
+    const Eigen::Vector2d s = m.colPivHouseholderQr().solve(obs);
+    end_h = s(0), t = s(1);
+    resid = obs - m * s;
+  }
+  p->pitch_deg = std::atan(t) * base::kDegPerRad;
+  p->pitch_measured = true;
+  p->blade_rms_um = std::sqrt(resid.squaredNorm() / static_cast<double>(n)) * 1e3;
+  return end_h;
+}
+
 }  // namespace
 
 ToolCameraModel PinCalibration::CameraFor(const ToolCameraModel& base,
@@ -260,96 +384,13 @@ PinCalibration CalibrateWithPin(const std::vector<std::vector<std::uint8_t>>& fr
                                 int position_count,
                                 const ToolCameraModel& c,
                                 const ToolDescription& pin) {
-  if (!pin.pin) Fail("the calibration needs a pin (\"kind\": \"pin\")");
-  if (frames.empty() || frames.size() != positions.size() || position_count < 1)
-    Fail("each image needs its angular position");
-  const bool blades = pin.blades.size() == 2;
-  if (blades && std::abs(pin.blades[0].extends_mm - pin.blades[1].extends_mm) < 0.05)
-    Fail("the blades must differ in length by 0.05 mm or more (which is which)");
-  // Pass 1: the flanks of every image: scale, the axis' line and turn, the end's row.
-  std::vector<double> width, mid_u, mid_v, ends;
-  std::vector<geometry::GreyView> views;
-  std::vector<double> levels;
-  for (const auto& px : frames) {
-    if (px.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
-      Fail("an image's size is not the camera's");
-    views.push_back({px.data(), c.width_px, c.height_px});
-    levels.push_back(ShadowLevel(px));
-    const Flanks f = FindFlanks(views.back(), levels.back(), c);
-    ends.push_back(f.end_v);
-    // Flank rows stop above the end's edge round and its blur, allowing for a roll of 1 deg
-    // across the pin (its corner a flank's width x 0.02 higher on one side): rows in the
-    // round's blur on one flank only bent the axis (2 millidegrees over 200 rows).
-    const double margin_px =
-        pin.corner_radius_mm / c.mm_per_px + 20 + 0.01 * (f.right.front().x() - f.left.front().x());
-    for (size_t k = 0; k < f.left.size(); ++k) {
-      if (f.left[k].y() > f.end_v - margin_px) continue;
-      width.push_back(f.right[k].x() - f.left[k].x());
-      mid_u.push_back((f.left[k].x() + f.right[k].x()) / 2), mid_v.push_back(f.left[k].y());
-    }
-  }
-  if (width.size() < 50) Fail("too few flank rows above the pin's end");
+  CheckPinInput(frames, positions, position_count, pin);
+  const FlankRows rows = FindFlankRows(frames, c, pin);
   PinCalibration p;
-  p.rows = static_cast<int>(width.size());
-  const Eigen::Map<const Eigen::VectorXd> w(width.data(), static_cast<Eigen::Index>(width.size()));
-  p.width_rms_px = std::sqrt((w.array() - w.mean()).square().mean());
-  // The axis: the flanks' middle line u = a + b v, least squares.
-  Eigen::MatrixXd a(static_cast<Eigen::Index>(mid_u.size()), 2);
-  Eigen::VectorXd u(static_cast<Eigen::Index>(mid_u.size()));
-  for (size_t k = 0; k < mid_u.size(); ++k)
-    a.row(static_cast<Eigen::Index>(k)) << 1, mid_v[k], u(static_cast<Eigen::Index>(k)) = mid_u[k];
-  const Eigen::Vector2d line = a.colPivHouseholderQr().solve(u);
-  const double end_v =
-      Eigen::Map<const Eigen::VectorXd>(ends.data(), static_cast<Eigen::Index>(ends.size())).mean();
-  p.roll_deg = std::atan(line(1)) * base::kDegPerRad;
-  // The flanks' distance along a row is the diameter over cos(roll).
-  p.mm_per_px = pin.diameter_mm / (std::cos(std::atan(line(1))) * w.mean());
-  ToolCameraModel first = c;  // the pin's end as the tip
-  first.mm_per_px = p.mm_per_px, first.roll_deg = p.roll_deg, first.pitch_deg = 0;
-  first.axis_u_px = line(0) + line(1) * end_v, first.tip_v_px = end_v;
-  // Pass 2: the blades' ends against their depths: tan(pitch) and the end's height.
-  double end_h = 0;  // the pin's end in the first pass' frame
-  if (blades) {
-    std::vector<double> angle, y[2], h[2], chord[2];
-    for (size_t i = 0; i < views.size(); ++i) {
-      BladeSeen seen[2];
-      if (!FindBlades(views[i], levels[i], first, pin, seen)) continue;
-      angle.push_back(2 * M_PI * positions[i] / position_count);
-      for (int k = 0; k < 2; ++k)
-        y[k].push_back(seen[k].y), h[k].push_back(seen[k].end_h), chord[k].push_back(seen[k].chord);
-    }
-    p.blade_images = static_cast<int>(angle.size());
-    if (p.blade_images < kMinBladeImages)
-      Fail("the blades stood apart in " + std::to_string(p.blade_images) + " images, " +
-           std::to_string(kMinBladeImages) + " are needed (images round the whole turn)");
-    const int longer = pin.blades[0].extends_mm > pin.blades[1].extends_mm ? 0 : 1;
-    const PinBlade* blade[2] = {&pin.blades[static_cast<size_t>(longer)],
-                                &pin.blades[static_cast<size_t>(1 - longer)]};
-    std::vector<double> x[2];
-    for (int k = 0; k < 2; ++k) x[k] = Depths(angle, y[k], blade[k]->offset_mm, k);
-    // end_h_seen + extends + chord r |t| = end_h - x t (the rod's round end shows lower by its
-    // chord's depth times |t|): linear in (end_h, t) once |t| is known; three rounds.
-    const auto n = static_cast<Eigen::Index>(2 * angle.size());
-    double t = 0;
-    Eigen::VectorXd resid;
-    for (int round = 0; round < 3; ++round) {
-      Eigen::MatrixXd m(n, 2);
-      Eigen::VectorXd obs(n);
-      for (int k = 0; k < 2; ++k)
-        for (size_t i = 0; i < angle.size(); ++i) {
-          const auto row = static_cast<Eigen::Index>(k * angle.size() + i);
-          m.row(row) << 1, -x[k][i];
-          obs(row) =
-              h[k][i] + blade[k]->extends_mm + chord[k][i] * blade[k]->width_mm / 2 * std::abs(t);
-        }
-      const Eigen::Vector2d s = m.colPivHouseholderQr().solve(obs);
-      end_h = s(0), t = s(1);
-      resid = obs - m * s;
-    }
-    p.pitch_deg = std::atan(t) * base::kDegPerRad;
-    p.pitch_measured = true;
-    p.blade_rms_um = std::sqrt(resid.squaredNorm() / static_cast<double>(n)) * 1e3;
-  }
+  const ToolCameraModel first = ScaleAndRoll(rows, c, pin, &p);
+  const double end_h = pin.blades.size() == 2
+                           ? PitchFromBlades(rows, positions, position_count, first, pin, &p)
+                           : 0.0;  // the pin's end in the first pass' frame
   const Vec2 end = first.PixelFromTool({0, end_h});
   const Vec2 gauge = first.PixelFromTool({0, end_h + pin.length_mm});
   p.end_u_px = end.x(), p.end_v_px = end.y();

@@ -313,6 +313,106 @@ void VirtualProbe::SpeckledSheet(const std::vector<Pixel>& pixels,
   imager->Image(laser_e);
 }
 
+// The frames of one capture from per-pixel signals [e-]: the exposure, shot and read noise
+// (Gaussian, each frame from its own seed), the camera's gain and clipping.
+struct VirtualProbe::Frames {
+  const VirtualProbe& probe;
+  const SweepOptions& o;
+  const std::vector<Pixel>& pixels;
+  std::vector<Sheet> sheets;
+
+  const probe_fw::NoiseModel& noise() const { return probe.model_.noise; }
+
+  double Ambient(size_t i) const {
+    return noise().ambient_e * (pixels[i].hit ? pixels[i].reflectance : kBackgroundFactor);
+  }
+
+  template <class Signal>
+  Frame Make(double laser_column, std::uint64_t index, Signal signal_e) const {
+    const probe_fw::CameraModel& camera = probe.model_.camera;
+    const double gain_dn_per_e = camera.MaxLevel() / noise().full_well_e;
+    const double read_e = noise().read_noise_e;
+    Frame f;
+    f.aoi = o.aoi;
+    f.bit_depth = camera.bit_depth;
+    f.laser_column = laser_column;
+    f.pixels.resize(pixels.size());
+    Gaussian gauss(FrameSeed(o.seed, index));
+    for (size_t i = 0; i < pixels.size(); ++i) {
+      double e = o.exposure * signal_e(i, gauss);
+      if (o.noise) e += gauss() * std::sqrt(std::max(e, 0.0) + read_e * read_e);
+      const double dn = std::round(e * gain_dn_per_e);
+      f.pixels[i] = static_cast<std::uint16_t>(std::clamp(dn, 0.0, double(camera.MaxLevel())));
+    }
+    return f;
+  }
+
+  // A laser frame with speckle from the coherent imager (the surface's phase, the pupil).
+  Frame Coherent(double column,
+                 std::uint64_t index,
+                 double actual,
+                 const std::vector<GhostSplat>& ghosts,
+                 SpeckleImager* coherent,
+                 std::vector<double>* laser_e) const {
+    const int w = o.aoi.width, h = o.aoi.height;
+    SplatGhosts(ghosts, actual, probe.model_.laser.sheet_halfwidth_cols, w, h,
+                coherent->Oversampling(), coherent->Irradiance().data());
+    probe.SpeckledSheet(pixels, sheets, w, h, actual, coherent, laser_e);
+    return Make(column, index, [&](size_t i, Gaussian&) { return Ambient(i) + (*laser_e)[i]; });
+  }
+
+  // A laser frame with the sheet integrated over each pixel and speckle as a multiplicative
+  // Gaussian per pixel.
+  Frame Incoherent(double column,
+                   std::uint64_t index,
+                   double actual,
+                   const std::vector<GhostSplat>& ghosts,
+                   std::vector<float>* ghost_e) const {
+    if (!ghosts.empty()) {
+      ghost_e->assign(pixels.size(), 0.0f);
+      SplatGhosts(ghosts, actual, probe.model_.laser.sheet_halfwidth_cols, o.aoi.width,
+                  o.aoi.height, 1, ghost_e->data());
+    }
+    return Make(column, index, [&](size_t i, Gaussian& gauss) {
+      const Pixel& p = pixels[i];
+      const Sheet& sh = sheets[i];
+      double laser = ghost_e->empty() ? 0.0 : (*ghost_e)[i];
+      if (p.lit) {
+        const double g = sh.gain * PixelAveragedSheet(p.sheet_column - actual,
+                                                      std::hypot(sh.gx, sh.gy), sh.width_cols);
+        laser += noise().laser_peak_e * p.laser_response * g;
+      }
+      if (laser <= 0.0) return Ambient(i);
+      double speckle = 1.0;
+      if (o.noise) speckle = std::max(0.0, 1.0 + noise().speckle_contrast * gauss());
+      return Ambient(i) + laser * speckle;
+    });
+  }
+
+  // One frame per column, first + i * step, as the firmware plans a sweep (agent.h: PlanSweep).
+  std::vector<Frame> Laser(const std::vector<GhostSplat>& ghosts) const {
+    std::vector<Frame> frames;
+    if (!o.laser_frames) return frames;
+    std::unique_ptr<SpeckleImager> coherent;
+    if (o.noise && CoherentSpeckle(probe.model_)) {
+      coherent = std::make_unique<SpeckleImager>(
+          o.aoi.width, o.aoi.height, AiryRadiusPx(probe.model_), noise().speckle_contrast,
+          FrameSeed(o.seed, kSurfacePhaseStream));
+    }
+    std::vector<double> laser_e;
+    std::vector<float> ghost_e;
+    const auto steps =
+        static_cast<std::uint64_t>((o.last_column - o.first_column) / o.column_step + 1e-9);
+    for (std::uint64_t index = 1; index <= steps + 1; ++index) {
+      const double column = o.first_column + static_cast<double>(index - 1) * o.column_step;
+      const double actual = probe.model_.projector.ActualColumn(column);
+      frames.push_back(coherent ? Coherent(column, index, actual, ghosts, coherent.get(), &laser_e)
+                                : Incoherent(column, index, actual, ghosts, &ghost_e));
+    }
+    return frames;
+  }
+};
+
 RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions& o) const {
   CheckSweep(model_, o);
   const Pose3 pose = McsFromProbe(capture);
@@ -325,75 +425,14 @@ RenderedCapture VirtualProbe::Render(const Capture& capture, const SweepOptions&
           Trace(pose, Vec2(o.aoi.x0 + x, o.aoi.y0 + y), o.laser_frames);
     }
   }
-  const std::vector<Sheet> sheets = SheetAcrossPixels(pixels, w, h);
-  const auto& noise = model_.noise;
-  const double gain_dn_per_e = model_.camera.MaxLevel() / noise.full_well_e;
-  auto make_frame = [&](double laser_column, std::uint64_t index, auto signal_e) {
-    Frame f;
-    f.aoi = o.aoi;
-    f.bit_depth = model_.camera.bit_depth;
-    f.laser_column = laser_column;
-    f.pixels.resize(n);
-    Gaussian gauss(FrameSeed(o.seed, index));
-    for (size_t i = 0; i < n; ++i) {
-      double e = o.exposure * signal_e(i, gauss);
-      if (o.noise)
-        e += gauss() * std::sqrt(std::max(e, 0.0) + noise.read_noise_e * noise.read_noise_e);
-      const double dn = std::round(e * gain_dn_per_e);
-      f.pixels[i] =
-          static_cast<std::uint16_t>(std::clamp(dn, 0.0, double(model_.camera.MaxLevel())));
-    }
-    return f;
-  };
-  auto ambient = [&](const Pixel& p) {
-    return noise.ambient_e * (p.hit ? p.reflectance : kBackgroundFactor);
-  };
+  const Frames frames{*this, o, pixels, SheetAcrossPixels(pixels, w, h)};
   const std::vector<double> led = LedResponse(pose, o, pixels);
   RenderedCapture out;
-  out.led = make_frame(
-      -1.0, 0, [&](size_t i, Gaussian&) { return ambient(pixels[i]) + noise.led_e * led[i]; });
+  out.led = frames.Make(-1.0, 0, [&](size_t i, Gaussian&) {
+    return frames.Ambient(i) + model_.noise.led_e * led[i];
+  });
   out.ghosts = Interreflections(pose, o, pixels);
-  std::unique_ptr<SpeckleImager> coherent;
-  std::vector<double> laser_e;
-  std::vector<float> ghost_e;
-  if (o.noise && o.laser_frames && CoherentSpeckle(model_)) {
-    coherent = std::make_unique<SpeckleImager>(w, h, AiryRadiusPx(model_), noise.speckle_contrast,
-                                               FrameSeed(o.seed, kSurfacePhaseStream));
-  }
-  // Columns first + i * step, as the firmware plans a sweep (agent.h: PlanSweep).
-  const auto steps =
-      static_cast<std::uint64_t>((o.last_column - o.first_column) / o.column_step + 1e-9);
-  for (std::uint64_t index = 1; o.laser_frames && index <= steps + 1; ++index) {
-    const double column = o.first_column + static_cast<double>(index - 1) * o.column_step;
-    const double actual = model_.projector.ActualColumn(column);
-    const double sheet_w = model_.laser.sheet_halfwidth_cols;
-    if (coherent) {
-      SplatGhosts(out.ghosts, actual, sheet_w, w, h, coherent->Oversampling(),
-                  coherent->Irradiance().data());
-      SpeckledSheet(pixels, sheets, w, h, actual, coherent.get(), &laser_e);
-      out.laser.push_back(make_frame(
-          column, index, [&](size_t i, Gaussian&) { return ambient(pixels[i]) + laser_e[i]; }));
-      continue;
-    }
-    if (!out.ghosts.empty()) {
-      ghost_e.assign(n, 0.0f);
-      SplatGhosts(out.ghosts, actual, sheet_w, w, h, 1, ghost_e.data());
-    }
-    out.laser.push_back(make_frame(column, index, [&](size_t i, Gaussian& gauss) {
-      const Pixel& p = pixels[i];
-      const Sheet& sh = sheets[i];
-      double laser = ghost_e.empty() ? 0.0 : ghost_e[i];
-      if (p.lit) {
-        const double g = sh.gain * PixelAveragedSheet(p.sheet_column - actual,
-                                                      std::hypot(sh.gx, sh.gy), sh.width_cols);
-        laser += noise.laser_peak_e * p.laser_response * g;
-      }
-      if (laser <= 0.0) return ambient(p);
-      double speckle = 1.0;
-      if (o.noise) speckle = std::max(0.0, 1.0 + noise.speckle_contrast * gauss());
-      return ambient(p) + laser * speckle;
-    }));
-  }
+  out.laser = frames.Laser(out.ghosts);
   out.truth.resize(n);
   for (size_t i = 0; i < n; ++i) {
     out.truth[i] = {pixels[i].hit, pixels[i].lit, pixels[i].point_in_probe,

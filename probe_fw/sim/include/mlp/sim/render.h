@@ -117,6 +117,7 @@ class VirtualProbe {
  private:
   struct Pixel;
   struct Sheet;
+  struct Frames;  ///< render.cc: a capture's frames from per-pixel signals
   std::vector<GhostSplat> Interreflections(const Pose3& mcs_from_probe,
                                            const SweepOptions& o,
                                            const std::vector<Pixel>& pixels) const;
