@@ -188,6 +188,104 @@ void CheckSheetTerms(const ProbeCalibInput& in,
   Solve(problem, result);
 }
 
+// The adjustment's parameter blocks: the camera (fx fy cx cy k1 k2 p1 p2 k3), the projector
+// (f, c, the mirror's cubic, the sheet's smile), its pose in the camera (angle-axis, mm) and
+// each view's board pose (angle-axis, mm).
+struct JointBlocks {
+  double k[9];
+  double proj[4];
+  double proj_r[3], proj_t[3];
+  std::vector<std::array<double, 6>> boards;
+};
+
+JointBlocks StartBlocks(const ProbeCalibInput& in) {
+  const Intrinsics& c0 = in.camera_start;
+  const ProjectorParams& p0 = in.projector_start;
+  JointBlocks b{{c0.fx_px, c0.fy_px, c0.cx_px, c0.cy_px, c0.k1, c0.k2, c0.p1, c0.p2, c0.k3},
+                {p0.f_px, p0.c_px, p0.mirror_cubic_cols, p0.sheet_smile_cols},
+                {},
+                {},
+                std::vector<std::array<double, 6>>(in.corners.size())};
+  ToAngleAxis(p0.camera_from_projector, b.proj_r, b.proj_t);
+  for (size_t v = 0; v < b.boards.size(); ++v)
+    ToAngleAxis(in.camera_from_board_start[v], b.boards[v].data(), b.boards[v].data() + 3);
+  return b;
+}
+
+// One residual block per board corner of every view the board was found in.
+void AddCorners(const ProbeCalibInput& in,
+                JointBlocks* b,
+                ceres::Problem* problem,
+                ProbeCalibResult* result) {
+  for (size_t v = 0; v < in.corners.size(); ++v) {
+    if (in.corners[v].empty()) continue;
+    ++result->views_used;
+    size_t idx = 0;
+    for (int j = 1; j <= in.board.inner_rows; ++j) {
+      for (int i = 1; i <= in.board.inner_cols; ++i, ++idx) {
+        const Vec3 corner(i * in.board.square_mm, j * in.board.square_mm, 0.0);
+        problem->AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 9, 3, 3>(
+                                      new CornerResidual{corner, in.corners[v][idx]}),
+                                  nullptr, b->k, b->boards[v].data(), b->boards[v].data() + 3);
+        ++result->corners_used;
+      }
+    }
+  }
+  if (result->views_used < 4) throw CameraCalibError("the board was found in fewer than 4 views");
+}
+
+// One residual block per stripe point on a found board: its column against the light plane's.
+void AddStripes(const ProbeCalibInput& in,
+                JointBlocks* b,
+                ceres::Problem* problem,
+                ProbeCalibResult* result) {
+  const ProjectorParams& p0 = in.projector_start;
+  const double half_columns = p0.columns > 0 ? 0.5 * p0.columns : 1.0;
+  const double tan_fan = std::tan(p0.fan_half_angle_deg / base::kDegPerRad);
+  for (const StripeObservation& s : in.stripes) {
+    if (s.view < 0 || static_cast<size_t>(s.view) >= in.corners.size() ||
+        in.corners[s.view].empty())
+      continue;
+    auto& board = b->boards[static_cast<size_t>(s.view)];
+    problem->AddResidualBlock(new ceres::AutoDiffCostFunction<StripeResidual, 1, 9, 3, 3, 4, 3, 3>(
+                                  new StripeResidual{s, half_columns, tan_fan}),
+                              nullptr, b->k, board.data(), board.data() + 3, b->proj, b->proj_r,
+                              b->proj_t);
+    ++result->stripes_used;
+  }
+  if (result->stripes_used == 0) throw CameraCalibError("no stripe point on a found board");
+}
+
+void ReadBack(const JointBlocks& b, const ProjectorParams& p0, ProbeCalibResult* result) {
+  auto& c = result->camera;
+  c.fx_px = b.k[0], c.fy_px = b.k[1], c.cx_px = b.k[2], c.cy_px = b.k[3];
+  c.k1 = b.k[4], c.k2 = b.k[5], c.p1 = b.k[6], c.p2 = b.k[7], c.k3 = b.k[8];
+  result->projector.f_px = b.proj[0];
+  result->projector.c_px = b.proj[1];
+  result->projector.camera_from_projector = FromAngleAxis(b.proj_r, b.proj_t);
+  result->projector.mirror_cubic_cols = b.proj[2];
+  result->projector.sheet_smile_cols = b.proj[3];
+  result->projector.columns = p0.columns;
+  result->projector.fan_half_angle_deg = p0.fan_half_angle_deg;
+  for (const auto& board : b.boards)
+    result->camera_from_board.push_back(FromAngleAxis(board.data(), board.data() + 3));
+}
+
+// RMS of the corners [px] and the stripe points [columns], in the residuals' own units.
+void ResidualRms(ceres::Problem* problem, ProbeCalibResult* result) {
+  double corner_ss = 0, stripe_ss = 0;
+  std::vector<double> residuals;
+  ceres::Problem::EvaluateOptions eo;
+  problem->Evaluate(eo, nullptr, &residuals, nullptr, nullptr);
+  const size_t nc = 2 * static_cast<size_t>(result->corners_used);
+  for (size_t i = 0; i < residuals.size(); ++i) {
+    const double r = residuals[i];
+    (i < nc ? corner_ss : stripe_ss) += r * r;
+  }
+  result->corner_rms_px = std::sqrt(corner_ss / static_cast<double>(nc)) * kCornerSigmaPx;
+  result->stripe_rms_columns = std::sqrt(stripe_ss / result->stripes_used) * kStripeSigmaColumns;
+}
+
 }  // namespace
 
 double ProjectorParams::ColumnOf(const Vec3& p) const {
@@ -303,83 +401,25 @@ ProbeCalibReport CalibrateProbe(const std::vector<GrayImage>& leds,
 }
 
 ProbeCalibResult AdjustCameraAndProjector(const ProbeCalibInput& in) {
-  const size_t views = in.corners.size();
-  if (in.camera_from_board_start.size() != views)
+  if (in.camera_from_board_start.size() != in.corners.size())
     throw CameraCalibError("one start pose per view is needed");
-  const Intrinsics& c0 = in.camera_start;
-  double k[9] = {c0.fx_px, c0.fy_px, c0.cx_px, c0.cy_px, c0.k1, c0.k2, c0.p1, c0.p2, c0.k3};
-  const ProjectorParams& p0 = in.projector_start;
-  double proj[4] = {p0.f_px, p0.c_px, p0.mirror_cubic_cols, p0.sheet_smile_cols};
-  const bool curved = p0.columns > 0;
-  const double half_columns = curved ? 0.5 * p0.columns : 1.0;
-  const double tan_fan = std::tan(p0.fan_half_angle_deg / base::kDegPerRad);
-  double proj_r[3], proj_t[3];
-  ToAngleAxis(in.projector_start.camera_from_projector, proj_r, proj_t);
-  std::vector<std::array<double, 6>> boards(views);
-  for (size_t v = 0; v < views; ++v)
-    ToAngleAxis(in.camera_from_board_start[v], boards[v].data(), boards[v].data() + 3);
-
+  const bool curved = in.projector_start.columns > 0;
+  JointBlocks b = StartBlocks(in);
   ceres::Problem problem;
   ProbeCalibResult result;
-  int used_views = 0;
-  for (size_t v = 0; v < views; ++v) {
-    if (in.corners[v].empty()) continue;
-    ++used_views;
-    size_t idx = 0;
-    for (int j = 1; j <= in.board.inner_rows; ++j) {
-      for (int i = 1; i <= in.board.inner_cols; ++i, ++idx) {
-        const Vec3 corner(i * in.board.square_mm, j * in.board.square_mm, 0.0);
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CornerResidual, 2, 9, 3, 3>(
-                                     new CornerResidual{corner, in.corners[v][idx]}),
-                                 nullptr, k, boards[v].data(), boards[v].data() + 3);
-        ++result.corners_used;
-      }
-    }
-  }
-  if (used_views < 4) throw CameraCalibError("the board was found in fewer than 4 views");
-  result.views_used = used_views;
-  for (const StripeObservation& s : in.stripes) {
-    if (s.view < 0 || static_cast<size_t>(s.view) >= views || in.corners[s.view].empty()) continue;
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<StripeResidual, 1, 9, 3, 3, 4, 3, 3>(
-                                 new StripeResidual{s, half_columns, tan_fan}),
-                             nullptr, k, boards[s.view].data(), boards[s.view].data() + 3, proj,
-                             proj_r, proj_t);
-    ++result.stripes_used;
-  }
-  if (result.stripes_used == 0) throw CameraCalibError("no stripe point on a found board");
+  AddCorners(in, &b, &problem, &result);
+  AddStripes(in, &b, &problem, &result);
   // Every light plane contains the projector's y axis (the direction along the stripe), so
   // moving the projector along it changes no plane: a gauge freedom the solver would wander in
   // (it drifted 111 mm on the reference probe). Its camera-frame y (~ that axis: the projector
   // is turned about y) is held at the start value.
-  problem.SetManifold(proj_t, new ceres::SubsetManifold(3, {1}));
+  problem.SetManifold(b.proj_t, new ceres::SubsetManifold(3, {1}));
   // Without the mirror's range the cubic has no scale: the design's flat sheet, linear mirror.
-  if (!curved) problem.SetManifold(proj, new ceres::SubsetManifold(4, {2, 3}));
+  if (!curved) problem.SetManifold(b.proj, new ceres::SubsetManifold(4, {2, 3}));
   Solve(&problem, &result);
-  if (curved) CheckSheetTerms(in, proj, &problem, &result);
-  auto& c = result.camera;
-  c.fx_px = k[0], c.fy_px = k[1], c.cx_px = k[2], c.cy_px = k[3];
-  c.k1 = k[4], c.k2 = k[5], c.p1 = k[6], c.p2 = k[7], c.k3 = k[8];
-  result.projector.f_px = proj[0];
-  result.projector.c_px = proj[1];
-  result.projector.camera_from_projector = FromAngleAxis(proj_r, proj_t);
-  result.projector.mirror_cubic_cols = proj[2];
-  result.projector.sheet_smile_cols = proj[3];
-  result.projector.columns = p0.columns;
-  result.projector.fan_half_angle_deg = p0.fan_half_angle_deg;
-  for (size_t v = 0; v < views; ++v)
-    result.camera_from_board.push_back(FromAngleAxis(boards[v].data(), boards[v].data() + 3));
-  // RMS in the residuals' own units.
-  double corner_ss = 0, stripe_ss = 0;
-  std::vector<double> residuals;
-  ceres::Problem::EvaluateOptions eo;
-  problem.Evaluate(eo, nullptr, &residuals, nullptr, nullptr);
-  const size_t nc = 2 * static_cast<size_t>(result.corners_used);
-  for (size_t i = 0; i < residuals.size(); ++i) {
-    const double r = residuals[i];
-    (i < nc ? corner_ss : stripe_ss) += r * r;
-  }
-  result.corner_rms_px = std::sqrt(corner_ss / static_cast<double>(nc)) * kCornerSigmaPx;
-  result.stripe_rms_columns = std::sqrt(stripe_ss / result.stripes_used) * kStripeSigmaColumns;
+  if (curved) CheckSheetTerms(in, b.proj, &problem, &result);
+  ReadBack(b, in.projector_start, &result);
+  ResidualRms(&problem, &result);
   return result;
 }
 

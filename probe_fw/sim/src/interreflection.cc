@@ -75,24 +75,84 @@ bool VirtualProbe::SeenAt(const Pose3& mcs_from_probe,
   return false;  // another surface hides the point
 }
 
+// The stripe's light reflected off one glossy face onto another that the camera sees.
+struct VirtualProbe::Ghosts {
+  const VirtualProbe& probe;
+  const Pose3& pose;
+  const SweepOptions& o;
+
+  // The fan's part to sample as tan(angle along the sheet): what the AOI sees, and half as much
+  // again on each side (the face that reflects may be out of view). False when nothing is seen.
+  bool FanRange(const std::vector<Pixel>& pixels, double* t_lo, double* t_hi) const {
+    const auto& proj = probe.model_.projector;
+    const Pose3 projector_from_probe = proj.camera_from_projector.inverse();
+    *t_lo = INFINITY, *t_hi = -INFINITY;
+    for (const Pixel& p : pixels) {
+      if (!p.hit) continue;
+      const Vec3 q = projector_from_probe * p.point_in_probe;
+      *t_lo = std::min(*t_lo, q.y() / q.z()), *t_hi = std::max(*t_hi, q.y() / q.z());
+    }
+    if (!(*t_hi > *t_lo)) return false;
+    const double fan = std::tan(proj.fan_half_angle_deg / base::kDegPerRad), span = *t_hi - *t_lo;
+    *t_lo = std::max(-fan, *t_lo - 0.5 * span), *t_hi = std::min(fan, *t_hi + 0.5 * span);
+    return true;
+  }
+
+  // One bounce of a cell's light `cell_e0_mm2` (sheet-centre irradiance x mm^2) hitting the
+  // glossy face at `first`: stratified samples of its lobe, each seen where the reflected ray
+  // lands, as a splat at sheet column u.
+  void Bounce(const Ray& ray,
+              const SurfaceHit& first,
+              double u,
+              double cell_e0_mm2,
+              std::mt19937_64& engine,
+              std::vector<GhostSplat>* out) const {
+    const auto uniform = [&] { return static_cast<double>(engine() >> 11) * 0x1.0p-53; };
+    const bool sharp = first.gloss.roughness < kSharpLobe;
+    const int strata = sharp ? 3 : 4, samples = strata * strata;
+    const double stride = sharp ? 1.0 : kRoughStride;
+    const Vec3 p = ray.origin + first.t * ray.direction;
+    const Vec3 camera_mcs = pose.translation();
+    const auto& camera = probe.model_.camera;
+    for (int k = 0; k < samples; ++k) {
+      Vec3 r;
+      const double xi1 = (k % strata + uniform()) / strata;
+      const double xi2 = (k / strata + uniform()) / strata;
+      const double carried = SampleLobe(first.gloss, first.normal, -ray.direction, xi1, xi2, &r);
+      if (carried <= 0.0) continue;
+      const Ray bounce{p + kNudgeMm * first.normal, r};
+      const auto second = probe.scene_.FirstHit(bounce);
+      if (!second) continue;
+      const Vec3 q = bounce.origin + second->t * r;
+      geometry::Vec2 px;
+      if (!probe.SeenAt(pose, o.aoi, q, &px)) continue;
+      const Vec3 to_camera = (camera_mcs - q).normalized();
+      const double cos_in = second->normal.dot(-r);
+      const double cos_view = second->normal.dot(to_camera);
+      if (cos_in <= 1e-6 || cos_view <= 1e-6) continue;
+      // The pixel's footprint on the face [mm^2]: z^2 cos(off-axis) / (fx fy cos(view)).
+      const Vec3 q_probe = pose.inverse() * q;
+      const double footprint = q_probe.z() * q_probe.z() * (q_probe.z() / q_probe.norm()) /
+                               (camera.fx_px * camera.fy_px * cos_view);
+      const double response =
+          Reflected(second->reflectance, second->gloss, second->normal, -r, to_camera) / cos_in;
+      const double e = probe.model_.noise.laser_peak_e * response * cell_e0_mm2 * stride * carried /
+                       samples / footprint;
+      out->push_back({static_cast<float>(px.x() - o.aoi.x0), static_cast<float>(px.y() - o.aoi.y0),
+                      static_cast<float>(u), static_cast<float>(e)});
+    }
+  }
+};
+
 std::vector<GhostSplat> VirtualProbe::Interreflections(const Pose3& pose,
                                                        const SweepOptions& o,
                                                        const std::vector<Pixel>& pixels) const {
   std::vector<GhostSplat> out;
   if (!o.interreflections || !scene_.workpiece->Glossy()) return out;
+  const Ghosts ghosts{*this, pose, o};
+  double t_lo = 0, t_hi = 0;
+  if (!ghosts.FanRange(pixels, &t_lo, &t_hi)) return out;
   const auto& proj = model_.projector;
-  const Pose3 projector_from_probe = proj.camera_from_projector.inverse();
-  // The fan's part to sample: what the AOI sees, and half as much again on each side (the face
-  // that reflects may be out of view).
-  double t_lo = INFINITY, t_hi = -INFINITY;
-  for (const Pixel& p : pixels) {
-    if (!p.hit) continue;
-    const Vec3 q = projector_from_probe * p.point_in_probe;
-    t_lo = std::min(t_lo, q.y() / q.z()), t_hi = std::max(t_hi, q.y() / q.z());
-  }
-  if (!(t_hi > t_lo)) return out;
-  const double fan = std::tan(proj.fan_half_angle_deg / base::kDegPerRad), span = t_hi - t_lo;
-  t_lo = std::max(-fan, t_lo - 0.5 * span), t_hi = std::min(fan, t_hi + 0.5 * span);
   const double w = model_.laser.sheet_halfwidth_cols, du = 0.5 * w;
   const double u_lo = proj.ActualColumn(o.first_column) - 3.0 * w;
   const double u_hi = proj.ActualColumn(o.last_column) + 3.0 * w;
@@ -102,9 +162,7 @@ std::vector<GhostSplat> VirtualProbe::Interreflections(const Pose3& pose,
   const int n_t = 9 * std::max(o.aoi.width, o.aoi.height);
   const double dt = (t_hi - t_lo) / n_t;
   std::mt19937_64 engine(o.seed ^ 0x6a09e667f3bcc908ULL);  // the ghost's own stream
-  const auto uniform = [&] { return static_cast<double>(engine() >> 11) * 0x1.0p-53; };
   const Vec3 projector_mcs = pose * proj.Center();
-  const Vec3 camera_mcs = pose.translation();
   const Eigen::Matrix3d mcs_R_projector = pose.linear() * proj.camera_from_projector.linear();
   for (int i = 0; i < n_u; ++i) {
     for (int j = 0; j < n_t; ++j) {
@@ -114,42 +172,11 @@ std::vector<GhostSplat> VirtualProbe::Interreflections(const Pose3& pose,
       const Ray ray{projector_mcs, mcs_R_projector * d_proj.normalized()};
       const auto first = scene_.FirstHit(ray);
       if (!first || first->gloss.specular_f0 <= 0.0) continue;
-      const bool sharp = first->gloss.roughness < kSharpLobe;
-      if (!sharp && j % kRoughStride != 0) continue;
-      const int strata = sharp ? 3 : 4, samples = strata * strata;
-      const double stride = sharp ? 1.0 : kRoughStride;
-      const Vec3 p = ray.origin + first->t * ray.direction;
+      if (first->gloss.roughness >= kSharpLobe && j % kRoughStride != 0) continue;
       // The cell's light in units of the sheet-centre irradiance E0 times mm^2: its solid angle
       // (du / f) dt / |d|^3 at the hit's distance (the model keeps E0 along the ray).
       const double cell = first->t * first->t * (du / proj.f_px) * dt / std::pow(d_proj.norm(), 3);
-      for (int k = 0; k < samples; ++k) {
-        Vec3 r;
-        const double xi1 = (k % strata + uniform()) / strata;
-        const double xi2 = (k / strata + uniform()) / strata;
-        const double carried =
-            SampleLobe(first->gloss, first->normal, -ray.direction, xi1, xi2, &r);
-        if (carried <= 0.0) continue;
-        const Ray bounce{p + kNudgeMm * first->normal, r};
-        const auto second = scene_.FirstHit(bounce);
-        if (!second) continue;
-        const Vec3 q = bounce.origin + second->t * r;
-        geometry::Vec2 px;
-        if (!SeenAt(pose, o.aoi, q, &px)) continue;
-        const Vec3 to_camera = (camera_mcs - q).normalized();
-        const double cos_in = second->normal.dot(-r);
-        const double cos_view = second->normal.dot(to_camera);
-        if (cos_in <= 1e-6 || cos_view <= 1e-6) continue;
-        // The pixel's footprint on the face [mm^2]: z^2 cos(off-axis) / (fx fy cos(view)).
-        const Vec3 q_probe = pose.inverse() * q;
-        const double footprint = q_probe.z() * q_probe.z() * (q_probe.z() / q_probe.norm()) /
-                                 (model_.camera.fx_px * model_.camera.fy_px * cos_view);
-        const double response =
-            Reflected(second->reflectance, second->gloss, second->normal, -r, to_camera) / cos_in;
-        const double e =
-            model_.noise.laser_peak_e * response * cell * stride * carried / samples / footprint;
-        out.push_back({static_cast<float>(px.x() - o.aoi.x0), static_cast<float>(px.y() - o.aoi.y0),
-                       static_cast<float>(u), static_cast<float>(e)});
-      }
+      ghosts.Bounce(ray, *first, u, cell, engine, &out);
     }
   }
   std::sort(out.begin(), out.end(),

@@ -118,6 +118,7 @@ class VirtualProbe {
   struct Pixel;
   struct Sheet;
   struct Frames;  ///< render.cc: a capture's frames from per-pixel signals
+  struct Ghosts;  ///< interreflection.cc: the stripe reflected from face to face
   std::vector<GhostSplat> Interreflections(const Pose3& mcs_from_probe,
                                            const SweepOptions& o,
                                            const std::vector<Pixel>& pixels) const;
