@@ -58,23 +58,11 @@ void Circle(std::ostringstream& s, double r, const std::string& style) {
     << "/>\n";
 }
 
-}  // namespace
-
-std::string BoreReportSvg(const BoreReport& r) {
+// The polar plot: the tolerance band round the nominal, the nominal, the fitted circle, and
+// each degree's deviation magnified by k [px/mm], coloured by its sign.
+void DeviationPlot(const BoreReport& r, double worst, double k, std::ostringstream& s) {
   const auto& dev = r.bore.deviation_by_degree_mm;
-  double worst = 0;
-  for (double d : dev)
-    if (std::isfinite(d)) worst = std::max(worst, std::abs(d));
   const double fitted_r = r.bore.diameter_mm / 2;
-  const double band = 0.5 * (r.upper_tol_mm + r.lower_tol_mm);
-  // Pixels per mm of deviation: the worst deviation, the tolerance band and the nominal's
-  // offset all fit the drawing.
-  const double reach = std::max({worst, band, std::abs(r.nominal_mm / 2 - fitted_r), 1e-4});
-  const double k = kMagnifiedPx / reach;
-  std::ostringstream s;
-  s << "<svg xmlns='http://www.w3.org/2000/svg' width='900' height='500' "
-       "font-family='sans-serif'>\n"
-    << "<rect width='900' height='500' fill='white'/>\n";
   // Tolerance band around the nominal (radius = nominal / 2 + tolerance / 2 on either side).
   const double nominal_px = kBaseRadiusPx + k * (r.nominal_mm / 2 - fitted_r);
   Circle(s, nominal_px + k * r.upper_tol_mm / 2, "fill='none' stroke='#8fd19e' stroke-width='1.5'");
@@ -92,6 +80,12 @@ std::string BoreReportSvg(const BoreReport& r) {
   }
   s << "<text x='" << kCentreX << "' y='" << kCentreY + 5
     << "' text-anchor='middle' font-size='12' fill='#555'>+X at 3 o'clock</text>\n";
+}
+
+// The text column: verdict, size, fits, coverage, the plot's scale and the decision.
+void ReportText(const BoreReport& r, double worst, double k, std::ostringstream& s) {
+  const auto& dev = r.bore.deviation_by_degree_mm;
+  const double fitted_r = r.bore.diameter_mm / 2;
   const double y0 = 40, dy = 24;
   int line = 0;
   const auto text = [&](const std::string& t, int size, const std::string& colour) {
@@ -132,6 +126,26 @@ std::string BoreReportSvg(const BoreReport& r) {
     text(r.decision, 12, "black");
   }
   text(r.time_utc, 11, "#777");
+}
+
+}  // namespace
+
+std::string BoreReportSvg(const BoreReport& r) {
+  double worst = 0;
+  for (double d : r.bore.deviation_by_degree_mm)
+    if (std::isfinite(d)) worst = std::max(worst, std::abs(d));
+  const double fitted_r = r.bore.diameter_mm / 2;
+  const double band = 0.5 * (r.upper_tol_mm + r.lower_tol_mm);
+  // Pixels per mm of deviation: the worst deviation, the tolerance band and the nominal's
+  // offset all fit the drawing.
+  const double reach = std::max({worst, band, std::abs(r.nominal_mm / 2 - fitted_r), 1e-4});
+  const double k = kMagnifiedPx / reach;
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='900' height='500' "
+       "font-family='sans-serif'>\n"
+    << "<rect width='900' height='500' fill='white'/>\n";
+  DeviationPlot(r, worst, k, s);
+  ReportText(r, worst, k, s);
   s << "</svg>\n";
   return s.str();
 }

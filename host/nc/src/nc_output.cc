@@ -148,75 +148,86 @@ std::string LinuxCncSubroutine(const std::string& name, const NcResult& r) {
   return s.str();
 }
 
+namespace {
+
+// One tool offset change: through the macro variables of the register (map.use_variables), or
+// as G10 L10..L13.
+void FanucToolChange(const NcMap& map, const ToolOffsetChange& t, std::ostream& s) {
+  CheckTool(t, map.use_variables ? map.max_offset : 9999);
+  const double scale = !IsLength(t.reg) && map.radius_as_diameter ? 2.0 : 1.0;
+  const double value = scale * (t.incremental ? t.after_mm - t.before_mm : t.after_mm);
+  if (map.use_variables) {
+    const int base = t.reg == ToolRegister::kLengthGeometry   ? map.length_geometry_var
+                     : t.reg == ToolRegister::kLengthWear     ? map.length_wear_var
+                     : t.reg == ToolRegister::kRadiusGeometry ? map.radius_geometry_var
+                                                              : map.radius_wear_var;
+    if (base <= 0) Fail("the variable map has no " + ToString(t.reg) + " variables");
+    const int var = base + t.tool - 1;
+    if (t.incremental)
+      s << "#" << var << " = #" << var << (value < 0 ? " - " : " + ") << Num(std::abs(value))
+        << "\n";
+    else
+      s << "#" << var << " = " << Num(value) << "\n";
+    return;
+  }
+  const int l = t.reg == ToolRegister::kLengthGeometry   ? 10
+                : t.reg == ToolRegister::kLengthWear     ? 11
+                : t.reg == ToolRegister::kRadiusGeometry ? 12
+                                                         : 13;
+  if (t.incremental)  // G91: R is added to the register; back to G90 at once
+    s << "G91 G10 L" << l << " P" << t.tool << " R" << Num(value) << "\nG90\n";
+  else
+    s << "G10 L" << l << " P" << t.tool << " R" << Num(value) << "\n";
+}
+
+// One work offset change: through the macro variables (map.use_variables), or as G10 L2 / L20;
+// its rotation through the variable the macro's G68 reads.
+void FanucWorkChange(const NcMap& map, const WorkOffsetChange& w, std::ostream& s) {
+  const bool extended = w.index > 6;
+  if (extended && w.index - 6 > map.max_extended_work)
+    Fail(WorkOffsetName(map.dialect, w.index) + " is beyond the machine's " +
+         std::to_string(map.max_extended_work) + " extended work offsets");
+  WorkOffsetName(map.dialect, w.index);
+  if (map.use_variables) {
+    const int x = extended ? map.extended_work_var + (w.index - 7) * map.extended_work_stride
+                           : map.work_var + (w.index - 1) * map.work_stride;
+    for (int a = 0; a < 3; ++a) {
+      if (!w.axes[a]) continue;
+      const double shift = w.after_mm[a] - w.before_mm[a];
+      if (w.incremental)
+        s << "#" << x + a << " = #" << x + a << (shift < 0 ? " - " : " + ") << Num(std::abs(shift))
+          << "\n";
+      else
+        s << "#" << x + a << " = " << Num(w.after_mm[a]) << "\n";
+    }
+  } else {
+    // G91: the values are added to the offset; back to G90 at once.
+    s << (w.incremental ? "G91 G10 " : "G10 ")
+      << (extended ? "L20 P" + std::to_string(w.index - 6) : "L2 P" + std::to_string(w.index));
+    for (int a = 0; a < 3; ++a)
+      if (w.axes[a])
+        s << " " << kAxes[a] << Num(w.incremental ? w.after_mm[a] - w.before_mm[a] : w.after_mm[a]);
+    s << (w.incremental ? "\nG90\n" : "\n");
+  }
+  if (w.rotation_after_deg) {
+    if (map.rotation_var <= 0)
+      Fail(
+          "the control keeps no rotation with a work offset: configure rotation_var for the "
+          "macro's G68");
+    s << "#" << map.rotation_var << " = " << Num(*w.rotation_after_deg) << "\n";
+  }
+}
+
+}  // namespace
+
 std::string FanucStyleSnippet(const NcMap& map, const NcResult& r) {
   if (map.dialect == Dialect::kLinuxCnc) Fail("LinuxCNC takes LinuxCncSubroutine");
   if (map.use_variables && (map.length_geometry_var <= 0 || map.radius_geometry_var <= 0))
     Fail("the machine's variable map has no tool offset variables: configure them");
   std::ostringstream s;
   s << Comment(r.header) << "G90\n";
-  for (const ToolOffsetChange& t : r.tools) {
-    CheckTool(t, map.use_variables ? map.max_offset : 9999);
-    const double scale = !IsLength(t.reg) && map.radius_as_diameter ? 2.0 : 1.0;
-    const double value = scale * (t.incremental ? t.after_mm - t.before_mm : t.after_mm);
-    if (map.use_variables) {
-      const int base = t.reg == ToolRegister::kLengthGeometry   ? map.length_geometry_var
-                       : t.reg == ToolRegister::kLengthWear     ? map.length_wear_var
-                       : t.reg == ToolRegister::kRadiusGeometry ? map.radius_geometry_var
-                                                                : map.radius_wear_var;
-      if (base <= 0) Fail("the variable map has no " + ToString(t.reg) + " variables");
-      const int var = base + t.tool - 1;
-      if (t.incremental)
-        s << "#" << var << " = #" << var << (value < 0 ? " - " : " + ") << Num(std::abs(value))
-          << "\n";
-      else
-        s << "#" << var << " = " << Num(value) << "\n";
-    } else {
-      const int l = t.reg == ToolRegister::kLengthGeometry   ? 10
-                    : t.reg == ToolRegister::kLengthWear     ? 11
-                    : t.reg == ToolRegister::kRadiusGeometry ? 12
-                                                             : 13;
-      if (t.incremental)  // G91: R is added to the register; back to G90 at once
-        s << "G91 G10 L" << l << " P" << t.tool << " R" << Num(value) << "\nG90\n";
-      else
-        s << "G10 L" << l << " P" << t.tool << " R" << Num(value) << "\n";
-    }
-  }
-  for (const WorkOffsetChange& w : r.work) {
-    const bool extended = w.index > 6;
-    if (extended && w.index - 6 > map.max_extended_work)
-      Fail(WorkOffsetName(map.dialect, w.index) + " is beyond the machine's " +
-           std::to_string(map.max_extended_work) + " extended work offsets");
-    WorkOffsetName(map.dialect, w.index);
-    if (map.use_variables) {
-      const int x = extended ? map.extended_work_var + (w.index - 7) * map.extended_work_stride
-                             : map.work_var + (w.index - 1) * map.work_stride;
-      for (int a = 0; a < 3; ++a) {
-        if (!w.axes[a]) continue;
-        const double shift = w.after_mm[a] - w.before_mm[a];
-        if (w.incremental)
-          s << "#" << x + a << " = #" << x + a << (shift < 0 ? " - " : " + ")
-            << Num(std::abs(shift)) << "\n";
-        else
-          s << "#" << x + a << " = " << Num(w.after_mm[a]) << "\n";
-      }
-    } else {
-      // G91: the values are added to the offset; back to G90 at once.
-      s << (w.incremental ? "G91 G10 " : "G10 ")
-        << (extended ? "L20 P" + std::to_string(w.index - 6) : "L2 P" + std::to_string(w.index));
-      for (int a = 0; a < 3; ++a)
-        if (w.axes[a])
-          s << " " << kAxes[a]
-            << Num(w.incremental ? w.after_mm[a] - w.before_mm[a] : w.after_mm[a]);
-      s << (w.incremental ? "\nG90\n" : "\n");
-    }
-    if (w.rotation_after_deg) {
-      if (map.rotation_var <= 0)
-        Fail(
-            "the control keeps no rotation with a work offset: configure rotation_var for the "
-            "macro's G68");
-      s << "#" << map.rotation_var << " = " << Num(*w.rotation_after_deg) << "\n";
-    }
-  }
+  for (const ToolOffsetChange& t : r.tools) FanucToolChange(map, t, s);
+  for (const WorkOffsetChange& w : r.work) FanucWorkChange(map, w, s);
   for (const auto& [var, value] : r.numbered) {
     if (var < 1) Fail("variable numbers start at 1");
     s << "#" << var << " = " << Num(value) << "\n";

@@ -59,15 +59,68 @@ int CoveringStep(const StrobeRequest& r, int n, double* rps) {
   return best;
 }
 
+// The positions one revolution is cut into: 360 deg must be a whole number of steps.
+int PositionCount(const StrobeRequest& r) {
+  const double n_real = 360.0 / r.resolution_deg;
+  const int n = static_cast<int>(std::lround(n_real));
+  if (std::abs(n_real - n) > 1e-9 * n_real || n < 1)
+    Refuse("360 deg is not a whole number of " + Fmt(r.resolution_deg, 4) + " deg steps");
+  return n;
+}
+
+// The pulse: a share of one step's time on the timer's grid, no longer than the window.
+double PulseWidthUs(const StrobeRequest& r, const StrobePlan& p, double window_us) {
+  double width_us =
+      std::floor(r.pulse_share * p.step_time_us / r.timer_resolution_us) * r.timer_resolution_us;
+  if (width_us < r.min_pulse_us)
+    Refuse("at " + Fmt(p.rpm, 0) + " rpm the tool turns one " + Fmt(r.resolution_deg, 3) +
+           " deg step in " + Fmt(p.step_time_us, 3) + " us, shorter than the illuminator's " +
+           Fmt(r.min_pulse_us, 3) + " us pulse: lower the speed or coarsen the resolution");
+  if (window_us < width_us)
+    width_us = std::floor(window_us / r.timer_resolution_us) * r.timer_resolution_us;
+  return width_us;
+}
+
+// Image i's position, and (synchronised) its first pulse's start in the frame [us]: where the
+// tool is at the position, the first time after the window opens.
+void PulseSchedule(
+    const StrobeRequest& r, double frame_us, double rev_us, bool any_angle, StrobePlan* p) {
+  const int n = p->positions;
+  for (int i = 0; i < n; ++i) {
+    const int pos = static_cast<int>((static_cast<long long>(i) * p->skip) % n);
+    p->position.push_back(pos);
+    if (!r.synchronised) continue;
+    // The pulse's centre where the tool is at `pos`: from the window's start, the first time
+    // the angle (revolutions since the first frame began) reaches pos / n.
+    const double window_start_us = i * frame_us + r.blanking_us;
+    const double wait_rev =
+        any_angle ? Frac(static_cast<double>(pos) / n - Frac(window_start_us / rev_us)) : 0.0;
+    double start = std::round((r.blanking_us + wait_rev * rev_us - p->pulse_width_us / 2) /
+                              r.timer_resolution_us) *
+                   r.timer_resolution_us;
+    // Too early for the window: the same angle comes round one revolution later.
+    if (start < r.blanking_us) start += any_angle ? rev_us : r.blanking_us - start;
+    p->first_pulse_us.push_back(start);
+  }
+}
+
+std::string PlanNote(const StrobeRequest& r, const StrobePlan& p) {
+  std::ostringstream note;
+  if (p.rpm_changed)
+    note << "run the spindle at " << Fmt(p.rpm, 2) << " rpm (asked " << Fmt(r.rpm, 2)
+         << "): each image then advances " << p.skip << " of " << p.positions << " positions. ";
+  if (!r.synchronised)
+    note << "free-running: one pulse per frame at the frame rate; a pulse that drifts into a "
+            "frame change loses that image (repeat the positions missed). ";
+  return note.str();
+}
+
 }  // namespace
 
 StrobePlan PlanStrobe(const StrobeRequest& r) {
   Check(r);
   StrobePlan p;
-  const double n_real = 360.0 / r.resolution_deg;
-  p.positions = static_cast<int>(std::lround(n_real));
-  if (std::abs(n_real - p.positions) > 1e-9 * n_real || p.positions < 1)
-    Refuse("360 deg is not a whole number of " + Fmt(r.resolution_deg, 4) + " deg steps");
+  p.positions = PositionCount(r);
   const int n = p.positions;
   double rps = r.rpm / 60.0;
   const double frame_us = 1e6 / r.frame_rate_hz;
@@ -86,14 +139,7 @@ StrobePlan PlanStrobe(const StrobeRequest& r) {
   p.rpm = rps * 60, p.rpm_changed = std::abs(p.rpm - r.rpm) > 1e-9 * r.rpm;
   const double rev_us = 1e6 / rps;
   p.step_time_us = rev_us / n;
-  p.pulse_width_us =
-      std::floor(r.pulse_share * p.step_time_us / r.timer_resolution_us) * r.timer_resolution_us;
-  if (p.pulse_width_us < r.min_pulse_us)
-    Refuse("at " + Fmt(p.rpm, 0) + " rpm the tool turns one " + Fmt(r.resolution_deg, 3) +
-           " deg step in " + Fmt(p.step_time_us, 3) + " us, shorter than the illuminator's " +
-           Fmt(r.min_pulse_us, 3) + " us pulse: lower the speed or coarsen the resolution");
-  if (window_us < p.pulse_width_us)
-    p.pulse_width_us = std::floor(window_us / r.timer_resolution_us) * r.timer_resolution_us;
+  p.pulse_width_us = PulseWidthUs(r, p, window_us);
   // Pulses one revolution apart freeze the same angle: as many as fit after any start.
   p.pulses_per_image =
       any_angle
@@ -104,30 +150,8 @@ StrobePlan PlanStrobe(const StrobeRequest& r) {
   p.pulse_spacing_us = p.pulses_per_image > 1 ? rev_us : 0.0;
   p.pulse_rate_hz = p.pulses_per_image * r.frame_rate_hz;
   p.worst_angle_error_deg = 0.5 * r.timer_resolution_us * 1e-6 * rps * 360.0;
-  for (int i = 0; i < n; ++i) {
-    const int pos = static_cast<int>((static_cast<long long>(i) * p.skip) % n);
-    p.position.push_back(pos);
-    if (!r.synchronised) continue;
-    // The pulse's centre where the tool is at `pos`: from the window's start, the first time
-    // the angle (revolutions since the first frame began) reaches pos / n.
-    const double window_start_us = i * frame_us + r.blanking_us;
-    const double wait_rev =
-        any_angle ? Frac(static_cast<double>(pos) / n - Frac(window_start_us / rev_us)) : 0.0;
-    double start = std::round((r.blanking_us + wait_rev * rev_us - p.pulse_width_us / 2) /
-                              r.timer_resolution_us) *
-                   r.timer_resolution_us;
-    // Too early for the window: the same angle comes round one revolution later.
-    if (start < r.blanking_us) start += any_angle ? rev_us : r.blanking_us - start;
-    p.first_pulse_us.push_back(start);
-  }
-  std::ostringstream note;
-  if (p.rpm_changed)
-    note << "run the spindle at " << Fmt(p.rpm, 2) << " rpm (asked " << Fmt(r.rpm, 2)
-         << "): each image then advances " << p.skip << " of " << n << " positions. ";
-  if (!r.synchronised)
-    note << "free-running: one pulse per frame at the frame rate; a pulse that drifts into a "
-            "frame change loses that image (repeat the positions missed). ";
-  p.note = note.str();
+  PulseSchedule(r, frame_us, rev_us, any_angle, &p);
+  p.note = PlanNote(r, p);
   return p;
 }
 

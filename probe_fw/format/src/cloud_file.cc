@@ -69,78 +69,103 @@ void WriteCloudPly(const std::string& path,
   }
 }
 
-CloudFile ReadCloudPly(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw CloudFileError("cloud: cannot read " + path);
-  const auto fail = [&](const std::string& what) -> CloudFileError {
-    return CloudFileError("cloud " + path + ": " + what);
-  };
-  std::string line;
-  if (!std::getline(in, line) || line != "ply") throw fail("not a PLY file");
-  if (!std::getline(in, line) || line != "format binary_little_endian 1.0")
-    throw fail("not binary little-endian");
-  CloudFile f;
+namespace {
+
+CloudFileError Bad(const std::string& path, const std::string& what) {
+  return CloudFileError("cloud " + path + ": " + what);
+}
+
+// A "comment <name> <rest>" line of the header: the frame, the probe, the calibration, the
+// capture and the flange pose the cloud was taken at (WriteCloudPly writes them).
+void ReadMetaComment(const std::string& path,
+                     const std::string& name,
+                     const std::string& rest,
+                     CloudFileMeta* meta) {
+  constexpr std::string_view kCloud = "cloud, ", kFrame = " frame, millimetres";
+  if (name == "mlprobe" && rest.size() > kCloud.size() + kFrame.size() &&
+      rest.compare(0, kCloud.size(), kCloud) == 0 &&
+      rest.compare(rest.size() - kFrame.size(), kFrame.size(), kFrame) == 0)
+    meta->frame = rest.substr(kCloud.size(), rest.size() - kCloud.size() - kFrame.size());
+  if (name == "probe_serial") meta->probe_serial = rest;
+  if (name == "calibration_id") meta->calibration_id = rest;
+  if (name == "capture_id") meta->capture_id = rest;
+  if (name == "mcs_from_flange") {
+    std::array<double, 16> h{};
+    std::istringstream numbers(rest);
+    for (double& v : h)
+      if (!(numbers >> v)) throw Bad(path, "mcs_from_flange must hold 16 numbers");
+    Eigen::Isometry3d pose;
+    std::string why;
+    if (!base::PoseFromRowMajor(h, &pose, &why)) throw Bad(path, "mcs_from_flange: " + why);
+    meta->mcs_from_flange = pose;
+  }
+}
+
+// The header after its format line, up to end_header: the comments into `f`, the vertex count
+// returned (-1 without an element line). Only x y z quality as floats is accepted.
+long long ReadHeader(std::istream& in, const std::string& path, CloudFile* f) {
   long long vertices = -1;
   std::vector<std::string> properties;
+  std::string line;
   while (std::getline(in, line) && line != "end_header") {
     std::istringstream words(line);
     std::string key;
     words >> key;
     if (key == "comment") {
-      std::string name;
+      std::string name, rest;
       words >> name;
-      std::string rest;
       std::getline(words, rest);
       if (!rest.empty() && rest[0] == ' ') rest.erase(0, 1);
-      constexpr std::string_view kCloud = "cloud, ", kFrame = " frame, millimetres";
-      if (name == "mlprobe" && rest.size() > kCloud.size() + kFrame.size() &&
-          rest.compare(0, kCloud.size(), kCloud) == 0 &&
-          rest.compare(rest.size() - kFrame.size(), kFrame.size(), kFrame) == 0)
-        f.meta.frame = rest.substr(kCloud.size(), rest.size() - kCloud.size() - kFrame.size());
-      if (name == "probe_serial") f.meta.probe_serial = rest;
-      if (name == "calibration_id") f.meta.calibration_id = rest;
-      if (name == "capture_id") f.meta.capture_id = rest;
-      if (name == "mcs_from_flange") {
-        std::array<double, 16> h{};
-        std::istringstream numbers(rest);
-        for (double& v : h)
-          if (!(numbers >> v)) throw fail("mcs_from_flange must hold 16 numbers");
-        Eigen::Isometry3d pose;
-        std::string why;
-        if (!base::PoseFromRowMajor(h, &pose, &why)) throw fail("mcs_from_flange: " + why);
-        f.meta.mcs_from_flange = pose;
-      }
+      ReadMetaComment(path, name, rest, &f->meta);
     } else if (key == "element") {
       std::string name;
       words >> name >> vertices;
-      if (name != "vertex" || vertices < 0) throw fail("unexpected element " + line);
+      if (name != "vertex" || vertices < 0) throw Bad(path, "unexpected element " + line);
     } else if (key == "property") {
       std::string type, name;
       words >> type >> name;
-      if (type != "float") throw fail("property " + name + " is not float");
+      if (type != "float") throw Bad(path, "property " + name + " is not float");
       properties.push_back(name);
     }
   }
-  if (line != "end_header") throw fail("the header does not end");
+  if (line != "end_header") throw Bad(path, "the header does not end");
   if (properties != std::vector<std::string>{"x", "y", "z", "quality"})
-    throw fail("properties must be x y z quality");
-  // Bounded before allocating: the file must hold what the header says.
+    throw Bad(path, "properties must be x y z quality");
+  return vertices;
+}
+
+// The points, bounded before allocating: the file must hold what the header says.
+void ReadBody(std::istream& in, const std::string& path, long long vertices, CloudFile* f) {
   const auto body_start = in.tellg();
   in.seekg(0, std::ios::end);
   const auto body = static_cast<long long>(in.tellg() - body_start);
   in.seekg(body_start);
   if (vertices < 0 || body != vertices * 16)
-    throw fail("holds " + std::to_string(body) + " bytes for " + std::to_string(vertices) +
-               " points");
-  f.xyz.resize(static_cast<size_t>(3 * vertices));
-  f.quality.resize(static_cast<size_t>(vertices));
+    throw Bad(path, "holds " + std::to_string(body) + " bytes for " + std::to_string(vertices) +
+                        " points");
+  f->xyz.resize(static_cast<size_t>(3 * vertices));
+  f->quality.resize(static_cast<size_t>(vertices));
   float v[4];
   for (long long i = 0; i < vertices; ++i) {
     in.read(reinterpret_cast<char*>(v), sizeof v);
-    for (int k = 0; k < 3; ++k) f.xyz[static_cast<size_t>(3 * i + k)] = v[k];
-    f.quality[static_cast<size_t>(i)] = v[3];
+    for (int k = 0; k < 3; ++k) f->xyz[static_cast<size_t>(3 * i + k)] = v[k];
+    f->quality[static_cast<size_t>(i)] = v[3];
   }
-  if (!in) throw fail("cannot read the points");
+  if (!in) throw Bad(path, "cannot read the points");
+}
+
+}  // namespace
+
+CloudFile ReadCloudPly(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw CloudFileError("cloud: cannot read " + path);
+  std::string line;
+  if (!std::getline(in, line) || line != "ply") throw Bad(path, "not a PLY file");
+  if (!std::getline(in, line) || line != "format binary_little_endian 1.0")
+    throw Bad(path, "not binary little-endian");
+  CloudFile f;
+  const long long vertices = ReadHeader(in, path, &f);
+  ReadBody(in, path, vertices, &f);
   return f;
 }
 
