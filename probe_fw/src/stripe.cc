@@ -166,6 +166,70 @@ StripePoint MakePoint(const Scan& scan, double u, int v, double amplitude, int m
   return p;
 }
 
+// The next run of pixels at or above `threshold` from *x on: [*begin, *end) and its brightest
+// pixel; *x moves past it. False when the span has none left.
+bool NextRun(const Span& s, int threshold, int* x, int* begin, int* end, int* peak) {
+  while (*x < s.end) {
+    // Most of a row is background: skip it 16 pixels at a time (a vectorised maximum).
+    if (*x + kSkipBlock <= s.end && BlockMax(s.row + *x) < threshold) {
+      *x += kSkipBlock;
+      continue;
+    }
+    if (s.row[*x] >= threshold) break;
+    ++*x;
+  }
+  if (*x >= s.end) return false;
+  *begin = *end = *peak = *x;
+  while (*end < s.end && s.row[*end] >= threshold) {
+    if (s.row[*end] > s.row[*peak]) *peak = *end;
+    ++*end;
+  }
+  *x = *end;
+  return true;
+}
+
+// Counts a candidate the judge rejected; true when it is a point.
+bool CountVerdict(Verdict v, StripeCounts* counts) {
+  switch (v) {
+    case Verdict::kWeak:
+      ++counts->weak;
+      return false;
+    case Verdict::kSaturated:
+      ++counts->saturated;
+      return false;
+    case Verdict::kDoublePeak:
+      ++counts->double_peak;
+      return false;
+    case Verdict::kTooWide:
+      ++counts->too_wide;
+      return false;
+    case Verdict::kCut:
+      ++counts->cut;
+      return false;
+    case Verdict::kPoint:
+      break;
+  }
+  return true;
+}
+
+// The stripe's centre near `peak` [px along the line]: the window re-centred once on the first
+// estimate, which removes the bias of a window off-centre by up to half a pixel. Its
+// background, mass and variance in *bg, *mass, *variance.
+double ReCentred(const Span& s,
+                 int peak,
+                 double first_bg,
+                 const StripeOptions& o,
+                 double* bg,
+                 double* mass,
+                 double* variance) {
+  const double first = Centroid(s, peak, o.window_half_px, first_bg);
+  const int centre = std::clamp(static_cast<int>(std::lround(first)),
+                                s.begin + o.window_half_px + 2, s.end - o.window_half_px - 3);
+  *bg = LocalBackground(s, centre, o.window_half_px);
+  *mass = 0.0, *variance = 0.0;
+  return Centroid(s, centre, o.window_half_px, *bg, mass, variance);
+}
+
 std::uint16_t ScanSpan(const Span& s,
                        const Scan& scan,
                        int v,
@@ -178,55 +242,16 @@ std::uint16_t ScanSpan(const Span& s,
   const double threshold_dn = lowest + o.min_amplitude_dn;
   // Integer threshold: a pixel is a candidate when row[x] >= threshold (same test as the real).
   const int threshold = static_cast<int>(std::ceil(threshold_dn));
-  for (int x = s.begin; x < s.end;) {
-    // Most of a row is background: skip it 16 pixels at a time (a vectorised maximum).
-    if (x + kSkipBlock <= s.end && BlockMax(s.row + x) < threshold) {
-      x += kSkipBlock;
-      continue;
-    }
-    if (s.row[x] < threshold) {
-      ++x;
-      continue;
-    }
-    const int run_begin = x;
-    int run_end = x, peak = x;
-    while (run_end < s.end && s.row[run_end] >= threshold) {
-      if (s.row[run_end] > s.row[peak]) peak = run_end;
-      ++run_end;
-    }
-    x = run_end;
+  int x = s.begin, run_begin = 0, run_end = 0, peak = 0;
+  while (NextRun(s, threshold, &x, &run_begin, &run_end, &peak)) {
     // A run longer than a stripe is wide may be a stripe running along the line: the column
     // scan is wanted there, with room for its windows (centroid and direction).
     const int margin = 2 * (o.window_half_px + 2);
     if (run_end - run_begin > o.max_width_px) Want(scan, run_begin, run_end, margin);
     const double bg = LocalBackground(s, peak, o.window_half_px);
-    switch (Judge(s, peak, bg, max_level, o)) {
-      case Verdict::kWeak:
-        ++counts->weak;
-        continue;
-      case Verdict::kSaturated:
-        ++counts->saturated;
-        continue;
-      case Verdict::kDoublePeak:
-        ++counts->double_peak;
-        continue;
-      case Verdict::kTooWide:
-        ++counts->too_wide;
-        continue;
-      case Verdict::kCut:
-        ++counts->cut;
-        continue;
-      case Verdict::kPoint:
-        break;
-    }
-    // Re-centre the window once on the first estimate: removes the bias of a window that is
-    // off-centre by up to half a pixel.
-    const double first = Centroid(s, peak, o.window_half_px, bg);
-    const int centre = std::clamp(static_cast<int>(std::lround(first)),
-                                  s.begin + o.window_half_px + 2, s.end - o.window_half_px - 3);
-    const double bg2 = LocalBackground(s, centre, o.window_half_px);
-    double mass = 0.0, variance = 0.0;
-    const double u = Centroid(s, centre, o.window_half_px, bg2, &mass, &variance);
+    if (!CountVerdict(Judge(s, peak, bg, max_level, o), counts)) continue;
+    double bg2 = 0.0, mass = 0.0, variance = 0.0;
+    const double u = ReCentred(s, peak, bg, o, &bg2, &mass, &variance);
     if (variance < o.min_variance_px2) {
       ++counts->too_narrow;
       continue;
