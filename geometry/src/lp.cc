@@ -28,6 +28,63 @@ struct Extended {
   double Rhs(Eigen::Index j) const { return j < a.rows() ? b(j) : bound((j - a.rows()) % d()); }
 };
 
+// The data rows the pivots look at. Few points are ever active (the extremes), so pivots cost
+// O(working set), not O(points); only when the set is satisfied are all rows scanned.
+struct WorkingSet {
+  std::vector<Eigen::Index> rows;
+  std::vector<bool> in;
+
+  // The worst violated rows not yet in the set join it (kWorkingSetGrowth at most); returns
+  // the worst of them, -1 when every row is satisfied.
+  Eigen::Index Grow(const Eigen::MatrixXd& a,
+                    const Eigen::VectorXd& b,
+                    const Eigen::VectorXd& x,
+                    double tol) {
+    const Eigen::VectorXd viol = a * x - b;
+    std::vector<Eigen::Index> violated;
+    for (Eigen::Index j = 0; j < a.rows(); ++j) {
+      if (viol(j) > tol && !in[static_cast<size_t>(j)]) violated.push_back(j);
+    }
+    const size_t add = std::min<size_t>(violated.size(), kWorkingSetGrowth);
+    std::partial_sort(violated.begin(), violated.begin() + static_cast<std::ptrdiff_t>(add),
+                      violated.end(),
+                      [&](Eigen::Index p, Eigen::Index q) { return viol(p) > viol(q); });
+    for (size_t k = 0; k < add; ++k)
+      rows.push_back(violated[k]), in[static_cast<size_t>(violated[k])] = true;
+    return add > 0 ? violated[0] : -1;
+  }
+};
+
+// Entering row: the most violated within the working set and the bounds (Dantzig), or the
+// first violated one after a run of degenerate pivots (Bland's rule, which cannot cycle); when
+// those are all satisfied, the worst of the rows the working set grows by. -1: optimal.
+Eigen::Index EnteringRow(
+    const Extended& ext, const Eigen::VectorXd& x, double tol, bool bland, WorkingSet* work) {
+  Eigen::Index enter = -1;
+  double worst = tol;
+  const auto consider = [&](Eigen::Index j, double viol) {
+    if (viol > worst) worst = viol, enter = j;
+  };
+  for (Eigen::Index j : work->rows) {
+    consider(j, ext.a.row(j).dot(x) - ext.b(j));
+    if (bland && enter >= 0) break;
+  }
+  for (Eigen::Index j = ext.a.rows(); j < ext.rows(); ++j)
+    consider(j, ext.Row(j).dot(x) - ext.Rhs(j));
+  return enter >= 0 ? enter : work->Grow(ext.a, ext.b, x, tol);
+}
+
+// Leaving row: the ratio test on the dual values y along the entering row's direction w.
+// -1 when the dual is unbounded (the constraints are infeasible); its step in *t.
+Eigen::Index LeavingRow(const Eigen::VectorXd& y, const Eigen::VectorXd& w, double* t) {
+  Eigen::Index leave = -1;
+  *t = INFINITY;
+  for (Eigen::Index i = 0; i < y.size(); ++i) {
+    if (w(i) > 1e-14 && y(i) / w(i) < *t) *t = y(i) / w(i), leave = i;
+  }
+  return leave;
+}
+
 }  // namespace
 
 LpResult SolveSmallLp(const Eigen::VectorXd& c,
@@ -45,53 +102,20 @@ LpResult SolveSmallLp(const Eigen::VectorXd& c,
   Eigen::MatrixXd rows(d, d);
   Eigen::VectorXd rhs(d), x(d);
   int degenerate = 0;
-  std::vector<Eigen::Index> work;  // data rows the pivots look at
-  std::vector<bool> in_work(static_cast<size_t>(a.rows()), false);
+  WorkingSet work{{}, std::vector<bool>(static_cast<size_t>(a.rows()), false)};
   for (int it = 0; it < 100000; ++it) {
     for (Eigen::Index i = 0; i < d; ++i)
       rows.row(i) = ext.Row(basis[i]).transpose(), rhs(i) = ext.Rhs(basis[i]);
     const Eigen::PartialPivLU<Eigen::MatrixXd> lu(rows);
     x = lu.solve(rhs);
     const Eigen::VectorXd y = lu.transpose().solve(-c);  // dual values of the basic rows
-    // Entering row: most violated within the working set and the bounds (Dantzig), or the first
-    // violated one after a run of degenerate pivots (Bland's rule, which cannot cycle). Only
-    // when the working set is satisfied are all rows scanned; the worst violators join it. Few
-    // points are ever active (the extremes), so pivots cost O(working set), not O(points).
-    Eigen::Index enter = -1;
-    double worst = tol;
-    const auto consider = [&](Eigen::Index j, double viol) {
-      if (viol > worst) worst = viol, enter = j;
-    };
-    for (Eigen::Index j : work) {
-      consider(j, a.row(j).dot(x) - b(j));
-      if (degenerate > 20 && enter >= 0) break;
-    }
-    for (Eigen::Index j = a.rows(); j < ext.rows(); ++j)
-      consider(j, ext.Row(j).dot(x) - ext.Rhs(j));
-    if (enter < 0) {
-      const Eigen::VectorXd viol = a * x - b;
-      std::vector<Eigen::Index> violated;
-      for (Eigen::Index j = 0; j < a.rows(); ++j) {
-        if (viol(j) > tol && !in_work[j]) violated.push_back(j);
-      }
-      const size_t add = std::min<size_t>(violated.size(), kWorkingSetGrowth);
-      std::partial_sort(violated.begin(), violated.begin() + add, violated.end(),
-                        [&](Eigen::Index p, Eigen::Index q) { return viol(p) > viol(q); });
-      for (size_t k = 0; k < add; ++k) {
-        work.push_back(violated[k]), in_work[violated[k]] = true;
-        consider(violated[k], viol(violated[k]));
-      }
-    }
+    const Eigen::Index enter = EnteringRow(ext, x, tol, degenerate > 20, &work);
     if (enter < 0) {  // every row satisfied: optimal
       result.optimal = true;
       break;
     }
-    const Eigen::VectorXd w = lu.transpose().solve(ext.Row(enter));
-    Eigen::Index leave = -1;
-    double t = INFINITY;
-    for (Eigen::Index i = 0; i < d; ++i) {
-      if (w(i) > 1e-14 && y(i) / w(i) < t) t = y(i) / w(i), leave = i;
-    }
+    double t = 0;
+    const Eigen::Index leave = LeavingRow(y, lu.transpose().solve(ext.Row(enter)), &t);
     if (leave < 0) break;  // dual unbounded: the constraints are infeasible
     degenerate = t <= 0.0 ? degenerate + 1 : 0;
     basis[leave] = enter;
