@@ -119,19 +119,10 @@ void Picture(const std::string& path,
   if (!cv::imwrite(path, img)) throw UsageError("cannot write " + path);
 }
 
-int Measure(const std::vector<std::string>& args, std::ostream& out) {
-  const Args f(args, {{"--job", "--png"}, {"--json"}});
-  const bool json = f.Has("--json");
-  const std::string text = ReadInputFile(f.Text("--job"));
-  grind::GrindJob job;
-  std::unique_ptr<geometry::Profile2> p;
-  try {
-    job = grind::ParseJob(text);
-    p = std::make_unique<geometry::Profile2>(job.profile);
-  } catch (const std::exception& e) {
-    throw UsageError(f.Text("--job") + ": " + e.what());
-  }
-  const fs::path dir = fs::path(f.Text("--job")).parent_path();
+// Each point's before / after images (beside the job file) through the measurement.
+std::vector<grind::PointResult> MeasurePoints(const grind::GrindJob& job,
+                                              const geometry::Profile2& p,
+                                              const fs::path& dir) {
   std::vector<grind::PointResult> results;
   for (const auto& pt : job.points) {
     const auto before = ReadGrey((dir / pt.before).string(), job.camera);
@@ -140,14 +131,14 @@ int Measure(const std::vector<std::string>& args, std::ostream& out) {
                                   {after.data(), job.camera.width_px, job.camera.height_px},
                                   pt.c_mm,
                                   pt.mi_mm};
-    results.push_back(
-        grind::MeasurePoint(input, *p, job.camera, job.wheel_radius_mm, job.limit_mm));
+    results.push_back(grind::MeasurePoint(input, p, job.camera, job.wheel_radius_mm, job.limit_mm));
   }
-  if (f.Has("--png")) Picture(f.Text("--png"), job, *p, results);
+  return results;
+}
+
+nlohmann::ordered_json PointsJson(const std::vector<grind::PointResult>& results) {
   nlohmann::ordered_json points = nlohmann::ordered_json::array();
-  std::map<std::string, int> counts;
   for (const auto& r : results) {
-    ++counts[grind::ToString(r.feed)];
     points.push_back({{"feed", grind::ToString(r.feed)},
                       {"d_mm", r.d_mm},
                       {"mr_mm", Pair(r.mr_mm)},
@@ -158,10 +149,14 @@ int Measure(const std::vector<std::string>& args, std::ostream& out) {
                       {"nose_radius_mm", r.nose_radius_mm},
                       {"compensation_mm", Pair(r.compensation_mm)}});
   }
-  if (json) {
-    out << nlohmann::ordered_json{{"limit_mm", job.limit_mm}, {"points", points}}.dump() << "\n";
-    return kExitOk;
-  }
+  return points;
+}
+
+void PrintPoints(const grind::GrindJob& job,
+                 const std::vector<grind::PointResult>& results,
+                 std::ostream& out) {
+  std::map<std::string, int> counts;
+  for (const auto& r : results) ++counts[grind::ToString(r.feed)];
   out << std::fixed << "limit e " << std::setprecision(1) << job.limit_mm * 1e3 << " um; "
       << results.size() << " points: " << counts["good"] << " good, " << counts["under-feed"]
       << " under-feed, " << counts["over-feed"] << " over-feed\n";
@@ -178,6 +173,29 @@ int Measure(const std::vector<std::string>& args, std::ostream& out) {
           << r.compensation_mm.y() * 1e3 << ") um";
     out << "\n";
   }
+}
+
+int Measure(const std::vector<std::string>& args, std::ostream& out) {
+  const Args f(args, {{"--job", "--png"}, {"--json"}});
+  const std::string text = ReadInputFile(f.Text("--job"));
+  grind::GrindJob job;
+  std::unique_ptr<geometry::Profile2> p;
+  try {
+    job = grind::ParseJob(text);
+    p = std::make_unique<geometry::Profile2>(job.profile);
+  } catch (const std::exception& e) {
+    throw UsageError(f.Text("--job") + ": " + e.what());
+  }
+  const std::vector<grind::PointResult> results =
+      MeasurePoints(job, *p, fs::path(f.Text("--job")).parent_path());
+  if (f.Has("--png")) Picture(f.Text("--png"), job, *p, results);
+  if (f.Has("--json")) {
+    out << nlohmann::ordered_json{{"limit_mm", job.limit_mm}, {"points", PointsJson(results)}}
+               .dump()
+        << "\n";
+    return kExitOk;
+  }
+  PrintPoints(job, results, out);
   if (f.Has("--png")) out << "  picture: " << f.Text("--png") << "\n";
   return kExitOk;
 }

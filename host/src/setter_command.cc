@@ -112,11 +112,7 @@ int Calibrate(const std::vector<std::string>& args, std::ostream& out) {
   return kExitOk;
 }
 
-int Process(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args f(args,
-               {{"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min", "--threshold-share"},
-                kSwitches});
-  const setter::BeamSignal s = ReadSignal(f.Text("--signal"));
+setter::ProcessorConfig ProcessorConfigFrom(const Args& f, const setter::BeamSignal& s) {
   setter::ProcessorConfig c;
   c.sample_rate_hz = s.sample_rate_hz;
   c.rpm = f.Number("--rpm", 0.0);
@@ -129,15 +125,13 @@ int Process(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   } catch (const setter::SetterError& e) {
     throw UsageError(f.Text("--curve") + ": " + e.what());
   }
-  std::unique_ptr<setter::BeamProcessor> p;
-  try {
-    p = std::make_unique<setter::BeamProcessor>(c);
-  } catch (const setter::SetterError& e) {
-    throw UsageError(e.what());
-  }
-  for (float v : s.volts) p->Push(v);
+  return c;
+}
+
+// The rejections: counts per reason, and the most recent ones by sample.
+void RejectionsJson(const setter::BeamProcessor& p, nlohmann::ordered_json* j) {
   int shown = 0;
-  const auto recent = p->RecentRejections(&shown);
+  const auto recent = p.RecentRejections(&shown);
   nlohmann::ordered_json rejected = nlohmann::ordered_json::array();
   for (int i = 0; i < shown; ++i)
     rejected.push_back({{"sample", recent[static_cast<size_t>(i)].sample},
@@ -145,11 +139,16 @@ int Process(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   nlohmann::ordered_json counts = nlohmann::ordered_json::object();
   for (auto r : {setter::Rejected::kOffSchedule, setter::Rejected::kOutsideBand,
                  setter::Rejected::kTooSteep, setter::Rejected::kNotHeld})
-    counts[setter::ToString(r)] = p->RejectionCount(r);
-  nlohmann::ordered_json j = {{"samples", p->Samples()}, {"triggered", p->Triggered()}};
-  const setter::Trigger& t = p->trigger();
-  const double radius = p->ToothRadiusMm();
-  if (p->Triggered()) {
+    counts[setter::ToString(r)] = p.RejectionCount(r);
+  (*j)["rejections"] = counts;
+  (*j)["recent_rejections"] = rejected;
+}
+
+nlohmann::ordered_json ProcessJson(const setter::BeamProcessor& p, int teeth) {
+  nlohmann::ordered_json j = {{"samples", p.Samples()}, {"triggered", p.Triggered()}};
+  const setter::Trigger& t = p.trigger();
+  const double radius = p.ToothRadiusMm();
+  if (p.Triggered()) {
     j["trigger_sample"] = t.sample;
     j["trigger_time_s"] = t.time_s;
     j["threshold_time_s"] = t.threshold_time_s;
@@ -159,20 +158,22 @@ int Process(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   }
   j["diameter_mm"] = std::isfinite(radius) ? nlohmann::ordered_json(2 * radius) : nullptr;
   nlohmann::ordered_json lags = nlohmann::ordered_json::array();
-  for (int k = 0; k < c.teeth; ++k) {
-    const double lag = p->ToothLagMm(k);
+  for (int k = 0; k < teeth; ++k) {
+    const double lag = p.ToothLagMm(k);
     lags.push_back(std::isfinite(lag) ? nlohmann::ordered_json(lag) : nullptr);
   }
   j["tooth_lag_mm"] = lags;
-  j["rejections"] = counts;
-  j["recent_rejections"] = rejected;
-  const int code = p->Triggered() ? kExitOk : kExitNoResult;
-  if (!p->Triggered()) err << "mlp setter: no trigger in " << p->Samples() << " samples\n";
-  if (f.Has("--json")) {
-    out << j.dump() << "\n";
-    return code;
-  }
-  if (p->Triggered())
+  RejectionsJson(p, &j);
+  return j;
+}
+
+void PrintProcess(const setter::BeamProcessor& p,
+                  int teeth,
+                  const nlohmann::ordered_json& j,
+                  std::ostream& out) {
+  const setter::Trigger& t = p.trigger();
+  const double radius = p.ToothRadiusMm();
+  if (p.Triggered())
     out << std::fixed << std::setprecision(6) << "trigger at sample " << t.sample << " ("
         << t.time_s << " s): tooth " << t.tooth << "'s line (" << t.extremes
         << " extremes) crossed at " << t.threshold_time_s << " s; the edge is the latched "
@@ -180,12 +181,34 @@ int Process(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   if (std::isfinite(radius))
     out << std::fixed << std::setprecision(4) << "  diameter from the dips' widths " << 2 * radius
         << " mm\n";
-  for (int k = 0; k < c.teeth; ++k)
-    if (std::isfinite(p->ToothLagMm(k)) && k != p->LeadingTooth())
-      out << std::setprecision(2) << "  tooth " << k << " reaches " << p->ToothLagMm(k) * 1e3
+  for (int k = 0; k < teeth; ++k)
+    if (std::isfinite(p.ToothLagMm(k)) && k != p.LeadingTooth())
+      out << std::setprecision(2) << "  tooth " << k << " reaches " << p.ToothLagMm(k) * 1e3
           << " um less\n";
-  for (const auto& [reason, n] : counts.items())
+  for (const auto& [reason, n] : j["rejections"].items())
     if (n.get<int>() > 0) out << "  rejected " << n.get<int>() << "x: " << reason << "\n";
+}
+
+int Process(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const Args f(args,
+               {{"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min", "--threshold-share"},
+                kSwitches});
+  const setter::BeamSignal s = ReadSignal(f.Text("--signal"));
+  const setter::ProcessorConfig c = ProcessorConfigFrom(f, s);
+  std::unique_ptr<setter::BeamProcessor> p;
+  try {
+    p = std::make_unique<setter::BeamProcessor>(c);
+  } catch (const setter::SetterError& e) {
+    throw UsageError(e.what());
+  }
+  for (float v : s.volts) p->Push(v);
+  const nlohmann::ordered_json j = ProcessJson(*p, c.teeth);
+  const int code = p->Triggered() ? kExitOk : kExitNoResult;
+  if (!p->Triggered()) err << "mlp setter: no trigger in " << p->Samples() << " samples\n";
+  if (f.Has("--json"))
+    out << j.dump() << "\n";
+  else
+    PrintProcess(*p, c.teeth, j, out);
   return code;
 }
 

@@ -247,6 +247,47 @@ void SaveReference(const std::string& path,
   }
 }
 
+// --tool-table / --tool-number: the measurement into the table, the change (or the refusal)
+// into result["tool_table"]. Returns the exit code: refused or ok.
+int WriteToolTable(const Args& f,
+                   const toolcam::ToolDescription& tool,
+                   const toolcam::ToolMeasurement& m,
+                   const std::string& images,
+                   nlohmann::json* result,
+                   std::ostream& err) {
+  const std::string table = f.Text("--tool-table", "");
+  const int number = static_cast<int>(f.Number("--tool-number"));
+  const double max_change = f.Number("--max-change-mm", 0.5);
+  try {
+    const nc::ToolTableUpdateResult u =
+        UpdateToolTable(table, number, max_change, f.Has("--accept-findings"), tool, m, images);
+    const nc::ToolTableChange& c = u.changes.front();
+    (*result)["tool_table"] = {{"file", table},
+                               {"tool", c.tool},
+                               {"length_before_mm", c.length_before_mm},
+                               {"length_after_mm", c.length_after_mm},
+                               {"diameter_before_mm", c.diameter_before_mm},
+                               {"diameter_after_mm", c.diameter_after_mm},
+                               {"log", u.log_file}};
+    if (!u.log_error.empty()) {
+      (*result)["tool_table"]["log_error"] = u.log_error;
+      err << "mlp tool: warning: " << u.log_error << "\n";
+    }
+    return kExitOk;
+  } catch (const RefusedError& e) {
+    (*result)["tool_table"] = {{"file", table}, {"refused", e.what()}};
+    err << "mlp tool: " << e.what() << "\n";
+    return kExitRefused;
+  }
+}
+
+void PrintToolTableChange(const nlohmann::json& t, std::ostream& out) {
+  out << std::fixed << std::setprecision(4) << "  tool table " << t["file"].get<std::string>()
+      << ": T" << t["tool"].get<int>() << " Z " << t["length_before_mm"].get<double>() << " -> "
+      << t["length_after_mm"].get<double>() << " mm, D " << t["diameter_before_mm"].get<double>()
+      << " -> " << t["diameter_after_mm"].get<double>() << " mm\n";
+}
+
 }  // namespace
 
 int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -274,44 +315,16 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     SaveReference(f.Text("--save-reference", ""), tool, m);
   nlohmann::json result = MeasurementJson(tool, m);
   result["warnings"] = warnings;
-  int code = kExitOk;
-  if (!f.Text("--tool-table", "").empty()) {
-    const int number = static_cast<int>(f.Number("--tool-number"));
-    const double max_change = f.Number("--max-change-mm", 0.5);
-    try {
-      const nc::ToolTableUpdateResult u =
-          UpdateToolTable(f.Text("--tool-table", ""), number, max_change,
-                          f.Has("--accept-findings"), tool, m, images);
-      const nc::ToolTableChange& c = u.changes.front();
-      result["tool_table"] = {{"file", f.Text("--tool-table", "")},
-                              {"tool", c.tool},
-                              {"length_before_mm", c.length_before_mm},
-                              {"length_after_mm", c.length_after_mm},
-                              {"diameter_before_mm", c.diameter_before_mm},
-                              {"diameter_after_mm", c.diameter_after_mm},
-                              {"log", u.log_file}};
-      if (!u.log_error.empty()) {
-        result["tool_table"]["log_error"] = u.log_error;
-        err << "mlp tool: warning: " << u.log_error << "\n";
-      }
-    } catch (const RefusedError& e) {
-      result["tool_table"] = {{"file", f.Text("--tool-table", "")}, {"refused", e.what()}};
-      err << "mlp tool: " << e.what() << "\n";
-      code = kExitRefused;
-    }
-  }
+  const int code = f.Text("--tool-table", "").empty()
+                       ? kExitOk
+                       : WriteToolTable(f, tool, m, images, &result, err);
   if (f.Has("--json")) {
     out << result.dump() << "\n";
     return code;
   }
   PrintMeasurement(tool, m, out);
   if (result.contains("tool_table") && !result["tool_table"].contains("refused"))
-    out << std::fixed << std::setprecision(4) << "  tool table " << f.Text("--tool-table", "")
-        << ": T" << result["tool_table"]["tool"].get<int>() << " Z "
-        << result["tool_table"]["length_before_mm"].get<double>() << " -> "
-        << result["tool_table"]["length_after_mm"].get<double>() << " mm, D "
-        << result["tool_table"]["diameter_before_mm"].get<double>() << " -> "
-        << result["tool_table"]["diameter_after_mm"].get<double>() << " mm\n";
+    PrintToolTableChange(result["tool_table"], out);
   if (!f.Text("--overlay", "").empty()) out << "  overlay: " << f.Text("--overlay", "") << "\n";
   return code;
 }
