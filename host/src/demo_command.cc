@@ -280,21 +280,57 @@ json DemoPlateAlignRequest(const std::string& machine,
              {{"top_centre_mm", {250, 180, -310}}, {"diameter_mm", 20}, {"depth_mm", 20}}}}}};
 }
 
+namespace {
+
+// --dir, --samples and --port into the demo (defaults: a fresh temporary folder, the samples
+// beside the program, port 17420).
+void DemoSettings(const Args& a, Demo* d) {
+  d->dir = a.Text("--dir", "");
+  d->samples = a.Text("--samples", "");
+  d->port = static_cast<int>(a.Integer("--port", d->port, 1));
+  if (d->port > 65535) throw UsageError("--port is 1..65535");
+  if (d->samples.empty()) d->samples = DefaultSamplesDir();
+  if (d->dir.empty())
+    d->dir = fs::temp_directory_path() / ("mlprobe-demo-" + std::to_string(getpid()));
+  d->dir = fs::absolute(d->dir);
+  d->socket = (d->dir / "run" / "jobs.sock").string();
+}
+
+// The true mount M in the calibrated model's probe frame: the window alone moves that frame
+// 0.68 mm from the true camera's (PROBE.md); the hand-eye is judged against it.
+geometry::Pose3 TrueMount(const sim::VirtualProbe& vp, const fs::path& as_built, Demo* d) {
+  double frame_rms_mm = 0.0;
+  const geometry::Pose3 true_m = vp.scene().flange_from_probe *
+                                 sim::TrueFromModelFrame(sim::LoadAsBuilt(as_built.string()),
+                                                         vp.model(), &kSphereAoi, &frame_rms_mm);
+  d->summary["calibration"]["frame_rms_um"] = frame_rms_mm * 1e3;
+  return true_m;
+}
+
+// Steps 4 and 5: what was written for the controller, and where the time went.
+void PrintDemoEnd(const Demo& d, std::ostream& out) {
+  std::ifstream sub(d.dir / "subs" / "mlp_result.ngc");
+  out << "4. written: " << (d.dir / "tool.tbl").string() << " (tool " << kDemoTool
+      << "), the result subroutine the NC program calls:\n"
+      << std::string(std::istreambuf_iterator<char>(sub), {}) << "   history: mlp history --db "
+      << (d.dir / "data" / "history.sqlite").string() << "\n";
+  const json& t = d.time_ms;
+  out << std::setprecision(2) << "5. time: " << t.at("captures").get<int>() << " captures: frames "
+      << t.at("frames").get<double>() / 1e3 << " s (the virtual probe renders them), firmware "
+      << t.at("firmware").get<double>() / 1e3 << " s, link " << t.at("link").get<double>() / 1e3
+      << " s, host " << t.at("capture_host").get<double>() / 1e3 << " s; the host's jobs "
+      << t.at("jobs_host").get<double>() / 1e3 << " s\n";
+}
+
+}  // namespace
+
 int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   try {
     std::ostringstream quiet;  // --json: the steps' text goes nowhere, the summary to out
     const Args a(args, {{"--dir", "--samples", "--port"}, {"--json"}});
     const bool as_json = a.Has("--json");
     Demo d{{}, {}, 17420, {}, as_json ? static_cast<std::ostream&>(quiet) : out};
-    d.dir = a.Text("--dir", "");
-    d.samples = a.Text("--samples", "");
-    d.port = static_cast<int>(a.Integer("--port", d.port, 1));
-    if (d.port > 65535) throw UsageError("--port is 1..65535");
-    if (d.samples.empty()) d.samples = DefaultSamplesDir();
-    if (d.dir.empty())
-      d.dir = fs::temp_directory_path() / ("mlprobe-demo-" + std::to_string(getpid()));
-    d.dir = fs::absolute(d.dir);
-    d.socket = (d.dir / "run" / "jobs.sock").string();
+    DemoSettings(a, &d);
     const fs::path scene = d.samples / "scenes" / "demo_plate.json";
     // The virtual probe renders as built (its optics off the design, a mirror's cubic, a sheet's
     // smile, a window); the firmware and the host know it only through its calibration, made
@@ -324,35 +360,16 @@ int RunDemoCommand(const std::vector<std::string>& args, std::ostream& out, std:
                                sim::LoadScene(scene.string()));
     std::ifstream scene_file(scene);
     const json truth = json::parse(scene_file).at("truth");
-    // The probe frame is the calibrated model's: the window alone moves it 0.68 mm from the true
-    // camera's (PROBE.md). The hand-eye is judged against the true M in that frame.
-    double frame_rms_mm = 0.0;
-    const geometry::Pose3 true_m = vp.scene().flange_from_probe *
-                                   sim::TrueFromModelFrame(sim::LoadAsBuilt(as_built.string()),
-                                                           vp.model(), &kSphereAoi, &frame_rms_mm);
-    d.summary["calibration"]["frame_rms_um"] = frame_rms_mm * 1e3;
-    Calibrate(d, vp, true_m);
+    Calibrate(d, vp, TrueMount(vp, as_built, &d));
     Align(d, vp, truth);
     Measure(d, vp, truth);
-    std::ifstream sub(d.dir / "subs" / "mlp_result.ngc");
     d.summary["tool_table"] = (d.dir / "tool.tbl").string();
     d.summary["subroutine"] = (d.dir / "subs" / "mlp_result.ngc").string();
     d.summary["time_ms"] = d.time_ms;
-    if (as_json) {
+    if (as_json)
       out << d.summary.dump(2) << "\n";
-      return kExitOk;
-    }
-    out << "4. written: " << (d.dir / "tool.tbl").string() << " (tool " << kDemoTool
-        << "), the result subroutine the NC program calls:\n"
-        << std::string(std::istreambuf_iterator<char>(sub), {}) << "   history: mlp history --db "
-        << (d.dir / "data" / "history.sqlite").string() << "\n";
-    const json& t = d.time_ms;
-    out << std::setprecision(2) << "5. time: " << t.at("captures").get<int>()
-        << " captures: frames " << t.at("frames").get<double>() / 1e3
-        << " s (the virtual probe renders them), firmware " << t.at("firmware").get<double>() / 1e3
-        << " s, link " << t.at("link").get<double>() / 1e3 << " s, host "
-        << t.at("capture_host").get<double>() / 1e3 << " s; the host's jobs "
-        << t.at("jobs_host").get<double>() / 1e3 << " s\n";
+    else
+      PrintDemoEnd(d, out);
     return kExitOk;
   } catch (const UsageError& e) {
     err << "mlp demo: " << e.what() << "\n" << kUsage;

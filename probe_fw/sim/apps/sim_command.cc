@@ -89,6 +89,76 @@ void WriteTruth(const std::string& dir,
   if (!out) throw probe_fw::FrameIoError("frames: cannot write " + dir + "/truth.json");
 }
 
+// --seed, --noiseless, --led-supersampling and --exposure into the sweep.
+void SweepSettings(const base::Args& o, SweepOptions* sweep) {
+  const double seed = o.Number("--seed", 1.0);
+  if (seed < 0 || seed != std::floor(seed) || seed > 9e15)
+    throw UsageError("--seed is a whole number");
+  sweep->seed = static_cast<std::uint64_t>(seed);
+  sweep->noise = !o.Has("--noiseless");
+  const double supersampling = o.Number("--led-supersampling", 1.0);
+  if (supersampling != std::floor(supersampling) || supersampling < 1 || supersampling > 16)
+    throw UsageError("--led-supersampling is a whole number from 1 to 16");
+  sweep->led_supersampling = static_cast<int>(supersampling);
+  sweep->exposure = o.Number("--exposure", 1.0);
+  if (!(sweep->exposure > 0.0 && sweep->exposure <= 1e4))
+    throw UsageError("--exposure is a factor in (0, 10000] (1: the model's photometry)");
+}
+
+// The projector columns: --columns FIRST:LAST:STEP, or those reaching the AOI every 2 columns,
+// or --column-count of them spread over the workpiece seen (calibration views).
+void SweepColumns(const base::Args& o,
+                  const VirtualProbe& probe,
+                  const Capture& capture,
+                  SweepOptions* sweep) {
+  if (o.Has("--columns") && o.Has("--column-count"))
+    throw UsageError("give --columns or --column-count, not both");
+  if (o.Has("--columns")) {
+    char c1 = 0, c2 = 0;
+    const std::string text = o.Text("--columns", "");
+    if (std::sscanf(text.c_str(), "%lf%c%lf%c%lf", &sweep->first_column, &c1, &sweep->last_column,
+                    &c2, &sweep->column_step) != 5 ||
+        c1 != ':' || c2 != ':') {
+      throw UsageError("--columns is FIRST:LAST:STEP, got '" + text + "'");
+    }
+    return;
+  }
+  // Calibration views (--column-count) spread their columns over the whole workpiece seen,
+  // however small in the window: a 17 x 17 lattice of rays finds it.
+  constexpr int kCalibrationGrid = 17;
+  probe.ColumnsReaching(capture, sweep->aoi, &sweep->first_column, &sweep->last_column,
+                        o.Has("--column-count") ? kCalibrationGrid : 3);
+  sweep->column_step = 2.0;
+  if (o.Has("--column-count")) {
+    const double n = o.Number("--column-count", 0.0);
+    if (n != std::floor(n) || n < 2 || n > 10000)
+      throw UsageError("--column-count is a whole number from 2 to 10000");
+    sweep->column_step = (sweep->last_column - sweep->first_column) / (n - 1);
+  }
+}
+
+void PrintRendered(const base::Args& o,
+                   const Capture& capture,
+                   const SweepOptions& sweep,
+                   size_t frames,
+                   double seconds,
+                   std::ostream& out) {
+  const std::string dir = o.Text("--out");
+  if (o.Has("--json")) {
+    out << nlohmann::ordered_json{{"out", dir},
+                                  {"capture_id", capture.id},
+                                  {"frames", frames},
+                                  {"aoi",
+                                   {sweep.aoi.x0, sweep.aoi.y0, sweep.aoi.width, sweep.aoi.height}},
+                                  {"seconds", seconds}}
+               .dump(2)
+        << "\n";
+  } else {
+    out << "mlp-sim: " << frames << " frames (1 LED, " << frames - 1
+        << " laser) and ground truth -> " << dir << " in " << seconds << " s\n";
+  }
+}
+
 int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const base::Args o(args,
                      {{"--probe", "--scene", "--out", "--seed", "--capture", "--aoi", "--columns",
@@ -106,42 +176,8 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
                                             probe.model().camera.height_px}
               : aoi.empty() ? DefaultAoi(probe.model().camera)
                             : probe_fw::cli::ParseAoi(aoi);
-  const double seed = o.Number("--seed", 1.0);
-  if (seed < 0 || seed != std::floor(seed) || seed > 9e15)
-    throw UsageError("--seed is a whole number");
-  sweep.seed = static_cast<std::uint64_t>(seed);
-  sweep.noise = !o.Has("--noiseless");
-  const double supersampling = o.Number("--led-supersampling", 1.0);
-  if (supersampling != std::floor(supersampling) || supersampling < 1 || supersampling > 16)
-    throw UsageError("--led-supersampling is a whole number from 1 to 16");
-  sweep.led_supersampling = static_cast<int>(supersampling);
-  sweep.exposure = o.Number("--exposure", 1.0);
-  if (!(sweep.exposure > 0.0 && sweep.exposure <= 1e4))
-    throw UsageError("--exposure is a factor in (0, 10000] (1: the model's photometry)");
-  if (o.Has("--columns") && o.Has("--column-count"))
-    throw UsageError("give --columns or --column-count, not both");
-  if (o.Has("--columns")) {
-    char c1 = 0, c2 = 0;
-    const std::string text = o.Text("--columns", "");
-    if (std::sscanf(text.c_str(), "%lf%c%lf%c%lf", &sweep.first_column, &c1, &sweep.last_column,
-                    &c2, &sweep.column_step) != 5 ||
-        c1 != ':' || c2 != ':') {
-      throw UsageError("--columns is FIRST:LAST:STEP, got '" + text + "'");
-    }
-  } else {
-    // Calibration views (--column-count) spread their columns over the whole workpiece seen,
-    // however small in the window: a 17 x 17 lattice of rays finds it.
-    constexpr int kCalibrationGrid = 17;
-    probe.ColumnsReaching(capture, sweep.aoi, &sweep.first_column, &sweep.last_column,
-                          o.Has("--column-count") ? kCalibrationGrid : 3);
-    sweep.column_step = 2.0;
-    if (o.Has("--column-count")) {
-      const double n = o.Number("--column-count", 0.0);
-      if (n != std::floor(n) || n < 2 || n > 10000)
-        throw UsageError("--column-count is a whole number from 2 to 10000");
-      sweep.column_step = (sweep.last_column - sweep.first_column) / (n - 1);
-    }
-  }
+  SweepSettings(o, &sweep);
+  SweepColumns(o, probe, capture, &sweep);
   err << "mlp-sim: rendering capture '" << capture.id << "', AOI " << sweep.aoi.width << " x "
       << sweep.aoi.height << ", columns " << sweep.first_column << " to " << sweep.last_column
       << " step " << sweep.column_step << "\n";
@@ -153,19 +189,7 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
   WriteTruth(dir, probe, capture, sweep, r);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (o.Has("--json")) {
-    out << nlohmann::ordered_json{{"out", dir},
-                                  {"capture_id", capture.id},
-                                  {"frames", frames.size()},
-                                  {"aoi",
-                                   {sweep.aoi.x0, sweep.aoi.y0, sweep.aoi.width, sweep.aoi.height}},
-                                  {"seconds", seconds}}
-               .dump(2)
-        << "\n";
-  } else {
-    out << "mlp-sim: " << frames.size() << " frames (1 LED, " << r.laser.size()
-        << " laser) and ground truth -> " << dir << " in " << seconds << " s\n";
-  }
+  PrintRendered(o, capture, sweep, frames.size(), seconds, out);
   return probe_fw::cli::kExitOk;
 }
 
