@@ -320,10 +320,9 @@ std::vector<Vec3> CloudInBase(const calib::ImageFindings& f,
                               const Pose3& base_from_probe) {
   std::vector<Vec3> out;
   for (const auto& px : f.stripe_px) {
-    try {
-      out.push_back(base_from_probe * probe_fw::Triangulate(model, px.x(), px.y(), 0.0));
-    } catch (const std::domain_error&) {  // a ray in the light plane: no point
-    }
+    // A ray in the light plane: no point.
+    if (const auto p = probe_fw::Triangulate(model, px.x(), px.y(), 0.0))
+      out.push_back(base_from_probe * *p);
   }
   return out;
 }

@@ -1,5 +1,6 @@
 #include "mlp/host/fit_command.h"
 
+#include "mlp/base/check.h"
 #include "mlp/base/units.h"
 #include "mlp/geometry/chebyshev.h"
 #include "mlp/geometry/error.h"
@@ -255,7 +256,7 @@ int RunFitCommand(const std::vector<std::string>& args, std::ostream& out, std::
     j.update(Fit(req, cloud.points));
     j["points_read"] = cloud.points.cols() + static_cast<Eigen::Index>(cloud.dropped_non_finite);
     j["dropped_non_finite"] = cloud.dropped_non_finite;
-    if (!AllFinite(j)) throw std::logic_error("non-finite value in the result");
+    MLP_CHECK_MSG(AllFinite(j), "every fit returns finite values or throws");
     if (req.text) {
       out << "mlp fit " << req.shape << " (" << req.method << ") " << req.path << "\n";
       PrintText(j, out);

@@ -1,5 +1,7 @@
 #include "mlp/probe_fw/stripe.h"
 
+#include "mlp/base/check.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -393,9 +395,7 @@ RowMask Transposed(const RowMask& mask) {
 
 StripeExtractor::StripeExtractor(const RowMask& mask, const StripeOptions& options)
     : mask_(mask), options_(options) {
-  if (mask_.rows.size() != static_cast<size_t>(std::max(0, mask_.aoi.height))) {
-    throw std::invalid_argument("stripe: the mask must have one entry per row of its AOI");
-  }
+  MLP_CHECK_EQ(mask_.rows.size(), static_cast<size_t>(std::max(0, mask_.aoi.height)));
   if (options_.axes != StripeAxes::kRows) column_mask_ = Transposed(mask_);
 }
 
@@ -403,11 +403,11 @@ void StripeExtractor::Extract(const Frame& frame,
                               std::vector<StripePoint>* out,
                               StripeCounts* counts) {
   const Aoi& a = frame.aoi;
-  if (mask_.aoi.width != a.width || mask_.aoi.height != a.height || mask_.aoi.x0 != a.x0 ||
-      mask_.aoi.y0 != a.y0 ||
-      frame.pixels.size() != static_cast<size_t>(a.width) * static_cast<size_t>(a.height)) {
-    throw std::invalid_argument("stripe: the mask's AOI differs from the frame's");
-  }
+  MLP_CHECK_MSG(
+      mask_.aoi.width == a.width && mask_.aoi.height == a.height && mask_.aoi.x0 == a.x0 &&
+          mask_.aoi.y0 == a.y0 &&
+          frame.pixels.size() == static_cast<size_t>(a.width) * static_cast<size_t>(a.height),
+      "stripe: the mask's AOI must be the frame's");
   const int max_level = (1 << frame.bit_depth) - 1;
   const std::uint16_t* pixels = frame.pixels.data();
   if (options_.speckle_sigma_px > 0.0)

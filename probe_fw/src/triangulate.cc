@@ -15,34 +15,36 @@ namespace {
 constexpr int kSheetSteps = 8;
 constexpr double kSheetTolMm = 1e-10;
 
-Vec3 OnPlane(const ProjectorModel& projector, const Vec3& ray, double planar_column) {
+std::optional<Vec3> OnPlane(const ProjectorModel& projector,
+                            const Vec3& ray,
+                            double planar_column) {
   Vec3 normal;
   double offset = 0.0;
   projector.PlaneOf(planar_column, &normal, &offset);
   const double denom = normal.dot(ray);
   // Below 1e-3 the ray grazes the plane (triangulation angle < 0.06 deg): no depth resolution.
-  if (!(std::abs(denom) > 1e-3 * ray.norm())) {
-    throw std::domain_error("triangulate: camera ray parallel to the light plane");
-  }
+  if (!(std::abs(denom) > 1e-3 * ray.norm())) return std::nullopt;
   return (offset / denom) * ray;
 }
 
 }  // namespace
 
-Vec3 Triangulate(const ProbeModel& model, double x_px, double y_px, double column) {
+std::optional<Vec3> Triangulate(const ProbeModel& model, double x_px, double y_px, double column) {
   const Vec2 xy = model.camera.Undistort(Vec2(x_px, y_px));
   const Vec3 ray(xy.x(), xy.y(), 1.0);
   const ProjectorModel& projector = model.projector;
   const double actual = projector.ActualColumn(column);
-  Vec3 point = OnPlane(projector, ray, actual);
-  if (projector.sheet_smile_cols == 0.0) return point;
+  std::optional<Vec3> point = OnPlane(projector, ray, actual);
+  if (!point || projector.sheet_smile_cols == 0.0) return point;
   // The curved sheet of `actual` meets the ray where the point's planar column is actual plus
   // the smile at the point's own position along the line.
   const Pose3 projector_from_probe = projector.camera_from_projector.inverse();
   for (int step = 0; step < kSheetSteps; ++step) {
-    const Vec3 q = projector_from_probe * point;
-    const Vec3 next = OnPlane(projector, ray, actual + projector.SmileAt(q.y() / q.z()));
-    const double moved = (next - point).norm();
+    const Vec3 q = projector_from_probe * *point;
+    const std::optional<Vec3> next =
+        OnPlane(projector, ray, actual + projector.SmileAt(q.y() / q.z()));
+    if (!next) return std::nullopt;
+    const double moved = (*next - *point).norm();
     point = next;
     if (moved < kSheetTolMm) break;
   }
@@ -78,8 +80,10 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
   for (const SweepObservation& o : seen) {
     if (o.indirect) continue;  // light from elsewhere, or a reflectance too uneven to correct
     CloudPoint p;
-    p.point_in_probe = Triangulate(model, o.stripe.x_px, o.stripe.y_px, o.column);
-    if (!(p.point_in_probe.z() > 0.0)) continue;  // behind the camera: not a real surface
+    const std::optional<Vec3> point = Triangulate(model, o.stripe.x_px, o.stripe.y_px, o.column);
+    // A grazing ray has no depth; behind the camera is no real surface.
+    if (!point || !(point->z() > 0.0)) continue;
+    p.point_in_probe = *point;
     p.quality = o.stripe.quality;
     p.x_px = o.stripe.x_px;
     p.y_px = o.stripe.y_px;

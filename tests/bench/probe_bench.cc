@@ -149,7 +149,7 @@ void BM_Triangulate(benchmark::State& state) {
   for (auto _ : state) {
     const auto& p = points[k++ % points.size()];
     benchmark::DoNotOptimize(
-        probe_fw::Triangulate(f.model, p.x_px, p.y_px, f.laser[3].laser_column));
+        probe_fw::Triangulate(f.model, p.x_px, p.y_px, f.laser[3].laser_column).value());
   }
   state.counters["points_per_s"] =
       benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);

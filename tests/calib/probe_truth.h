@@ -74,7 +74,7 @@ inline TriangulationError TriangulationVsTruth(const probe_fw::ProbeModel& truth
     const Vec3 p(xy.x() * z, xy.y() * z, z);
     const double column = truth.projector.ColumnOf(p);
     if (column < 0 || column > truth.projector.columns - 1) return;
-    got.push_back(probe_fw::Triangulate(model, u, w, column)), want.push_back(p);
+    got.push_back(probe_fw::Triangulate(model, u, w, column).value()), want.push_back(p);
   });
   return RigidlyAligned(got, want);
 }

@@ -188,8 +188,8 @@ TEST(CalibrateOptics, AnAsBuiltProbeWithItsOpticsThroughTheCalibration) {
   for (double u = 200; u <= 1800; u += 400) {
     for (double w = 200; w <= 1400; w += 300) {
       for (double column = 300; column <= 700; column += 100) {
-        worst_mm = std::max(worst_mm, (probe_fw::Triangulate(sample, u, w, column) -
-                                       probe_fw::Triangulate(calibrated, u, w, column))
+        worst_mm = std::max(worst_mm, (probe_fw::Triangulate(sample, u, w, column).value() -
+                                       probe_fw::Triangulate(calibrated, u, w, column).value())
                                           .norm());
       }
     }

@@ -73,14 +73,14 @@ TEST(SizeDecision, LengthFromAFaceAndABoss) {
 TEST(SizeDecision, MeaninglessSettingsAreRefused) {
   Feedback f = RadiusWear(1);
   f.percent = 0;
-  EXPECT_THROW(DecideSize(60, Bore60(), f), std::invalid_argument);
+  EXPECT_THROW(DecideSize(60, Bore60(), f), DecisionError);
   f.percent = 120;
-  EXPECT_THROW(DecideSize(60, Bore60(), f), std::invalid_argument);
-  EXPECT_THROW(DecideSize(std::nan(""), Bore60(), RadiusWear(1)), std::invalid_argument);
-  EXPECT_THROW(DecideSize(60, {60, -0.01, 0}, RadiusWear(1)), std::invalid_argument);
+  EXPECT_THROW(DecideSize(60, Bore60(), f), DecisionError);
+  EXPECT_THROW(DecideSize(std::nan(""), Bore60(), RadiusWear(1)), DecisionError);
+  EXPECT_THROW(DecideSize(60, {60, -0.01, 0}, RadiusWear(1)), DecisionError);
   f = RadiusWear(1);
   f.null_band_mm = 1.0;  // above the upper limit
-  EXPECT_THROW(DecideSize(60, Bore60(), f), std::invalid_argument);
+  EXPECT_THROW(DecideSize(60, Bore60(), f), DecisionError);
 }
 
 TEST(Plausibility, EveryReasonIsListed) {

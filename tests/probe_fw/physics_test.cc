@@ -140,8 +140,8 @@ Scatter RowCentreScatter(const VirtualProbe& probe, double contrast) {
       }
       if (s0 <= 0.0) continue;
       const double centre = s1 / s0;
-      const Vec3 p = probe_fw::Triangulate(m, centre, y, f.laser_column);
-      const Vec3 p_true = probe_fw::Triangulate(m, *truth, y, f.laser_column);
+      const Vec3 p = probe_fw::Triangulate(m, centre, y, f.laser_column).value();
+      const Vec3 p_true = probe_fw::Triangulate(m, *truth, y, f.laser_column).value();
       const double e = (p - p_true).norm() * (centre < *truth ? -1.0 : 1.0);
       errors.push_back(e), mean += e;
       const Vec3 to_camera = -p_true.normalized();

@@ -144,12 +144,30 @@ TEST(ProbeModel, TriangulationMeetsTheCurvedSheet) {
       const double column = m.projector.CommandedColumnOf(p);
       const Vec2 pixel = m.camera.Project(p);
       EXPECT_NEAR(m.projector.CommandedColumn(m.projector.ActualColumn(column)), column, 1e-9);
-      EXPECT_LT((Triangulate(m, pixel.x(), pixel.y(), column) - p).norm(), kTriangulationExactMm)
+      EXPECT_LT((Triangulate(m, pixel.x(), pixel.y(), column).value() - p).norm(),
+                kTriangulationExactMm)
           << x << ", " << y;
       ++checked;
     }
   }
   EXPECT_EQ(checked, 99);
+}
+
+// A pixel whose ray runs along the light plane has no depth: no point, and no exception that
+// would end the whole sweep (ReconstructSweep skips it).
+TEST(ProbeModel, AGrazingRayGivesNoPoint) {
+  const ProbeModel m = CurvedProbe();
+  const double column = 0.0;
+  Vec3 normal;
+  double offset = 0.0;
+  m.projector.PlaneOf(m.projector.ActualColumn(column), &normal, &offset);
+  Vec3 along = normal.cross(Vec3::UnitX()).normalized();  // in the plane's direction
+  if (along.z() < 0) along = -along;
+  const Vec2 pixel = m.camera.Project(100.0 * along);
+  EXPECT_FALSE(Triangulate(m, pixel.x(), pixel.y(), column).has_value());
+  // A ray 3 degrees off the plane meets it.
+  const Vec2 off_plane = m.camera.Project(100.0 * (along + 0.05 * normal).normalized());
+  EXPECT_TRUE(Triangulate(m, off_plane.x(), off_plane.y(), column).has_value());
 }
 
 TEST(ProbeModel, BadFilesNameTheField) {

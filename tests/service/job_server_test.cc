@@ -90,7 +90,7 @@ TEST(JobServer, ALiveSocketIsNeverTakenOverAStaleOneIsReplaced) {
   first.Handle("status", [](const json&) { return json{{"ok", true}, {"who", "first"}}; });
   first.Start();
   JobServer second(path, [](const std::string&) {});
-  EXPECT_THROW(second.Start(), std::runtime_error);
+  EXPECT_THROW(second.Start(), JobServerError);
   EXPECT_EQ(SendRequest(path, {{"op", "status"}}, kReplyTimeoutMs).at("who"), "first");
   first.Stop();
   // A crashed host leaves its socket file behind: bind it without listening.
@@ -128,7 +128,7 @@ TEST(JobServer, TheClientSaysWhenTheHostIsNotRunning) {
     return json{{"ok", true}};
   });
   server.Start();
-  EXPECT_THROW(SendRequest(path, {{"op", "slow"}}, 100), std::runtime_error);
+  EXPECT_THROW(SendRequest(path, {{"op", "slow"}}, 100), JobClientError);
   gave_up.set_value();
   server.Stop();
 }

@@ -15,7 +15,7 @@ std::string Um(double mm) {
 }
 
 void Check(bool ok, const std::string& what) {
-  if (!ok) throw std::invalid_argument(what);
+  if (!ok) throw DecisionError(what);
 }
 
 }  // namespace

@@ -68,7 +68,7 @@ nc::ToolOffsetChange ResolveToolChange(const ControllerConfig& c,
   const nc::ToolTable table = nc::LoadToolTable(c.tool_table);
   const auto tool = table.Find(offset);
   if (!tool)
-    throw std::runtime_error("tool " + std::to_string(offset) + " is not in " + c.tool_table);
+    throw nc::ToolTableError("tool " + std::to_string(offset) + " is not in " + c.tool_table);
   if (reg == nc::ToolRegister::kLengthWear || reg == nc::ToolRegister::kRadiusWear) {
     *note = "LinuxCNC has no wear registers: the " + nc::ToString(reg) +
             " change is applied to the geometry value";

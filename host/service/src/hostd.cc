@@ -363,9 +363,9 @@ struct Hostd::Impl {
       fs::create_directories(dir);
       const std::string path = (dir / (name + ".ply")).string();
       if (fs::exists(path))  // the history and the data folder disagree: keep the older file
-        throw std::runtime_error("the cloud file " + path +
-                                 " exists already (a history that restarted its job numbers?): "
-                                 "not written over");
+        throw history::HistoryError("the cloud file " + path +
+                                    " exists already (a history that restarted its job numbers?): "
+                                    "not written over");
       probe_fw::WriteCloudPly(
           path, cloud.xyz, cloud.quality,
           {cloud.probe_serial, cloud.calibration_id, cloud.capture_id, cloud.mcs_from_flange});

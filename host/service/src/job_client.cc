@@ -22,10 +22,10 @@ json SendRequest(const std::string& socket_path, const json& request, int timeou
   boost::system::error_code ec;
   socket.connect(local::endpoint(socket_path), ec);
   if (ec)
-    throw std::runtime_error("mlp-hostd is not answering on " + socket_path + " (" + ec.message() +
-                             "): is it running?");
+    throw JobClientError("mlp-hostd is not answering on " + socket_path + " (" + ec.message() +
+                         "): is it running?");
   asio::write(socket, asio::buffer(request.dump() + "\n"), ec);
-  if (ec) throw std::runtime_error("cannot send the request: " + ec.message());
+  if (ec) throw JobClientError("cannot send the request: " + ec.message());
   asio::streambuf buffer(kMaxReplyBytes);
   bool done = false;
   std::size_t n = 0;
@@ -34,15 +34,14 @@ json SendRequest(const std::string& socket_path, const json& request, int timeou
   });
   io.run_for(std::chrono::milliseconds(timeout_ms));
   if (!done)
-    throw std::runtime_error("no reply from mlp-hostd within " + std::to_string(timeout_ms) +
-                             " ms");
-  if (ec) throw std::runtime_error("the reply was not read: " + ec.message());
+    throw JobClientError("no reply from mlp-hostd within " + std::to_string(timeout_ms) + " ms");
+  if (ec) throw JobClientError("the reply was not read: " + ec.message());
   const std::string line(asio::buffers_begin(buffer.data()),
                          asio::buffers_begin(buffer.data()) + static_cast<long>(n));
   try {
     return json::parse(line);
   } catch (const json::parse_error& e) {
-    throw std::runtime_error(std::string("the reply is not JSON: ") + e.what());
+    throw JobClientError(std::string("the reply is not JSON: ") + e.what());
   }
 }
 

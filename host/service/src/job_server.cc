@@ -221,11 +221,10 @@ struct JobServer::Impl {
     struct stat st {};
     if (::lstat(path.c_str(), &st) == 0) {
       if (!S_ISSOCK(st.st_mode))
-        throw std::runtime_error("job socket " + path +
-                                 " exists and is not a socket: not replaced (check job_socket)");
+        throw JobServerError("job socket " + path +
+                             " exists and is not a socket: not replaced (check job_socket)");
       if (SomeoneListens(path))
-        throw std::runtime_error("job socket " + path +
-                                 " is in use: is mlp-hostd running already?");
+        throw JobServerError("job socket " + path + " is in use: is mlp-hostd running already?");
       std::filesystem::remove(path);
       log("job socket: replaced the stale " + path);
     }
@@ -236,7 +235,7 @@ struct JobServer::Impl {
       ::chmod(path.c_str(), 0660);  // the NC machine's user and the host's group
       acceptor.listen();
     } catch (const std::exception& e) {
-      throw std::runtime_error("cannot listen on the job socket " + path + ": " + e.what());
+      throw JobServerError("cannot listen on the job socket " + path + ": " + e.what());
     }
   }
 };

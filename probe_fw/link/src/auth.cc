@@ -23,7 +23,7 @@ constexpr std::size_t kMaxSerial = 64;
 Bytes Random(std::size_t n) {
   Bytes b(n);
   if (RAND_bytes(b.data(), static_cast<int>(n)) != 1)
-    throw std::runtime_error("link: no randomness");
+    throw LinkError(LinkFault::kLocal, "no randomness");
   return b;
 }
 
@@ -52,7 +52,7 @@ Bytes Hmac(const Bytes& key, const Bytes& message) {
   unsigned len = 0;
   if (!HMAC(EVP_sha256(), key.data(), static_cast<int>(key.size()), message.data(), message.size(),
             out.data(), &len)) {
-    throw std::runtime_error("link: HMAC failed");
+    throw LinkError(LinkFault::kLocal, "HMAC failed");
   }
   out.resize(len);
   return out;

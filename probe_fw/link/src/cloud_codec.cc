@@ -129,7 +129,8 @@ Bytes EncodeCloud(const LinkCloud& c, bool compress) {
   Bytes packed(ZSTD_compressBound(body.size()));
   const std::size_t n =
       ZSTD_compress(packed.data(), packed.size(), body.data(), body.size(), kZstdLevel);
-  if (ZSTD_isError(n)) throw std::runtime_error(std::string("zstd: ") + ZSTD_getErrorName(n));
+  if (ZSTD_isError(n))
+    throw LinkError(LinkFault::kLocal, std::string("zstd: ") + ZSTD_getErrorName(n));
   packed.resize(n);
   PutU8(&out, kZstd);
   PutU32(&out, static_cast<std::uint32_t>(body.size()));

@@ -411,8 +411,8 @@ void HostLink::Start() {
     const tcp::endpoint at(asio::ip::make_address(d.cfg.bind_address), d.cfg.port);
     d.acceptor.emplace(d.io, at);
   } catch (const std::exception& e) {
-    throw LinkError(LinkFault::kProtocol, "cannot listen on " + d.cfg.bind_address + ":" +
-                                              std::to_string(d.cfg.port) + " (" + e.what() + ")");
+    throw LinkError(LinkFault::kLocal, "cannot listen on " + d.cfg.bind_address + ":" +
+                                           std::to_string(d.cfg.port) + " (" + e.what() + ")");
   }
   asio::co_spawn(d.io, d.Accept(), asio::detached);
   d.running = true;

@@ -48,6 +48,8 @@ const char* ToString(LinkFault fault) {
       return "auth_failed";
     case LinkFault::kProtocol:
       return "protocol";
+    case LinkFault::kLocal:
+      return "local";
   }
   return "unknown";
 }

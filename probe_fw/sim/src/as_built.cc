@@ -86,7 +86,9 @@ void WorkingVolumePoints(const AsBuiltProbe& truth,
         const Vec3 p = o + d * ((z - o.z()) / d.z());
         const double column = proj.CommandedColumnOf(p);
         if (column < 0 || column > proj.columns - 1) continue;
-        triangulated->push_back(probe_fw::Triangulate(model, u, w, column));
+        const auto seen = probe_fw::Triangulate(model, u, w, column);
+        if (!seen) continue;  // a ray along the light plane: no depth to compare
+        triangulated->push_back(*seen);
         true_points->push_back(p);
       }
     }

@@ -1,5 +1,6 @@
 #include "mlp/sim/render.h"
 
+#include "mlp/probe_fw/agent.h"
 #include "mlp/sim/brdf.h"
 #include "mlp/sim/speckle.h"
 
@@ -84,13 +85,13 @@ void CheckSweep(const probe_fw::ProbeModel& model, const SweepOptions& o) {
   const auto& c = model.camera;
   if (o.aoi.width <= 0 || o.aoi.height <= 0 || o.aoi.x0 < 0 || o.aoi.y0 < 0 ||
       o.aoi.x0 + o.aoi.width > c.width_px || o.aoi.y0 + o.aoi.height > c.height_px) {
-    throw std::invalid_argument("sweep: the AOI must lie inside the sensor");
+    throw probe_fw::RequestError("sweep: the AOI must lie inside the sensor");
   }
   if (!(o.exposure > 0.0 && o.exposure <= 1e4))
-    throw std::invalid_argument("sweep: exposure must be in (0, 1e4] times the model's");
+    throw probe_fw::RequestError("sweep: exposure must be in (0, 1e4] times the model's");
   if (!(o.column_step > 0.0) || !(o.last_column >= o.first_column) || o.first_column < 0.0 ||
       o.last_column > model.projector.columns - 1) {
-    throw std::invalid_argument(
+    throw probe_fw::RequestError(
         "sweep: columns must satisfy 0 <= first <= last < columns, step > 0");
   }
 }

@@ -1,5 +1,7 @@
 #include "mlp/sim/speckle.h"
 
+#include "mlp/base/check.h"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -19,10 +21,9 @@ double AiryAmplitude(double v) { return v < 1e-8 ? 1.0 : 2.0 * std::cyl_bessel_j
 SpeckleImager::SpeckleImager(
     int width_px, int height_px, double airy_radius_px, double contrast, std::uint64_t seed)
     : w_(width_px), h_(height_px), contrast_(contrast) {
-  if (w_ <= 0 || h_ <= 0 || !(airy_radius_px > 0.05 && airy_radius_px < 50.0) ||
-      !(contrast >= 0.0 && contrast <= 1.0)) {
-    throw std::invalid_argument("speckle: Airy radius must be 0.05..50 px, contrast 0..1");
-  }
+  MLP_CHECK_MSG(w_ > 0 && h_ > 0 && airy_radius_px > 0.05 && airy_radius_px < 50.0 &&
+                    contrast >= 0.0 && contrast <= 1.0,
+                "speckle: Airy radius must be 0.05..50 px, contrast 0..1");
   // The intensity's spectrum ends at 2 / (lambda N) = 2.44 / airy_radius: sample it at least
   // that finely, and at least 3 x 3 per pixel (its mean of |field|^2 is the pixel integral).
   q_ = std::max(3, static_cast<int>(std::ceil(2.0 * 1.22 / airy_radius_px)));

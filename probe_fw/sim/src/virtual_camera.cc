@@ -21,12 +21,9 @@ probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe,
     // The model's photometry is that of the link's default exposure: a longer one (dark metal)
     // collects proportionally more light, and clips sooner on a glint.
     o.exposure = plan.exposure_us / kReferenceExposureUs;
-    RenderedCapture rendered;
-    try {
-      rendered = probe->Render(capture, o);
-    } catch (const std::invalid_argument& e) {
-      throw probe_fw::RequestError(e.what());  // the request, not the camera, is at fault
-    }
+    // A sweep the sensor or the projector cannot make throws RequestError: the request, not
+    // the camera, is at fault.
+    RenderedCapture rendered = probe->Render(capture, o);
     // The rendered sweep is what the camera sees; the projector the agent drives picks the
     // frame of each exposure.
     std::vector<probe_fw::Frame> frames{std::move(rendered.led)};

@@ -7,6 +7,7 @@
 #include "mlp/probe_fw/probe_model.h"
 #include "mlp/probe_fw/stripe.h"
 
+#include <optional>
 #include <vector>
 
 namespace mlp::probe_fw {
@@ -20,8 +21,9 @@ struct CloudPoint {
 };
 
 /// The point where the ray through sensor pixel (x_px, y_px) meets the light plane of `column`.
-/// Throws std::domain_error when the ray is (nearly) parallel to the plane.
-Vec3 Triangulate(const ProbeModel& model, double x_px, double y_px, double column);
+/// Empty when the ray grazes the plane (a triangulation angle under 0.06 deg has no depth
+/// resolution): an expected outcome for a pixel, not an error (docs/DEVELOPING.md, Errors).
+std::optional<Vec3> Triangulate(const ProbeModel& model, double x_px, double y_px, double column);
 
 /// Stripe extraction and triangulation over every laser frame of a sweep.
 std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,

@@ -10,6 +10,7 @@
 
 #include <limits>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -53,8 +54,15 @@ struct SizeDecision {
   std::string reason;             ///< why (no) update, for the report
 };
 
-/// Throws std::invalid_argument for a spec or feedback that is not meaningful (negative
-/// tolerances, percent outside (0, 100], a non-finite size).
+/// A size spec or feedback that is not meaningful: the request's, refused before anything is
+/// written.
+class DecisionError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+/// Throws DecisionError for a spec or feedback that is not meaningful (negative tolerances,
+/// percent outside (0, 100], a non-finite size).
 SizeDecision DecideSize(double measured_mm, const SizeSpec& spec, const Feedback& feedback);
 
 /// The gate before any write. Each limit names its unit.

@@ -16,6 +16,7 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -37,6 +38,12 @@ struct JobServerLimits {
   int quick_workers = 2;
 };
 
+/// The job socket could not be opened (in use by a live host, not a socket, no permission).
+class JobServerError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 class JobServer {
  public:
   explicit JobServer(std::string socket_path, Log log, JobServerLimits limits = {});
@@ -49,7 +56,7 @@ class JobServer {
   /// Before Start: a lane (a machine).
   void AddLane(const std::string& name);
   /// Binds the socket (mode 0660). A stale socket left by a crashed host is replaced; a live
-  /// one, or a path that is not a socket, is not: throws std::runtime_error naming the path.
+  /// one, or a path that is not a socket, is not: throws JobServerError naming the path.
   void Start();
   /// Stops accepting, lets running handlers finish, removes the socket file.
   void Stop();

@@ -58,6 +58,7 @@ enum class LinkFault {
   kUnknownProbe,
   kAuthFailed,
   kProtocol,  ///< a message that is valid but not expected in this state
+  kLocal,     ///< this end failed: randomness, a hash, the compressor, a socket to listen on
 };
 
 const char* ToString(LinkFault fault);

@@ -92,7 +92,8 @@ class VirtualProbe {
     return capture.mcs_from_flange * scene_.flange_from_probe;
   }
 
-  /// The LED frame and one laser frame per projector column of the sweep.
+  /// The LED frame and one laser frame per projector column of the sweep. Throws
+  /// probe_fw::RequestError for a sweep the sensor or the projector cannot make.
   RenderedCapture Render(const Capture& capture, const SweepOptions& options) const;
 
   /// Projector columns (commanded) whose light can reach the AOI: those of the surface under a
