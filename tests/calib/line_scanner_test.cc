@@ -194,7 +194,8 @@ TEST(SphereCaptureManifest, RefusesNamingTheFieldAndAsksTheCallerForOtherClouds)
       LoadSphereCaptureManifest(write(R"({"id": "a", "cloud": "a.xyz", )" + pose + "}"), reader);
   ASSERT_EQ(asked.size(), 1u);
   EXPECT_EQ(asked[0], (dir / "a.xyz").string());
-  EXPECT_NEAR(m.captures.at(0).mcs_from_flange.translation().y(), 2.0, 1e-12);
+  constexpr double kSameNumber = 1e-12;  // the manifest read back
+  EXPECT_NEAR(m.captures.at(0).mcs_from_flange.translation().y(), 2.0, kSameNumber);
   const auto message = [&](const std::string& capture) -> std::string {
     try {
       LoadSphereCaptureManifest(write(capture), reader);

@@ -13,6 +13,9 @@ namespace {
 constexpr double kOffsetTolMm = 0.002;      // issue 5: disturbances recovered within 2 um
 constexpr double kRotationTolArcsec = 5.0;  // and 5 arcsec
 constexpr double kNoiseMm = 0.002;
+constexpr double kResidualTolMm = 0.002;       // the centres' disagreement before the correction
+constexpr double kCrashSizeTolMm = 0.01;       // a 0.8 mm crash's size, split over 3 orientations
+constexpr double kRadiusChangeTolMm = 0.0005;  // an undisturbed probe's apparent tip radius
 
 // The original calibration is the truth before the disturbance.
 RecheckOptions Original(const testing::Truth& truth) {
@@ -67,7 +70,7 @@ TEST(Recheck, OneOrientationGivesTheOffset) {
   ExpectRecovered(r, now, "one orientation, offset");
   ASSERT_FALSE(r.not_determined.empty());
   EXPECT_NE(r.not_determined.back().find("rotation"), std::string::npos);
-  EXPECT_NEAR(r.residual_before_mm[0], Vec3(0.05, -0.03, 0.08).norm(), 0.002);
+  EXPECT_NEAR(r.residual_before_mm[0], Vec3(0.05, -0.03, 0.08).norm(), kResidualTolMm);
 }
 
 TEST(Recheck, SeveralOrientationsSeparateRotationFromOffset) {
@@ -114,7 +117,7 @@ TEST(Recheck, TooLargeOrNonRigidChangesAskForAFullCalibration) {
   EXPECT_NE(big.reason.find("mount moved"), std::string::npos) << big.reason;
   // Three orientations split the change into rotation and offset to a few micrometres (the
   // sphere's spread in the probe frame is the lever); the size reported must be right to that.
-  EXPECT_NEAR(big.offset_in_flange_mm.norm(), 0.8, 0.01);
+  EXPECT_NEAR(big.offset_in_flange_mm.norm(), 0.8, kCrashSizeTolMm);
 
   // A bent probe: each orientation sees the sphere 10-30 um off in its own direction.
   auto captures = Measure(truth, testing::PoseSet::kFiveAxis, 5, 7);
@@ -169,7 +172,7 @@ TEST(Recheck, UndisturbedProbeChangesNothing) {
       Recheck(Measure(truth, testing::PoseSet::kFiveAxis, 4, 8), Original(truth));
   EXPECT_LT(r.offset_in_flange_mm.norm(), 0.0005);
   EXPECT_LT(Arcsec(r.rotation_in_flange_rad), 2.0);
-  EXPECT_NEAR(r.apparent_radius_change_mm, 0.0, 0.0005);
+  EXPECT_NEAR(r.apparent_radius_change_mm, 0.0, kRadiusChangeTolMm);
   EXPECT_NEAR(r.depth_scale, 1.0, kDepthScaleTol);
   EXPECT_FALSE(r.full_calibration_required) << r.reason;
 }

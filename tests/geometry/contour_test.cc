@@ -13,6 +13,8 @@ namespace mlp::geometry {
 namespace {
 
 constexpr double kDark = 25, kBright = 210, kLevel = (kDark + kBright) / 2;
+constexpr double kMeanTolPx = 0.01;        // 200 rows: the mean edge to 1/100 px
+constexpr double kCircleBiasTolPx = 0.02;  // the mean distance of a circle's crossings
 
 // A vertical edge at u = edge (dark left of it) with a Gaussian blur of sigma px: the grey of a
 // pixel is the blurred step's value at its centre.
@@ -35,7 +37,7 @@ TEST(Contour, RowCrossingsFindAVerticalEdgeToAFewHundredthsOfAPixel) {
   const auto px = Step(64, 200, 30.37, 0.8, 2.0, true);
   const Points2 c = RowCrossings({px.data(), 64, 200}, kLevel);
   ASSERT_EQ(c.cols(), 200);
-  EXPECT_NEAR(c.row(0).mean(), 30.37, 0.01);  // 200 rows: the mean to 1/100 px
+  EXPECT_NEAR(c.row(0).mean(), 30.37, kMeanTolPx);
   // Each row alone: the noise through the centroid of the steps, under 0.1 px RMS.
   EXPECT_LT(std::sqrt((c.row(0).array() - 30.37).square().mean()), 0.1);
   EXPECT_EQ(c(1, 17), 17);
@@ -45,7 +47,7 @@ TEST(Contour, ColumnCrossingsFindAHorizontalEdge) {
   const auto px = Step(150, 80, 41.62, 0.8, 2.0, false);
   const Points2 c = ColumnCrossings({px.data(), 150, 80}, kLevel);
   ASSERT_EQ(c.cols(), 150);
-  EXPECT_NEAR(c.row(1).mean(), 41.62, 0.01);
+  EXPECT_NEAR(c.row(1).mean(), 41.62, kMeanTolPx);
 }
 
 // A window into the image scans only its own columns and rows (two shadows on one row: each
@@ -57,7 +59,7 @@ TEST(Contour, AWindowScansOnlyItsPart) {
   EXPECT_EQ(w.height, 150);
   const Points2 c = RowCrossings(w, kLevel);
   ASSERT_EQ(c.cols(), 150);
-  EXPECT_NEAR(c.row(0).mean() + 20, 30.37, 0.01);
+  EXPECT_NEAR(c.row(0).mean() + 20, 30.37, kMeanTolPx);
   EXPECT_EQ(c(1, 0), 0);  // the window's first row: the image's row 50
   EXPECT_EQ(w.At(0, 0), whole.At(20, 50));
   EXPECT_EQ(RowCrossings(whole.Window(40, 0, 24, 200), kLevel).cols(), 0);  // light only
@@ -96,7 +98,7 @@ TEST(Contour, AllCrossingsTraceAShapeOfAnyKind) {
     const double d = std::hypot(c(0, i) - cx, c(1, i) - cy) - r;
     sum += d, worst = std::max(worst, std::abs(d));
   }
-  EXPECT_NEAR(sum / static_cast<double>(c.cols()), 0.0, 0.02);
+  EXPECT_NEAR(sum / static_cast<double>(c.cols()), 0.0, kCircleBiasTolPx);
   EXPECT_LT(worst, 0.5);  // where a line grazes the circle its crossing is shallow
 }
 

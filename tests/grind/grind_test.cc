@@ -149,7 +149,8 @@ TEST(Grind, AJobFileReadsBack) {
   ASSERT_EQ(back.profile.size(), job.profile.size());
   EXPECT_TRUE(back.profile[1].arc);
   EXPECT_FALSE(back.profile[1].ccw);
-  EXPECT_NEAR((back.profile[3].center - job.profile[3].center).norm(), 0, 1e-12);
+  constexpr double kReadBackMm = 1e-12;  // the job file read back
+  EXPECT_NEAR((back.profile[3].center - job.profile[3].center).norm(), 0, kReadBackMm);
   ASSERT_EQ(back.points.size(), 1u);
   EXPECT_EQ(back.points[0].after, "a.pgm");
   EXPECT_NO_THROW(geometry::Profile2{back.profile});

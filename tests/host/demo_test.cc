@@ -32,6 +32,8 @@ constexpr double kDiameterTolMm = 0.002;
 constexpr double kHandEyeTolUm = 5.0, kHandEyeTolArcsec = 10.0;  // issue 16
 constexpr double kFinishedDiameterMm = 60.0;                     // the demo's nominal
 constexpr double kRadiusBeforeMm = 4.999;                        // T12 D9.998 in the sample table
+constexpr double kSameNumber = 1e-12;    // the reply's figures against each other
+constexpr double kTableDigitsMm = 1e-6;  // the tool table keeps 6 digits
 
 TEST(Demo, TheWholeChainMeetsTheTruth) {
   const fs::path dir = fs::temp_directory_path() / "mlp_demo_test";
@@ -53,12 +55,12 @@ TEST(Demo, TheWholeChainMeetsTheTruth) {
               kDiameterTolMm);
   // The wear offset written: half the diameter error, 100 % feedback, onto T12's radius.
   const double change = (b.at("diameter_mm").get<double>() - kFinishedDiameterMm) / 2;
-  EXPECT_NEAR(b.at("change_mm").get<double>(), change, 1e-12);
+  EXPECT_NEAR(b.at("change_mm").get<double>(), change, kSameNumber);
   EXPECT_EQ(b.at("radius_before_mm").get<double>(), kRadiusBeforeMm);
-  EXPECT_NEAR(b.at("radius_after_mm").get<double>(), kRadiusBeforeMm + change, 1e-12);
+  EXPECT_NEAR(b.at("radius_after_mm").get<double>(), kRadiusBeforeMm + change, kSameNumber);
   const auto t12 = nc::LoadToolTable(s.at("tool_table").get<std::string>()).Find(12);
   ASSERT_TRUE(t12);
-  EXPECT_NEAR(t12->Get('D'), 2 * (kRadiusBeforeMm + change), 1e-6);  // the file keeps 6 digits
+  EXPECT_NEAR(t12->Get('D'), 2 * (kRadiusBeforeMm + change), kTableDigitsMm);
   EXPECT_TRUE(fs::exists(b.at("report").get<std::string>()));
 }
 

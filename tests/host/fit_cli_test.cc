@@ -53,8 +53,9 @@ TEST(FitCli, SphereFromXyzTextGivesContractFields) {
   const CliRun r = RunMlp("fit sphere " + path.string());
   ASSERT_EQ(r.exit_code, 0);
   const auto j = nlohmann::json::parse(r.out);
-  EXPECT_NEAR(j["radius"].get<double>(), 12.7, 0.001);  // mm, noise 1 um
-  EXPECT_NEAR(j["center"][0].get<double>(), 100.0, 0.001);
+  constexpr double kSphereTolMm = 0.001;  // noise 1 um
+  EXPECT_NEAR(j["radius"].get<double>(), 12.7, kSphereTolMm);
+  EXPECT_NEAR(j["center"][0].get<double>(), 100.0, kSphereTolMm);
   EXPECT_EQ(j["n"].get<int>(), 500);
   for (const char* key : {"rms", "min", "max", "std_dev", "units"})
     EXPECT_TRUE(j.contains(key)) << key;

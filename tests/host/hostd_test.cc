@@ -183,11 +183,12 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
   EXPECT_NEAR(reply.at("centre_mm")[1].get<double>(), 0.0, kBoreCentreTolMm);
   EXPECT_EQ(reply.at("status"), "in_tolerance");
   const double change = reply.at("offset_change_mm");
-  EXPECT_NEAR(change, (reply.at("diameter_mm").get<double>() - 40.010) / 2, 1e-12);
+  constexpr double kSameNumber = 1e-12;  // the reply's figures against each other
+  EXPECT_NEAR(change, (reply.at("diameter_mm").get<double>() - 40.010) / 2, kSameNumber);
   // LinuxCNC: the subroutine the macro calls sets the tool table's radius (D / 2 = 4.999).
   const json& update = reply.at("update");
   EXPECT_EQ(update.at("before_mm"), 4.999);
-  EXPECT_NEAR(update.at("after_mm").get<double>(), 4.999 + change, 1e-12);
+  EXPECT_NEAR(update.at("after_mm").get<double>(), 4.999 + change, kSameNumber);
   std::ifstream sub(site.dir / "lcnc" / "mlp_result.ngc");
   const std::string text((std::istreambuf_iterator<char>(sub)), std::istreambuf_iterator<char>());
   char g10[64];

@@ -32,6 +32,9 @@ constexpr double kDisturbanceMm = 0.005;  // 5x the M-code's 1 um pose drift lim
 constexpr double kFaceHeightTolMm = 0.001;
 constexpr double kOriginTolMm = 0.005;           // issue 6: alignment origin within 5 um
 constexpr double kRotationTolDeg = 10.0 / 3600;  // and rotation within 10 arcsec
+constexpr double kSameNumber = 1e-12;            // the table holds what the reply said
+constexpr double kPositionTolMm = 0.001;         // the machine's position at a work coordinate
+constexpr double kPoseExact = 1e-9;      // a pose the controller reported, turned into radians
 constexpr double kExactMm = 1e-6;        // LinuxCNC keeps doubles; our G10 lines carry 0.1 um
 constexpr double kRoundingMm = 0.00005;  // half the 0.1 um step of the G10 values
 
@@ -156,7 +159,7 @@ TEST(LinuxCnc, AProbingJobSetsTheToolOffsetTheNextCutUses) {
   const json reply = h.ExportJob(jobs.back().id).at("reply");
   ASSERT_EQ(reply.at("status"), "in_tolerance") << reply.dump();
   const double radius = reply.at("update").at("after_mm");
-  EXPECT_NEAR(radius, 4.999 + reply.at("offset_change_mm").get<double>(), 1e-12);
+  EXPECT_NEAR(radius, 4.999 + reply.at("offset_change_mm").get<double>(), kSameNumber);
   std::printf("LinuxCNC: tool 12 diameter %.4f -> %.4f mm (bore %.4f mm); G41 path at Y %.4f\n",
               9.998, after.at("tools").at("12").at("diameter").get<double>(),
               reply.at("diameter_mm").get<double>(), after.at("position")[1].get<double>());
@@ -232,8 +235,8 @@ TEST(LinuxCnc, AnAlignmentSetsG54TheProgramMovesIn) {
   EXPECT_NEAR(reply.at("rotation_z_deg").get<double>(), angle, kRotationTolDeg);
   // Work (0, 60) is hole C's centre: machine 250 - 60 sin(a), 120 + 60 cos(a).
   const double a = angle * M_PI / 180;
-  EXPECT_NEAR(after.at("position")[0].get<double>(), 250 - 60 * std::sin(a), 0.001);
-  EXPECT_NEAR(after.at("position")[1].get<double>(), 120 + 60 * std::cos(a), 0.001);
+  EXPECT_NEAR(after.at("position")[0].get<double>(), 250 - 60 * std::sin(a), kPositionTolMm);
+  EXPECT_NEAR(after.at("position")[1].get<double>(), 120 + 60 * std::cos(a), kPositionTolMm);
 }
 
 // Captures at the pose the controller reports: the program moves over the demo plate's top face
@@ -289,8 +292,10 @@ TEST(LinuxCnc, CapturesAtTheControllersPoseAndMeasuresByName) {
     EXPECT_NEAR(pose.at("translation_mm")[0].get<double>(), spots[k][0], kExactMm);
     EXPECT_NEAR(pose.at("translation_mm")[1].get<double>(), spots[k][1], kExactMm);
     EXPECT_NEAR(pose.at("translation_mm")[2].get<double>(), -155.0, kExactMm);
-    EXPECT_NEAR(pose.at("rotation_vector_rad")[0].get<double>(), M_PI * std::cos(turn / 2), 1e-9);
-    EXPECT_NEAR(pose.at("rotation_vector_rad")[1].get<double>(), M_PI * std::sin(turn / 2), 1e-9);
+    EXPECT_NEAR(pose.at("rotation_vector_rad")[0].get<double>(), M_PI * std::cos(turn / 2),
+                kPoseExact);
+    EXPECT_NEAR(pose.at("rotation_vector_rad")[1].get<double>(), M_PI * std::sin(turn / 2),
+                kPoseExact);
   }
   const json reply = h.ExportJob(jobs.back().id).at("reply");
   std::printf(

@@ -19,7 +19,10 @@ using test::Dir;
 constexpr double kNoiseMm = 0.002;
 // Thousands of points per face at 2 um noise: sizes and positions to a fraction of a micrometre.
 constexpr double kSizeTolMm = 0.0005;
-constexpr double kAngleTolDeg = 0.001;  // 3.6 arcsec
+constexpr double kAngleTolDeg = 0.001;       // 3.6 arcsec
+constexpr double kEllipseTurnTolDeg = 0.01;  // an ellipse's major axis direction
+constexpr double kCoverageTol = 0.03;        // the share of the nominal patch measured
+constexpr double kRmsTolMm = 0.001;          // the surface's RMS against proud-and-noise
 
 TEST(Width, SlotAndWeb) {
   // A slot 20.012 wide across X, centred at x = 0.005, 9 mm deep walls, its floor and the top
@@ -161,7 +164,7 @@ TEST(Ellipse, EllipticalBore) {
   EXPECT_NEAR(m.minor_mm, 2 * b, 2 * kSizeTolMm);
   EXPECT_NEAR(m.top_centre_mcs.x(), c.x(), kSizeTolMm);
   EXPECT_NEAR(m.top_centre_mcs.y(), c.y(), kSizeTolMm);
-  EXPECT_NEAR(m.rotation_deg, turn, 0.01);
+  EXPECT_NEAR(m.rotation_deg, turn, kEllipseTurnTolDeg);
   EXPECT_NEAR(m.rms_mm, kNoiseMm, 0.2 * kNoiseMm);
   n.minor_mm = 45;  // minor over major
   EXPECT_THROW(MeasureEllipse(cloud.Cloud(), n), FeatureError);
@@ -203,10 +206,10 @@ TEST(Surface, PatchAgainstItsNominal) {
   constexpr double kCurvatureBiasTolMm = 0.0008;
   EXPECT_NEAR(m.mean_mm, kProudMm, kCurvatureBiasTolMm);
   EXPECT_EQ(m.points, 20000);  // the face above left out
-  EXPECT_NEAR(m.coverage, 0.5, 0.03);
+  EXPECT_NEAR(m.coverage, 0.5, kCoverageTol);
   EXPECT_GT(m.profile_mm, 2 * (kProudMm + 2 * kNoiseMm));
   EXPECT_LT(m.profile_mm, 2 * (kProudMm + 6 * kNoiseMm));
-  EXPECT_NEAR(m.rms_mm, std::hypot(kProudMm, kNoiseMm), 0.001);
+  EXPECT_NEAR(m.rms_mm, std::hypot(kProudMm, kNoiseMm), kRmsTolMm);
 }
 
 TEST(Surface, BadNominalsAreSaid) {

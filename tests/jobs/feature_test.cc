@@ -17,6 +17,10 @@ using geometry::Vec3;
 constexpr double kNoiseMm = 0.002;
 constexpr double kDiameterTolMm = 0.0005;  // 4,000 points at 2 um noise: a fraction of a um
 constexpr double kCentreTolMm = 0.001;
+constexpr double kAxisTol = 1e-6;      // a bore's axis against +Z (unit vector)
+constexpr double kArcTolDeg = 1.0;     // the wall's arc seen
+constexpr double kNormalTol = 1e-9;    // a face's normal against the true one (unit vector)
+constexpr double kFaceTolMm = 0.0002;  // where the face is
 
 // A bore of `diameter` around (cx, cy), top face z = 0, seen over `span_deg` of its wall, plus
 // points of the top face around the rim and chips inside.
@@ -51,7 +55,7 @@ TEST(Bore, SizePositionAndFunctionalSize) {
   EXPECT_NEAR(m.diameter_mm, 59.994, kDiameterTolMm);
   EXPECT_NEAR(m.top_centre_mcs.x(), 0.012, kCentreTolMm);
   EXPECT_NEAR(m.top_centre_mcs.y(), -0.007, kCentreTolMm);
-  EXPECT_NEAR(m.axis_mcs.z(), 1.0, 1e-6);
+  EXPECT_NEAR(m.axis_mcs.z(), 1.0, kAxisTol);
   EXPECT_EQ(m.points, 4000);  // the face and the chips left out
   EXPECT_GT(m.arc_span_deg, 359.0);
   EXPECT_NEAR(m.rms_mm, kNoiseMm, 0.2 * kNoiseMm);
@@ -64,7 +68,7 @@ TEST(Bore, ShortArcsAndMissingWallsAreSaid) {
   BoreNominal n;
   n.diameter_mm = 60.0, n.depth_mm = 30.0;
   const BoreMeasurement arc = MeasureBore(BorePoints(60.0, 0, 0, 150, 2), n);
-  EXPECT_NEAR(arc.arc_span_deg, 150.0, 1.0);
+  EXPECT_NEAR(arc.arc_span_deg, 150.0, kArcTolDeg);
   EXPECT_EQ(arc.functional_diameter_mm, 0.0);  // no functional size from under half a circle
   n.top_centre_mcs = Vec3(80, 0, 0);           // the wrong bore
   try {
@@ -122,12 +126,12 @@ TEST(Plane, FaceThroughChipsAndBurrs) {
   n.point_mcs = Vec3(0, 0, 5), n.normal_mcs = Vec3::UnitZ();
   n.flatness = true;
   const PlaneMeasurement f = MeasurePlane(m, n);
-  EXPECT_NEAR(f.plane.normal.dot(normal), 1.0, 1e-9);
-  EXPECT_NEAR((f.plane.point - Vec3(0, 0, 5)).dot(normal), 0.0, 0.0002);
+  EXPECT_NEAR(f.plane.normal.dot(normal), 1.0, kNormalTol);
+  EXPECT_NEAR((f.plane.point - Vec3(0, 0, 5)).dot(normal), 0.0, kFaceTolMm);
   EXPECT_NEAR(f.rms_mm, kNoiseMm, 0.2 * kNoiseMm);
-  EXPECT_GE(f.trimmed, 50);                // the chips
-  EXPECT_NEAR(f.height_mm, 0.0, 0.0002);   // the face is where the nominal says
-  EXPECT_GT(f.flatness_mm, 4 * kNoiseMm);  // the minimum zone spans the noise, +-3.5 sigma
+  EXPECT_GE(f.trimmed, 50);                   // the chips
+  EXPECT_NEAR(f.height_mm, 0.0, kFaceTolMm);  // the face is where the nominal says
+  EXPECT_GT(f.flatness_mm, 4 * kNoiseMm);     // the minimum zone spans the noise, +-3.5 sigma
   EXPECT_LT(f.flatness_mm, 10 * kNoiseMm);
   EXPECT_LE(f.points, 5000);    // the step is outside the band
   n.point_mcs = Vec3(0, 0, 8);  // no face there

@@ -67,8 +67,10 @@ TEST(ProbeCli, RenderReconstructAndFitTheTopFace) {
   ASSERT_EQ(fit.exit_code, 0) << fit.out;
   const auto plane = nlohmann::json::parse(fit.out);
   // In the probe frame the face is z = 120 mm (the flange is 120 mm above it).
-  EXPECT_NEAR(plane.at("point")[2].get<double>(), 120.0, 0.001);
-  EXPECT_NEAR(plane.at("normal")[2].get<double>(), 1.0, 1e-6);
+  constexpr double kPlaneTolMm = 0.001;  // the board plane through the command
+  EXPECT_NEAR(plane.at("point")[2].get<double>(), 120.0, kPlaneTolMm);
+  constexpr double kNormalTol = 1e-6;  // its normal against +Z (unit vector)
+  EXPECT_NEAR(plane.at("normal")[2].get<double>(), 1.0, kNormalTol);
   EXPECT_LT(plane.at("rms").get<double>(), 0.005);
   fs::remove_all(dir);
 }

@@ -17,6 +17,11 @@ namespace mlp::probe_fw {
 namespace {
 
 const std::string kReference = mlp::test::SourceDir() + "/samples/probes/reference_probe.json";
+constexpr double kPixelFootprintTolUm = 0.1;  // DESIGN.md's ~26 um per pixel at 120 mm
+constexpr double kDesignExact = 1e-9;         // the design's own numbers computed again
+constexpr double kAxisCrossTolCols = 0.05;    // the projector's axis at the working distance
+constexpr double kApertureExact = 1e-15;      // sin u from the pupil, a closed form
+constexpr double kStoredPx = 1e-4;            // stripe files keep 1e-4 px
 
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path);
@@ -28,10 +33,10 @@ TEST(ProbeModel, ReferenceProbeMatchesDesign) {
   EXPECT_EQ(m.camera.width_px, 2048);
   EXPECT_EQ(m.camera.height_px, 1536);
   // DESIGN.md: ~26 um per pixel at the 120 mm working distance, baseline ~60 mm.
-  EXPECT_NEAR(120.0 / m.camera.fx_px * 1e3, 25.9, 0.1);
-  EXPECT_NEAR(m.projector.camera_from_projector.translation().norm(), 60.0, 1e-9);
+  EXPECT_NEAR(120.0 / m.camera.fx_px * 1e3, 25.9, kPixelFootprintTolUm);
+  EXPECT_NEAR(m.projector.camera_from_projector.translation().norm(), 60.0, kDesignExact);
   // The projector's axis meets the camera's at the working distance (triangulation ~26.6 deg).
-  EXPECT_NEAR(m.projector.ColumnOf(Vec3(0, 0, 120)), m.projector.c_px, 0.05);
+  EXPECT_NEAR(m.projector.ColumnOf(Vec3(0, 0, 120)), m.projector.c_px, kAxisCrossTolCols);
 }
 
 TEST(ProbeModel, JsonRoundTripIsExact) {
@@ -60,7 +65,8 @@ TEST(ProbeModel, JsonRoundTripIsExact) {
   EXPECT_EQ(f.camera.focus_distance_mm, 118.5);
   // Entrance pupil 16.04 mm / 4.7 wide, seen from 120 mm: sin u = 1.706 / 120.01.
   const double pupil_radius = 0.5 * a.camera.fx_px * a.camera.pixel_pitch_mm / 4.7;
-  EXPECT_NEAR(f.camera.ApertureSinAt(120.0), pupil_radius / std::hypot(pupil_radius, 120.0), 1e-15);
+  EXPECT_NEAR(f.camera.ApertureSinAt(120.0), pupil_radius / std::hypot(pupil_radius, 120.0),
+              kApertureExact);
   EXPECT_EQ(a.camera.ApertureSinAt(120.0), 0.0);
   e.camera.f_number = 0.2;
   EXPECT_THROW(e.Validate(), ProbeModelError);
@@ -92,7 +98,7 @@ TEST(ProbeModel, LightPlaneContainsItsColumn) {
     const Vec3 p0 = n * d;
     for (double s : {100.0, 140.0}) {
       const Vec3 p = p0 + a * (s - p0.dot(a)) + Vec3::UnitY() * 5.0;
-      EXPECT_NEAR(m.projector.ColumnOf(p), column, 1e-9);
+      EXPECT_NEAR(m.projector.ColumnOf(p), column, kDesignExact);
     }
   }
 }
@@ -143,7 +149,8 @@ TEST(ProbeModel, TriangulationMeetsTheCurvedSheet) {
       const Vec3 p(x, y, 118.0 + 0.1 * x);
       const double column = m.projector.CommandedColumnOf(p);
       const Vec2 pixel = m.camera.Project(p);
-      EXPECT_NEAR(m.projector.CommandedColumn(m.projector.ActualColumn(column)), column, 1e-9);
+      EXPECT_NEAR(m.projector.CommandedColumn(m.projector.ActualColumn(column)), column,
+                  kDesignExact);
       EXPECT_LT((Triangulate(m, pixel.x(), pixel.y(), column).value() - p).norm(),
                 kTriangulationExactMm)
           << x << ", " << y;
@@ -213,7 +220,7 @@ TEST(StripeFile, RoundTripKeepsWhatCalibrationNeeds) {
   EXPECT_EQ(g.probe_serial, "MLP-T-1");
   EXPECT_EQ(g.capture_id, "view01");
   ASSERT_EQ(g.points.size(), 2u);
-  EXPECT_NEAR(g.points[0].x_px, 1023.45678, 1e-4);  // stored to 1e-4 px
+  EXPECT_NEAR(g.points[0].x_px, 1023.45678, kStoredPx);
   EXPECT_EQ(g.points[0].y_px, 700);
   EXPECT_EQ(g.points[0].column, 612.875);
 }
@@ -226,7 +233,7 @@ TEST(StripeFile, ColumnScanCentresAndVersionOneFiles) {
   const StripeFile g = LoadStripeFile(path);
   ASSERT_EQ(g.points.size(), 1u);
   EXPECT_EQ(g.points[0].x_px, 812.0);
-  EXPECT_NEAR(g.points[0].y_px, 640.12345, 1e-4);
+  EXPECT_NEAR(g.points[0].y_px, 640.12345, kStoredPx);
   std::ofstream(path)
       << R"({"format": "mlprobe-stripes/1", "probe_serial": "P", "capture_id": "c", )"
       << R"("points": [[10.5, 700, 3, 0.5]]})";

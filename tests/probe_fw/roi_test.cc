@@ -145,7 +145,8 @@ TEST(Roi, LineEdgeMatchesTheProjectedTrueEdge) {
   EXPECT_LT(worst, kCentreTolPx);
   const probe_fw::RowMask band = probe_fw::ParseRoi(
       "edge:" + std::to_string(hint.x()) + "," + std::to_string(hint.y()), o.aoi, &r.led);
-  EXPECT_NEAR(static_cast<double>(band.PixelCount()), 41.0 * 400.0 / std::cos(0.3), 2000.0);
+  constexpr double kBandTolPx = 2000.0;  // the band's pixel count, 41 rows wide
+  EXPECT_NEAR(static_cast<double>(band.PixelCount()), 41.0 * 400.0 / std::cos(0.3), kBandTolPx);
 }
 
 }  // namespace

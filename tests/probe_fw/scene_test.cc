@@ -60,7 +60,8 @@ TEST(Scene, BoreWallNormalPointsIntoTheHole) {
   const Vec3 from(10, 0, 50), target(-20, 0, -10);
   const auto oblique = s.FirstHit(RayTo(from, target));
   ASSERT_TRUE(oblique);
-  EXPECT_NEAR(oblique->t, (target - from).norm(), 1e-9);
+  constexpr double kRayExactMm = 1e-9;  // a ray cast against the geometry
+  EXPECT_NEAR(oblique->t, (target - from).norm(), kRayExactMm);
   EXPECT_TRUE(oblique->normal.isApprox(Vec3::UnitX(), 1e-12));
 }
 

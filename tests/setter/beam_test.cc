@@ -19,6 +19,12 @@ constexpr double kFeedPerRevMm = 0.004;  // 6 mm/min at 1500 rpm: what repeatabi
 constexpr double kEdgeTolMm = 0.001;     // each run's edge against the truth
 constexpr double kLagTolMm = 0.001;      // the short tooth's lag against its true 10 um
 constexpr double kRadiusTolMm = 0.015;   // the tooth's radius from the widths (0.5 %)
+constexpr double kClosedForm = 1e-12;    // a closed-form value computed again
+constexpr double kTailShare = 1e-9;      // the beam's Gaussian tail 0.2 mm from its centre
+constexpr double kClearTolV = 0.01;      // the pin's clear level against the 4 V simulated
+constexpr double kShareTol = 0.01;       // the curve's share of clear at the beam's centre
+constexpr double kSpanTolMm = 0.004;     // its 90 % to 10 % span against 0.038 mm
+constexpr double kInverseTol = 1e-9;     // IntrusionAt and Share are each other's inverse
 
 Motion Approach(double gap_mm, double duration_s, bool entering = true) {
   Motion m;
@@ -68,15 +74,15 @@ Outcome Process(const BeamSignal& s, const ProcessorConfig& c) {
 TEST(BeamSignal, FollowsTheKnifeEdgeAndTheTeeth) {
   BeamModel b;
   b.rise = b.ripple = 0;
-  EXPECT_NEAR(Transmission(b, 0.0), 0.5, 1e-12);
-  EXPECT_NEAR(Transmission(b, -0.2), 1.0, 1e-9);
-  EXPECT_NEAR(Transmission(b, 0.2), 0.0, 1e-9);
+  EXPECT_NEAR(Transmission(b, 0.0), 0.5, kClosedForm);
+  EXPECT_NEAR(Transmission(b, -0.2), 1.0, kTailShare);
+  EXPECT_NEAR(Transmission(b, 0.2), 0.0, kTailShare);
   EXPECT_GT(Transmission(BeamModel(), -0.045), 1.005);  // the rise before blocking
   ToolInBeam tool;
   tool.rpm = 1500, tool.tooth_radius_mm = {3.0, 3.01};
-  EXPECT_NEAR(tool.Reach(0.0), 3.0, 1e-12);         // tooth 0 along the approach
-  EXPECT_NEAR(tool.Reach(0.02), 3.01, 1e-12);       // half a turn later: the long tooth
-  EXPECT_NEAR(tool.Reach(0.01), 3.0 * 0.6, 1e-12);  // a quarter turn: the core between them
+  EXPECT_NEAR(tool.Reach(0.0), 3.0, kClosedForm);         // tooth 0 along the approach
+  EXPECT_NEAR(tool.Reach(0.02), 3.01, kClosedForm);       // half a turn later: the long tooth
+  EXPECT_NEAR(tool.Reach(0.01), 3.0 * 0.6, kClosedForm);  // a quarter turn: the core between them
   ToolInBeam none;
   EXPECT_THROW(GenerateSignal(BeamModel(), none, Approach(0.1, 1), 1), SetterError);
 }
@@ -85,13 +91,14 @@ TEST(BeamCalibration, ThePinGivesACubicThroughTheBeam) {
   const CalibrationCurve c = PinCurve();
   std::printf("curve: clear %.4f V, x %.4f..%.4f mm, rms %.4f, x(50 %%) %+.3f um\n", c.clear_v,
               c.lo_mm, c.hi_mm, c.rms, c.IntrusionAt(0.5) * 1e3);
-  EXPECT_NEAR(c.clear_v, 4.0, 0.01);
-  EXPECT_NEAR(c.Share(0.0), 0.5, 0.01);
+  EXPECT_NEAR(c.clear_v, 4.0, kClearTolV);
+  EXPECT_NEAR(c.Share(0.0), 0.5, kShareTol);
   EXPECT_LT(c.rms, 0.006);  // the cubic through a Gaussian beam's edge, 90 % to 10 %
-  EXPECT_NEAR(c.hi_mm - c.lo_mm, 0.038, 0.004);  // +-0.64 beam radii
-  for (double share : {0.2, 0.5, 0.8}) EXPECT_NEAR(c.Share(c.IntrusionAt(share)), share, 1e-9);
+  EXPECT_NEAR(c.hi_mm - c.lo_mm, 0.038, kSpanTolMm);  // +-0.64 beam radii
+  for (double share : {0.2, 0.5, 0.8})
+    EXPECT_NEAR(c.Share(c.IntrusionAt(share)), share, kInverseTol);
   const CalibrationCurve back = ParseCurve(CurveJson(c));
-  EXPECT_NEAR(back.Share(0.01), c.Share(0.01), 1e-12);
+  EXPECT_NEAR(back.Share(0.01), c.Share(0.01), kClosedForm);
   std::vector<float> dark(10000, 0.0f);
   EXPECT_THROW(CalibrateFromPin(dark, 80000, 6, true), SetterError);
 }

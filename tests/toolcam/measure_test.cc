@@ -16,9 +16,16 @@ namespace mlp::toolcam {
 namespace {
 
 const std::string kTools = mlp::test::SourceDir() + "/samples/tools/";
-constexpr double kCleanTolMm = 0.001;   // issue 7: radius and length within 1 um, clean tool
-constexpr double kDropsTolMm = 0.002;   // and within 2 um with coolant drops
-constexpr double kPitchTolDeg = 0.005;  // 0.09 um per mm of depth
+constexpr double kCleanTolMm = 0.001;         // issue 7: radius and length within 1 um, clean tool
+constexpr double kDropsTolMm = 0.002;         // and within 2 um with coolant drops
+constexpr double kPitchTolDeg = 0.005;        // 0.09 um per mm of depth
+constexpr double kFindingHeightTolMm = 0.03;  // where a wear or build-up finding sits
+constexpr double kFindingDepthTolMm = 0.002;  // how deep it is
+constexpr double kScaleTol = 2e-5;            // 20 ppm: 1 um over the 50 mm pin
+constexpr double kEndAcrossTolPx = 0.05;      // the pin's end across the axis
+constexpr double kAlongTolPx = 0.25;          // along the axis: 1 um
+constexpr double kGaugeAcrossTolPx = 1.0;     // 50 mm up an axis known to 0.002 deg: 1.7 um
+constexpr double kRollTolDeg = 0.002;
 
 ToolCameraModel SmallCamera(double drops) {
   ToolCameraModel c;
@@ -134,8 +141,8 @@ TEST(ToolMeasure, FindsTheChipAndTheBuiltUpEdge) {
                   d.buildup ? "build-up" : "wear", d.h_mm, d.length_mm, d.max_mm * 1e3);
       const EdgeDefect& truth = worn.edges[static_cast<size_t>(k)].defects.at(0);
       EXPECT_EQ(d.buildup, truth.depth_mm < 0);
-      EXPECT_NEAR(d.h_mm, truth.h_mm + truth.length_mm / 2, 0.03);
-      EXPECT_NEAR(d.max_mm, std::abs(truth.depth_mm), 0.002);
+      EXPECT_NEAR(d.h_mm, truth.h_mm + truth.length_mm / 2, kFindingHeightTolMm);
+      EXPECT_NEAR(d.max_mm, std::abs(truth.depth_mm), kFindingDepthTolMm);
       (d.buildup ? buildups : chips) += 1;
     }
   }
@@ -167,8 +174,8 @@ TEST(ToolMeasure, AStoredReferenceShowsOnlyWhatChanged) {
                   d.buildup ? "build-up" : "wear", d.h_mm, d.max_mm * 1e3);
       EXPECT_EQ(k, 3);
       EXPECT_FALSE(d.buildup);
-      EXPECT_NEAR(d.h_mm, 1.1, 0.03);
-      EXPECT_NEAR(d.max_mm, 0.012, 0.002);
+      EXPECT_NEAR(d.h_mm, 1.1, kFindingHeightTolMm);
+      EXPECT_NEAR(d.max_mm, 0.012, kFindingDepthTolMm);
       ++found;
     }
   EXPECT_EQ(found, 1);
@@ -191,11 +198,11 @@ TEST(ToolCalibration, ThePinGivesScaleAxisRollAndGauge) {
       p.mm_per_px, (p.mm_per_px / c.mm_per_px - 1) * 1e6, p.end_u_px, p.end_u_px - c.axis_u_px,
       p.gauge_v_px - gauge.y(), (p.gauge_v_px - gauge.y()) * c.mm_per_px * 1e3, p.roll_deg,
       p.roll_deg - c.roll_deg, p.width_rms_px, p.rows);
-  EXPECT_NEAR(p.mm_per_px / c.mm_per_px, 1.0, 2e-5);  // 20 ppm: 1 um over the 50 mm pin
-  EXPECT_NEAR(p.end_u_px, c.axis_u_px, 0.05);
-  EXPECT_NEAR(p.gauge_v_px, gauge.y(), 0.25);  // 1 um
-  EXPECT_NEAR(p.gauge_u_px, gauge.x(), 1.0);   // 50 mm up an axis known to 0.002 deg: 1.7 um
-  EXPECT_NEAR(p.roll_deg, c.roll_deg, 0.002);
+  EXPECT_NEAR(p.mm_per_px / c.mm_per_px, 1.0, kScaleTol);
+  EXPECT_NEAR(p.end_u_px, c.axis_u_px, kEndAcrossTolPx);
+  EXPECT_NEAR(p.gauge_v_px, gauge.y(), kAlongTolPx);
+  EXPECT_NEAR(p.gauge_u_px, gauge.x(), kGaugeAcrossTolPx);
+  EXPECT_NEAR(p.roll_deg, c.roll_deg, kRollTolDeg);
   EXPECT_FALSE(p.pitch_measured);
   ToolDescription cutter = pin;
   cutter.pin = false;
@@ -230,15 +237,15 @@ TEST(ToolCalibration, TheBladesGiveThePitch) {
   ASSERT_TRUE(p.pitch_measured);
   EXPECT_GE(p.blade_images, 20);
   EXPECT_NEAR(p.pitch_deg, c.pitch_deg, kPitchTolDeg);
-  EXPECT_NEAR(p.roll_deg, c.roll_deg, 0.002);
-  EXPECT_NEAR(p.mm_per_px / c.mm_per_px, 1.0, 2e-5);
-  EXPECT_NEAR(p.end_u_px, c.axis_u_px, 0.05);
-  EXPECT_NEAR(p.end_v_px, c.tip_v_px, 0.25);  // 1 um, where the end row alone is 1 um off
-  EXPECT_NEAR(p.gauge_v_px, gauge.y(), 0.25);
+  EXPECT_NEAR(p.roll_deg, c.roll_deg, kRollTolDeg);
+  EXPECT_NEAR(p.mm_per_px / c.mm_per_px, 1.0, kScaleTol);
+  EXPECT_NEAR(p.end_u_px, c.axis_u_px, kEndAcrossTolPx);
+  EXPECT_NEAR(p.end_v_px, c.tip_v_px, kAlongTolPx);  // 1 um, where the end row alone is 1 um off
+  EXPECT_NEAR(p.gauge_v_px, gauge.y(), kAlongTolPx);
   const ToolCameraModel tool_camera = p.CameraFor(c, 80.0);
   const geometry::Vec2 tip = c.PixelFromTool({0, pin.length_mm - 80.0});
-  EXPECT_NEAR(tool_camera.axis_u_px, tip.x(), 1.0);
-  EXPECT_NEAR(tool_camera.tip_v_px, tip.y(), 0.25);
+  EXPECT_NEAR(tool_camera.axis_u_px, tip.x(), kGaugeAcrossTolPx);
+  EXPECT_NEAR(tool_camera.tip_v_px, tip.y(), kAlongTolPx);
   // Blades of one length cannot be told apart: refused, as are images not round the turn.
   ToolDescription even = pin;
   even.blades[1].extends_mm = even.blades[0].extends_mm;

@@ -13,6 +13,10 @@ namespace mlp::toolcam {
 namespace {
 
 constexpr double kSeedRoundingUs = 0.05;  // the seed prints microseconds to 0.1 or 1
+constexpr double kSeedRoundingS = 0.005;  // and seconds to 0.01
+constexpr double kSeedWholeUs = 1.0;      // or whole microseconds
+constexpr double kExactUs = 1e-6;         // a plan's own arithmetic, in microseconds
+constexpr double kExact = 1e-9;           // and in seconds, rpm, Hz
 
 // Simulates the plan: each pulse inside its frame's window (clear of the blanking), its centre
 // at the angle of its position (counted from image 0's angle, to the plan's stated error), and
@@ -64,8 +68,8 @@ TEST(Strobe, Example2_7200RpmAt45FramesTwoPulsesARevolutionApart) {
   const StrobeRequest r = Request(7200, 45, 3.6);
   const StrobePlan p = PlanStrobe(r);
   EXPECT_EQ(p.pulses_per_image, 2);
-  EXPECT_NEAR(p.pulse_spacing_us, 1e6 / 120, 1e-6);
-  EXPECT_NEAR(p.duration_s, 2.22, 0.005);
+  EXPECT_NEAR(p.pulse_spacing_us, 1e6 / 120, kExactUs);
+  EXPECT_NEAR(p.duration_s, 2.22, kSeedRoundingS);
   EXPECT_NEAR(p.step_time_us, 83.3, kSeedRoundingUs);  // the seed: 0.000083 s
   EXPECT_FALSE(p.rpm_changed);
   ExpectPlanKeepsItsPromises(r, p);
@@ -79,11 +83,11 @@ TEST(Strobe, Example3_5000RpmAt50FramesOnePulsePerImage) {
   r.timer_resolution_us = 1.6;
   const StrobePlan p = PlanStrobe(r);
   EXPECT_EQ(p.positions, 200);
-  EXPECT_NEAR(p.duration_s, 4.0, 1e-9);
+  EXPECT_NEAR(p.duration_s, 4.0, kExact);
   EXPECT_EQ(p.pulses_per_image, 1);
   EXPECT_NEAR(p.step_time_us, 60.0, kSeedRoundingUs);
   EXPECT_NEAR((1e6 / 88.33) * (1.8 / 360), 56.6, kSeedRoundingUs);  // the seed's figure
-  EXPECT_NEAR(p.pulse_width_us, 59.2, 1e-9);                        // 37 steps of the 1.6 us timer
+  EXPECT_NEAR(p.pulse_width_us, 59.2, kExact);                      // 37 steps of the 1.6 us timer
   ExpectPlanKeepsItsPromises(r, p);
 }
 
@@ -94,7 +98,7 @@ TEST(Strobe, Example4_3610RpmAt60FramesStepsOneDegreePerImage) {
   const StrobePlan p = PlanStrobe(r);
   EXPECT_EQ(p.skip, 1);
   EXPECT_FALSE(p.rpm_changed);
-  EXPECT_NEAR(p.duration_s, 6.0, 1e-9);
+  EXPECT_NEAR(p.duration_s, 6.0, kExact);
   EXPECT_NEAR(p.step_time_us, 46.2, kSeedRoundingUs);  // the seed: 0.000046 s
   ExpectPlanKeepsItsPromises(r, p);
 }
@@ -107,9 +111,9 @@ TEST(Strobe, Example5_70RpmElectrodeStepsByAPrime) {
   const StrobePlan p = PlanStrobe(r);
   EXPECT_EQ(p.skip, 7);
   EXPECT_FALSE(p.rpm_changed);
-  EXPECT_NEAR(p.duration_s, 6.0, 1e-9);
-  EXPECT_NEAR(p.step_time_us, 1e6 / (70.0 / 60) / 360, 1e-6);
-  EXPECT_NEAR(p.step_time_us, 2381, 1);
+  EXPECT_NEAR(p.duration_s, 6.0, kExact);
+  EXPECT_NEAR(p.step_time_us, 1e6 / (70.0 / 60) / 360, kExactUs);
+  EXPECT_NEAR(p.step_time_us, 2381, kSeedWholeUs);
   ExpectPlanKeepsItsPromises(r, p);
 }
 
@@ -119,7 +123,7 @@ TEST(Strobe, ProposesTheNearestSpeedThatCoversEveryPosition) {
   r.rpm_tolerance = 0.05;
   const StrobePlan p = PlanStrobe(r);
   EXPECT_TRUE(p.rpm_changed);
-  EXPECT_NEAR(p.rpm, 70.0, 1e-9);
+  EXPECT_NEAR(p.rpm, 70.0, kExact);
   EXPECT_EQ(p.skip, 7);
   EXPECT_NE(p.note.find("run the spindle at 70.00 rpm"), std::string::npos) << p.note;
   ExpectPlanKeepsItsPromises(r, p);
@@ -137,7 +141,7 @@ TEST(Strobe, FreeRunningFiresOncePerFrame) {
   r.synchronised = false;
   const StrobePlan p = PlanStrobe(r);
   EXPECT_EQ(p.pulses_per_image, 1);
-  EXPECT_NEAR(p.pulse_rate_hz, 60.0, 1e-9);
+  EXPECT_NEAR(p.pulse_rate_hz, 60.0, kExact);
   EXPECT_TRUE(p.first_pulse_us.empty());
   EXPECT_NE(p.note.find("free-running"), std::string::npos);
   ExpectPlanKeepsItsPromises(r, p);
@@ -147,7 +151,7 @@ TEST(Strobe, FreeRunningFiresOncePerFrame) {
   r.synchronised = false;
   const StrobePlan q = PlanStrobe(r);
   EXPECT_EQ(q.skip, 67);
-  EXPECT_NEAR(q.rpm, (2 + 0.67) * 45 * 60, 1e-9);
+  EXPECT_NEAR(q.rpm, (2 + 0.67) * 45 * 60, kExact);
   ExpectPlanKeepsItsPromises(r, q);
 }
 

@@ -18,7 +18,8 @@ namespace {
 
 namespace fs = std::filesystem;
 const std::string kTools = mlp::test::SourceDir() + "/samples/tools/";
-constexpr double kEdgeTolPx = 0.03;  // the renderer's sub-rows and blur samples
+constexpr double kEdgeTolPx = 0.03;      // the renderer's sub-rows and blur samples
+constexpr double kModelExactMm = 1e-12;  // the tool model's own geometry, computed again
 // A near-level edge: its cover is found on 32 sub-rows a pixel, to 1/64 px (tool_camera.cc),
 // and the linear crossing below is biased by up to 0.02 px by the blur's curvature.
 constexpr double kLevelEdgeTolPx = 0.04;
@@ -59,7 +60,7 @@ TEST(ToolModel, ReadsTheSamplesAndRefusesBadOnes) {
   const ToolDescription worn = LoadTool(kTools + "endmill_d10_z4_worn.json");
   EXPECT_EQ(worn.flutes, 4);
   EXPECT_EQ(worn.edges.size(), 4u);
-  EXPECT_NEAR(worn.TipH(1), -0.004, 1e-12);  // edge 2 reaches 4 um lower
+  EXPECT_NEAR(worn.TipH(1), -0.004, kModelExactMm);  // edge 2 reaches 4 um lower
   const ToolDescription fresh = LoadTool(kTools + "endmill_d10_z4_new.json");
   EXPECT_EQ(fresh.edges.size(), 4u);  // no edges listed: a true-running tool
   const auto why = [](const std::string& text) {
@@ -84,13 +85,13 @@ TEST(ToolModel, ReadsTheSamplesAndRefusesBadOnes) {
 
 TEST(ToolModel, EdgeGeometry) {
   const ToolDescription t = LoadTool(kTools + "endmill_d10_z4_worn.json");
-  EXPECT_NEAR(t.EdgeRadius(1, 2.0), 5.006, 1e-12);           // runout
-  EXPECT_NEAR(t.EdgeRadius(0, 0.0), 5.001 - 0.5, 1e-12);     // the corner's bottom
-  EXPECT_NEAR(t.EdgeRadius(0, 0.5), 5.001, 1e-12);           // the corner's top
-  EXPECT_NEAR(t.EdgeRadius(2, 1.325), 4.998 - 0.02, 1e-12);  // the chip's deepest point
-  EXPECT_NEAR(t.EdgeRadius(0, 0.75), 5.001 + 0.015, 1e-12);  // the built-up edge's top
-  EXPECT_EQ(t.EdgeRadius(2, 0.0005), 0.0);                   // below edge 3's tip, 1 um short
-  EXPECT_GT(t.EdgeRadius(1, -0.003), 0.0);                   // edge 2 reaches lower
+  EXPECT_NEAR(t.EdgeRadius(1, 2.0), 5.006, kModelExactMm);           // runout
+  EXPECT_NEAR(t.EdgeRadius(0, 0.0), 5.001 - 0.5, kModelExactMm);     // the corner's bottom
+  EXPECT_NEAR(t.EdgeRadius(0, 0.5), 5.001, kModelExactMm);           // the corner's top
+  EXPECT_NEAR(t.EdgeRadius(2, 1.325), 4.998 - 0.02, kModelExactMm);  // the chip's deepest point
+  EXPECT_NEAR(t.EdgeRadius(0, 0.75), 5.001 + 0.015, kModelExactMm);  // the built-up edge's top
+  EXPECT_EQ(t.EdgeRadius(2, 0.0005), 0.0);  // below edge 3's tip, 1 um short
+  EXPECT_GT(t.EdgeRadius(1, -0.003), 0.0);  // edge 2 reaches lower
 }
 
 TEST(ToolCamera, TheShadowsEdgeIsWhereTheGeometryPutsIt) {
@@ -178,7 +179,7 @@ TEST(ToolCamera, ASequenceFollowsItsStrobePlanAndWritesItsTruth) {
   const auto truth = nlohmann::json::parse(in);
   EXPECT_EQ(truth.at("format"), "mlprobe-tool-frames/1");
   EXPECT_EQ(truth.at("frames").size(), 8u);
-  EXPECT_NEAR(truth.at("edges")[1].at("radius_mm").get<double>(), 5.006, 1e-12);
+  EXPECT_NEAR(truth.at("edges")[1].at("radius_mm").get<double>(), 5.006, kModelExactMm);
   EXPECT_EQ(fs::file_size(dir / "frame_0007.pgm"), 16u + 1024u * 768u);  // "P5\n1024 768\n255\n"
 }
 

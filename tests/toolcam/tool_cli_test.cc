@@ -15,6 +15,14 @@ namespace {
 
 using mlp::test::RunProcess;
 const std::string kMlp = mlp::test::Program("mlp");
+constexpr double kDiameterTolMm = 0.002;  // the worn tool's diameter through the command
+constexpr double kLengthTolMm = 0.001;    // and its length
+constexpr double kCarriedTolMm = 0.002;   // calibration carried 30 mm down the axis to a tool
+constexpr double kRollTolDeg = 0.002;     // the pin's figures through the command
+constexpr double kPitchTolDeg = 0.005;
+constexpr double kScaleTol = 2e-5;         // 20 ppm: 1 um over the 50 mm pin
+constexpr double kGaugeAlongTolPx = 0.25;  // 1 um
+constexpr double kSameNumber = 1e-12;      // the table holds what was reported
 
 TEST(ToolCli, PlansTheStrobe) {
   const auto text = RunProcess(kMlp + " tool strobe --rpm 7200 --fps 45 --resolution-deg 3.6");
@@ -66,8 +74,8 @@ TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto m = nlohmann::json::parse(run.out);
   // Edge 2 cuts the wall (5.006) and the floor (4 um long): the tool table's figures.
-  EXPECT_NEAR(m.at("diameter_mm").get<double>(), 10.012, 0.002);
-  EXPECT_NEAR(m.at("length_mm").get<double>(), 75.004, 0.001);
+  EXPECT_NEAR(m.at("diameter_mm").get<double>(), 10.012, kDiameterTolMm);
+  EXPECT_NEAR(m.at("length_mm").get<double>(), 75.004, kLengthTolMm);
   int findings = 0;
   for (const auto& f : m.at("flutes")) findings += static_cast<int>(f.at("findings").size());
   EXPECT_EQ(findings, 2);  // the chip and the build-up
@@ -115,11 +123,11 @@ TEST(ToolCli, CalibratesTheCameraThenMeasuresIntoTheToolTable) {
                  "calibration_pin_d3_blades.json --out " + dir + "/camera.json --json");
   ASSERT_EQ(cal.exit_code, 0) << cal.err;
   const auto c = nlohmann::json::parse(cal.out);
-  EXPECT_NEAR(c.at("roll_deg").get<double>(), -0.3, 0.002);
-  EXPECT_NEAR(c.at("pitch_deg").get<double>(), 0.03, 0.005);
-  EXPECT_NEAR(c.at("mm_per_px").get<double>() / truth.mm_per_px, 1.0, 2e-5);
+  EXPECT_NEAR(c.at("roll_deg").get<double>(), -0.3, kRollTolDeg);
+  EXPECT_NEAR(c.at("pitch_deg").get<double>(), 0.03, kPitchTolDeg);
+  EXPECT_NEAR(c.at("mm_per_px").get<double>() / truth.mm_per_px, 1.0, kScaleTol);
   const mlp::geometry::Vec2 gauge = truth.PixelFromTool({0, 50.0});
-  EXPECT_NEAR(c.at("gauge_v_px").get<double>(), gauge.y(), 0.25);
+  EXPECT_NEAR(c.at("gauge_v_px").get<double>(), gauge.y(), kGaugeAlongTolPx);
   // A new D10 tool, 75 mm: the NC moves the spindle 4 mm across and 24.4 mm up to show its
   // edge and tip; the camera sees its tip where the pin's frame puts it.
   const mlp::geometry::Vec2 tip = truth.PixelFromTool({-4.0, 50.0 + 24.4 - 75.0});
@@ -165,9 +173,10 @@ TEST(ToolCli, CalibratesTheCameraThenMeasuresIntoTheToolTable) {
               (m.at("diameter_mm").get<double>() - 10) * 1e3,
               (m.at("length_mm").get<double>() - 75) * 1e3);
   // The calibration's figures carried 30 mm down the axis to the tool: within 2 um.
-  EXPECT_NEAR(m.at("diameter_mm").get<double>(), 10.0, 0.002);
-  EXPECT_NEAR(m.at("length_mm").get<double>(), 75.0, 0.002);
-  EXPECT_NEAR(m.at("tool_table").at("length_after_mm").get<double>(), m.at("length_mm"), 1e-12);
+  EXPECT_NEAR(m.at("diameter_mm").get<double>(), 10.0, kCarriedTolMm);
+  EXPECT_NEAR(m.at("length_mm").get<double>(), 75.0, kCarriedTolMm);
+  EXPECT_NEAR(m.at("tool_table").at("length_after_mm").get<double>(), m.at("length_mm"),
+              kSameNumber);
   const std::string after = read_table();
   EXPECT_NE(after.find("; shop tools\nT3 P3 Z"), std::string::npos) << after;
   EXPECT_NE(after.find(";D10 Z4"), std::string::npos) << after;
