@@ -87,7 +87,10 @@ TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
       RunProcess(kMlp + " tool measure --images " + dir + " --tool " + dir + "/ref.json --json");
   ASSERT_EQ(again.exit_code, 0) << again.err;
   int later = 0;
-  for (const auto& f : nlohmann::json::parse(again.out).at("flutes"))
+  // Parsed into a named object: a range-for over a member of a temporary reads freed memory
+  // (the temporary dies before the loop; ASan found it).
+  const nlohmann::json measured_again = nlohmann::json::parse(again.out);
+  for (const auto& f : measured_again.at("flutes"))
     later += static_cast<int>(f.at("findings").size());
   EXPECT_EQ(later, 0);
   std::ifstream png(dir + "/overlay.png", std::ios::binary);
