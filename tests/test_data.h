@@ -27,4 +27,13 @@ inline std::filesystem::path SharedDataDir() {
   return std::filesystem::path(SourceDir()) / ".." / "shared" / "data";
 }
 
+/// How much slower than the release build this build runs the same work: $MLP_TEST_TIME_SCALE
+/// (scripts/sanitize.sh sets 4 for its ASan + UBSan build), else 1. Only the waits that give normal
+/// work time to finish scale with it, never a limit a test asserts.
+inline double TimeScale() {
+  const char* env = std::getenv("MLP_TEST_TIME_SCALE");
+  const double scale = env && *env ? std::strtod(env, nullptr) : 1.0;
+  return scale >= 1.0 ? scale : 1.0;
+}
+
 }  // namespace mlp::test

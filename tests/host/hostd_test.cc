@@ -392,7 +392,8 @@ TEST(Hostd, AJobCutOffByACrashIsClosedAtTheNextStart) {
 TEST(Hostd, StaleCalibrationTamperedCloudAndALinkDropWriteNothing) {
   Site site("failures", kFailurePort);
   json config = json::parse(test::ReadText(site.dir / "hostd.json"));
-  config["capture_timeout_s"] = 3;  // how long a dropped probe is waited for
+  // How long a dropped probe is waited for: longer than a capture takes in this build.
+  config["capture_timeout_s"] = 3 * test::TimeScale();
   std::ofstream(site.dir / "hostd.json") << config.dump(1);
   test::SaveSceneCalibration(site);
   // Made on 1 September: 82 days old, the limit is 720 h.
