@@ -121,7 +121,7 @@ Eigen::Vector3d Fit(const Model& m, std::vector<FitPoint>* pts, Eigen::Vector3d 
     Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n_par, static_cast<Eigen::Index>(pts->size()));
     for (int k = 0; k < n_par; ++k) {
       Eigen::Vector3d xe = x;
-      const double eps = k == 2 ? 1e-5 : 1e-5;
+      constexpr double eps = 1e-5;  // one step for the offsets [mm] and the turn [rad]
       xe(k) += eps;
       m.Residuals(xe, pts);
       for (size_t i = 0; i < pts->size(); ++i)
