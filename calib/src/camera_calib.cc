@@ -1,5 +1,6 @@
 #include "mlp/calib/camera_calib.h"
 
+#include "mlp/base/raster.h"
 #include "mlp/calib/probe_calib.h"
 
 #include <cmath>
@@ -18,7 +19,7 @@ constexpr int kSubPixHalfWindow = 10;
 
 cv::Mat To8Bit(const GrayImage& img) {
   if (img.width <= 0 || img.height <= 0 ||
-      img.pixels.size() != static_cast<size_t>(img.width) * static_cast<size_t>(img.height))
+      img.pixels.size() != base::RasterSize(img.width, img.height))
     throw CameraCalibError("an image's size does not match its pixels");
   cv::Mat m(img.height, img.width, CV_16U, const_cast<std::uint16_t*>(img.pixels.data()));
   cv::Mat out;
@@ -86,7 +87,7 @@ CameraCalibration CalibrateCameraFromCorners(const std::vector<std::vector<geome
       result.warnings.push_back("image " + std::to_string(v) + ": no complete board found");
       continue;
     }
-    if (found[v].size() != static_cast<size_t>(b.inner_cols * b.inner_rows))
+    if (found[v].size() != base::RasterSize(b.inner_cols, b.inner_rows))
       throw CameraCalibError("image " + std::to_string(v) + ": not the board's corner count");
     std::vector<cv::Point2f> corners;
     for (const auto& c : found[v])

@@ -143,7 +143,7 @@ Linear SolveLinear(const std::vector<Pose3>& h,
                    const std::vector<Vec3>& q,
                    const HandEyeOptions& o,
                    const Mat3* fixed_rotation) {
-  const int n = static_cast<int>(h.size());
+  const auto n = static_cast<Eigen::Index>(h.size());
   std::vector<int> free_axes;
   for (int k = 0; k < 3; ++k) {
     if (!o.known_centre_mcs[static_cast<size_t>(k)]) free_axes.push_back(k);
@@ -151,13 +151,14 @@ Linear SolveLinear(const std::vector<Pose3>& h,
   const int nr = fixed_rotation ? 0 : 9, nc = static_cast<int>(free_axes.size());
   Eigen::MatrixXd a = Eigen::MatrixXd::Zero(3 * n, nr + 3 + nc);
   Eigen::VectorXd b(3 * n);
-  for (int i = 0; i < n; ++i) {
+  for (Eigen::Index i = 0; i < n; ++i) {
     const Mat3 rh = h[static_cast<size_t>(i)].linear();
     Vec3 rhs = -h[static_cast<size_t>(i)].translation();
     if (fixed_rotation) {
       rhs -= rh * (*fixed_rotation) * q[static_cast<size_t>(i)];
     } else {
-      for (int col = 0; col < 3; ++col) {  // vec(R) column-major: R q = sum_col q[col] R.col
+      for (Eigen::Index col = 0; col < 3;
+           ++col) {  // vec(R) column-major: R q = sum_col q[col] R.col
         a.block(3 * i, 3 * col, 3, 3) = q[static_cast<size_t>(i)](col) * rh;
       }
     }
@@ -178,7 +179,7 @@ Linear SolveLinear(const std::vector<Pose3>& h,
       out.centre(k) = *o.known_centre_mcs[static_cast<size_t>(k)];
   }
   for (int j = 0; j < nc; ++j) out.centre(free_axes[static_cast<size_t>(j)]) = x(nr + 3 + j);
-  out.residual = std::sqrt((a * x - b).squaredNorm() / n);
+  out.residual = std::sqrt((a * x - b).squaredNorm() / static_cast<double>(n));
   return out;
 }
 
@@ -204,6 +205,7 @@ struct Start {
 // flips from each single flip) and the joint fit decides between them.
 std::vector<Start> CandidateStarts(const std::vector<Prepared>& prepared, const HandEyeOptions& o) {
   std::vector<Pose3> h;
+  h.reserve(prepared.size());
   for (const Prepared& p : prepared) h.push_back(p.capture->mcs_from_flange);
   const auto solve = [&](const std::vector<int>& s) {
     std::vector<Vec3> q;

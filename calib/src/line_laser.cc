@@ -153,6 +153,7 @@ StripeScatter ScatterAboutLine(const std::vector<Vec2>& stripe_px, const Intrins
   StripeScatter s;
   const probe_fw::CameraModel cam = CameraModelOf(camera);
   std::vector<Vec2> all;
+  all.reserve(stripe_px.size());
   for (const auto& p : stripe_px) all.push_back(cam.Undistort(p) * camera.fx_px);
   if (all.size() < 3) return s;
   std::vector<Vec2> kept = all;
@@ -317,6 +318,7 @@ LineLaserCalibration LineLaserOfModel(const std::vector<ImageFindings>& images,
   r.plane = {n * d, n};
   // Inliers as a robust fit would take them: within 2.5 robust sigma (geometry/robust.h).
   std::vector<double> e;
+  e.reserve(points.size());
   for (const Vec3& p : points) e.push_back(n.dot(p) - d);
   const double limit = 2.5 * RobustSigma(e);
   std::vector<int> inliers;

@@ -102,7 +102,8 @@ struct DepthScale {
 // s, which no centre absorbs; s is about the probe origin, as the hand-eye's sensor model
 // (hand_eye.h, SensorModelOptions), so a 1 % scale also moves a centre 100 mm away by 1 mm.
 DepthScale FitDepthScale(const std::vector<OnSphere>& spheres, double radius) {
-  const int n = static_cast<int>(spheres.size()), u = 3 * n + 1;
+  const auto n = static_cast<Eigen::Index>(spheres.size());
+  const Eigen::Index u = 3 * n + 1;
   DepthScale d;
   for (const OnSphere& s : spheres) d.centres.push_back(s.centre);
   Eigen::MatrixXd jtj(u, u);
@@ -112,7 +113,7 @@ DepthScale FitDepthScale(const std::vector<OnSphere>& spheres, double radius) {
     jtj.setZero();
     Eigen::VectorXd jtr = Eigen::VectorXd::Zero(u);
     sum_sq = 0.0, rows = 0;
-    for (int i = 0; i < n; ++i) {
+    for (Eigen::Index i = 0; i < n; ++i) {
       const OnSphere& s = spheres[static_cast<size_t>(i)];
       for (int k : s.inliers) {
         const Vec3 p = s.points.col(k);
@@ -122,7 +123,7 @@ DepthScale FitDepthScale(const std::vector<OnSphere>& spheres, double radius) {
         Eigen::Matrix<double, 4, 1> j;
         j << -w / dist, w.z() / dist * p.z();
         const double r = dist - radius;
-        const int at[4] = {3 * i, 3 * i + 1, 3 * i + 2, u - 1};
+        const Eigen::Index at[4] = {3 * i, 3 * i + 1, 3 * i + 2, u - 1};
         for (int a = 0; a < 4; ++a) {
           jtr(at[a]) += j(a) * r;
           for (int b = 0; b < 4; ++b) jtj(at[a], at[b]) += j(a) * j(b);
@@ -132,11 +133,11 @@ DepthScale FitDepthScale(const std::vector<OnSphere>& spheres, double radius) {
     }
     const Eigen::VectorXd dx = -jtj.ldlt().solve(jtr);
     if (!dx.allFinite()) Bad("the depth scale of the readings could not be fitted");
-    for (int i = 0; i < n; ++i) d.centres[static_cast<size_t>(i)] += dx.segment<3>(3 * i);
+    for (Eigen::Index i = 0; i < n; ++i) d.centres[static_cast<size_t>(i)] += dx.segment<3>(3 * i);
     d.scale += dx(u - 1);
     if (dx.norm() < 1e-12) break;
   }
-  const double sigma2 = sum_sq / std::max(1, rows - u);
+  const double sigma2 = sum_sq / static_cast<double>(std::max<Eigen::Index>(1, rows - u));
   d.std = std::sqrt(sigma2 * jtj.ldlt().solve(Eigen::VectorXd::Unit(u, u - 1))(u - 1));
   return d;
 }
@@ -178,12 +179,13 @@ State SolveMountChange(const std::vector<RecheckCapture>& captures,
                        const State& original,
                        double lever_mm,
                        std::vector<detail::Vec9>* undetermined) {
-  const int n = static_cast<int>(captures.size()), m = static_cast<int>(active.size());
+  const auto n = static_cast<Eigen::Index>(captures.size());
+  const int m = static_cast<int>(active.size());
   State s = original;
   for (int step = 0; step < kGaussNewtonSteps; ++step) {
     Eigen::MatrixXd j(3 * n, m);
     Eigen::VectorXd e(3 * n);
-    for (int i = 0; i < n; ++i) {
+    for (Eigen::Index i = 0; i < n; ++i) {
       const Pose3& h = captures[static_cast<size_t>(i)].mcs_from_flange;
       const Vec3 a = s.rotation * q[static_cast<size_t>(i)];
       Eigen::Matrix<double, 3, 9> full;
@@ -193,7 +195,7 @@ State SolveMountChange(const std::vector<RecheckCapture>& captures,
       e.segment<3>(3 * i) = s.Residual(h, q[static_cast<size_t>(i)]);
     }
     Eigen::JacobiSVD<Eigen::MatrixXd> svd(j, Eigen::ComputeThinU | Eigen::ComputeThinV);
-    const Eigen::VectorXd sv = svd.singularValues();
+    const Eigen::VectorXd& sv = svd.singularValues();
     Eigen::VectorXd dx = Eigen::VectorXd::Zero(m);
     undetermined->clear();
     for (int k = 0; k < sv.size(); ++k) {

@@ -54,7 +54,7 @@ Vec2 FootFirstQuadrant(double e0, double e1, double y0, double y1) {
 
 Vec3 PlanePoint(
     const Vec3& center, const Vec3& normal, const Vec3& p, Vec2* in_plane, const Vec3& x_axis) {
-  const Vec3 q = p - center;
+  Vec3 q = p - center;
   const Vec3 y_axis = normal.cross(x_axis);
   *in_plane = Vec2(q.dot(x_axis), q.dot(y_axis));
   return q;

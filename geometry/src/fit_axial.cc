@@ -143,7 +143,7 @@ constexpr Eigen::Index kStartSubsample = 2000;
 std::vector<Vec3> CandidateAxes(const Points3& centred_sub, bool multi_start) {
   const Mat3 a = internal::AlgebraicQuadric(centred_sub);
   Eigen::SelfAdjointEigenSolver<Mat3> qes(a);
-  const Vec3 ev = qes.eigenvalues();
+  const Vec3& ev = qes.eigenvalues();
   // The eigenvalue that stands apart from the other two marks the axis.
   int odd = 0;
   double best = -1.0;

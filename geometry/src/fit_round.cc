@@ -59,6 +59,8 @@ class NSphereModel {
     const double* p = points_;
     ne.AddRows(size_, [&](Eigen::Index first, int m, internal::RowChunk<kParams>& chunk) {
       const double* q = p + N * first;
+      // int i: m is one chunk's row count (internal::kChunkRows), so N * i cannot overflow.
+      // NOLINTBEGIN(bugprone-implicit-widening-of-multiplication-result)
 #pragma omp simd
       for (int i = 0; i < m; ++i) {
         // Written out per dimension: an inner loop here stops GCC vectorising the outer one.
@@ -69,6 +71,7 @@ class NSphereModel {
         if constexpr (N == 3) d[2] = q[N * i + 2] - c[2], d2 += d[2] * d[2];
         Row(d, d2, radius, i, chunk);
       }
+      // NOLINTEND(bugprone-implicit-widening-of-multiplication-result)
     });
     return ne.Finish(sink);
   }
@@ -100,6 +103,8 @@ class NSphereModel {
     for (int k = 0; k < 3; ++k) b[0][k] = basis_(0, k), b[1][k] = basis_(1, k), o[k] = origin3_(k);
     ne->AddRows(size_, [&](Eigen::Index first, int m, internal::RowChunk<kParams>& chunk) {
       const double* q = p + 3 * first;
+      // int i, as in Linearize: 3 * i < 3 * kChunkRows.
+      // NOLINTBEGIN(bugprone-implicit-widening-of-multiplication-result)
 #pragma omp simd
       for (int i = 0; i < m; ++i) {
         const double x = q[3 * i] - o[0], y = q[3 * i + 1] - o[1], z = q[3 * i + 2] - o[2];
@@ -108,6 +113,7 @@ class NSphereModel {
         d[1] = b[1][0] * x + b[1][1] * y + b[1][2] * z - c[1];
         Row(d, d[0] * d[0] + d[1] * d[1], radius, i, chunk);
       }
+      // NOLINTEND(bugprone-implicit-widening-of-multiplication-result)
     });
   }
 

@@ -92,6 +92,7 @@ Cloud ParseXyzText(std::istream& in, const std::string& name) {
       char* end = nullptr;
       const double x = std::strtod(token.c_str(), &end);
       if (end == token.c_str() || *end != '\0') {
+        // NOLINTNEXTLINE(performance-inefficient-string-concatenation): an error, built once
         throw CloudIoError(name + ":" + std::to_string(line_no) + ": '" + token +
                            "' is not a number");
       }

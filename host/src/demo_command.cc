@@ -53,6 +53,7 @@ class Child {
       if (!std::freopen(log.c_str(), "w", stderr) || dup2(fileno(stderr), STDOUT_FILENO) < 0)
         _exit(126);
       std::vector<char*> a;
+      a.reserve(argv.size() + 1);
       for (const auto& s : argv) a.push_back(const_cast<char*>(s.c_str()));
       a.push_back(nullptr);
       execv(a[0], a.data());
@@ -98,7 +99,7 @@ struct Demo {
                   {"capture_host", 0.0}, {"jobs_host", 0.0}, {"captures", 0}};
 
   json Request(const json& r) {
-    const json reply = service::SendRequest(socket, r, kRequestTimeoutMs);
+    json reply = service::SendRequest(socket, r, kRequestTimeoutMs);
     if (!reply.value("ok", false) && reply.value("status", "") != "out_of_tolerance")
       throw DemoError(r.value("op", "?") + ": " + reply.value("error", std::string("failed")));
     if (reply.contains("timings_ms")) {
@@ -216,7 +217,7 @@ void Align(Demo& d, const sim::VirtualProbe& vp, const json& truth) {
 void Measure(Demo& d, const sim::VirtualProbe& vp, const json& truth) {
   d.out << "3. the bore before its finishing pass (finished size 60.000 +0.030/-0)\n";
   const auto walls = d.Capture(vp, "bore_wall", {874, 668, 300, 200});
-  const json centre = truth.at("bore_centre_mcs_mm");
+  const json& centre = truth.at("bore_centre_mcs_mm");
   const json r = d.Request(
       {{"op", "measure"},
        {"machine", "demo-vmc"},
@@ -300,9 +301,9 @@ void DemoSettings(const Args& a, Demo* d) {
 // 0.68 mm from the true camera's (PROBE.md); the hand-eye is judged against it.
 geometry::Pose3 TrueMount(const sim::VirtualProbe& vp, const fs::path& as_built, Demo* d) {
   double frame_rms_mm = 0.0;
-  const geometry::Pose3 true_m = vp.scene().flange_from_probe *
-                                 sim::TrueFromModelFrame(sim::LoadAsBuilt(as_built.string()),
-                                                         vp.model(), &kSphereAoi, &frame_rms_mm);
+  geometry::Pose3 true_m = vp.scene().flange_from_probe *
+                           sim::TrueFromModelFrame(sim::LoadAsBuilt(as_built.string()), vp.model(),
+                                                   &kSphereAoi, &frame_rms_mm);
   d->summary["calibration"]["frame_rms_um"] = frame_rms_mm * 1e3;
   return true_m;
 }

@@ -1,6 +1,7 @@
 #include "mlp/probe_fw/stripe.h"
 
 #include "mlp/base/check.h"
+#include "mlp/base/raster.h"
 
 #include <algorithm>
 #include <array>
@@ -285,8 +286,9 @@ void ScanLines(const Scan& scan,
     std::uint16_t lowest;
   };
   std::vector<Floor> floors;
+  const auto mask_rows = mask.rows.begin() + first_line;  // mask_rows[v]: the mask of line v
   for (int v = 0; v < r.lines; ++v) {
-    for (const auto& [b, e] : mask.rows[static_cast<size_t>(first_line + v)]) {
+    for (const auto& [b, e] : mask_rows[v]) {
       ++counts->lines;
       const Span span{r.Line(v), std::max(0, b), std::min(r.length, e)};
       const std::uint16_t lowest = ScanSpan(span, scan, v, max_level, options, out, counts);
@@ -403,11 +405,10 @@ void StripeExtractor::Extract(const Frame& frame,
                               std::vector<StripePoint>* out,
                               StripeCounts* counts) {
   const Aoi& a = frame.aoi;
-  MLP_CHECK_MSG(
-      mask_.aoi.width == a.width && mask_.aoi.height == a.height && mask_.aoi.x0 == a.x0 &&
-          mask_.aoi.y0 == a.y0 &&
-          frame.pixels.size() == static_cast<size_t>(a.width) * static_cast<size_t>(a.height),
-      "stripe: the mask's AOI must be the frame's");
+  MLP_CHECK_MSG(mask_.aoi.width == a.width && mask_.aoi.height == a.height &&
+                    mask_.aoi.x0 == a.x0 && mask_.aoi.y0 == a.y0 &&
+                    frame.pixels.size() == base::RasterSize(a.width, a.height),
+                "stripe: the mask's AOI must be the frame's");
   const int max_level = (1 << frame.bit_depth) - 1;
   const std::uint16_t* pixels = frame.pixels.data();
   if (options_.speckle_sigma_px > 0.0)

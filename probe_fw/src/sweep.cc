@@ -1,5 +1,7 @@
 #include "mlp/probe_fw/sweep.h"
 
+#include "mlp/base/raster.h"
+
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -119,7 +121,7 @@ class V4l2Camera : public FrameGrabber {
     Frame f;
     f.aoi = aoi_;
     f.bit_depth = bit_depth_;
-    f.pixels.resize(static_cast<size_t>(aoi_.width) * static_cast<size_t>(aoi_.height));
+    f.pixels.resize(base::RasterSize(aoi_.width, aoi_.height));
     const auto* data = static_cast<const std::uint8_t*>(buffers_[buf.index].first);
     for (size_t i = 0; i < f.pixels.size(); ++i) {
       f.pixels[i] = bit_depth_ > 8

@@ -1,5 +1,6 @@
 #include "mlp/grind/grind_frame.h"
 
+#include "mlp/base/raster.h"
 #include "mlp/grey_image/grey_image.h"
 
 #include <algorithm>
@@ -42,28 +43,28 @@ std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,
   c.Validate();
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0, 1);
-  const auto n = static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px);
+  const size_t n = base::RasterSize(c.width_px, c.height_px);
   std::vector<double> cover(n);
   const double whole = 0.75 * c.mm_per_px;
   // Blocks of kBlock x kBlock pixels whose middle is further from the boundary than the
   // block's half diagonal are one state throughout (f is 1-Lipschitz): most of the image.
   constexpr int kBlock = 8;
   const double block_reach = (kBlock / std::sqrt(2.0) + 1) * c.mm_per_px;
-  std::vector<signed char> block_state(
-      static_cast<size_t>((c.width_px / kBlock + 1) * (c.height_px / kBlock + 1)), 0);
   const int blocks_across = c.width_px / kBlock + 1;
+  std::vector<signed char> block_state(base::RasterSize(blocks_across, c.height_px / kBlock + 1),
+                                       0);
   for (int by = 0; by * kBlock < c.height_px; ++by)
     for (int bx = 0; bx * kBlock < c.width_px; ++bx) {
       const Vec2 mid(bx * kBlock + (kBlock - 1) / 2.0, by * kBlock + (kBlock - 1) / 2.0);
       const double f = Material(nominal, stock_mm, strokes, c.ToMm(mid));
-      block_state[static_cast<size_t>(by * blocks_across + bx)] = f < -block_reach  ? 1
-                                                                  : f > block_reach ? -1
-                                                                                    : 0;
+      block_state[base::RasterIndex(bx, by, blocks_across)] = f < -block_reach  ? 1
+                                                              : f > block_reach ? -1
+                                                                                : 0;
     }
   for (int v = 0; v < c.height_px; ++v)
     for (int u = 0; u < c.width_px; ++u) {
       const signed char state =
-          block_state[static_cast<size_t>((v / kBlock) * blocks_across + u / kBlock)];
+          block_state[base::RasterIndex(u / kBlock, v / kBlock, blocks_across)];
       const double f =
           state != 0 ? state * -1.0 : Material(nominal, stock_mm, strokes, c.ToMm({u, v}));
       double share = f < -whole ? 1.0 : 0.0;

@@ -109,8 +109,9 @@ std::vector<ViewTarget> BoreViews(const std::string& id,
                             n.boss ? w : Vec3(-w), axis, half_depth, o);
     // The patch on the cylinder rather than its tangent plane.
     for (int i = 0; i < t.patch_mcs.cols(); ++i) {
-      const double a = phi + half_turn * (-1 + 2.0 * (i / kPatchSteps) / (kPatchSteps - 1));
-      const double d = aim_depth + half_depth * (-1 + 2.0 * (i % kPatchSteps) / (kPatchSteps - 1));
+      const int along_turn = i / kPatchSteps, along_depth = i % kPatchSteps;  // patch grid cell
+      const double a = phi + half_turn * (-1 + 2.0 * along_turn / (kPatchSteps - 1));
+      const double d = aim_depth + half_depth * (-1 + 2.0 * along_depth / (kPatchSteps - 1));
       t.patch_mcs.col(i) = n.top_centre_mcs + r * (std::cos(a) * u + std::sin(a) * v) - d * axis;
     }
     views.push_back(t);

@@ -248,9 +248,11 @@ std::string FeatureReportSvg(const FeatureReport& r) {
   s << "<svg xmlns='http://www.w3.org/2000/svg' width='900' height='500' "
        "font-family='sans-serif'>\n"
     << "<rect width='900' height='500' fill='white'/>\n";
-  for (size_t k = 0; k < std::min<size_t>(4, r.panels.size()); ++k)
-    Panel(s, r.panels[k], 20 + 230.0 * static_cast<double>(k % 2),
-          40 + 240.0 * static_cast<double>(k / 2), scale);
+  for (size_t k = 0; k < std::min<size_t>(4, r.panels.size()); ++k) {
+    const size_t column = k % 2, row = k / 2;  // two panels a row
+    Panel(s, r.panels[k], 20 + 230.0 * static_cast<double>(column),
+          40 + 240.0 * static_cast<double>(row), scale);
+  }
   const double y0 = 40, dy = 22;
   int line = 0;
   const auto text = [&](const std::string& t, int size, const std::string& colour) {

@@ -66,6 +66,7 @@ ToolTable::Line ToolTable::ParseLine(const std::string& text, const std::string&
     const std::string number = token.substr(1);
     char* end = nullptr;
     const double v = number.empty() ? NAN : std::strtod(number.c_str(), &end);
+    // NOLINTBEGIN(performance-inefficient-string-concatenation): messages of errors, built once
     if (number.empty() || end != number.c_str() + number.size())
       Fail(where + ": '" + token + "' is not a letter followed by a number");
     if (!seen.insert(letter).second) Fail(where + ": " + letter + " appears twice");
@@ -81,6 +82,7 @@ ToolTable::Line ToolTable::ParseLine(const std::string& text, const std::string&
     } else {
       Fail(where + ": unknown word '" + token + "' (T P X Y Z A B C U V W D I J Q)");
     }
+    // NOLINTEND(performance-inefficient-string-concatenation)
     line.words.push_back({letter, token, v});
   }
   if (line.words.empty()) return line;  // blank or comment-only line

@@ -43,7 +43,7 @@ struct CaptureBroker::Impl {
   }
 };
 
-CaptureBroker::CaptureBroker(link::HostLinkConfig config, link::Log log)
+CaptureBroker::CaptureBroker(link::HostLinkConfig config, const link::Log& log)
     : impl_(std::make_unique<Impl>()) {
   impl_->log = log;
   impl_->host = std::make_unique<link::HostLink>(

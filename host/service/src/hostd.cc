@@ -266,7 +266,7 @@ struct Hostd::Impl {
   using Job = std::function<json(const MachineConfig&, const json&)>;
 
   // One job per machine: wait for the machine up to its job timeout, then refuse as busy.
-  json RunOnMachine(const json& request, Job job) {
+  json RunOnMachine(const json& request, const Job& job) {
     const std::string name = jf::Text<RequestError>(request, "machine", "request");
     const MachineConfig* m = config.Machine(name);
     if (m == nullptr) throw RequestError("no machine \"" + name + "\" in " + config.path);
@@ -370,18 +370,18 @@ struct Hostd::Impl {
           path, cloud.xyz, cloud.quality,
           {cloud.probe_serial, cloud.calibration_id, cloud.capture_id, cloud.mcs_from_flange});
       const std::string sha = history::Sha256OfFile(path);
-      json pose = request.at("mcs_from_flange");
+      const json& pose = request.at("mcs_from_flange");
       history.AddCapture(job, {id, pose, path, sha, static_cast<std::int64_t>(cloud.size())});
       const json timings = CaptureTimings(cloud, round_trip_ms, Ms(t0));
-      const json reply = {{"ok", true},
-                          {"status", "done"},
-                          {"job_id", job},
-                          {"capture_id", id},
-                          {"points", cloud.size()},
-                          {"cloud_path", path},
-                          {"cloud_sha256", sha},
-                          {"probe_calibration_id", cloud.calibration_id},
-                          {"timings_ms", timings}};
+      json reply = {{"ok", true},
+                    {"status", "done"},
+                    {"job_id", job},
+                    {"capture_id", id},
+                    {"points", cloud.size()},
+                    {"cloud_path", path},
+                    {"cloud_sha256", sha},
+                    {"probe_calibration_id", cloud.calibration_id},
+                    {"timings_ms", timings}};
       history.FinishJob(job, history::JobStatus::kDone, reply, timings);  // throws: failed
       return reply;
     } catch (const std::exception& e) {

@@ -92,7 +92,7 @@ std::vector<std::string> WriteToController(JobContext& ctx,
 
 std::string RequestId(const json& r) {
   if (!r.contains("request_id")) return "";
-  const std::string id = jf::Text<JobInputError>(r, "request_id", "request");
+  std::string id = jf::Text<JobInputError>(r, "request_id", "request");
   const bool printable =
       std::all_of(id.begin(), id.end(), [](char c) { return c >= ' ' && c < 0x7f; });
   if (id.empty() || id.size() > 128 || !printable)

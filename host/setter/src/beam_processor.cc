@@ -67,8 +67,8 @@ bool BeamProcessor::Push(float volts) {
   smooth_[slot] = share;
   bool fired = false;
   if (n_ >= kSmooth - 1) {
-    const double y = smooth_sum_ / kSmooth,
-                 t = static_cast<double>(n_ - kSmooth / 2) / cfg_.sample_rate_hz;
+    const long middle = n_ - kSmooth / 2;  // the averaged window's middle sample (kSmooth odd)
+    const double y = smooth_sum_ / kSmooth, t = static_cast<double>(middle) / cfg_.sample_rate_hz;
     if (cfg_.rpm > 0)
       Smoothed(y, t);
     else

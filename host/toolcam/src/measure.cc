@@ -491,7 +491,7 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
                             const MeasureOptions& opt) {
   const int n = nominal.flutes;
   if (frames.size() != positions.size() || position_count < 3 * n ||
-      frames.size() < static_cast<size_t>(3 * n))
+      frames.size() < 3 * static_cast<size_t>(n))
     Fail("at least 3 images per flute, each with its angular position, are needed");
   // The images in angular order; the flutes are the maxima of the reference height's extreme.
   const IndexedImages x = IndexImages(frames, positions, position_count, camera, opt);

@@ -192,6 +192,7 @@ std::vector<double> Depths(const std::vector<double>& angle,
          " mm off the axis, not its " + std::to_string(std::abs(offset_mm)) +
          " mm: wrong pin file, or the positions are not the images' angles");
   std::vector<double> x;
+  x.reserve(angle.size());
   for (double t : angle) x.push_back(s(0) * std::cos(t) - s(1) * std::sin(t));
   return x;
 }

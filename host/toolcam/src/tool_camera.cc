@@ -1,6 +1,7 @@
 #include "mlp/toolcam/tool_camera.h"
 
 #include "mlp/base/files.h"
+#include "mlp/base/raster.h"
 #include "mlp/base/units.h"
 #include "mlp/grey_image/grey_image.h"
 #include "mlp/toolcam/tool_images.h"
@@ -42,7 +43,7 @@ void AddSpan(
   }
   (*row)[static_cast<size_t>(ua)] += weight * (ua + 0.5 - a);
   if (ub < w) (*row)[static_cast<size_t>(ub)] += weight * (b - (ub - 0.5));
-  (*diff)[static_cast<size_t>(ua + 1)] += weight;
+  (*diff)[static_cast<size_t>(ua) + 1] += weight;
   (*diff)[static_cast<size_t>(ub)] -= weight;
 }
 
@@ -134,7 +135,7 @@ std::vector<double> Resample(const std::vector<double>& canvas,
                              int margin) {
   const int w = c.width_px, h = c.height_px, cw = w + 2 * margin, ch = h + 2 * margin;
   const double cx = (w - 1) / 2.0, cy = (h - 1) / 2.0, corner2 = cx * cx + cy * cy;
-  std::vector<double> out(static_cast<size_t>(w) * static_cast<size_t>(h));
+  std::vector<double> out(base::RasterSize(w, h));
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const double dx = x - cx, dy = y - cy,
@@ -146,11 +147,11 @@ std::vector<double> Resample(const std::vector<double>& canvas,
       const std::array<double, 4> wx = CubicWeights(sx - x0), wy = CubicWeights(sy - y0);
       double sum = 0;
       for (int j = 0; j < 4; ++j) {
-        const double* row = canvas.data() + static_cast<size_t>((y0 - 1 + j) * cw + x0 - 1);
+        const double* row = canvas.data() + base::RasterIndex(x0 - 1, y0 - 1 + j, cw);
         sum += wy[static_cast<size_t>(j)] *
                (wx[0] * row[0] + wx[1] * row[1] + wx[2] * row[2] + wx[3] * row[3]);
       }
-      out[static_cast<size_t>(y * w + x)] = sum;
+      out[base::RasterIndex(x, y, w)] = sum;
     }
   return out;
 }

@@ -310,6 +310,7 @@ void LengthTest(const AcceptanceOptions& o,
   for (size_t oi = 0; oi < orientations.size(); ++oi) {
     const Orientation& ori = orientations[oi];
     std::vector<Vec3> centres;
+    centres.reserve(static_cast<size_t>(n));
     for (int k = 0; k < n; ++k)
       centres.push_back(kGaugeCentreMcs + (k - (n - 1) / 2.0) * o.gauge_pitch_mm * ori.direction);
     const sim::Scene scene = SpheresOnStems(centres, o.sphere_diameter_mm, out->finish.material);

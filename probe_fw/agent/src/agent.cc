@@ -138,7 +138,7 @@ AgentStats ServeProbe(const ProbeModel& model,
                       Projector* projector,
                       const ServeOptions& options,
                       const std::atomic<bool>& stop,
-                      link::Log log) {
+                      const link::Log& log) {
   link::ProbeLink link(options.link, log);
   ProbeAgent agent(model, &link, std::move(camera), projector, log);
   link.SetStatusSource([&agent, &options] {

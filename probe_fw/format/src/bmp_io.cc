@@ -9,6 +9,7 @@
 #include "bmp_io.h"
 
 #include "mlp/base/files.h"
+#include "mlp/base/raster.h"
 
 #include <array>
 #include <cstdint>
@@ -160,7 +161,7 @@ void ReadRawBayer(const std::string& path,
   RequireChannels(channels, path);
   const int code = BayerCode(raw.pattern);
   const std::vector<unsigned char> b = ReadAll(path);
-  const size_t n = static_cast<size_t>(raw.width) * static_cast<size_t>(raw.height);
+  const size_t n = base::RasterSize(raw.width, raw.height);
   const size_t bytes = raw.bit_depth > 8 ? 2 : 1;
   if (b.size() != n * bytes)
     Fail(path, "holds " + std::to_string(b.size()) + " bytes; " + std::to_string(raw.width) +

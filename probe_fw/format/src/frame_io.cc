@@ -2,6 +2,7 @@
 
 #include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
+#include "mlp/base/raster.h"
 
 #include <cmath>
 #include <cstdio>
@@ -103,7 +104,7 @@ RawBayer ParseRawBayer(const json& j, const std::string& where) {
 }
 
 void WriteImage(const Frame& f, const std::string& path) {
-  if (f.pixels.size() != static_cast<size_t>(f.aoi.width) * static_cast<size_t>(f.aoi.height)) {
+  if (f.pixels.size() != base::RasterSize(f.aoi.width, f.aoi.height)) {
     Fail("frame size does not match its AOI");
   }
   const std::string ext = Extension(path);

@@ -116,8 +116,9 @@ struct VirtualProbe::Ghosts {
     const auto& camera = probe.model_.camera;
     for (int k = 0; k < samples; ++k) {
       Vec3 r;
-      const double xi1 = (k % strata + uniform()) / strata;
-      const double xi2 = (k / strata + uniform()) / strata;
+      const int stratum_1 = k % strata, stratum_2 = k / strata;  // stratified (jittered) draws
+      const double xi1 = (stratum_1 + uniform()) / strata;
+      const double xi2 = (stratum_2 + uniform()) / strata;
       const double carried = SampleLobe(first.gloss, first.normal, -ray.direction, xi1, xi2, &r);
       if (carried <= 0.0) continue;
       const Ray bounce{p + kNudgeMm * first.normal, r};

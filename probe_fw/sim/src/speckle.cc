@@ -113,7 +113,8 @@ void SpeckleImager::Image(std::vector<double>* pixel_e) {
     if (lit_hi_[y] < 0) continue;
     for (int yo = y; yo <= y + 2 * reach_; ++yo) {
       const size_t o = static_cast<size_t>(yo) * Wp + static_cast<size_t>(lit_lo_[y]);
-      const size_t n = static_cast<size_t>(lit_hi_[y] - lit_lo_[y] + 2 * reach_ + 1);
+      const size_t n =
+          static_cast<size_t>(lit_hi_[y] - lit_lo_[y]) + 2 * static_cast<size_t>(reach_) + 1;
       std::fill_n(re_.begin() + static_cast<std::ptrdiff_t>(o), n, 0.0f);
       std::fill_n(im_.begin() + static_cast<std::ptrdiff_t>(o), n, 0.0f);
       std::fill_n(incoherent_.begin() + static_cast<std::ptrdiff_t>(o), n, 0.0f);

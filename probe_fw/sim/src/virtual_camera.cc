@@ -2,13 +2,15 @@
 
 #include <functional>
 #include <stdexcept>
+#include <utility>
 
 namespace mlp::sim {
 
 probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe,
                                    std::uint64_t seed,
                                    const probe_fw::Projector& projector) {
-  return [probe, seed, &projector](const link::CaptureRequest& r, const probe_fw::SweepPlan& plan) {
+  return [probe = std::move(probe), seed, &projector](const link::CaptureRequest& r,
+                                                      const probe_fw::SweepPlan& plan) {
     Capture capture;
     capture.id = r.capture_id;
     capture.mcs_from_flange = r.mcs_from_flange;

@@ -26,7 +26,7 @@ class CaptureError : public std::runtime_error {
 
 class CaptureBroker {
  public:
-  CaptureBroker(link::HostLinkConfig config, link::Log log);
+  CaptureBroker(link::HostLinkConfig config, const link::Log& log);
   ~CaptureBroker();
   void Start();  ///< binds the probe link; throws link::LinkError when it cannot
   void Stop();

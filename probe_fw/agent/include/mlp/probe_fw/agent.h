@@ -88,6 +88,6 @@ AgentStats ServeProbe(const ProbeModel& model,
                       Projector* projector,
                       const ServeOptions& options,
                       const std::atomic<bool>& stop,
-                      link::Log log);
+                      const link::Log& log);
 
 }  // namespace mlp::probe_fw
