@@ -15,7 +15,7 @@ namespace {
 constexpr Eigen::Index kScoreSubset = 4000;  // points used to score a consensus sample
 
 template <class Shape>
-using LsFit = std::function<FitResult<Shape>(const Points3&)>;
+using LsFit = std::function<FitResult<Shape>(const Points3&, const FitOptions&)>;
 
 Points3 Select(const Points3& points, const std::vector<int>& idx) {
   Points3 out(3, static_cast<Eigen::Index>(idx.size()));
@@ -75,7 +75,7 @@ Consensus<Shape> FindConsensus(const Points3& points,
     for (int& i : sample) i = static_cast<int>(pick(rng));
     FitResult<Shape> candidate;
     try {
-      candidate = fit(Select(points, sample));
+      candidate = fit(Select(points, sample), FitOptions{});
     } catch (const GeometryError&) {
       continue;  // degenerate sample (repeated or collinear points): draw another
     }
@@ -138,9 +138,12 @@ RobustFitResult<Shape> FitRobust(const Points3& points,
                           "robust fit: too few inliers (" + std::to_string(next.size()) + ")");
     }
     result.threshold_mm = threshold;
-    if (next == inliers) break;
+    if (next == inliers) {
+      result.inliers_settled = true;
+      break;
+    }
     inliers = std::move(next);
-    result.fit = fit(Select(points, inliers));
+    result.fit = fit(Select(points, inliers), opt.least_squares);
     shape = result.fit.shape;
   }
   result.inliers = std::move(inliers);
@@ -155,36 +158,37 @@ void RobustOptions::Check() const {
     throw GeometryError(ErrorCode::kInvalidArgument,
                         "RobustOptions: threshold >= 0, max_samples >= 1, 0 < confidence < 1");
   }
+  least_squares.Check();
 }
 
 RobustFitResult<Line3> FitLine3Robust(const Points3& p, const RobustOptions& o) {
   return FitRobust<Line3>(
-      p, 2, 2, [](const Points3& s) { return FitLine3(s); }, o);
+      p, 2, 2, [](const Points3& s, const FitOptions&) { return FitLine3(s); }, o);
 }
 RobustFitResult<Plane> FitPlaneRobust(const Points3& p, const RobustOptions& o) {
   return FitRobust<Plane>(
-      p, 3, 3, [](const Points3& s) { return FitPlane(s); }, o);
+      p, 3, 3, [](const Points3& s, const FitOptions&) { return FitPlane(s); }, o);
 }
 RobustFitResult<Circle3> FitCircle3Robust(const Points3& p, const RobustOptions& o) {
   return FitRobust<Circle3>(
-      p, 3, 3, [](const Points3& s) { return FitCircle3(s); }, o);
+      p, 3, 3, [](const Points3& s, const FitOptions& f) { return FitCircle3(s, f); }, o);
 }
 RobustFitResult<Sphere> FitSphereRobust(const Points3& p, const RobustOptions& o) {
   return FitRobust<Sphere>(
-      p, 4, 4, [](const Points3& s) { return FitSphere(s); }, o);
+      p, 4, 4, [](const Points3& s, const FitOptions& f) { return FitSphere(s, f); }, o);
 }
 RobustFitResult<Cylinder> FitCylinderRobust(const Points3& p, const RobustOptions& o) {
   // Seven points: five determine a cylinder only up to several solutions; two more pick one.
   return FitRobust<Cylinder>(
-      p, 7, 7, [](const Points3& s) { return FitCylinder(s); }, o);
+      p, 7, 7, [](const Points3& s, const FitOptions& f) { return FitCylinder(s, f); }, o);
 }
 RobustFitResult<Cone> FitConeRobust(const Points3& p, const RobustOptions& o) {
   return FitRobust<Cone>(
-      p, 8, 8, [](const Points3& s) { return FitCone(s); }, o);
+      p, 8, 8, [](const Points3& s, const FitOptions& f) { return FitCone(s, f); }, o);
 }
 RobustFitResult<Ellipse3> FitEllipse3Robust(const Points3& p, const RobustOptions& o) {
   return FitRobust<Ellipse3>(
-      p, 6, 6, [](const Points3& s) { return FitEllipse3(s); }, o);
+      p, 6, 6, [](const Points3& s, const FitOptions& f) { return FitEllipse3(s, f); }, o);
 }
 
 }  // namespace mlp::geometry

@@ -64,6 +64,7 @@ void AddStats(const geometry::FitStats& s, Json* j) {
   (*j)["rms"] = s.rms;
   (*j)["min"] = s.min_residual;
   (*j)["max"] = s.max_residual;
+  (*j)["converged"] = s.converged;
 }
 
 void AddCovariance(const geometry::Covariance& c, Json* j) {
@@ -118,6 +119,7 @@ Json RobustJson(const geometry::RobustFitResult<Shape>& r, Eigen::Index n_input)
   j["outliers"] = n_input - static_cast<Eigen::Index>(r.inliers.size());
   j["threshold"] = r.threshold_mm;
   j["samples"] = r.samples;
+  j["inliers_settled"] = r.inliers_settled;
   return j;
 }
 

@@ -129,6 +129,40 @@ TEST(NotConverged, IsAnErrorByDefaultOrAResultThatSaysSo) {
       wall);
 }
 
+// The robust fits: the least-squares fit of the inliers follows RobustOptions::least_squares,
+// and the trimming says whether the inlier set settled.
+TEST(NotConverged, RobustFitsSayItOfTheirInliersFitAndOfTheTrimming) {
+  constexpr int kPoints = 400;
+  std::srand(11);  // Eigen's Random draws from rand(): seeded
+  const Points3 noise = 0.01 * Points3::Random(3, kPoints);
+  Points3 cap(3, kPoints);
+  for (int i = 0; i < kPoints; ++i) {
+    const double a = 0.02 * i, b = 0.4 * std::sin(0.37 * i);
+    cap.col(i) =
+        Vec3(25 * std::sin(b) * std::cos(a), 25 * std::sin(b) * std::sin(a), 25 * std::cos(b)) +
+        noise.col(i);
+    if (i % 10 == 0) cap.col(i) += Vec3(0, 0, 3);  // spatter: 10 % off the sphere
+  }
+  const auto settled = FitSphereRobust(cap);
+  EXPECT_TRUE(settled.inliers_settled);
+  EXPECT_TRUE(settled.Converged());
+  RobustOptions one;
+  one.least_squares.max_iterations = 1;
+  EXPECT_EQ(CodeOf([&](const Points3& q) { FitSphereRobust(q, one); }, cap),
+            ErrorCode::kNotConverged);
+  one.least_squares.require_convergence = false;
+  const auto estimate = FitSphereRobust(cap, one);
+  EXPECT_FALSE(estimate.fit.stats.converged);
+  EXPECT_FALSE(estimate.Converged());
+  EXPECT_TRUE(std::isfinite(estimate.fit.stats.rms));
+  RobustOptions short_trim;
+  short_trim.max_refinements = 1;  // one trimming pass cannot show that the set is stable
+  const auto trimmed_once = FitSphereRobust(cap, short_trim);
+  EXPECT_FALSE(trimmed_once.inliers_settled);
+  EXPECT_TRUE(trimmed_once.fit.stats.converged);
+  EXPECT_EQ(trimmed_once.fit.stats.n, static_cast<int>(trimmed_once.inliers.size()));
+}
+
 TEST(BadInput, BadOptionsAreRejected) {
   FitOptions o;
   o.max_iterations = 0;
@@ -138,6 +172,9 @@ TEST(BadInput, BadOptionsAreRejected) {
   EXPECT_THROW(FitPlaneRobust(Points3::Random(3, 10), r), GeometryError);
   r = RobustOptions{};
   r.inlier_threshold_mm = NAN;
+  EXPECT_THROW(FitPlaneRobust(Points3::Random(3, 10), r), GeometryError);
+  r = RobustOptions{};
+  r.least_squares.max_iterations = 0;
   EXPECT_THROW(FitPlaneRobust(Points3::Random(3, 10), r), GeometryError);
 }
 

@@ -7,7 +7,10 @@
 /// and minimum-circumscribed circle (the smallest ring over a boss) give functional sizes
 /// (ISO 14405-1 GX/GN). Circles in 3D are solved in the least-squares plane of the points.
 ///
-/// Errors: GeometryError (kTooFewPoints, kNonFinite, kDegenerate, kUnbounded, kNotConverged).
+/// Errors: GeometryError (kTooFewPoints, kNonFinite, kDegenerate, kUnbounded; kNotConverged
+/// when an LP has no solution): no answer. A zone that is a valid zone but not shown minimal
+/// (the iterations ran out, or the least-squares start did not converge) is returned with
+/// stats.converged = false: an expected numerical outcome is a result (docs/DEVELOPING.md).
 
 #include "mlp/geometry/fit_result.h"
 #include "mlp/geometry/types.h"
@@ -44,12 +47,20 @@ struct FunctionalCircleFit {
   FitStats stats;
 };
 
-MinZoneLineFit FitMinZoneLine(const Points3& points);
-MinZonePlaneFit FitMinZonePlane(const Points3& points);
-MinZoneCircleFit FitMinZoneCircle(const Points3& points);
+struct ZoneOptions {
+  /// Outer iterations: sequential-LP steps for the circles (minimum zone, maximum inscribed),
+  /// re-alignment passes for lines and planes (at most 8). Running out is not an error: the
+  /// zone found so far, with stats.converged = false.
+  int max_iterations = 200;
+  void Check() const;
+};
+
+MinZoneLineFit FitMinZoneLine(const Points3& points, const ZoneOptions& options = {});
+MinZonePlaneFit FitMinZonePlane(const Points3& points, const ZoneOptions& options = {});
+MinZoneCircleFit FitMinZoneCircle(const Points3& points, const ZoneOptions& options = {});
 /// Largest circle with no point inside (a bore's functional size). Throws kUnbounded when the
 /// points do not surround a centre (an arc under 180 deg).
-FunctionalCircleFit FitMaxInscribedCircle(const Points3& points);
+FunctionalCircleFit FitMaxInscribedCircle(const Points3& points, const ZoneOptions& options = {});
 /// Smallest circle containing every point (a boss's functional size). Exact (Welzl 1991).
 FunctionalCircleFit FitMinCircumscribedCircle(const Points3& points);
 

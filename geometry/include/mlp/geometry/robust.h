@@ -6,7 +6,15 @@
 /// one). Then iterative trimming: points within the threshold are refitted by least squares and
 /// re-selected until the inlier set is stable. The final result is the ordinary least-squares
 /// fit of the inliers, so its statistics and covariance keep their meaning.
+///
+/// Errors: GeometryError (kTooFewPoints, kNonFinite; kDegenerate when no sample gives a shape
+/// or too few points stay within the threshold: no answer). The least-squares fit of the
+/// inliers follows RobustOptions::least_squares: by default a fit that does not converge throws
+/// kNotConverged; with require_convergence off it is returned with fit.stats.converged = false
+/// (an expected numerical outcome is a result, docs/DEVELOPING.md). Samples that give no
+/// shape or do not converge are skipped, never reported.
 
+#include "mlp/geometry/fit.h"
 #include "mlp/geometry/fit_result.h"
 #include "mlp/geometry/types.h"
 
@@ -23,6 +31,9 @@ struct RobustOptions {
   double confidence = 0.999;  ///< MSAC stops adaptively at this probability of a clean sample
   uint64_t random_seed = 42;  ///< fixed seed: same cloud, same answer
   int max_refinements = 20;
+  /// The least-squares fits of the inliers (iterations, require_convergence). The minimal
+  /// samples are fitted with the defaults.
+  FitOptions least_squares;
   void Check() const;
 };
 
@@ -32,6 +43,12 @@ struct RobustFitResult {
   std::vector<int> inliers;   ///< indices into the input
   double threshold_mm = 0.0;  ///< threshold finally used
   int samples = 0;            ///< consensus samples drawn
+  /// The inlier set stopped changing within RobustOptions::max_refinements. False: it still
+  /// changed in the last refinement (points at the threshold going in and out); `fit` and
+  /// `inliers` are the last set's, which agree with each other.
+  bool inliers_settled = false;
+  /// Both: the inliers settled and their least-squares fit converged (fit.stats.converged).
+  bool Converged() const { return inliers_settled && fit.stats.converged; }
 };
 
 RobustFitResult<Line3> FitLine3Robust(const Points3& points, const RobustOptions& options = {});

@@ -41,6 +41,8 @@ struct BoreMeasurement {
   /// points projected along the fitted axis; 0 when the points span 180 deg or less (no
   /// functional size from under half a circle).
   double functional_diameter_mm = 0.0;
+  /// The functional size's Chebyshev fit reached a stationary point (geometry chebyshev.h).
+  bool functional_converged = true;
   double rms_mm = 0.0, max_abs_mm = 0.0;
   int points = 0;
   double arc_span_deg = 0.0;  ///< 360 minus the largest angular gap between wall points
@@ -78,6 +80,8 @@ struct PlaneMeasurement {
   /// Minimum-zone flatness of the points used (ISO 12781), Chebyshev fit [mm]; 0 unless
   /// PlaneNominal::flatness asked for it.
   double flatness_mm = 0.0;
+  /// The flatness's minimum-zone fit found its zone (geometry chebyshev.h); true when none asked.
+  bool flatness_converged = true;
   /// The area the points cover: 1 mm squares of the plane holding a point [mm^2] (the
   /// plausibility gate's coverage for faces).
   double area_mm2 = 0.0;
