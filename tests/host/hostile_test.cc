@@ -315,6 +315,19 @@ TEST(HostileClient, ARepeatedRequestCompensatesOnce) {
     EXPECT_EQ(r.exit_code, 7);
     EXPECT_NE(r.err.find(reason), std::string::npos) << r.err;
   }
+  // The whole request is read before any capture is loaded: with captures that do not exist,
+  // a bad field is still what the error names.
+  for (const auto& [field, value, reason] :
+       {std::tuple{"size", json("q"), "request.size must be ls or functional (mic)"},
+        {"tolerance", json("tight"), "request.tolerance"},
+        {"position_tol_mm", json("small"), "request.position_tol_mm"}}) {
+    json bad = measure;
+    bad["captures"] = {987654};
+    bad[field] = value;
+    const auto r = site.Mlp("request " + site.Request("bad", bad));
+    EXPECT_EQ(r.exit_code, 7);
+    EXPECT_NE(r.err.find(reason), std::string::npos) << r.err;
+  }
   EXPECT_EQ(test::ReadText(site.dir / "tool.tbl"), table_before);
   measure["request_id"] = "part-0042-bore-A";
   const auto first = site.Mlp("request " + site.Request("measure", measure));
@@ -549,9 +562,12 @@ TEST(HostileClient, AFullQueueHoldsUpNobodyElse) {
   EXPECT_EQ(busy, kQueued - 5);
   // ...and meanwhile status and the other machine answer (the client's own 5 s limit).
   EXPECT_TRUE(StatusOk(site));
-  const auto other =
-      site.Mlp("request " +
-               site.Request("plan", {{"op", "plan"}, {"machine", "lcnc-1"}, {"feature", "face"}}));
+  // A well-formed plan (a job reads its whole request first), which only the calibration stops.
+  const json plan = {{"op", "plan"},
+                     {"machine", "lcnc-1"},
+                     {"feature", "face"},
+                     {"nominal", {{"point_mm", {0, 0, 0}}, {"normal", {0, 0, 1}}}}};
+  const auto other = site.Mlp("request " + site.Request("plan", plan));
   EXPECT_EQ(other.exit_code, 7);  // answered (the probe has no calibration), not held up
   EXPECT_NE(other.err.find("no calibration"), std::string::npos) << other.err;
   // SIGTERM fails the waiting captures at once rather than waiting out their timeouts.

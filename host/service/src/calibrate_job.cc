@@ -17,22 +17,59 @@ double Radius(const json& r) {
   return radius;
 }
 
+void RequireCaptures(const json& r) {
+  if (!r.contains("captures")) throw JobInputError("request.captures must list capture jobs");
+}
+
+// A calibrate request, read once and checked before any capture is loaded.
+calib::HandEyeOptions ParseCalibrateRequest(const json& r) {
+  calib::HandEyeOptions o;
+  o.sphere_radius_mm = Radius(r);
+  o.max_std_mm = jf::NumberOr<JobInputError>(r, "max_std_mm", o.max_std_mm, "request");
+  if (r.contains("known_centre_mm")) {
+    const json& k = r.at("known_centre_mm");  // [x|null, y|null, z|null]
+    if (!k.is_array() || k.size() != 3)
+      throw JobInputError("request.known_centre_mm is [x, y, z] with null where unknown");
+    for (size_t i = 0; i < 3; ++i)
+      if (k[i].is_number()) o.known_centre_mcs[i] = k[i].get<double>();
+  }
+  RequireCaptures(r);
+  return o;
+}
+
+struct RecheckRequest {
+  double sphere_radius_mm = 0.0;
+  bool sphere_moved = false;
+};
+
+RecheckRequest ParseRecheckRequest(const json& r) {
+  RecheckRequest q;
+  q.sphere_radius_mm = Radius(r);
+  q.sphere_moved = jf::FlagOr<JobInputError>(r, "sphere_moved", false, "request");
+  RequireCaptures(r);
+  return q;
+}
+
+// The full calibration a recheck is measured against: the probe's latest, against a sphere.
+calib::CalibrationRecord RecheckOriginal(const JobContext& ctx,
+                                         const calib::CalibrationStore& store) {
+  const auto original = store.Latest(ctx.machine.probe_serial, calib::RecordKind::kHandEye);
+  if (!original)
+    throw JobInputError("probe " + ctx.machine.probe_serial +
+                        " has no full calibration to recheck against");
+  if (original->reference != calib::Reference::kSphere)
+    throw JobInputError("the latest full calibration of probe " + ctx.machine.probe_serial +
+                        " was measured against a board: a recheck needs a sphere calibration");
+  return *original;
+}
+
 }  // namespace
 
+// The pipeline: request -> evidence (the stored sphere captures) -> solve -> record.
 json RunCalibrateJob(JobContext& ctx, const json& r) {
   JobRun run(ctx, "calibrate", r);
   try {
-    calib::HandEyeOptions o;
-    o.sphere_radius_mm = Radius(r);
-    o.max_std_mm = jf::NumberOr<JobInputError>(r, "max_std_mm", o.max_std_mm, "request");
-    if (r.contains("known_centre_mm")) {
-      const json& k = r.at("known_centre_mm");  // [x|null, y|null, z|null]
-      if (!k.is_array() || k.size() != 3)
-        throw JobInputError("request.known_centre_mm is [x, y, z] with null where unknown");
-      for (size_t i = 0; i < 3; ++i)
-        if (k[i].is_number()) o.known_centre_mcs[i] = k[i].get<double>();
-    }
-    if (!r.contains("captures")) throw JobInputError("request.captures must list capture jobs");
+    const calib::HandEyeOptions o = ParseCalibrateRequest(r);
     std::vector<calib::SphereCapture> captures;
     for (auto& s : LoadStoredCaptures(ctx, r.at("captures"), run.job))
       captures.push_back({s.id, s.mcs_from_flange, std::move(s.points_in_probe), false});
@@ -52,35 +89,31 @@ json RunCalibrateJob(JobContext& ctx, const json& r) {
   }
 }
 
+// The pipeline: request -> the original calibration -> evidence -> recheck -> record, or a
+// refusal that asks for a full calibration.
 json RunRecheckJob(JobContext& ctx, const json& r) {
   JobRun run(ctx, "recheck", r);
   try {
+    const RecheckRequest request = ParseRecheckRequest(r);
     const calib::CalibrationStore store(ctx.config.CalibrationDir());
-    const auto original = store.Latest(ctx.machine.probe_serial, calib::RecordKind::kHandEye);
-    if (!original)
-      throw JobInputError("probe " + ctx.machine.probe_serial +
-                          " has no full calibration to recheck against");
-    if (original->reference != calib::Reference::kSphere)
-      throw JobInputError("the latest full calibration of probe " + ctx.machine.probe_serial +
-                          " was measured against a board: a recheck needs a sphere calibration");
+    const calib::CalibrationRecord original = RecheckOriginal(ctx, store);
     calib::RecheckOptions o;
-    o.sphere_radius_mm = Radius(r);
-    o.original_flange_from_probe = original->flange_from_probe;
-    o.original_centre_mcs = original->sphere_centre_mcs;
-    o.sphere_moved = r.value("sphere_moved", false);
-    if (!r.contains("captures")) throw JobInputError("request.captures must list capture jobs");
+    o.sphere_radius_mm = request.sphere_radius_mm;
+    o.sphere_moved = request.sphere_moved;
+    o.original_flange_from_probe = original.flange_from_probe;
+    o.original_centre_mcs = original.sphere_centre_mcs;
     std::vector<calib::RecheckCapture> captures;
     for (auto& s : LoadStoredCaptures(ctx, r.at("captures"), run.job))
       captures.push_back({s.id, s.mcs_from_flange, std::move(s.points_in_probe)});
     const calib::RecheckResult c = calib::Recheck(captures, o);
-    run.reply["parent_id"] = original->calibration_id;
+    run.reply["parent_id"] = original.calibration_id;
     run.reply.update(json(calib::RecheckResultJson(c)));
     ctx.history.AddResult(run.job, {"recheck", run.reply, json::object()});
     if (c.full_calibration_required) {
       run.reply["error"] = "full calibration required: " + c.reason;
       return run.Finish(history::JobStatus::kRefused, false);
     }
-    run.reply["calibration_id"] = store.Save(calib::MakeRecord(*original, c, captures));
+    run.reply["calibration_id"] = store.Save(calib::MakeRecord(original, c, captures));
     return run.Finish(history::JobStatus::kDone, true);
   } catch (const std::exception& e) {
     return run.Fail(e);

@@ -1,16 +1,20 @@
 #pragma once
-// The features a measure job knows (internal to mlp_service): each parses its nominal from the
-// request, measures it from the mapped points (mlp::jobs) and says what the shared decision
-// needs: the toleranced size, how its error moves an offset, its numbers for the reply and the
+// The features a measure job knows (internal to mlp_service): each reads its part of the
+// request once into a FeatureRequest (nominal, the size decided on, its tolerances), checked
+// before any capture is loaded; then measures it from the mapped points (mlp::jobs) and says
+// what the shared decision needs: the toleranced size, its numbers for the reply and the
 // evidence for the plausibility gate.
 
+#include "mlp/jobs/composite.h"
 #include "mlp/jobs/decision.h"
 #include "mlp/jobs/feature.h"
 #include "mlp/jobs/plan.h"
 #include "mlp/jobs/report.h"
+#include "mlp/jobs/surface.h"
 
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "job_common.h"
@@ -18,17 +22,53 @@
 
 namespace mlp::service {
 
-struct Measured {
-  std::string feature;
+/// A feature's nominal (request.feature and request.nominal): what a plan places its views by
+/// and a measurement segments the points by.
+struct FeatureNominal {
+  using Shape = std::variant<jobs::BoreNominal,
+                             jobs::PlaneNominal,
+                             jobs::WidthNominal,
+                             jobs::RectangleNominal,
+                             jobs::StepNominal,
+                             jobs::AngleNominal,
+                             jobs::PcdNominal,
+                             jobs::EllipseNominal,
+                             jobs::SurfaceNominal>;
+  std::string feature;  ///< "bore", "face", ... (CheckFeatureName)
+  Shape shape;
+};
+
+/// What a kind of feature is, whatever its nominal: how its size error moves an offset.
+struct FeatureTraits {
   std::string size_name;  ///< the LinuxCNC parameter: #<_mlp_<size_name>>
   std::string unit = "mm";
-  double size = 0.0;
-  jobs::SizeSpec spec;
   /// Offset change per unit of size error; nullopt: the feature moves no offset (an angle, a
   /// bolt circle, a surface profile), and an update asked for is refused as input.
   std::optional<double> change_per_error;
   /// The offset it moves: a length (a face's height, a step) or else a radius (a size across).
   bool moves_length = false;
+  /// It has a position a work offset can be set from (a centre, a face's point).
+  bool has_position = false;
+};
+
+/// A measure request's feature part, every field read and checked.
+struct FeatureRequest {
+  FeatureNominal nominal;
+  FeatureTraits traits;
+  /// The size decided on where there is a choice: "ls" or "functional" (a bore, a boss),
+  /// "x" or "y" (a rectangle), "major" or "minor" (an ellipse); empty where there is none.
+  std::string size;
+  jobs::SizeSpec spec;                       ///< that size's nominal and band
+  std::optional<jobs::SizeSpec> other_spec;  ///< a rectangle's other size, held to its band
+  std::optional<double> position_tol_mm;     ///< true position (ISO 1101), where asked
+  std::optional<double> flatness_tol_mm;     ///< a face's flatness, where asked
+};
+
+struct Measured {
+  std::string feature;
+  FeatureTraits traits;
+  double size = 0.0;
+  jobs::SizeSpec spec;
   nlohmann::json fields;
   jobs::FitEvidence fe;
   /// Other tolerances of the job that were exceeded (flatness, true position, the second size
@@ -42,18 +82,19 @@ struct Measured {
   geometry::Vec3 nominal_mcs = geometry::Vec3::Zero();
 };
 
-/// Throws JobInputError listing the features known when `feature` is not one of them.
-void CheckFeatureName(const std::string& feature);
+/// request.feature and request.nominal. Throws JobInputError (an unknown feature, listing the
+/// known ones; a field missing or wrong). `data_dir` resolves relative nominal files.
+FeatureNominal ParseFeatureNominal(const nlohmann::json& request, const std::string& data_dir);
 
-/// Throws JobInputError (an unknown feature, a field missing or wrong), jobs::FeatureError (not
-/// measurable from these points). `data_dir` resolves relative nominal files.
-Measured MeasureFeature(const nlohmann::json& request,
-                        const Evidence& evidence,
-                        const std::string& data_dir);
+/// The nominal, and the size, tolerances and limits a measure request gives it. Throws
+/// JobInputError.
+FeatureRequest ParseFeatureRequest(const nlohmann::json& request, const std::string& data_dir);
 
-/// The views a feature's capture plan needs (mlp::jobs plan.h), from the same request.
-std::vector<jobs::ViewTarget> FeatureViews(const nlohmann::json& request,
-                                           const std::string& data_dir,
+/// Throws jobs::FeatureError (not measurable from these points).
+Measured MeasureFeature(const FeatureRequest& request, const Evidence& evidence);
+
+/// The views a feature's capture plan needs (mlp::jobs plan.h).
+std::vector<jobs::ViewTarget> FeatureViews(const FeatureNominal& nominal,
                                            const jobs::PlanOptions& options);
 
 }  // namespace mlp::service

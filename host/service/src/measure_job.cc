@@ -1,3 +1,4 @@
+#include "mlp/base/check.h"
 #include "mlp/base/clock.h"
 #include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
@@ -36,8 +37,7 @@ nc::ToolRegister RegisterOf(const std::string& s) {
       s + "\"");
 }
 
-// What a measure request asks for besides the feature itself (which MeasureFeature reads): read
-// once, every field checked, before any capture is loaded.
+// A measure request: read once, every field checked, before any capture is loaded.
 struct ToolUpdateRequest {
   int offset = 0;
   nc::ToolRegister reg = nc::ToolRegister::kRadiusWear;
@@ -51,7 +51,7 @@ struct WorkUpdateRequest {
 };
 
 struct MeasureRequest {
-  std::string feature;
+  FeatureRequest feature;
   std::optional<ToolUpdateRequest> update;
   std::optional<WorkUpdateRequest> update_work;
   bool report = true;
@@ -84,10 +84,28 @@ WorkUpdateRequest ParseWorkUpdate(const json& u) {
   return w;
 }
 
-MeasureRequest ParseMeasureRequest(const json& r) {
+// The updates asked for, against what the feature can move: a tool offset (its length or its
+// radius) and a work offset (from its position).
+void CheckUpdatesFit(const MeasureRequest& m) {
+  const std::string& feature = m.feature.nominal.feature;
+  const FeatureTraits& t = m.feature.traits;
+  if (m.update) {
+    if (!t.change_per_error)
+      throw JobInputError("request.update: a " + feature + " moves no tool offset (report only)");
+    const bool length_register = m.update->reg == nc::ToolRegister::kLengthGeometry ||
+                                 m.update->reg == nc::ToolRegister::kLengthWear;
+    if (length_register != t.moves_length)
+      throw JobInputError("request.update.register: a " + feature + " moves a tool's " +
+                          (t.moves_length ? "length" : "radius") + ", not its " +
+                          (length_register ? "length" : "radius"));
+  }
+  if (m.update_work && !t.has_position)
+    throw JobInputError("request.update_work: a " + feature + " has no position to set");
+}
+
+MeasureRequest ParseMeasureRequest(const json& r, const std::string& data_dir) {
   MeasureRequest m;
-  m.feature = jf::Text<JobInputError>(r, "feature", "request");
-  CheckFeatureName(m.feature);
+  m.feature = ParseFeatureRequest(r, data_dir);
   if (!r.contains("captures"))
     throw JobInputError("request.captures must list the capture jobs to use");
   if (r.contains("update"))
@@ -95,23 +113,15 @@ MeasureRequest ParseMeasureRequest(const json& r) {
   if (r.contains("update_work"))
     m.update_work = ParseWorkUpdate(jf::Object<JobInputError>(r, "update_work", "request"));
   m.report = jf::FlagOr<JobInputError>(r, "report", true, "request");
+  CheckUpdatesFit(m);
   return m;
 }
 
-// The feedback for the decision: none (report only), or the update asked for, checked against
-// what the measured feature moves.
+// The feedback for the decision: none (report only), or the update asked for (CheckUpdatesFit).
 jobs::Feedback FeedbackFor(const std::optional<ToolUpdateRequest>& u, const Measured& ms) {
   if (!u) return {};
-  if (!ms.change_per_error)
-    throw JobInputError("request.update: a " + ms.feature + " moves no tool offset (report only)");
-  const bool length_register =
-      u->reg == nc::ToolRegister::kLengthGeometry || u->reg == nc::ToolRegister::kLengthWear;
-  if (length_register != ms.moves_length)
-    throw JobInputError("request.update.register: a " + ms.feature + " moves a tool's " +
-                        (ms.moves_length ? "length" : "radius") + ", not its " +
-                        (length_register ? "length" : "radius"));
   jobs::Feedback f = u->feedback;
-  f.change_per_error = *ms.change_per_error;
+  f.change_per_error = *ms.traits.change_per_error;
   return f;
 }
 
@@ -119,8 +129,7 @@ jobs::Feedback FeedbackFor(const std::optional<ToolUpdateRequest>& u, const Meas
 std::optional<nc::WorkOffsetChange> WorkChangeFor(const std::optional<WorkUpdateRequest>& u,
                                                   const Measured& ms) {
   if (!u) return std::nullopt;
-  if (!ms.found_mcs)
-    throw JobInputError("request.update_work: a " + ms.feature + " has no position to set");
+  MLP_CHECK(ms.found_mcs.has_value());  // traits.has_position, checked with the request
   nc::WorkOffsetChange w;
   w.index = u->offset;
   w.incremental = true;
@@ -135,11 +144,12 @@ std::optional<nc::WorkOffsetChange> WorkChangeFor(const std::optional<WorkUpdate
 // The feature's numbers, a line each, as the picture lists them ("width 16.0140 mm"). Built
 // with streams: GCC 12 warns falsely (-Wrestrict) on long std::string + chains.
 std::vector<std::string> Lines(const Measured& ms, const jobs::SizeDecision& d) {
-  const bool deg = ms.unit == "deg";
+  const bool deg = ms.traits.unit == "deg";
   std::vector<std::string> out;
   std::ostringstream l;
-  l << std::fixed << std::setprecision(4) << "size " << ms.size << " " << ms.unit << " (nominal "
-    << ms.spec.nominal_mm << " +" << ms.spec.upper_tol_mm << "/-" << ms.spec.lower_tol_mm << ")";
+  l << std::fixed << std::setprecision(4) << "size " << ms.size << " " << ms.traits.unit
+    << " (nominal " << ms.spec.nominal_mm << " +" << ms.spec.upper_tol_mm << "/-"
+    << ms.spec.lower_tol_mm << ")";
   out.push_back(l.str());
   l.str("");
   l << std::setprecision(1) << "error " << (deg ? d.error_mm * 3600 : d.error_mm * 1e3)
@@ -208,8 +218,7 @@ std::string WriteReport(JobContext& ctx,
   }
   const std::filesystem::path dir(ctx.config.ReportDir());
   std::filesystem::create_directories(dir);
-  const std::string path =
-      (dir / (ctx.machine.name + "-job" + std::to_string(job) + ".svg")).string();
+  std::string path = (dir / (ctx.machine.name + "-job" + std::to_string(job) + ".svg")).string();
   base::WriteFileAtomically(path, svg);
   return path;
 }
@@ -239,8 +248,8 @@ json ResultFields(const Measured& ms,
   json fields = ms.fields;
   fields.update({{"feature", ms.feature},
                  {"calibration_id", cal.calibration_id},
-                 {"size_" + ms.unit, ms.size},
-                 {"error_" + ms.unit, d.error_mm},
+                 {"size_" + ms.traits.unit, ms.size},
+                 {"error_" + ms.traits.unit, d.error_mm},
                  {"verdict", o.verdict},
                  {"reason", o.reason},
                  {"offset_change_mm", d.offset_change_mm},
@@ -279,8 +288,9 @@ nc::NcResult ControllerResult(const MachineConfig& m,
   nc::NcResult out;
   out.header = "mlprobe job " + std::to_string(job) + ": " + ms.feature + " " + o.verdict;
   if (m.controller.kind == ControllerConfig::Kind::kLinuxCnc)
-    out.named = {
-        {"status", o.in_tolerance ? 0.0 : 1.0}, {ms.size_name, ms.size}, {"error", d.error_mm}};
+    out.named = {{"status", o.in_tolerance ? 0.0 : 1.0},
+                 {ms.traits.size_name, ms.size},
+                 {"error", d.error_mm}};
   if (d.update) {
     std::string note;
     const nc::ToolOffsetChange t =
@@ -325,10 +335,10 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
   JobRun run(ctx, "measure", r);
   json& reply = run.reply;
   try {
-    const MeasureRequest request = ParseMeasureRequest(r);
+    const MeasureRequest request = ParseMeasureRequest(r, ctx.config.data_dir);
     const calib::CalibrationRecord& cal = run.Calibration();
     const Evidence ev = LoadCaptures(ctx, r.at("captures"), cal.flange_from_probe, run.job);
-    const Measured ms = MeasureFeature(r, ev, ctx.config.data_dir);
+    const Measured ms = MeasureFeature(request.feature, ev);
     const jobs::Feedback fb = FeedbackFor(request.update, ms);
     const auto work = WorkChangeFor(request.update_work, ms);
     const jobs::SizeDecision d = jobs::DecideSize(ms.size, ms.spec, fb);
@@ -337,7 +347,7 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
     ctx.history.AddResult(run.job, {ms.feature,
                                     reply,
                                     {{"verdict", o.verdict},
-                                     {"error_" + ms.unit, d.error_mm},
+                                     {"error_" + ms.traits.unit, d.error_mm},
                                      {"offset_change_mm", d.offset_change_mm},
                                      {"reason", o.reason}}});
     const auto problems =

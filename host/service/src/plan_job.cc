@@ -32,23 +32,39 @@ json CaptureJson(const jobs::PlannedCapture& c) {
           {"columns", {c.first_column, c.last_column, c.column_step}}};
 }
 
+// A plan request: the feature's nominal and the plan's options, read once and checked.
+struct PlanRequest {
+  FeatureNominal nominal;
+  jobs::PlanOptions options;
+};
+
+PlanRequest ParsePlanRequest(const json& r, const std::string& data_dir) {
+  return {ParseFeatureNominal(r, data_dir), ParseOptions(r)};
+}
+
+// The camera and projector model of the machine's probe, which a plan needs.
+probe_fw::ProbeModel PlanProbeModel(const JobContext& ctx) {
+  const auto probe =
+      std::find_if(ctx.config.probes.begin(), ctx.config.probes.end(),
+                   [&](const ProbeEntry& p) { return p.serial == ctx.machine.probe_serial; });
+  if (probe == ctx.config.probes.end() || probe->model_file.empty())
+    throw JobInputError("probe " + ctx.machine.probe_serial +
+                        " has no model_file in the configuration: a plan needs its camera "
+                        "and projector model");
+  return probe_fw::LoadProbeModel(probe->model_file);
+}
+
 }  // namespace
 
+// The pipeline: request -> the probe (its calibration and model) -> views -> captures -> reply.
 json RunPlanJob(JobContext& ctx, const json& r) {
   JobRun run(ctx, "plan", r);
   try {
+    const PlanRequest request = ParsePlanRequest(r, ctx.config.data_dir);
     const calib::CalibrationRecord& cal = run.Calibration();
-    const auto probe =
-        std::find_if(ctx.config.probes.begin(), ctx.config.probes.end(),
-                     [&](const ProbeEntry& p) { return p.serial == ctx.machine.probe_serial; });
-    if (probe == ctx.config.probes.end() || probe->model_file.empty())
-      throw JobInputError("probe " + ctx.machine.probe_serial +
-                          " has no model_file in the configuration: a plan needs its camera "
-                          "and projector model");
-    const probe_fw::ProbeModel model = probe_fw::LoadProbeModel(probe->model_file);
-    const jobs::PlanOptions options = ParseOptions(r);
-    const auto plan = jobs::PlanCaptures(FeatureViews(r, ctx.config.data_dir, options), model,
-                                         cal.flange_from_probe, options);
+    const probe_fw::ProbeModel model = PlanProbeModel(ctx);
+    const auto plan = jobs::PlanCaptures(FeatureViews(request.nominal, request.options), model,
+                                         cal.flange_from_probe, request.options);
     json captures = json::array();
     for (const auto& c : plan) captures.push_back(CaptureJson(c));
     run.reply["captures"] = captures;
