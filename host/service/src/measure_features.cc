@@ -50,7 +50,7 @@ std::optional<double> OptionalNumber(const json& r, const char* key) {
 std::string SizeChoice(const json& r,
                        const std::vector<std::string>& allowed,
                        const std::string& message) {
-  const std::string size = r.value("size", allowed.front());
+  std::string size = r.value("size", allowed.front());
   if (std::find(allowed.begin(), allowed.end(), size) == allowed.end())
     throw JobInputError("request.size must be " + message);
   return size;
