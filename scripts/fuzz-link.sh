@@ -15,7 +15,8 @@ clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-reco
   -print_final_stats=1 "$out/corpus" 2>&1 | tail -n 12
 mkdir -p "$out/corpus-requests"
 clang++ -std=c++20 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-  -Ihost/service/include host/service/src/request_json.cc tests/fuzz/job_request_fuzz.cc \
+  -Ihost/service/include -Igeometry/base/include host/service/src/request_json.cc \
+  tests/fuzz/job_request_fuzz.cc \
   -o "$out/job_request_fuzz"
 "$out/job_request_fuzz" -max_total_time="$seconds" -max_len=65536 -rss_limit_mb=1024 \
   -print_final_stats=1 "$out/corpus-requests" 2>&1 | tail -n 12

@@ -88,14 +88,9 @@ BoardViews LoadBoardViews(const std::string& manifest_path,
     if (!e.is_string())
       throw CaptureIoError(manifest_path + ": views[" + std::to_string(i) + "] must be a folder");
     const std::string dir = (base / e.get<std::string>()).string();
-    try {
-      out.views.push_back(LoadView(dir, static_cast<int>(i), with_stripes, sensor_width_px,
-                                   sensor_height_px, &out.probe_serial));
-    } catch (const probe_fw::FrameIoError& err) {
-      throw CaptureIoError(err.what());
-    } catch (const probe_fw::StripeFileError& err) {
-      throw CaptureIoError(err.what());
-    }
+    // A frame or stripe file that is wrong throws its own input error (base::InputError).
+    out.views.push_back(LoadView(dir, static_cast<int>(i), with_stripes, sensor_width_px,
+                                 sensor_height_px, &out.probe_serial));
     const GrayImage& first = out.views.front().led;
     if (out.views.back().led.width != first.width || out.views.back().led.height != first.height)
       throw CaptureIoError(dir + ": its LED frame differs in size from the first view's");

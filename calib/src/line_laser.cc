@@ -43,11 +43,7 @@ GrayImage Weighted(const std::string& path,
                    const probe_fw::ChannelWeights& w,
                    const probe_fw::RawBayer& raw) {
   probe_fw::Frame f;
-  try {
-    probe_fw::ReadImage(path, &f, w, raw);
-  } catch (const probe_fw::FrameIoError& e) {
-    throw CaptureIoError(e.what());
-  }
+  probe_fw::ReadImage(path, &f, w, raw);  // a bad image: FrameIoError, an input error
   return {f.aoi.width, f.aoi.height, f.bit_depth, std::move(f.pixels)};
 }
 

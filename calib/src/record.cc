@@ -284,11 +284,10 @@ CalibrationRecord CalibrationStore::Load(const std::string& serial, const std::s
   const fs::path path = fs::path(root_) / serial / (id + ".json");
   if (!fs::exists(path))
     throw RecordError("no calibration " + id + " of probe " + serial + " in " + root_);
+  const std::string text = base::ReadFileAs<RecordError>(path.string());
   try {
-    return ParseRecord(base::ReadFile(path.string()));
-  } catch (const base::FileError& e) {
-    throw RecordError(e.what());
-  } catch (const RecordError& e) {
+    return ParseRecord(text);
+  } catch (const RecordError& e) {  // the same error, with the file the parser did not know
     throw RecordError(path.string() + ": " + e.what());
   }
 }

@@ -152,13 +152,7 @@ RobotViews LoadRobotViews(const std::string& manifest_path) {
                            ": max_width_px 2..200, window_half_px 1..100, min_amplitude_dn > 0, "
                            "speckle_sigma_px 0..20");
   }
-  if (j.contains("raw")) {
-    try {
-      v.raw = probe_fw::ParseRawBayer(j.at("raw"), where + ".raw");
-    } catch (const probe_fw::FrameIoError& e) {
-      throw CaptureIoError(e.what());
-    }
-  }
+  if (j.contains("raw")) v.raw = probe_fw::ParseRawBayer(j.at("raw"), where + ".raw");
   const fs::path images = base / jf::Text<CaptureIoError>(j, "images", where);
   const jf::json& p = jf::Object<CaptureIoError>(j, "poses", where);
   const PoseConvention c = Convention(p, where + ".poses");

@@ -1,5 +1,6 @@
 #include "mlp/host/calibrate_command.h"
 
+#include "mlp/base/input_error.h"
 #include "mlp/base/units.h"
 #include "mlp/calib/camera_calib.h"
 #include "mlp/calib/capture_io.h"
@@ -292,17 +293,7 @@ int RunCalibrateCommand(const std::vector<std::string>& args,
     for (const auto& p : e.proposals()) err << "  to fix it: " << p << "\n";
     if (e.kind() == calib::HandEyeError::Kind::kUnderDetermined) return kExitUnderDetermined;
     return kExitBadInput;
-  } catch (const CloudIoError& e) {
-    err << "mlp calibrate: " << e.what() << "\n";
-  } catch (const calib::CaptureIoError& e) {
-    err << "mlp calibrate: " << e.what() << "\n";
-  } catch (const calib::RecordError& e) {
-    err << "mlp calibrate: " << e.what() << "\n";
-  } catch (const calib::CameraCalibError& e) {
-    err << "mlp calibrate: " << e.what() << "\n";
-  } catch (const probe_fw::CloudFileError& e) {
-    err << "mlp calibrate: " << e.what() << "\n";
-  } catch (const probe_fw::ProbeModelError& e) {
+  } catch (const base::InputError& e) {  // captures, images, records, models: bad input
     err << "mlp calibrate: " << e.what() << "\n";
   } catch (const std::exception& e) {
     err << "mlp calibrate: internal error: " << e.what() << "\n";

@@ -1,5 +1,6 @@
 #include "fw_command.h"
 
+#include "mlp/base/input_error.h"
 #include "mlp/probe_fw/cloud_io.h"
 #include "mlp/probe_fw/frame_source.h"
 #include "mlp/probe_fw/probe_model.h"
@@ -207,11 +208,7 @@ int Stripes(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     for (const StripePoint& p : found)
       file.points.push_back({p.x_px, p.y_px, l.laser_column, p.quality});
   }
-  try {
-    SaveStripeFile(file, path);
-  } catch (const StripeFileError& e) {
-    throw UsageError(e.what());
-  }
+  SaveStripeFile(file, path);
   s.laser_frames = frames.laser.size();
   s.points = file.points.size();
   s.roi_pixels = mask.PixelCount();
@@ -320,12 +317,12 @@ int RunFwCommand(const std::vector<std::string>& args, std::ostream& out, std::o
   } catch (const link::LinkError& e) {  // the key file: missing, unreadable, others may read it
     err << "mlp-fw: " << e.what() << "\n";
     return cli::kExitBadInput;
-  } catch (const ProbeModelError& e) {
-    err << "mlp-fw: " << e.what() << "\n";
-    return cli::kExitBadInput;
   } catch (const FrameIoError& e) {
     err << "mlp-fw: " << e.what() << "\n";
     return std::string(e.what()).rfind("camera", 0) == 0 ? cli::kExitNoDevice : cli::kExitBadInput;
+  } catch (const base::InputError& e) {  // the probe model, a stripe or cloud file
+    err << "mlp-fw: " << e.what() << "\n";
+    return cli::kExitBadInput;
   } catch (const std::exception& e) {
     err << "mlp-fw: internal error: " << e.what() << "\n";
     return cli::kExitFailure;

@@ -15,12 +15,7 @@ void WriteCloudPly(const std::string& path,
     xyz.insert(xyz.end(), {p.point_in_probe.x(), p.point_in_probe.y(), p.point_in_probe.z()});
     quality.push_back(static_cast<float>(p.quality));
   }
-  try {
-    WriteCloudPly(path, xyz, quality,
-                  {meta.probe_serial, meta.calibration_id, meta.capture_id, {}});
-  } catch (const CloudFileError& e) {
-    throw FrameIoError(e.what());
-  }
+  WriteCloudPly(path, xyz, quality, {meta.probe_serial, meta.calibration_id, meta.capture_id, {}});
 }
 
 }  // namespace mlp::probe_fw

@@ -1,5 +1,6 @@
 #include "mlp/grind/grind_job.h"
 
+#include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
 #include "mlp/grey_image/grey_image.h"
 
@@ -89,7 +90,7 @@ void RenderCase(const geometry::Profile2& nominal,
 void WritePgm(const std::string& path, int w, int h, const std::vector<std::uint8_t>& px) {
   try {
     grey_image::WritePgm(path, w, h, px);
-  } catch (const std::runtime_error& e) {
+  } catch (const base::FileError& e) {  // base's error, once, at this module's edge
     throw GrindError(e.what());
   }
 }

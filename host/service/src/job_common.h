@@ -2,6 +2,7 @@
 // What the host's jobs share (internal to mlp_service): the job context, request parsing of
 // common parts, and the stored captures mapped into the machine frame.
 
+#include "mlp/base/input_error.h"
 #include "mlp/calib/record.h"
 #include "mlp/geometry/types.h"
 #include "mlp/history/history.h"
@@ -28,9 +29,9 @@ struct JobContext {
 };
 
 /// A request that cannot be carried out as written: the message names the field.
-class JobInputError : public std::runtime_error {
+class JobInputError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 using Clock = std::chrono::steady_clock;

@@ -1,5 +1,6 @@
 #include "mlp/verify/acceptance.h"
 
+#include "mlp/base/input_error.h"
 #include "mlp/base/units.h"
 #include "mlp/calib/hand_eye.h"
 #include "mlp/geometry/fit.h"
@@ -385,14 +386,15 @@ double DorschLimitMm(const probe_fw::ProbeModel& m) {
 
 Machine LoadMachine(const AcceptanceOptions& o) {
   Machine m;
+  // Which of the two files is wrong, and its path: the parsers' messages name neither.
   try {
     m.as_built = sim::LoadAsBuilt(o.as_built_path);
-  } catch (const std::exception& e) {
+  } catch (const base::InputError& e) {
     throw VerifyError("the as-built probe " + o.as_built_path + ": " + e.what());
   }
   try {
     m.calibrated = probe_fw::LoadProbeModel(o.calibrated_path);
-  } catch (const std::exception& e) {
+  } catch (const base::InputError& e) {
     throw VerifyError("the calibrated model " + o.calibrated_path + ": " + e.what());
   }
   if (o.f_number) m.as_built.model.camera.f_number = *o.f_number;

@@ -1,5 +1,6 @@
 #include "sim_command.h"
 
+#include "mlp/base/input_error.h"
 #include "mlp/base/json_fields.h"
 #include "mlp/link/wire.h"
 #include "mlp/probe_fw/cloud_io.h"
@@ -208,22 +209,13 @@ int RunSimCommand(const std::vector<std::string>& args, std::ostream& out, std::
   } catch (const UsageError& e) {
     err << "mlp-sim: " << e.what() << "\n" << kUsage;
     return probe_fw::cli::kExitBadInput;
-  } catch (const probe_fw::ProbeModelError& e) {
-    err << "mlp-sim: " << e.what() << "\n";
-    return probe_fw::cli::kExitBadInput;
-  } catch (const SceneError& e) {
-    err << "mlp-sim: " << e.what() << "\n";
-    return probe_fw::cli::kExitBadInput;
-  } catch (const AsBuiltError& e) {
+  } catch (const base::InputError& e) {  // the probe model, the scene, the as-built file, frames
     err << "mlp-sim: " << e.what() << "\n";
     return probe_fw::cli::kExitBadInput;
   } catch (const link::LinkError& e) {  // a key file that is missing, unreadable or shared
     err << "mlp-sim: " << e.what() << "\n";
     return probe_fw::cli::kExitBadInput;
   } catch (const std::invalid_argument& e) {
-    err << "mlp-sim: " << e.what() << "\n";
-    return probe_fw::cli::kExitBadInput;
-  } catch (const probe_fw::FrameIoError& e) {
     err << "mlp-sim: " << e.what() << "\n";
     return probe_fw::cli::kExitBadInput;
   } catch (const std::exception& e) {

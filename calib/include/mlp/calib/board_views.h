@@ -30,7 +30,9 @@ struct BoardViews {
 
 /// Throws CaptureIoError naming the manifest entry or file: unreadable, another probe's frames,
 /// an LED frame that is not the whole sensor (`sensor_width_px` x `sensor_height_px`, when > 0),
-/// views of different sizes, or (with `with_stripes`) a view without stripes.json.
+/// views of different sizes, or (with `with_stripes`) a view without stripes.json. A capture
+/// folder, image or stripe file that cannot be read throws its reader's own error
+/// (probe_fw::FrameIoError, StripeFileError); all are base::InputError.
 BoardViews LoadBoardViews(const std::string& manifest_path,
                           bool with_stripes,
                           int sensor_width_px = 0,

@@ -4,6 +4,7 @@
 /// found and refined to sub-pixel, then calibrateCamera with Brown-Conrady k1 k2 p1 p2 k3).
 /// OpenCV stays behind this header.
 
+#include "mlp/base/input_error.h"
 #include "mlp/geometry/types.h"
 
 #include <cstdint>
@@ -42,9 +43,9 @@ struct CameraCalibration {
   std::vector<std::string> warnings;               ///< images without a board, and why
 };
 
-class CameraCalibError : public std::runtime_error {
+class CameraCalibError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 /// Needs the board found in at least 4 images; throws CameraCalibError otherwise.

@@ -3,6 +3,7 @@
 /// (`mlprobe-sphere-captures/1`, docs/CALIBRATION.md), OpenCV FileStorage profiles (a line
 /// scanner's x y z triplets, NaN where it saw nothing) and robot pose lists.
 
+#include "mlp/base/input_error.h"
 #include "mlp/calib/hand_eye.h"
 #include "mlp/geometry/types.h"
 
@@ -15,9 +16,9 @@
 
 namespace mlp::calib {
 
-class CaptureIoError : public std::runtime_error {
+class CaptureIoError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 /// The flat x y z list under `key` of an OpenCV FileStorage file (YAML, XML or JSON), as

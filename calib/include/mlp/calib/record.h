@@ -4,6 +4,7 @@
 /// atomically and never overwritten. A quick re-calibration is a new record whose parent is the
 /// full calibration it was computed from; the original stays.
 
+#include "mlp/base/input_error.h"
 #include "mlp/calib/board_hand_eye.h"
 #include "mlp/calib/hand_eye.h"
 #include "mlp/calib/recheck.h"
@@ -15,9 +16,9 @@
 
 namespace mlp::calib {
 
-class RecordError : public std::runtime_error {
+class RecordError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 enum class RecordKind { kHandEye, kRecheck };

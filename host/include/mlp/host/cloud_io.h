@@ -3,6 +3,7 @@
 /// `#` comments), `.pcd` and `.ply` (read with PCL through a plug-in loaded on first use, so
 /// programs that never read them do not pay PCL's start-up cost), or "-" for text on stdin.
 
+#include "mlp/base/input_error.h"
 #include "mlp/geometry/types.h"
 
 #include <stdexcept>
@@ -10,9 +11,9 @@
 
 namespace mlp::host {
 
-class CloudIoError : public std::runtime_error {
+class CloudIoError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 struct Cloud {

@@ -7,6 +7,8 @@
 /// <offset>] [D<diameter>] [I<front angle>] [J<back angle>] [Q<orientation>] [;comment]`, machine
 /// units, D a diameter. T and P are required; a tool number appears once.
 
+#include "mlp/base/input_error.h"
+
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -16,9 +18,9 @@
 namespace mlp::nc {
 
 /// A tool table that cannot be read, names the file and line; or an update that cannot apply.
-class ToolTableError : public std::runtime_error {
+class ToolTableError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 struct ToolRecord {

@@ -4,6 +4,7 @@
 /// known probes and their key files, and per machine its probe, controller adapter, safety
 /// limits and job timeout. Relative paths are relative to the configuration file's folder.
 
+#include "mlp/base/input_error.h"
 #include "mlp/jobs/decision.h"
 #include "mlp/nc/nc_output.h"
 
@@ -15,9 +16,9 @@
 namespace mlp::service {
 
 /// Names the file and the field.
-class ConfigError : public std::runtime_error {
+class ConfigError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 struct ProbeEntry {

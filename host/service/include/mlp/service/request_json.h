@@ -6,6 +6,8 @@
 /// that are UTF-8. Every defect is one typed error with a sentence for the operator, never a
 /// bare JSON exception that unwinds through a worker thread.
 
+#include "mlp/base/input_error.h"
+
 #include <cstddef>
 #include <stdexcept>
 #include <string>
@@ -21,9 +23,9 @@ constexpr std::size_t kMaxRequestBytes = 1u << 20;
 /// Nesting depth of a request's JSON, at most: the deepest request the host knows nests 5.
 constexpr int kMaxRequestDepth = 32;
 
-class RequestParseError : public std::runtime_error {
+class RequestParseError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 /// Parses a request's text: a JSON object, nesting at most kMaxRequestDepth deep, numbers within

@@ -5,6 +5,8 @@
 /// comments. Float keeps 8 nm at 120 mm, below any probe's resolution, and PCL and `mlp fit` read
 /// it. Written by the firmware (`mlp-fw run`) and by the host, which keeps every cloud a job used.
 
+#include "mlp/base/input_error.h"
+
 #include <array>
 #include <optional>
 #include <stdexcept>
@@ -15,9 +17,9 @@
 
 namespace mlp::probe_fw {
 
-class CloudFileError : public std::runtime_error {
+class CloudFileError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 struct CloudFileMeta {

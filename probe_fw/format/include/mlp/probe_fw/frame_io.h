@@ -5,6 +5,7 @@
 /// docs/PROBE.md) listing each image with its AOI, projector column and, for a colour camera, the
 /// weights of its channels.
 
+#include "mlp/base/input_error.h"
 #include "mlp/probe_fw/frame.h"
 
 #include <stdexcept>
@@ -15,9 +16,9 @@
 
 namespace mlp::probe_fw {
 
-class FrameIoError : public std::runtime_error {
+class FrameIoError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 /// How a colour image becomes the one value per pixel the firmware works on: v = r R + g G + b B,

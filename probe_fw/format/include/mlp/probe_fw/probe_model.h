@@ -7,6 +7,7 @@
 /// The projector is an inverse 1-D camera: projector column u (continuous) is the light plane
 /// x_proj / z_proj = (u - c) / f in the projector frame, whose pose is camera_from_projector.
 
+#include "mlp/base/input_error.h"
 #include "mlp/geometry/types.h"
 
 #include <stdexcept>
@@ -123,9 +124,9 @@ struct ProbeModel {
   void Validate() const;
 };
 
-class ProbeModelError : public std::runtime_error {
+class ProbeModelError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 /// Parses and validates; throws ProbeModelError with the field name on any problem.

@@ -11,15 +11,17 @@
 /// stripe runs down the image, a column where it runs along the rows). Version 1 files (rows
 /// only: y_px a whole row) read unchanged.
 
+#include "mlp/base/input_error.h"
+
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace mlp::probe_fw {
 
-class StripeFileError : public std::runtime_error {
+class StripeFileError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 struct StripeObservationRecord {

@@ -7,6 +7,7 @@
 /// camera (a plane-parallel plate) that shifts every ray sideways. The firmware and the host never
 /// read this file; the renderer renders with it.
 
+#include "mlp/base/input_error.h"
 #include "mlp/probe_fw/frame.h"
 #include "mlp/probe_fw/probe_model.h"
 
@@ -19,9 +20,9 @@ namespace mlp::sim {
 using geometry::Pose3;
 using geometry::Vec3;
 
-class AsBuiltError : public std::runtime_error {
+class AsBuiltError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 struct AsBuiltOptics {

@@ -5,6 +5,7 @@
 /// docs/SCENE.md. Ray casting follows Roth, "Ray casting for modeling solids" (CGIP 18, 1982):
 /// every solid returns the intervals of a ray inside it, and CSG combines interval lists.
 
+#include "mlp/base/input_error.h"
 #include "mlp/geometry/types.h"
 
 #include <memory>
@@ -106,9 +107,9 @@ struct Scene {
   bool Blocked(const Vec3& from, const Vec3& to, double margin_mm = 1e-4) const;
 };
 
-class SceneError : public std::runtime_error {
+class SceneError : public base::InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using base::InputError::InputError;
 };
 
 Scene ParseScene(const std::string& json_text);
