@@ -195,8 +195,7 @@ json FaceFields(const jobs::PlaneMeasurement& f) {
           {"area_mm2", f.area_mm2}};
 }
 
-Measured Cylindrical(const FeatureRequest& q, const Evidence& ev) {
-  const auto& n = std::get<jobs::BoreNominal>(q.nominal.shape);
+Measured Cylindrical(const FeatureRequest& q, const jobs::BoreNominal& n, const Evidence& ev) {
   const jobs::BoreMeasurement b = jobs::MeasureBore(ev.points_mcs, n);
   Measured m;
   const bool functional = q.size != "ls";
@@ -224,8 +223,8 @@ Measured Cylindrical(const FeatureRequest& q, const Evidence& ev) {
 }
 
 // A face: its height along the nominal normal (tolerance on it, nominal 0) and its flatness.
-Measured Face(const FeatureRequest& q, const Evidence& ev) {
-  jobs::PlaneNominal n = std::get<jobs::PlaneNominal>(q.nominal.shape);
+Measured Face(const FeatureRequest& q, const jobs::PlaneNominal& nominal, const Evidence& ev) {
+  jobs::PlaneNominal n = nominal;
   n.flatness = true;
   const jobs::PlaneMeasurement f = jobs::MeasurePlane(ev.points_mcs, n);
   Measured m;
@@ -245,8 +244,7 @@ Measured Face(const FeatureRequest& q, const Evidence& ev) {
 }
 
 // A slot/pocket width (inside) or a web: the distance between two opposite faces.
-Measured Width(const FeatureRequest& q, const Evidence& ev) {
-  const auto& n = std::get<jobs::WidthNominal>(q.nominal.shape);
+Measured Width(const FeatureRequest& /*request*/, const jobs::WidthNominal& n, const Evidence& ev) {
   const jobs::WidthMeasurement w = jobs::MeasureWidth(ev.points_mcs, n);
   Measured m;
   m.size = w.width_mm;
@@ -265,8 +263,7 @@ Measured Width(const FeatureRequest& q, const Evidence& ev) {
 
 // A rectangular pocket or boss: the decision on one size ("x" or "y"), the other held to its
 // own band (tolerance_y, default the same band).
-Measured Rectangle(const FeatureRequest& q, const Evidence& ev) {
-  const auto& n = std::get<jobs::RectangleNominal>(q.nominal.shape);
+Measured Rectangle(const FeatureRequest& q, const jobs::RectangleNominal& n, const Evidence& ev) {
   const jobs::RectangleMeasurement rect = jobs::MeasureRectangle(ev.points_mcs, n);
   Measured m;
   const bool x = q.size == "x";
@@ -289,9 +286,8 @@ Measured Rectangle(const FeatureRequest& q, const Evidence& ev) {
   return m;
 }
 
-Measured Step(const FeatureRequest& q, const Evidence& ev) {
-  const jobs::StepMeasurement s =
-      jobs::MeasureStep(ev.points_mcs, std::get<jobs::StepNominal>(q.nominal.shape));
+Measured Step(const FeatureRequest& /*request*/, const jobs::StepNominal& n, const Evidence& ev) {
+  const jobs::StepMeasurement s = jobs::MeasureStep(ev.points_mcs, n);
   Measured m;
   m.size = s.height_mm;
   m.fields = {{"height_mm", s.height_mm},
@@ -305,8 +301,7 @@ Measured Step(const FeatureRequest& q, const Evidence& ev) {
   return m;
 }
 
-Measured Angle(const FeatureRequest& q, const Evidence& ev) {
-  const auto& n = std::get<jobs::AngleNominal>(q.nominal.shape);
+Measured Angle(const FeatureRequest& /*request*/, const jobs::AngleNominal& n, const Evidence& ev) {
   const jobs::AngleMeasurement a = jobs::MeasureAngle(ev.points_mcs, n);
   Measured m;
   m.size = a.angle_deg;
@@ -321,8 +316,7 @@ Measured Angle(const FeatureRequest& q, const Evidence& ev) {
   return m;
 }
 
-Measured Pcd(const FeatureRequest& q, const Evidence& ev) {
-  const auto& n = std::get<jobs::PcdNominal>(q.nominal.shape);
+Measured Pcd(const FeatureRequest& q, const jobs::PcdNominal& n, const Evidence& ev) {
   const jobs::PcdMeasurement p = jobs::MeasurePcd(ev.points_mcs, n);
   Measured m;
   m.size = p.diameter_mm;
@@ -350,8 +344,7 @@ Measured Pcd(const FeatureRequest& q, const Evidence& ev) {
   return m;
 }
 
-Measured Ellipse(const FeatureRequest& q, const Evidence& ev) {
-  const auto& n = std::get<jobs::EllipseNominal>(q.nominal.shape);
+Measured Ellipse(const FeatureRequest& q, const jobs::EllipseNominal& n, const Evidence& ev) {
   const jobs::EllipseMeasurement e = jobs::MeasureEllipse(ev.points_mcs, n);
   Measured m;
   m.size = q.size == "major" ? e.major_mm : e.minor_mm;
@@ -373,8 +366,9 @@ Measured Ellipse(const FeatureRequest& q, const Evidence& ev) {
 
 // A surface patch against its nominal: the profile (2 max |deviation|) against its tolerance.
 // The deviations are the measurement, not fit residuals: the RMS limit does not apply.
-Measured Surface(const FeatureRequest& q, const Evidence& ev) {
-  const auto& nominal = std::get<jobs::SurfaceNominal>(q.nominal.shape);
+Measured Surface(const FeatureRequest& /*request*/,
+                 const jobs::SurfaceNominal& nominal,
+                 const Evidence& ev) {
   const jobs::SurfaceMeasurement s = jobs::MeasureSurface(ev.points_mcs, nominal);
   Measured m;
   m.size = s.profile_mm;
@@ -421,6 +415,31 @@ struct Feature {
   std::function<std::vector<jobs::ViewTarget>(const Shape&, const jobs::PlanOptions&)> views;
 };
 
+// One feature's row, written against its own nominal type; Row() stores it behind the variant.
+template <class Nominal>
+struct TypedFeature {
+  FeatureTraits traits;
+  std::function<Nominal(const json& nominal, const std::string& data_dir)> nominal;
+  std::function<void(const json& request, const Nominal&, FeatureRequest*)> sizes;
+  std::function<Measured(const FeatureRequest&, const Nominal&, const Evidence&)> measure;
+  std::function<std::vector<jobs::ViewTarget>(const Nominal&, const jobs::PlanOptions&)> views;
+};
+
+template <class Nominal>
+Feature Row(TypedFeature<Nominal> t) {
+  return {t.traits,
+          [p = t.nominal](const json& j, const std::string& dir) -> Shape { return p(j, dir); },
+          [s = t.sizes](const json& r, FeatureRequest* q) {
+            s(r, std::get<Nominal>(q->nominal.shape), q);
+          },
+          [m = t.measure](const FeatureRequest& q, const Evidence& ev) {
+            return m(q, std::get<Nominal>(q.nominal.shape), ev);
+          },
+          [v = t.views](const Shape& s, const jobs::PlanOptions& o) {
+            return v(std::get<Nominal>(s), o);
+          }};
+}
+
 // Traits: the offset a size error moves, per unit of error (a bore 6 um small: its radius
 // offset drops 3 um; a boss, a web the other way; a face proud by e: the tool is e shorter
 // than its offset says).
@@ -432,159 +451,120 @@ FeatureTraits Traits(std::string size_name,
   return {std::move(size_name), std::move(unit), change_per_error, moves_length, has_position};
 }
 
+using O = jobs::PlanOptions;
+
 Feature Cylinder(bool boss) {
-  Feature f;
-  f.traits = Traits("diameter", boss ? -0.5 : 0.5, false, true);
-  f.nominal = [boss](const json& j, const std::string&) -> Shape {
-    jobs::BoreNominal n = ParseBoreNominal(j, kNom);
-    n.boss = boss;
-    return n;
-  };
-  f.sizes = [boss](const json& r, FeatureRequest* q) {
-    const char* functional = boss ? "mcc" : "mic";
-    q->size = SizeChoice(r, {"ls", "functional", functional},
-                         std::string("ls or functional (") + functional + ")");
-    if (q->size != "ls") q->size = "functional";
-    q->spec = Spec(r, "tolerance", std::get<jobs::BoreNominal>(q->nominal.shape).diameter_mm, "mm");
-    q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
-  };
-  f.measure = Cylindrical;
-  f.views = [](const Shape& s, const jobs::PlanOptions& o) {
-    return jobs::BoreViews("wall", std::get<jobs::BoreNominal>(s), o);
-  };
-  return f;
+  const char* functional = boss ? "mcc" : "mic";
+  return Row<jobs::BoreNominal>(
+      {Traits("diameter", boss ? -0.5 : 0.5, false, true),
+       [boss](const json& j, const std::string&) {
+         jobs::BoreNominal n = ParseBoreNominal(j, kNom);
+         n.boss = boss;
+         return n;
+       },
+       [functional](const json& r, const jobs::BoreNominal& n, FeatureRequest* q) {
+         q->size = SizeChoice(r, {"ls", "functional", functional},
+                              std::string("ls or functional (") + functional + ")");
+         if (q->size != "ls") q->size = "functional";
+         q->spec = Spec(r, "tolerance", n.diameter_mm, "mm");
+         q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
+       },
+       Cylindrical,
+       [](const jobs::BoreNominal& n, const O& o) { return jobs::BoreViews("wall", n, o); }});
 }
 
 Feature FaceFeature() {
-  Feature f;
-  f.traits = Traits("height", -1.0, true, true);
-  f.nominal = [](const json& j, const std::string&) -> Shape { return ParsePlaneNominal(j, kNom); };
-  f.sizes = [](const json& r, FeatureRequest* q) {
-    q->spec = Spec(r, "tolerance", 0.0, "mm");
-    q->flatness_tol_mm = OptionalNumber(r, "flatness_tol_mm");
-  };
-  f.measure = Face;
-  f.views = [](const Shape& s, const jobs::PlanOptions& o) {
-    return jobs::FaceViews("face", std::get<jobs::PlaneNominal>(s), o);
-  };
-  return f;
+  return Row<jobs::PlaneNominal>(
+      {Traits("height", -1.0, true, true),
+       [](const json& j, const std::string&) { return ParsePlaneNominal(j, kNom); },
+       [](const json& r, const jobs::PlaneNominal&, FeatureRequest* q) {
+         q->spec = Spec(r, "tolerance", 0.0, "mm");
+         q->flatness_tol_mm = OptionalNumber(r, "flatness_tol_mm");
+       },
+       Face,
+       [](const jobs::PlaneNominal& n, const O& o) { return jobs::FaceViews("face", n, o); }});
 }
 
 Feature WidthFeature(bool inside) {
-  Feature f;
-  f.traits = Traits("width", inside ? 0.5 : -0.5, false, true);  // the side cutter's radius
-  f.nominal = [inside](const json& j, const std::string&) -> Shape {
-    return ParseWidth(j, inside);
-  };
-  f.sizes = [](const json& r, FeatureRequest* q) {
-    q->spec = Spec(r, "tolerance", std::get<jobs::WidthNominal>(q->nominal.shape).width_mm, "mm");
-  };
-  f.measure = Width;
-  f.views = [](const Shape& s, const jobs::PlanOptions& o) {
-    return jobs::WidthViews(std::get<jobs::WidthNominal>(s), o);
-  };
-  return f;
+  return Row<jobs::WidthNominal>(
+      {Traits("width", inside ? 0.5 : -0.5, false, true),  // the side cutter's radius
+       [inside](const json& j, const std::string&) { return ParseWidth(j, inside); },
+       [](const json& r, const jobs::WidthNominal& n, FeatureRequest* q) {
+         q->spec = Spec(r, "tolerance", n.width_mm, "mm");
+       },
+       Width, jobs::WidthViews});
 }
 
 Feature RectangleFeature(bool inside) {
-  Feature f;
-  f.traits = Traits("size", inside ? 0.5 : -0.5, false, true);
-  f.nominal = [inside](const json& j, const std::string&) -> Shape {
-    return ParseRectangle(j, inside);
-  };
-  f.sizes = [](const json& r, FeatureRequest* q) {
-    const auto& n = std::get<jobs::RectangleNominal>(q->nominal.shape);
-    q->size = SizeChoice(r, {"x", "y"}, "x or y");
-    const bool x = q->size == "x";
-    q->spec = Spec(r, "tolerance", x ? n.size_x_mm : n.size_y_mm, "mm");
-    q->other_spec = Spec(r, r.contains("tolerance_y") ? "tolerance_y" : "tolerance",
-                         x ? n.size_y_mm : n.size_x_mm, "mm");
-    q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
-  };
-  f.measure = Rectangle;
-  f.views = [](const Shape& s, const jobs::PlanOptions& o) {
-    return jobs::RectangleViews(std::get<jobs::RectangleNominal>(s), o);
-  };
-  return f;
+  return Row<jobs::RectangleNominal>(
+      {Traits("size", inside ? 0.5 : -0.5, false, true),
+       [inside](const json& j, const std::string&) { return ParseRectangle(j, inside); },
+       [](const json& r, const jobs::RectangleNominal& n, FeatureRequest* q) {
+         q->size = SizeChoice(r, {"x", "y"}, "x or y");
+         const bool x = q->size == "x";
+         q->spec = Spec(r, "tolerance", x ? n.size_x_mm : n.size_y_mm, "mm");
+         q->other_spec = Spec(r, r.contains("tolerance_y") ? "tolerance_y" : "tolerance",
+                              x ? n.size_y_mm : n.size_x_mm, "mm");
+         q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
+       },
+       Rectangle, jobs::RectangleViews});
 }
 
+// A step and an angle: their size's nominal is a field of the nominal no jobs type holds.
 Feature StepFeature() {
-  Feature f;
-  f.traits = Traits("height", -1.0, true, false);  // face B cut by the tool to correct
-  f.nominal = [](const json& j, const std::string&) -> Shape { return ParseStep(j); };
-  f.sizes = [](const json& r, FeatureRequest* q) {
-    q->spec = Spec(r, "tolerance", jf::Number<JobInputError>(Nominal(r), "height_mm", kNom), "mm");
-  };
-  f.measure = Step;
-  f.views = [](const Shape& s, const jobs::PlanOptions& o) {
-    const auto& n = std::get<jobs::StepNominal>(s);
-    return Join(jobs::FaceViews("face_a", n.a, o), jobs::FaceViews("face_b", n.b, o));
-  };
-  return f;
+  return Row<jobs::StepNominal>(
+      {Traits("height", -1.0, true, false),  // face B cut by the tool to correct
+       [](const json& j, const std::string&) { return ParseStep(j); },
+       [](const json& r, const jobs::StepNominal&, FeatureRequest* q) {
+         const double height_mm = jf::Number<JobInputError>(Nominal(r), "height_mm", kNom);
+         q->spec = Spec(r, "tolerance", height_mm, "mm");
+       },
+       Step,
+       [](const jobs::StepNominal& n, const O& o) {
+         return Join(jobs::FaceViews("face_a", n.a, o), jobs::FaceViews("face_b", n.b, o));
+       }});
 }
 
 Feature AngleFeature() {
-  Feature f;
-  f.traits = Traits("angle", std::nullopt, false, false, "deg");
-  f.nominal = [](const json& j, const std::string&) -> Shape { return ParseAngle(j); };
-  f.sizes = [](const json& r, FeatureRequest* q) {
-    q->spec = Spec(r, "tolerance", jf::Number<JobInputError>(Nominal(r), "angle_deg", kNom), "deg");
-  };
-  f.measure = Angle;
-  f.views = [](const Shape& s, const jobs::PlanOptions& o) {
-    return AngleViews(std::get<jobs::AngleNominal>(s), o);
-  };
-  return f;
+  return Row<jobs::AngleNominal>({Traits("angle", std::nullopt, false, false, "deg"),
+                                  [](const json& j, const std::string&) { return ParseAngle(j); },
+                                  [](const json& r, const jobs::AngleNominal&, FeatureRequest* q) {
+                                    const double angle_deg =
+                                        jf::Number<JobInputError>(Nominal(r), "angle_deg", kNom);
+                                    q->spec = Spec(r, "tolerance", angle_deg, "deg");
+                                  },
+                                  Angle, AngleViews});
 }
 
 Feature PcdFeature() {
-  Feature f;
-  f.traits = Traits("diameter", std::nullopt, false, true);
-  f.nominal = [](const json& j, const std::string&) -> Shape { return ParsePcd(j); };
-  f.sizes = [](const json& r, FeatureRequest* q) {
-    q->spec = Spec(r, "tolerance", std::get<jobs::PcdNominal>(q->nominal.shape).diameter_mm, "mm");
-    q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
-  };
-  f.measure = Pcd;
-  f.views = [](const Shape& s, const jobs::PlanOptions& o) {
-    return PcdViews(std::get<jobs::PcdNominal>(s), o);
-  };
-  return f;
+  return Row<jobs::PcdNominal>({Traits("diameter", std::nullopt, false, true),
+                                [](const json& j, const std::string&) { return ParsePcd(j); },
+                                [](const json& r, const jobs::PcdNominal& n, FeatureRequest* q) {
+                                  q->spec = Spec(r, "tolerance", n.diameter_mm, "mm");
+                                  q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
+                                },
+                                Pcd, PcdViews});
 }
 
 Feature EllipseFeature(bool inside) {
-  Feature f;
-  f.traits = Traits("diameter", inside ? 0.5 : -0.5, false, true);
-  f.nominal = [inside](const json& j, const std::string&) -> Shape {
-    return ParseEllipse(j, inside);
-  };
-  f.sizes = [](const json& r, FeatureRequest* q) {
-    const auto& n = std::get<jobs::EllipseNominal>(q->nominal.shape);
-    q->size = SizeChoice(r, {"major", "minor"}, "major or minor");
-    q->spec = Spec(r, "tolerance", q->size == "major" ? n.major_mm : n.minor_mm, "mm");
-    q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
-  };
-  f.measure = Ellipse;
-  f.views = [](const Shape& s, const jobs::PlanOptions& o) {
-    return jobs::EllipseViews(std::get<jobs::EllipseNominal>(s), o);
-  };
-  return f;
+  return Row<jobs::EllipseNominal>(
+      {Traits("diameter", inside ? 0.5 : -0.5, false, true),
+       [inside](const json& j, const std::string&) { return ParseEllipse(j, inside); },
+       [](const json& r, const jobs::EllipseNominal& n, FeatureRequest* q) {
+         q->size = SizeChoice(r, {"major", "minor"}, "major or minor");
+         q->spec = Spec(r, "tolerance", q->size == "major" ? n.major_mm : n.minor_mm, "mm");
+         q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
+       },
+       Ellipse, jobs::EllipseViews});
 }
 
 Feature SurfaceFeature() {
-  Feature f;
-  f.traits = Traits("profile", std::nullopt, false, false);
-  f.nominal = [](const json& j, const std::string& dir) -> Shape {
-    return SurfaceNominalOf(j, dir);
-  };
-  f.sizes = [](const json& r, FeatureRequest* q) {
-    q->spec = {0.0, jf::Number<JobInputError>(r, "profile_tol_mm", "request"), 0.0};
-  };
-  f.measure = Surface;
-  f.views = [](const Shape& s, const jobs::PlanOptions& o) {
-    return jobs::SurfaceViews(std::get<jobs::SurfaceNominal>(s), o);
-  };
-  return f;
+  return Row<jobs::SurfaceNominal>(
+      {Traits("profile", std::nullopt, false, false), SurfaceNominalOf,
+       [](const json& r, const jobs::SurfaceNominal&, FeatureRequest* q) {
+         q->spec = {0.0, jf::Number<JobInputError>(r, "profile_tol_mm", "request"), 0.0};
+       },
+       Surface, jobs::SurfaceViews});
 }
 
 const std::map<std::string, Feature>& Features() {
