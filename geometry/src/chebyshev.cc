@@ -171,29 +171,39 @@ internal::LpResult InscribedLp(const Eigen::VectorXd& r, const Points2& u, doubl
   return SolveSmallLp(c, a, r, bound);
 }
 
-// Straightness and flatness: the LP minimises the zone measured along the frame's last axis;
-// re-aligning that axis with the zone's normal and solving again converges to the orthogonal
-// zone (the tilt falls by orders of magnitude per pass). A pass is kept only if it narrows the
-// zone: among near-equal vertices the LP can return a slightly worse one, and the passes then
-// flip-flop (seen on 43,000 points of a milled face: 11.340 and 11.392 um in turn, the last
-// pass deciding which was reported). `realign(frame, &tilt)` gives the frame turned by the
-// LP's slopes, `width(frame)` the zone's width across it. Returns true when a pass no longer
-// narrows the zone or turns it (a fixed point); false when the passes ran out first.
-template <class Realign, class Width>
-bool RealignWhileNarrowing(Frame* f, int passes, const Realign& realign, const Width& width) {
-  double best = width(*f);
+// Straightness and flatness: the LP minimises the zone measured along one axis of the frame
+// (`across`); re-aligning that axis with the zone's normal and solving again converges to the
+// orthogonal zone (the tilt falls by orders of magnitude per pass). A pass is kept only if it
+// narrows the zone: among near-equal vertices the LP can return a slightly worse one, and the
+// passes then flip-flop (seen on the 43,074 points of the virtual probe's simulated plate face
+// in Hostd.AlignsThePlateToPlaneCircleCircle: 11.340 and 11.392 um in turn, the last pass
+// deciding which was reported). `realign(frame, local, &tilt)` gives the frame turned by the
+// LP's slopes, from the points in `frame` (`local`). On return `*local` holds the points in
+// `*f`: one transform per pass. Returns true when a pass no longer narrows the zone or turns
+// it (a fixed point); false when the passes ran out first.
+template <class Realign>
+bool RealignWhileNarrowing(const Points3& points,
+                           int across,
+                           int passes,
+                           const Realign& realign,
+                           Frame* f,
+                           Points3* local) {
+  const auto width = [across](const Points3& l) {
+    return l.row(across).maxCoeff() - l.row(across).minCoeff();
+  };
+  *local = f->Local(points);
+  double best = width(*local);
   for (int pass = 0; pass < passes; ++pass) {
     double tilt = 0.0;
-    const Frame turned = realign(*f, &tilt);
-    const double turned_width = width(turned);
+    const Frame turned = realign(*f, *local, &tilt);
+    Points3 turned_local = turned.Local(points);
+    const double turned_width = width(turned_local);
     if (!(turned_width < best)) return true;
-    *f = turned, best = turned_width;
+    *f = turned, *local = std::move(turned_local), best = turned_width;
     if (tilt < 1e-15) return true;
   }
   return false;
 }
-
-double Range(const Eigen::RowVectorXd& h) { return h.maxCoeff() - h.minCoeff(); }
 
 Circle3 ToCircle3(const Frame& f, const Vec2& c, double radius) {
   return Circle3{f.origin + f.u * c.x() + f.v * c.y(), f.w, radius};
@@ -251,8 +261,7 @@ MinZonePlaneFit FitMinZonePlane(const Points3& points, const ZoneOptions& option
   options.Check();
   const auto ls = FitPlane(points);  // checks the input
   Frame f{ls.shape.point, ls.covariance.u, ls.covariance.v, ls.shape.normal};
-  const auto realign = [&](const Frame& g, double* tilt) {
-    const Points3 local = g.Local(points);
+  const auto realign = [](const Frame& g, const Points3& local, double* tilt) {
     const Eigen::Vector2d slope = MinVerticalZone<2>(local.topRows<2>(), local.row(2).transpose());
     Frame turned = g;
     turned.w = (g.w - slope.x() * g.u - slope.y() * g.v).normalized();
@@ -260,10 +269,9 @@ MinZonePlaneFit FitMinZonePlane(const Points3& points, const ZoneOptions& option
     *tilt = slope.norm();
     return turned;
   };
-  const auto width = [&](const Frame& g) { return Range(g.Local(points).row(2)); };
-  const bool converged =
-      RealignWhileNarrowing(&f, std::min(kRealignPasses, options.max_iterations), realign, width);
-  const Points3 local = f.Local(points);
+  Points3 local;
+  const bool converged = RealignWhileNarrowing(
+      points, 2, std::min(kRealignPasses, options.max_iterations), realign, &f, &local);
   const double top = local.row(2).maxCoeff(), bottom = local.row(2).minCoeff();
   MinZonePlaneFit fit;
   fit.plane = Plane{f.origin + f.w * 0.5 * (top + bottom), internal::CanonicalSign<Vec3>(f.w)};
@@ -278,8 +286,7 @@ MinZoneLineFit FitMinZoneLine(const Points3& points, const ZoneOptions& options)
   const auto ls = FitLine3(points);  // checks the input
   // Profile plane: spanned by the line and the direction of largest spread across it.
   Frame f{ls.shape.point, ls.shape.direction, ls.covariance.u, ls.covariance.v};
-  const auto realign = [&](const Frame& g, double* tilt) {
-    const Points3 local = g.Local(points);
+  const auto realign = [](const Frame& g, const Points3& local, double* tilt) {
     const Eigen::Matrix<double, 1, 1> slope =
         MinVerticalZone<1>(local.topRows<1>(), local.row(1).transpose());
     Frame turned = g;
@@ -288,10 +295,9 @@ MinZoneLineFit FitMinZoneLine(const Points3& points, const ZoneOptions& options)
     *tilt = std::abs(slope(0));
     return turned;
   };
-  const auto width = [&](const Frame& g) { return Range(g.Local(points).row(1)); };
-  const bool converged =
-      RealignWhileNarrowing(&f, std::min(kRealignPasses, options.max_iterations), realign, width);
-  const Points3 local = f.Local(points);
+  Points3 local;
+  const bool converged = RealignWhileNarrowing(
+      points, 1, std::min(kRealignPasses, options.max_iterations), realign, &f, &local);
   const double top = local.row(1).maxCoeff(), bottom = local.row(1).minCoeff();
   MinZoneLineFit fit;
   fit.line = Line3{f.origin + f.v * 0.5 * (top + bottom), internal::CanonicalSign<Vec3>(f.u)};
