@@ -357,6 +357,96 @@ struct Model {
   }
 };
 
+// Jacobian row of one point's residual in (dtheta | t | c | scale | bias), analytically (see
+// Refine; the angle of incidence held where the bias is differentiated).
+Eigen::Matrix<double, 1, kParams> JacobianRow(const Model& m, const Pose3& h, const Vec3& p) {
+  const Vec3 a = m.rotation * m.Corrected(h, p);
+  const Vec3 w = h * (a + m.translation) - m.centre;
+  const Vec3 u = w / w.norm();
+  const Vec3 g = h.linear().transpose() * u;
+  const Vec3 g_probe = m.rotation.transpose() * g;
+  Eigen::Matrix<double, 1, kParams> row;
+  row << a.cross(g).transpose(), g.transpose(), -u.transpose(), g_probe.cwiseProduct(p).transpose(),
+      g_probe.z() * m.Incidence(h, p);
+  return row;
+}
+
+// The left Jacobian of SO(3) at `phi`: exp(phi + e) = exp(J_l(phi) e) exp(phi) to first order
+// (Barfoot, State Estimation for Robotics, 2017, eq. 7.77; series below 1e-4 rad).
+Mat3 LeftJacobianSo3(const Vec3& phi) {
+  const double angle = phi.norm();
+  Mat3 k;
+  k << 0, -phi.z(), phi.y(), phi.z(), 0, -phi.x(), -phi.y(), phi.x(), 0;
+  const double a2 = angle * angle;
+  const double first = angle < 1e-4 ? 0.5 - a2 / 24.0 : (1.0 - std::cos(angle)) / a2;
+  const double second =
+      angle < 1e-4 ? 1.0 / 6.0 - a2 / 120.0 : (angle - std::sin(angle)) / (a2 * angle);
+  return Mat3::Identity() + first * k + second * k * k;
+}
+
+// The residuals of PointOnSphere for a list of points of one capture, with the Jacobian written
+// out (JacobianRow, the rotation's column through the left Jacobian: the same parameters as
+// PointOnSphere). For a sensor whose incidence bias is held at zero, where JacobianRow is exact;
+// the bias's own column is never asked for then (its block is constant). Why not AutoDiff: on
+// 13 parameters its dual numbers and one block per point were 45 % of a calibration's time
+// (docs/BENCHMARKS.md); one block per capture keeps Ceres' per-block work to a few blocks.
+// Ceres applies a loss to a block's whole squared norm, so the Huber loss per point is applied
+// here: r' = sign(r) sqrt(rho(r^2)) with rho Ceres' HuberLoss, the same cost 1/2 sum rho(r^2)
+// and gradient (not the same Gauss-Newton steps as Ceres' corrector: the same minimum).
+class CaptureOnSphere : public ceres::CostFunction {
+ public:
+  CaptureOnSphere(geometry::Points3 points,
+                  const Mat3& rotation0,
+                  const Pose3& h,
+                  double radius_mm,
+                  double huber_mm)
+      : points_(std::move(points)), r0_(rotation0), h_(h), radius_(radius_mm), huber_(huber_mm) {
+    set_num_residuals(static_cast<int>(points_.cols()));
+    *mutable_parameter_block_sizes() = {3, 3, 3, 3, 1};
+  }
+  bool Evaluate(double const* const* x, double* residuals, double** jacobians) const override {
+    const Vec3 dtheta(x[0][0], x[0][1], x[0][2]);
+    Model m;
+    double rot[9];
+    ceres::AngleAxisToRotationMatrix(x[0], rot);  // column-major, as Blocks::ToModel
+    m.rotation = Eigen::Map<const Mat3>(rot) * r0_;
+    m.translation = Vec3(x[1][0], x[1][1], x[1][2]);
+    m.centre = Vec3(x[2][0], x[2][1], x[2][2]);
+    m.scale = Vec3(x[3][0], x[3][1], x[3][2]);
+    const Mat3 left = LeftJacobianSo3(dtheta);
+    for (Eigen::Index i = 0; i < points_.cols(); ++i) {
+      const Vec3 p = points_.col(i);
+      const double r = m.Residual(h_, p, radius_);
+      const bool beyond = huber_ > 0.0 && std::abs(r) > huber_;
+      // Beyond the Huber threshold d: rho = 2 d |r| - d^2, dr'/dr = d / |r'|.
+      residuals[i] =
+          beyond ? std::copysign(std::sqrt(2.0 * huber_ * std::abs(r) - huber_ * huber_), r) : r;
+      if (jacobians == nullptr) continue;
+      const Eigen::Matrix<double, 1, kParams> row =
+          JacobianRow(m, h_, p) * (beyond ? huber_ / std::abs(residuals[i]) : 1.0);
+      const Eigen::RowVector3d rotation_row = row.head<3>() * left;
+      Put(jacobians[0], i, rotation_row.data(), 3);
+      Put(jacobians[1], i, row.data() + 3, 3);
+      Put(jacobians[2], i, row.data() + 6, 3);
+      Put(jacobians[3], i, row.data() + kScale, 3);
+      Put(jacobians[4], i, row.data() + kBias, 1);
+    }
+    return true;
+  }
+
+ private:
+  // Row i of a row-major Jacobian block of `size` columns (none when Ceres does not ask).
+  static void Put(double* block, Eigen::Index i, const double* row, int size) {
+    if (block == nullptr) return;
+    for (int k = 0; k < size; ++k) block[i * size + k] = row[k];
+  }
+  geometry::Points3 points_;
+  Mat3 r0_;
+  Pose3 h_;
+  double radius_;
+  double huber_;  // [mm], 0: plain least squares
+};
+
 // Inlier lists per capture: indices into Prepared::points.
 using Selection = std::vector<std::vector<int>>;
 
@@ -390,6 +480,38 @@ struct Blocks {
   }
 };
 
+// One capture's points as residual blocks of `problem`, under a Huber loss when `loss` is given
+// (its threshold `huber_mm`). With the bias held at zero, one block for the capture with the
+// Jacobian written out; with the bias free, one automatically differentiated block per point
+// (the incidence angle's own derivative).
+void AddCapture(const Prepared& capture,
+                const std::vector<int>& selected,
+                const Model& start,
+                double radius_mm,
+                bool bias_free,
+                double huber_mm,
+                ceres::LossFunction* loss,
+                Blocks* x,
+                ceres::Problem* problem) {
+  if (selected.empty()) return;
+  const Pose3& h = capture.capture->mcs_from_flange;
+  if (bias_free || start.bias != 0.0) {
+    for (int j : selected) {
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PointOnSphere, 1, 3, 3, 3, 3, 1>(
+              new PointOnSphere(capture.points.col(j), start.rotation, h, radius_mm, bias_free)),
+          loss, x->dtheta, x->t, x->c, x->s, x->b);
+    }
+    return;
+  }
+  geometry::Points3 points(3, static_cast<Eigen::Index>(selected.size()));
+  for (size_t k = 0; k < selected.size(); ++k)
+    points.col(static_cast<Eigen::Index>(k)) = capture.points.col(selected[k]);
+  problem->AddResidualBlock(new CaptureOnSphere(std::move(points), start.rotation, h, radius_mm,
+                                                loss != nullptr ? huber_mm : 0.0),
+                            nullptr, x->dtheta, x->t, x->c, x->s, x->b);
+}
+
 Model Refine(const std::vector<Prepared>& prepared,
              const Selection& selection,
              const Model& start,
@@ -405,13 +527,8 @@ Model Refine(const std::vector<Prepared>& prepared,
   ceres::HuberLoss huber(huber_mm > 0 ? huber_mm : 1.0);
   ceres::LossFunction* loss = huber_mm > 0 ? &huber : nullptr;
   for (size_t i = 0; i < prepared.size(); ++i) {
-    const Pose3& h = prepared[i].capture->mcs_from_flange;
-    for (int j : selection[i]) {
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<PointOnSphere, 1, 3, 3, 3, 3, 1>(new PointOnSphere(
-              prepared[i].points.col(j), start.rotation, h, o.sphere_radius_mm, free.bias)),
-          loss, x.dtheta, x.t, x.c, x.s, x.b);
-    }
+    AddCapture(prepared[i], selection[i], start, o.sphere_radius_mm, free.bias, huber_mm, loss, &x,
+               &problem);
   }
   if (problem.NumResidualBlocks() == 0) return start;
   std::vector<int> fixed_centre, fixed_scale;
@@ -433,20 +550,6 @@ Model Refine(const std::vector<Prepared>& prepared,
   *iterations += static_cast<int>(summary.iterations.size());
   if (final_cost) *final_cost = summary.final_cost;
   return x.ToModel(start.rotation);
-}
-
-// Jacobian row of one point's residual in (dtheta | t | c | scale | bias), analytically (see
-// Refine; the angle of incidence held where the bias is differentiated).
-Eigen::Matrix<double, 1, kParams> JacobianRow(const Model& m, const Pose3& h, const Vec3& p) {
-  const Vec3 a = m.rotation * m.Corrected(h, p);
-  const Vec3 w = h * (a + m.translation) - m.centre;
-  const Vec3 u = w / w.norm();
-  const Vec3 g = h.linear().transpose() * u;
-  const Vec3 g_probe = m.rotation.transpose() * g;
-  Eigen::Matrix<double, 1, kParams> row;
-  row << a.cross(g).transpose(), g.transpose(), -u.transpose(), g_probe.cwiseProduct(p).transpose(),
-      g_probe.z() * m.Incidence(h, p);
-  return row;
 }
 
 struct Information {
