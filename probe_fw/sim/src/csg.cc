@@ -20,7 +20,7 @@ SurfaceHit Hit(double t, const Vec3& normal, double reflectance) {
 class Halfspace : public Solid {
  public:
   Halfspace(const Vec3& p, const Vec3& n, double refl) : p_(p), n_(n.normalized()), refl_(refl) {}
-  void Spans(const Ray& ray, std::vector<Span>* out) const override {
+  void Spans(const Ray& ray, SpanList* out) const override {
     const double s = n_.dot(ray.origin - p_), ds = n_.dot(ray.direction);
     if (ds == 0.0) {
       if (s <= 0.0)
@@ -43,7 +43,7 @@ class Halfspace : public Solid {
 class Box : public Solid {
  public:
   Box(const Vec3& lo, const Vec3& hi, double refl) : lo_(lo), hi_(hi), refl_(refl) {}
-  void Spans(const Ray& ray, std::vector<Span>* out) const override {
+  void Spans(const Ray& ray, SpanList* out) const override {
     double t_in = -kInf, t_out = kInf;
     int axis_in = -1, axis_out = -1;
     double sign_in = 0.0, sign_out = 0.0;
@@ -72,7 +72,7 @@ class Box : public Solid {
 class Sphere : public Solid {
  public:
   Sphere(const Vec3& c, double r, double refl) : c_(c), r_(r), refl_(refl) {}
-  void Spans(const Ray& ray, std::vector<Span>* out) const override {
+  void Spans(const Ray& ray, SpanList* out) const override {
     const Vec3 q = ray.origin - c_;
     const double b = q.dot(ray.direction), c = q.squaredNorm() - r_ * r_;
     const double disc = b * b - c;
@@ -103,7 +103,7 @@ class Revolution : public Solid {
         k_((r1 - r0) / length),
         refl_(refl) {}
 
-  void Spans(const Ray& ray, std::vector<Span>* out) const override {
+  void Spans(const Ray& ray, SpanList* out) const override {
     const Vec3 q = ray.origin - base_;
     const double h0 = q.dot(axis_), dh = ray.direction.dot(axis_);
     const Vec3 q_perp = q - h0 * axis_, d_perp = ray.direction - dh * axis_;
@@ -111,10 +111,10 @@ class Revolution : public Solid {
     const double a = d_perp.squaredNorm() - k_ * k_ * dh * dh;
     const double b = 2.0 * (q_perp.dot(d_perp) - k_ * dh * r_at0);
     const double c = q_perp.squaredNorm() - r_at0 * r_at0;
-    std::vector<Span> mantle;
+    SpanList mantle;
     MantleSpans(ray, a, b, c, &mantle);
     // The slab 0 <= h <= length, with the end caps as its faces.
-    std::vector<Span> slab;
+    SpanList slab;
     if (dh == 0.0) {
       if (h0 >= 0.0 && h0 <= length_)
         slab.push_back({Hit(-kInf, Vec3::Zero(), refl_), Hit(kInf, Vec3::Zero(), refl_)});
@@ -135,7 +135,7 @@ class Revolution : public Solid {
     return (perp - k_ * (r0_ + k_ * h) * axis_).normalized();
   }
 
-  void MantleSpans(const Ray& ray, double a, double b, double c, std::vector<Span>* out) const {
+  void MantleSpans(const Ray& ray, double a, double b, double c, SpanList* out) const {
     auto hit = [&](double t) { return Hit(t, NormalAt(ray.origin + t * ray.direction), refl_); };
     const double scale = std::max({std::abs(a), std::abs(b), std::abs(c), 1e-300});
     if (std::abs(a) <= 1e-14 * scale) {  // linear: ray parallel to a generatrix (or the axis)
@@ -168,9 +168,7 @@ class Revolution : public Solid {
     }
   }
 
-  static void IntersectLists(const std::vector<Span>& a,
-                             const std::vector<Span>& b,
-                             std::vector<Span>* out);
+  static void IntersectLists(const SpanList& a, const SpanList& b, SpanList* out);
 
   Vec3 base_, axis_;
   double length_, r0_, k_, refl_;
@@ -180,22 +178,22 @@ enum class Op { kUnion, kIntersection, kDifference };
 
 // Sweep over the boundary events of two span lists; emits the spans where op(in_a, in_b) holds.
 // A surface that bounds the result from the subtracted solid gets that solid's normal reversed.
-void Combine(const std::vector<Span>& a,
-             const std::vector<Span>& b,
-             Op op,
-             std::vector<Span>* out) {
+void Combine(const SpanList& a, const SpanList& b, Op op, SpanList* out) {
   struct Event {
     SurfaceHit hit;
     bool from_a, enter;
+    size_t order;
   };
-  std::vector<Event> events;
-  events.reserve(2 * (a.size() + b.size()));
+  boost::container::small_vector<Event, 16> events;
   for (const Span& s : a)
-    events.push_back({s.in, true, true}), events.push_back({s.out, true, false});
+    events.push_back({s.in, true, true, 0}), events.push_back({s.out, true, false, 0});
   for (const Span& s : b)
-    events.push_back({s.in, false, true}), events.push_back({s.out, false, false});
-  std::stable_sort(events.begin(), events.end(),
-                   [](const Event& x, const Event& y) { return x.hit.t < y.hit.t; });
+    events.push_back({s.in, false, true, 0}), events.push_back({s.out, false, false, 0});
+  // Stable by the events' order of listing, without std::stable_sort's heap buffer.
+  for (size_t i = 0; i < events.size(); ++i) events[i].order = i;
+  std::sort(events.begin(), events.end(), [](const Event& x, const Event& y) {
+    return x.hit.t < y.hit.t || (x.hit.t == y.hit.t && x.order < y.order);
+  });
   bool in_a = false, in_b = false, inside = false;
   SurfaceHit start;
   for (const Event& e : events) {
@@ -216,9 +214,7 @@ void Combine(const std::vector<Span>& a,
   }
 }
 
-void Revolution::IntersectLists(const std::vector<Span>& a,
-                                const std::vector<Span>& b,
-                                std::vector<Span>* out) {
+void Revolution::IntersectLists(const SpanList& a, const SpanList& b, SpanList* out) {
   Combine(a, b, Op::kIntersection, out);
 }
 
@@ -226,8 +222,8 @@ class Compound : public Solid {
  public:
   Compound(Op op, SolidPtr first, std::vector<SolidPtr> rest)
       : op_(op), first_(std::move(first)), rest_(std::move(rest)) {}
-  void Spans(const Ray& ray, std::vector<Span>* out) const override {
-    std::vector<Span> acc, next, combined;
+  void Spans(const Ray& ray, SpanList* out) const override {
+    SpanList acc, next, combined;
     first_->Spans(ray, &acc);
     for (const SolidPtr& s : rest_) {
       next.clear(), combined.clear();
@@ -252,7 +248,7 @@ class Finish : public Solid {
  public:
   Finish(SolidPtr solid, const Gloss& gloss, double diffuse)
       : solid_(std::move(solid)), gloss_(gloss), diffuse_(diffuse) {}
-  void Spans(const Ray& ray, std::vector<Span>* out) const override {
+  void Spans(const Ray& ray, SpanList* out) const override {
     const size_t first = out->size();
     solid_->Spans(ray, out);
     for (size_t i = first; i < out->size(); ++i) {
@@ -297,9 +293,9 @@ class Chessboard : public Solid {
         square_(square),
         light_(light),
         dark_(dark) {}
-  void Spans(const Ray& ray, std::vector<Span>* out) const override {
+  void Spans(const Ray& ray, SpanList* out) const override {
     const Ray local{board_from_mcs_ * ray.origin, board_from_mcs_.linear() * ray.direction};
-    std::vector<Span> spans;
+    SpanList spans;
     box_.Spans(local, &spans);
     for (Span& s : spans) {
       for (SurfaceHit* h : {&s.in, &s.out}) {
@@ -369,7 +365,7 @@ SolidPtr MakeDifference(SolidPtr a, std::vector<SolidPtr> b) {
 }
 
 std::optional<SurfaceHit> Scene::FirstHit(const Ray& ray, double t_min) const {
-  std::vector<Span> spans;
+  SpanList spans;
   workpiece->Spans(ray, &spans);
   for (const Span& s : spans) {
     if (s.in.t > t_min && std::isfinite(s.in.t)) return s.in;
@@ -383,7 +379,7 @@ bool Scene::Blocked(const Vec3& from, const Vec3& to, double margin_mm) const {
   const double length = d.norm();
   if (length <= 2.0 * margin_mm) return false;
   const Ray ray{from, d / length};
-  std::vector<Span> spans;
+  SpanList spans;
   workpiece->Spans(ray, &spans);
   for (const Span& s : spans) {
     if (s.out.t > margin_mm && s.in.t < length - margin_mm) return true;

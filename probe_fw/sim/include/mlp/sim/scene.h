@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include <boost/container/small_vector.hpp>
+
 namespace mlp::sim {
 
 using geometry::Pose3;
@@ -45,11 +47,16 @@ struct Span {
   SurfaceHit in, out;
 };
 
+/// A ray's spans in a solid. A ray crosses a part's solid a few times, so the list is kept on
+/// the stack: a heap list per ray and per CSG node was most of a frame's time under
+/// AddressSanitizer, whose allocator records a stack trace per allocation.
+using SpanList = boost::container::small_vector<Span, 8>;
+
 class Solid {
  public:
   virtual ~Solid() = default;
   /// Appends the sorted, disjoint spans of `ray` inside the solid.
-  virtual void Spans(const Ray& ray, std::vector<Span>* out) const = 0;
+  virtual void Spans(const Ray& ray, SpanList* out) const = 0;
   /// Whether any face has a specular lobe (then light reflects onto other faces).
   virtual bool Glossy() const { return false; }
 };
