@@ -7,6 +7,8 @@
 #include <random>
 #include <stdexcept>
 
+#include <Eigen/Core>
+
 namespace mlp::sim {
 namespace {
 
@@ -66,17 +68,18 @@ SpeckleImager::SpeckleImager(
 // Adds one scatterer's field (amplitude a, light e) at padded position (x, y) through the kernel.
 void SpeckleImager::Scatter(int x, int y, std::complex<float> a, float e) {
   const int Wp = w_ * q_ + 2 * reach_;
+  // Whole rows as Eigen arrays: vectorised on every compiler, and under AddressSanitizer checked
+  // a packet at a time rather than a float at a time (the loop written per tap was two thirds
+  // of a sanitized acceptance run). The same operations per tap, so the same numbers.
+  using Row = Eigen::Map<Eigen::ArrayXf>;
+  using ConstRow = Eigen::Map<const Eigen::ArrayXf>;
   for (const KernelRow& row : kernel_) {
     const size_t o = static_cast<size_t>(y + row.dy) * Wp + static_cast<size_t>(x + row.dx0);
-    float* __restrict re = re_.data() + o;
-    float* __restrict im = im_.data() + o;
-    float* __restrict inc = incoherent_.data() + o;
-    const float* amp = row.amplitude.data();
-    const float* pw = row.power.data();
-    const int n = static_cast<int>(row.amplitude.size());
-    for (int k = 0; k < n; ++k) {
-      re[k] += amp[k] * a.real(), im[k] += amp[k] * a.imag(), inc[k] += pw[k] * e;
-    }
+    const auto n = static_cast<Eigen::Index>(row.amplitude.size());
+    const ConstRow amp(row.amplitude.data(), n), power(row.power.data(), n);
+    Row(re_.data() + o, n) += amp * a.real();
+    Row(im_.data() + o, n) += amp * a.imag();
+    Row(incoherent_.data() + o, n) += power * e;
   }
 }
 
