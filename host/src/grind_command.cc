@@ -178,17 +178,11 @@ void PrintPoints(const grind::GrindJob& job,
 int Measure(const std::vector<std::string>& args, std::ostream& out) {
   const Args f(args, {{"--job", "--png"}, {"--json"}});
   const std::string text = ReadInputFile(f.Text("--job"));
-  grind::GrindJob job;
-  std::unique_ptr<geometry::Profile2> p;
-  try {
-    job = grind::ParseJob(text);
-    p = std::make_unique<geometry::Profile2>(job.profile);
-  } catch (const std::exception& e) {
-    throw UsageError(f.Text("--job") + ": " + e.what());
-  }
+  const grind::GrindJob job = grind::ParseJob(text, f.Text("--job"));
+  const geometry::Profile2 p(job.profile);  // checked by ParseJob
   const std::vector<grind::PointResult> results =
-      MeasurePoints(job, *p, fs::path(f.Text("--job")).parent_path());
-  if (f.Has("--png")) Picture(f.Text("--png"), job, *p, results);
+      MeasurePoints(job, p, fs::path(f.Text("--job")).parent_path());
+  if (f.Has("--png")) Picture(f.Text("--png"), job, p, results);
   if (f.Has("--json")) {
     out << nlohmann::ordered_json{{"limit_mm", job.limit_mm}, {"points", PointsJson(results)}}
                .dump()
@@ -214,6 +208,9 @@ int RunGrindCommand(const std::vector<std::string>& args, std::ostream& out, std
     return args[0] == "render" ? Render(rest, out, err) : Measure(rest, out);
   } catch (const UsageError& e) {
     err << "mlp grind: " << e.what() << "\n" << kUsage;
+    return kExitBadInput;
+  } catch (const base::InputError& e) {  // the job file, its camera, frames that do not fit
+    err << "mlp grind: " << e.what() << "\n";
     return kExitBadInput;
   } catch (const grind::GrindError& e) {
     err << "mlp grind: " << e.what() << "\n";

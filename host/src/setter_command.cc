@@ -40,13 +40,8 @@ namespace fs = std::filesystem;
 // Every sub-command takes these switches.
 const std::set<std::string> kSwitches = {"--json", "--leaving"};
 
-// A signal file that cannot be read is bad input (exit 2), not a measurement without result.
 setter::BeamSignal ReadSignal(const std::string& path) {
-  try {
-    return setter::ParseBeamSignal(ReadInputFile(path), path);
-  } catch (const setter::SetterError& e) {
-    throw UsageError(e.what());
-  }
+  return setter::ParseBeamSignal(ReadInputFile(path), path);
 }
 
 std::vector<double> Radii(const std::string& list) {
@@ -81,12 +76,7 @@ int Simulate(const std::vector<std::string>& args, std::ostream& out) {
   m.entering = !f.Has("--leaving");
   const auto seed = static_cast<unsigned>(f.Number("--seed", 1));
   tool.start_turn_rad = 0.37 * seed;
-  setter::BeamSignal s;
-  try {
-    s = setter::GenerateSignal(beam, tool, m, seed);
-  } catch (const setter::SetterError& e) {
-    throw UsageError(e.what());
-  }
+  const setter::BeamSignal s = setter::GenerateSignal(beam, tool, m, seed);
   const std::string path = f.Text("--out");
   WriteOutputFile(path, setter::BeamSignalText(s));
   WriteOutputFile(path + ".truth.json", setter::BeamTruthJson(s));
@@ -120,11 +110,7 @@ setter::ProcessorConfig ProcessorConfigFrom(const Args& f, const setter::BeamSig
   c.feed_mm_min = f.Number("--feed-mm-min", 0.0);
   c.entering = !f.Has("--leaving");
   c.threshold_share = f.Number("--threshold-share", c.threshold_share);
-  try {
-    c.curve = setter::ParseCurve(ReadInputFile(f.Text("--curve")));
-  } catch (const setter::SetterError& e) {
-    throw UsageError(f.Text("--curve") + ": " + e.what());
-  }
+  c.curve = setter::ParseCurve(ReadInputFile(f.Text("--curve")), f.Text("--curve"));
   return c;
 }
 
@@ -195,12 +181,7 @@ int Process(const std::vector<std::string>& args, std::ostream& out, std::ostrea
                 kSwitches});
   const setter::BeamSignal s = ReadSignal(f.Text("--signal"));
   const setter::ProcessorConfig c = ProcessorConfigFrom(f, s);
-  std::unique_ptr<setter::BeamProcessor> p;
-  try {
-    p = std::make_unique<setter::BeamProcessor>(c);
-  } catch (const setter::SetterError& e) {
-    throw UsageError(e.what());
-  }
+  const auto p = std::make_unique<setter::BeamProcessor>(c);
   for (float v : s.volts) p->Push(v);
   const nlohmann::ordered_json j = ProcessJson(*p, c.teeth);
   const int code = p->Triggered() ? kExitOk : kExitNoResult;
@@ -228,6 +209,9 @@ int RunSetterCommand(const std::vector<std::string>& args, std::ostream& out, st
     throw UsageError("expected: mlp setter simulate, calibrate or process");
   } catch (const UsageError& e) {
     err << "mlp setter: " << e.what() << "\n" << kUsage;
+    return kExitBadInput;
+  } catch (const base::InputError& e) {  // a signal or curve file, a model out of range
+    err << "mlp setter: " << e.what() << "\n";
     return kExitBadInput;
   } catch (const setter::SetterError& e) {
     err << "mlp setter: " << e.what() << "\n";

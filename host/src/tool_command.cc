@@ -145,21 +145,11 @@ int Render(const RenderOptions& o,
            const toolcam::StrobePlan& plan,
            std::ostream& out,
            std::ostream& err) {
-  toolcam::ToolDescription tool;
-  try {
-    tool = toolcam::LoadTool(o.tool);
-  } catch (const toolcam::ToolError& e) {
-    err << "mlp tool: " << e.what() << "\n";
-    return kExitBadInput;
-  }
+  const toolcam::ToolDescription tool = toolcam::LoadTool(o.tool);
   toolcam::ToolCameraModel camera = o.camera;
   if (tool.pin && !o.placed)  // a pin whole: its axis in the middle, its end above the blades
     camera.axis_u_px = camera.width_px / 2.0 - 6.3, camera.tip_v_px = 0.52 * camera.height_px;
-  try {
-    camera.Validate();
-  } catch (const toolcam::ToolError& e) {
-    throw UsageError(e.what());
-  }
+  camera.Validate();
   err << "mlp tool: rendering " << plan.positions << " frames of " << tool.id << "\n";
   const int n = toolcam::RenderToolSequence(tool, camera, plan, o.start_deg / base::kDegPerRad,
                                             o.seed, o.out, o.shift);
@@ -213,6 +203,9 @@ int RunToolCommand(const std::vector<std::string>& args, std::ostream& out, std:
     return kExitOk;
   } catch (const UsageError& e) {
     err << "mlp tool: " << e.what() << "\n" << kUsage;
+    return kExitBadInput;
+  } catch (const base::InputError& e) {  // a tool, images or calibration file, a camera model
+    err << "mlp tool: " << e.what() << "\n";
     return kExitBadInput;
   } catch (const toolcam::StrobeError& e) {
     err << "mlp tool: " << e.what() << "\n";

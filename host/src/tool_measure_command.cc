@@ -2,7 +2,6 @@
 // lists) measured against a tool description or a calibration pin; the camera's calibration
 // written and read; the measured tool into a LinuxCNC tool table (atomically, bounded, logged).
 
-#include "mlp/base/files.h"
 #include "mlp/host/cli.h"
 #include "mlp/nc/tool_table.h"
 #include "mlp/nc/tool_table_update.h"
@@ -50,12 +49,8 @@ struct Images : toolcam::ToolImages {
 Images ReadImages(const std::string& dir) {
   const std::string manifest = (fs::path(dir) / "images.json").string();
   Images im;
-  try {
-    static_cast<toolcam::ToolImages&>(im) =
-        toolcam::ParseToolImages(ReadInputFile(manifest), manifest);
-  } catch (const toolcam::ToolError& e) {
-    throw UsageError(e.what());
-  }
+  static_cast<toolcam::ToolImages&>(im) =
+      toolcam::ParseToolImages(ReadInputFile(manifest), manifest);
   for (const std::string& name : im.files) {
     const std::string file = (fs::path(dir) / name).string();
     const cv::Mat g = cv::imread(file, cv::IMREAD_GRAYSCALE);
@@ -65,14 +60,6 @@ Images ReadImages(const std::string& dir) {
     im.pixels.emplace_back(g.begin<std::uint8_t>(), g.end<std::uint8_t>());
   }
   return im;
-}
-
-toolcam::ToolDescription ReadTool(const std::string& path) {
-  try {
-    return toolcam::LoadTool(path);
-  } catch (const toolcam::ToolError& e) {
-    throw UsageError(e.what());
-  }
 }
 
 // The camera for the tool in these images: the calibration file's (with the spindle's shift
@@ -88,12 +75,8 @@ toolcam::ToolCameraModel CameraFor(const Images& im,
     return im.camera;
   }
   toolcam::ToolCameraModel base = im.camera;
-  toolcam::PinCalibration cal;
-  try {
-    cal = toolcam::ParseCameraCalibration(ReadInputFile(calibration_file), &base);
-  } catch (const toolcam::ToolError& e) {
-    throw UsageError(calibration_file + ": " + e.what());
-  }
+  const toolcam::PinCalibration cal =
+      toolcam::ParseCameraCalibration(ReadInputFile(calibration_file), &base, calibration_file);
   if (base.width_px != im.camera.width_px || base.height_px != im.camera.height_px)
     throw UsageError(calibration_file + " is for " + std::to_string(base.width_px) + " x " +
                      std::to_string(base.height_px) + " images, not these");
@@ -213,10 +196,8 @@ nc::ToolTableUpdateResult UpdateToolTable(const std::string& file,
   update.diameter_mm = 2 * m.radius_mm;
   try {
     return nc::UpdateToolTable(file, {update}, {max_change_mm, max_change_mm}, images);
-  } catch (const nc::ToolChangeRefused& e) {
+  } catch (const nc::ToolChangeRefused& e) {  // a refusal, said with the option that sets it
     throw RefusedError(std::string(e.what()) + " (--max-change-mm)");
-  } catch (const nc::ToolTableError& e) {  // the table, its log or the tool number: the input
-    throw UsageError(e.what());
   }
 }
 
@@ -240,11 +221,7 @@ void PrintMeasurement(const toolcam::ToolDescription& tool,
 void SaveReference(const std::string& path,
                    const toolcam::ToolDescription& tool,
                    const toolcam::ToolMeasurement& m) {
-  try {
-    base::WriteFileAtomically(path, toolcam::ToJson(toolcam::ReferenceFrom(tool, m)));
-  } catch (const std::runtime_error& e) {
-    throw UsageError("cannot write " + path + ": " + e.what());
-  }
+  WriteOutputFile(path, toolcam::ToJson(toolcam::ReferenceFrom(tool, m)));
 }
 
 // --tool-table / --tool-number: the measurement into the table, the change (or the refusal)
@@ -300,7 +277,7 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     throw UsageError("mlp tool measure needs --images (or --frames) and --tool");
   if (f.Text("--tool-table", "").empty() != f.Text("--tool-number", "").empty())
     throw UsageError("--tool-table and --tool-number go together");
-  const toolcam::ToolDescription tool = ReadTool(f.Text("--tool", ""));
+  const toolcam::ToolDescription tool = toolcam::LoadTool(f.Text("--tool", ""));
   const Images im = ReadImages(images);
   std::vector<std::string> warnings;
   const toolcam::ToolCameraModel camera =
@@ -335,18 +312,13 @@ int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostr
       f.Text("--images", "").empty() ? f.Text("--frames", "") : f.Text("--images", "");
   if (images.empty() || f.Text("--pin", "").empty() || f.Text("--out", "").empty())
     throw UsageError("mlp tool calibrate needs --images (or --frames), --pin and --out");
-  const toolcam::ToolDescription pin = ReadTool(f.Text("--pin", ""));
+  const toolcam::ToolDescription pin = toolcam::LoadTool(f.Text("--pin", ""));
   if (!pin.pin) throw UsageError(f.Text("--pin", "") + " is not a pin (\"kind\": \"pin\")");
   const Images im = ReadImages(images);  // its mm_per_px: the lens' nominal scale
   err << "mlp tool: calibrating from " << im.pixels.size() << " images of " << pin.id << "\n";
   const toolcam::PinCalibration p =
       toolcam::CalibrateWithPin(im.pixels, im.position, im.positions, im.camera, pin);
-  try {
-    base::WriteFileAtomically(f.Text("--out", ""),
-                              toolcam::CameraCalibrationJson(p, im.camera, pin.id));
-  } catch (const std::runtime_error& e) {
-    throw UsageError("cannot write " + f.Text("--out", "") + ": " + e.what());
-  }
+  WriteOutputFile(f.Text("--out", ""), toolcam::CameraCalibrationJson(p, im.camera, pin.id));
   std::vector<std::string> advice;
   if (p.pitch_measured && std::abs(p.pitch_deg) > kPitchWarnDeg)
     advice.push_back(

@@ -132,13 +132,24 @@ TEST(Grind, RefusesWhatItCannotMeasure) {
   const geometry::GreyView tiny{small.data(), 10, 10};
   const Vec2 mi = p.At(1.0).point;
   EXPECT_THROW(MeasurePoint({tiny, tiny, mi + Vec2(0, 1), mi}, p, job.camera, 1.0, 0.01),
-               GrindError);
+               GrindInputError);  // frames that are not the camera's
   std::vector<std::uint8_t> light(static_cast<size_t>(1024 * 768), 210);
   const geometry::GreyView blank{light.data(), 1024, 768};
   EXPECT_THROW(MeasurePoint({blank, blank, mi + Vec2(0, 1), mi}, p, job.camera, 1.0, 0.01),
                GrindError);  // no contour near Mi
-  EXPECT_THROW(MeasurePoint({blank, blank, mi, mi}, p, job.camera, 1.0, 0.01), GrindError);
-  EXPECT_THROW(ParseJob("{\"format\": \"mlprobe-grind/1\"}"), GrindError);
+  EXPECT_THROW(MeasurePoint({blank, blank, mi, mi}, p, job.camera, 1.0, 0.01), GrindInputError);
+  EXPECT_THROW(ParseJob("{\"format\": \"mlprobe-grind/1\"}"), GrindInputError);
+  // A profile with a gap is the job file's fault, named with the file.
+  GrindJob gap = job;
+  gap.profile = DemoProfile();
+  gap.profile[1].start += Vec2(0.2, 0);
+  try {
+    ParseJob(JobJson(gap), "/shop/grind/job.json");
+    ADD_FAILURE() << "a profile with a gap was read";
+  } catch (const GrindInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/shop/grind/job.json: profile"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Grind, AJobFileReadsBack) {

@@ -84,7 +84,7 @@ TEST(BeamSignal, FollowsTheKnifeEdgeAndTheTeeth) {
   EXPECT_NEAR(tool.Reach(0.02), 3.01, kClosedForm);       // half a turn later: the long tooth
   EXPECT_NEAR(tool.Reach(0.01), 3.0 * 0.6, kClosedForm);  // a quarter turn: the core between them
   ToolInBeam none;
-  EXPECT_THROW(GenerateSignal(BeamModel(), none, Approach(0.1, 1), 1), SetterError);
+  EXPECT_THROW(GenerateSignal(BeamModel(), none, Approach(0.1, 1), 1), SetterInputError);
 }
 
 TEST(BeamCalibration, ThePinGivesACubicThroughTheBeam) {
@@ -100,7 +100,21 @@ TEST(BeamCalibration, ThePinGivesACubicThroughTheBeam) {
   const CalibrationCurve back = ParseCurve(CurveJson(c));
   EXPECT_NEAR(back.Share(0.01), c.Share(0.01), kClosedForm);
   std::vector<float> dark(10000, 0.0f);
-  EXPECT_THROW(CalibrateFromPin(dark, 80000, 6, true), SetterError);
+  EXPECT_THROW(CalibrateFromPin(dark, 80000, 6, true), SetterError);  // no result: not bad input
+  EXPECT_THROW(CalibrateFromPin(dark, 80000, 0, true), SetterInputError);  // no feed
+}
+
+// A curve file that is not one is bad input naming the file (the command's exit 2).
+TEST(BeamCalibration, ABadCurveFileIsBadInputNamingTheFile) {
+  try {
+    ParseCurve(R"({"format": "mlprobe-beam-curve/1", "clear_v": 4, "lo_mm": 0, "hi_mm": 0.03,
+                   "cubic": [1, 2, "x", 4]})",
+               "/shop/setter/curve.json");
+    ADD_FAILURE() << "a cubic with a string in it was read";
+  } catch (const SetterInputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/shop/setter/curve.json: cubic"), std::string::npos)
+        << e.what();
+  }
 }
 
 // The seed's case: 1500 rpm, 6 mm/min, 4 um a turn; a two-tooth D6 whose second tooth reaches
@@ -213,12 +227,12 @@ TEST(BeamProcessor, RefusesSettingsItCannotWorkWith) {
   const CalibrationCurve curve = PinCurve();
   ProcessorConfig c = Config(curve, 1500, 2, true);
   c.teeth = 0;
-  EXPECT_THROW(BeamProcessor{c}, SetterError);
+  EXPECT_THROW(BeamProcessor{c}, SetterInputError);
   c = Config(curve, 1500, 2, true);
   c.threshold_share = 0.02;  // below the curve's span
-  EXPECT_THROW(BeamProcessor{c}, SetterError);
+  EXPECT_THROW(BeamProcessor{c}, SetterInputError);
   c = Config(CalibrationCurve(), 1500, 2, true);
-  EXPECT_THROW(BeamProcessor{c}, SetterError);
+  EXPECT_THROW(BeamProcessor{c}, SetterInputError);
 }
 
 }  // namespace

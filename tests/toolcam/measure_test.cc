@@ -206,7 +206,7 @@ TEST(ToolCalibration, ThePinGivesScaleAxisRollAndGauge) {
   EXPECT_FALSE(p.pitch_measured);
   ToolDescription cutter = pin;
   cutter.pin = false;
-  EXPECT_THROW(CalibrateWithPin(frames, {0, 1, 2}, 6, c, cutter), ToolError);
+  EXPECT_THROW(CalibrateWithPin(frames, {0, 1, 2}, 6, c, cutter), ToolInputError);
 }
 
 // With the pin's blades (seed 000 example 4) the tilt about y as well: a camera turned 0.3 deg
@@ -249,7 +249,7 @@ TEST(ToolCalibration, TheBladesGiveThePitch) {
   // Blades of one length cannot be told apart: refused, as are images not round the turn.
   ToolDescription even = pin;
   even.blades[1].extends_mm = even.blades[0].extends_mm;
-  EXPECT_THROW(CalibrateWithPin(frames, positions, 36, c, even), ToolError);
+  EXPECT_THROW(CalibrateWithPin(frames, positions, 36, c, even), ToolInputError);
   EXPECT_THROW(CalibrateWithPin({frames.begin(), frames.begin() + 4}, {0, 1, 2, 3}, 36, c, pin),
                ToolError);
 }

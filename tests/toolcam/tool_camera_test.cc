@@ -66,7 +66,7 @@ TEST(ToolModel, ReadsTheSamplesAndRefusesBadOnes) {
   const auto why = [](const std::string& text) {
     try {
       ParseTool(text);
-    } catch (const ToolError& e) {
+    } catch (const ToolInputError& e) {
       return std::string(e.what());
     }
     return std::string("parsed");

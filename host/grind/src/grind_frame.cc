@@ -30,9 +30,9 @@ double Material(const geometry::Profile2& p,
 
 void GrindCamera::Validate() const {
   if (width_px < 16 || height_px < 16 || width_px > 8192 || height_px > 8192)
-    throw GrindError("grind camera: the image must be 16..8192 px each way");
+    throw GrindInputError("grind camera: the image must be 16..8192 px each way");
   if (!(mm_per_px > 0) || !(bright > dark) || !(noise_sigma >= 0) || !(psf_sigma_px >= 0))
-    throw GrindError("grind camera: mm_per_px > 0, bright > dark, noise and blur >= 0");
+    throw GrindInputError("grind camera: mm_per_px > 0, bright > dark, noise and blur >= 0");
 }
 
 std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,

@@ -2,6 +2,7 @@
 
 #include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
+#include "mlp/geometry/error.h"
 #include "mlp/grey_image/grey_image.h"
 
 #include <cmath>
@@ -19,7 +20,7 @@ namespace jf = base::json_fields;
 
 Vec2 Pair(const nlohmann::json& j, const std::string& where) {
   if (!j.is_array() || j.size() != 2 || !j[0].is_number() || !j[1].is_number())
-    throw GrindError(where + " must be [x, y] in mm");
+    throw GrindInputError(where + " must be [x, y] in mm");
   return {j[0].get<double>(), j[1].get<double>()};
 }
 
@@ -95,22 +96,23 @@ void WritePgm(const std::string& path, int w, int h, const std::vector<std::uint
   }
 }
 
-GrindJob ParseJob(const std::string& text) {
-  const auto j = jf::ParseDocument<GrindError>(text, "mlprobe-grind/1", "grind job");
+GrindJob ParseJob(const std::string& text, const std::string& where) {
+  using E = GrindInputError;
+  const auto j = jf::ParseDocument<E>(text, "mlprobe-grind/1", where);
   GrindJob g;
-  const auto& cam = jf::Object<GrindError>(j, "camera", "grind job");
-  g.camera.width_px = jf::Integer<GrindError>(cam, "width_px", "camera");
-  g.camera.height_px = jf::Integer<GrindError>(cam, "height_px", "camera");
-  g.camera.mm_per_px = jf::Number<GrindError>(cam, "mm_per_px", "camera");
-  g.camera.origin_x_mm = jf::Number<GrindError>(cam, "origin_x_mm", "camera");
-  g.camera.origin_y_mm = jf::Number<GrindError>(cam, "origin_y_mm", "camera");
+  const auto& cam = jf::Object<E>(j, "camera", where);
+  g.camera.width_px = jf::Integer<E>(cam, "width_px", "camera");
+  g.camera.height_px = jf::Integer<E>(cam, "height_px", "camera");
+  g.camera.mm_per_px = jf::Number<E>(cam, "mm_per_px", "camera");
+  g.camera.origin_x_mm = jf::Number<E>(cam, "origin_x_mm", "camera");
+  g.camera.origin_y_mm = jf::Number<E>(cam, "origin_y_mm", "camera");
   g.camera.Validate();
-  g.wheel_radius_mm = jf::Number<GrindError>(j, "wheel_radius_mm", "grind job");
-  g.limit_mm = jf::Number<GrindError>(j, "limit_mm", "grind job");
-  g.stock_mm = jf::NumberOr<GrindError>(j, "stock_mm", g.stock_mm, "grind job");
-  if (!(g.wheel_radius_mm > 0) || !(g.limit_mm > 0)) throw GrindError("grind job: R, e > 0");
+  g.wheel_radius_mm = jf::Number<E>(j, "wheel_radius_mm", where);
+  g.limit_mm = jf::Number<E>(j, "limit_mm", where);
+  g.stock_mm = jf::NumberOr<E>(j, "stock_mm", g.stock_mm, where);
+  if (!(g.wheel_radius_mm > 0) || !(g.limit_mm > 0)) throw E(where + ": R, e > 0");
   if (!j.contains("profile") || !j.at("profile").is_array())
-    throw GrindError("grind job: profile must list segments");
+    throw E(where + ": profile must list segments");
   for (size_t k = 0; k < j.at("profile").size(); ++k) {
     const auto& s = j.at("profile")[k];
     const std::string w = "profile[" + std::to_string(k) + "]";
@@ -120,18 +122,23 @@ GrindJob ParseJob(const std::string& text) {
     seg.arc = s.contains("center");
     if (seg.arc) {
       seg.center = Pair(s.at("center"), w + ".center");
-      seg.ccw = jf::FlagOr<GrindError>(s, "ccw", true, w);
+      seg.ccw = jf::FlagOr<E>(s, "ccw", true, w);
     }
     g.profile.push_back(seg);
   }
   if (!j.contains("points") || !j.at("points").is_array())
-    throw GrindError("grind job: points must list the cutting points");
+    throw E(where + ": points must list the cutting points");
   for (size_t k = 0; k < j.at("points").size(); ++k) {
     const auto& p = j.at("points")[k];
     const std::string w = "points[" + std::to_string(k) + "]";
-    g.points.push_back({jf::Text<GrindError>(p, "before", w), jf::Text<GrindError>(p, "after", w),
+    g.points.push_back({jf::Text<E>(p, "before", w), jf::Text<E>(p, "after", w),
                         Pair(p.value("c_mm", nlohmann::json()), w + ".c_mm"),
                         Pair(p.value("mi_mm", nlohmann::json()), w + ".mi_mm")});
+  }
+  try {  // the profile a measurement follows: continuous, arcs on their circles, no empty segment
+    const geometry::Profile2 check(g.profile);
+  } catch (const geometry::GeometryError& e) {
+    throw E(where + ": " + e.what());
   }
   return g;
 }

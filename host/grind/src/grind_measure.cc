@@ -151,8 +151,9 @@ PointResult MeasurePoint(const PointInput& in,
                          double e) {
   if (in.after.width != cam.width_px || in.after.height != cam.height_px ||
       in.before.width != cam.width_px || in.before.height != cam.height_px)
-    Fail("a frame's size is not the camera's");
-  if (!((in.c_mm - in.mi_mm).norm() > 0.5 * r)) Fail("C and Mi must be a wheel radius apart");
+    throw GrindInputError("grind point: a frame's size is not the camera's");
+  if (!((in.c_mm - in.mi_mm).norm() > 0.5 * r))
+    throw GrindInputError("grind point: C and Mi must be a wheel radius apart");
   const Vec2 u = (in.mi_mm - in.c_mm).normalized();
   const Vec2 n = nominal.Closest(in.mi_mm).normal;
   const std::vector<ContourPoint> pts = Contour(in.after, cam, nominal, in.mi_mm, 1.2 * r);

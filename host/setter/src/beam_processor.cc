@@ -8,7 +8,9 @@
 namespace mlp::setter {
 namespace {
 
-[[noreturn]] void Fail(const std::string& what) { throw SetterError("beam processor: " + what); }
+[[noreturn]] void Fail(const std::string& what) {
+  throw SetterInputError("beam processor: " + what);
+}
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // The band of a dip's width about its tooth's line, in cos(half its angle): its noise is

@@ -7,7 +7,7 @@
 namespace mlp::setter {
 namespace {
 
-[[noreturn]] void Fail(const std::string& what) { throw SetterError("beam signal: " + what); }
+[[noreturn]] void Fail(const std::string& what) { throw SetterInputError("beam signal: " + what); }
 
 }  // namespace
 

@@ -26,10 +26,10 @@ BeamSignal ParseBeamSignal(const std::string& text, const std::string& where) {
   BeamSignal s;
   std::string line;
   if (!std::getline(in, line) || line.rfind(kHeader, 0) != 0)
-    throw SetterError(where + ": not a mlprobe-beam-signal/1 file");
+    throw SetterInputError(where + ": not a mlprobe-beam-signal/1 file");
   s.sample_rate_hz = std::atof(line.substr(line.find('=') + 1).c_str());
   if (!(s.sample_rate_hz > 0) || !std::isfinite(s.sample_rate_hz))
-    throw SetterError(where + ": no sample rate");
+    throw SetterInputError(where + ": no sample rate");
   long n = 1;
   while (std::getline(in, line)) {
     ++n;
@@ -37,7 +37,7 @@ BeamSignal ParseBeamSignal(const std::string& text, const std::string& where) {
     char* end = nullptr;
     const double v = std::strtod(line.c_str(), &end);
     if (end == line.c_str() || !std::isfinite(v))
-      throw SetterError(where + ":" + std::to_string(n) + ": not a voltage");
+      throw SetterInputError(where + ":" + std::to_string(n) + ": not a voltage");
     s.volts.push_back(static_cast<float>(v));
   }
   return s;

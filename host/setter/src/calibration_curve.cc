@@ -48,7 +48,8 @@ CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
                                   bool entering) {
   const auto clear_n = static_cast<size_t>(0.02 * fs);
   if (!(fs > 0) || !(feed_mm_min > 0) || volts.size() < 4 * clear_n)
-    Fail("needs a sample rate, a feed and at least 80 ms of signal");
+    throw SetterInputError(
+        "calibration curve: needs a sample rate, a feed and at least 80 ms of signal");
   CalibrationCurve cur;
   cur.clear_v = entering ? Median({volts.begin(), volts.begin() + static_cast<long>(clear_n)})
                          : Median({volts.end() - static_cast<long>(clear_n), volts.end()});
@@ -112,22 +113,23 @@ std::string CurveJson(const CalibrationCurve& c) {
   return j.dump(1) + "\n";
 }
 
-CalibrationCurve ParseCurve(const std::string& text) {
+CalibrationCurve ParseCurve(const std::string& text, const std::string& where) {
   namespace jf = base::json_fields;
-  const auto j = jf::ParseDocument<SetterError>(text, "mlprobe-beam-curve/1", "curve");
+  using E = SetterInputError;
+  const auto j = jf::ParseDocument<E>(text, "mlprobe-beam-curve/1", where);
   CalibrationCurve c;
-  c.clear_v = jf::Number<SetterError>(j, "clear_v", "curve");
-  c.lo_mm = jf::Number<SetterError>(j, "lo_mm", "curve");
-  c.hi_mm = jf::Number<SetterError>(j, "hi_mm", "curve");
-  if (!j.contains("cubic") || !j.at("cubic").is_array() || j.at("cubic").size() != 4)
-    throw SetterError("curve: cubic must hold 4 numbers");
-  for (int k = 0; k < 4; ++k) {
-    if (!j.at("cubic")[static_cast<size_t>(k)].is_number())
-      throw SetterError("curve: cubic must hold 4 numbers");
-    c.c[k] = j.at("cubic")[static_cast<size_t>(k)].get<double>();
-  }
-  c.rms = jf::NumberOr<SetterError>(j, "rms_share", 0.0, "curve");
-  if (!(c.clear_v > 0) || !(c.hi_mm > c.lo_mm)) throw SetterError("curve: clear_v > 0, hi > lo");
+  c.clear_v = jf::Number<E>(j, "clear_v", where);
+  c.lo_mm = jf::Number<E>(j, "lo_mm", where);
+  c.hi_mm = jf::Number<E>(j, "hi_mm", where);
+  const auto cubic_bad = [&] {
+    if (!j.contains("cubic") || !j.at("cubic").is_array() || j.at("cubic").size() != 4) return true;
+    return !std::all_of(j.at("cubic").begin(), j.at("cubic").end(),
+                        [](const auto& x) { return x.is_number(); });
+  };
+  if (cubic_bad()) throw E(where + ": cubic must hold 4 numbers");
+  for (int k = 0; k < 4; ++k) c.c[k] = j.at("cubic")[static_cast<size_t>(k)].get<double>();
+  c.rms = jf::NumberOr<E>(j, "rms_share", 0.0, where);
+  if (!(c.clear_v > 0) || !(c.hi_mm > c.lo_mm)) throw E(where + ": clear_v > 0, hi > lo");
   return c;
 }
 

@@ -16,6 +16,9 @@ namespace {
 using geometry::Vec2;
 
 [[noreturn]] void Fail(const std::string& what) { throw ToolError("tool measurement: " + what); }
+[[noreturn]] void Bad(const std::string& what) {
+  throw ToolInputError("tool measurement: " + what);
+}
 
 // Pixel -> tool frame, undoing the lens' radial distortion (the camera's calibration).
 Vec2 ToTool(const Vec2& px, const ToolCameraModel& c) { return c.ToolFromPixel(Undistort(px, c)); }
@@ -469,7 +472,7 @@ double ShadowLevel(const std::vector<std::uint8_t>& pixels) {
 
 Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCameraModel& c) {
   if (pixels.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
-    Fail("a frame's size is not the camera's");
+    Bad("a frame's size is not the camera's");
   const geometry::GreyView g{pixels.data(), c.width_px, c.height_px};
   const double level = ShadowLevel(pixels);
   Outline o;
@@ -492,7 +495,7 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
   const int n = nominal.flutes;
   if (frames.size() != positions.size() || position_count < 3 * n ||
       frames.size() < 3 * static_cast<size_t>(n))
-    Fail("at least 3 images per flute, each with its angular position, are needed");
+    Bad("at least 3 images per flute, each with its angular position, are needed");
   // The images in angular order; the flutes are the maxima of the reference height's extreme.
   const IndexedImages x = IndexImages(frames, positions, position_count, camera, opt);
   ToolMeasurement t;

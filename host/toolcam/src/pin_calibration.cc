@@ -18,6 +18,7 @@ namespace {
 using geometry::Vec2;
 
 [[noreturn]] void Fail(const std::string& what) { throw ToolError("pin calibration: " + what); }
+[[noreturn]] void Bad(const std::string& what) { throw ToolInputError("pin calibration: " + what); }
 
 constexpr double kBladeMarginMm = 0.08;  // blade rows keep this far from both ends' blur
 constexpr double kTipShare = 0.3;        // a blade's end: the columns this share of its width
@@ -201,12 +202,12 @@ void CheckPinInput(const std::vector<std::vector<std::uint8_t>>& frames,
                    const std::vector<int>& positions,
                    int position_count,
                    const ToolDescription& pin) {
-  if (!pin.pin) Fail("the calibration needs a pin (\"kind\": \"pin\")");
+  if (!pin.pin) Bad("the calibration needs a pin (\"kind\": \"pin\")");
   if (frames.empty() || frames.size() != positions.size() || position_count < 1)
-    Fail("each image needs its angular position");
+    Bad("each image needs its angular position");
   if (pin.blades.size() == 2 &&
       std::abs(pin.blades[0].extends_mm - pin.blades[1].extends_mm) < 0.05)
-    Fail("the blades must differ in length by 0.05 mm or more (which is which)");
+    Bad("the blades must differ in length by 0.05 mm or more (which is which)");
 }
 
 // Pass 1's findings over every image: the flank rows above the pin's end (width, middle), the
@@ -223,7 +224,7 @@ FlankRows FindFlankRows(const std::vector<std::vector<std::uint8_t>>& frames,
   FlankRows r;
   for (const auto& px : frames) {
     if (px.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
-      Fail("an image's size is not the camera's");
+      Bad("an image's size is not the camera's");
     r.views.push_back({px.data(), c.width_px, c.height_px});
     r.levels.push_back(ShadowLevel(px));
     const Flanks f = FindFlanks(r.views.back(), r.levels.back(), c);
@@ -359,22 +360,24 @@ std::string CameraCalibrationJson(const PinCalibration& p,
   return j.dump(1) + "\n";
 }
 
-PinCalibration ParseCameraCalibration(const std::string& text, ToolCameraModel* base) {
+PinCalibration ParseCameraCalibration(const std::string& text,
+                                      ToolCameraModel* base,
+                                      const std::string& where) {
   namespace jf = base::json_fields;
-  const auto j = jf::ParseDocument<ToolError>(text, "mlprobe-tool-camera/1", "camera calibration");
-  const std::string w = "camera calibration";
-  base->width_px = jf::Integer<ToolError>(j, "width_px", w);
-  base->height_px = jf::Integer<ToolError>(j, "height_px", w);
-  base->distortion_k1 = jf::NumberOr<ToolError>(j, "distortion_k1", 0.0, w);
+  const auto j = jf::ParseDocument<ToolInputError>(text, "mlprobe-tool-camera/1", where);
+  const std::string& w = where;
+  base->width_px = jf::Integer<ToolInputError>(j, "width_px", w);
+  base->height_px = jf::Integer<ToolInputError>(j, "height_px", w);
+  base->distortion_k1 = jf::NumberOr<ToolInputError>(j, "distortion_k1", 0.0, w);
   PinCalibration p;
-  p.mm_per_px = jf::Number<ToolError>(j, "mm_per_px", w);
-  p.roll_deg = jf::Number<ToolError>(j, "roll_deg", w);
-  p.pitch_deg = jf::NumberOr<ToolError>(j, "pitch_deg", 0.0, w);
-  p.pitch_measured = jf::FlagOr<ToolError>(j, "pitch_measured", false, w);
-  p.gauge_u_px = jf::Number<ToolError>(j, "gauge_u_px", w);
-  p.gauge_v_px = jf::Number<ToolError>(j, "gauge_v_px", w);
-  p.end_u_px = jf::NumberOr<ToolError>(j, "end_u_px", 0.0, w);
-  p.end_v_px = jf::NumberOr<ToolError>(j, "end_v_px", 0.0, w);
+  p.mm_per_px = jf::Number<ToolInputError>(j, "mm_per_px", w);
+  p.roll_deg = jf::Number<ToolInputError>(j, "roll_deg", w);
+  p.pitch_deg = jf::NumberOr<ToolInputError>(j, "pitch_deg", 0.0, w);
+  p.pitch_measured = jf::FlagOr<ToolInputError>(j, "pitch_measured", false, w);
+  p.gauge_u_px = jf::Number<ToolInputError>(j, "gauge_u_px", w);
+  p.gauge_v_px = jf::Number<ToolInputError>(j, "gauge_v_px", w);
+  p.end_u_px = jf::NumberOr<ToolInputError>(j, "end_u_px", 0.0, w);
+  p.end_v_px = jf::NumberOr<ToolInputError>(j, "end_v_px", 0.0, w);
   ToolCameraModel check = p.CameraFor(*base, 0.0);
   check.Validate();  // the scale, the tilts and the size in range
   return p;

@@ -27,6 +27,7 @@ constexpr int kSubRows = 32;
 constexpr int kBlurSamples = 5;  // angles over a pulse
 
 [[noreturn]] void Fail(const std::string& what) { throw ToolError("tool camera: " + what); }
+[[noreturn]] void Bad(const std::string& what) { throw ToolInputError("tool camera: " + what); }
 
 // Adds `weight` times the share of each pixel column that [a, b] (pixel units; column u spans
 // [u - 0.5, u + 0.5]) covers, into a difference array for the whole columns and `row` for the
@@ -173,14 +174,14 @@ geometry::Vec2 ToolCameraModel::PixelFromTool(const geometry::Vec2& yh) const {
 
 void ToolCameraModel::Validate() const {
   if (width_px < 16 || height_px < 16 || width_px > 8192 || height_px > 8192)
-    Fail("the image must be 16..8192 px each way");
-  if (!(mm_per_px > 0)) Fail("mm_per_px must be > 0");
-  if (!(bright > dark) || dark < 0 || bright > 255) Fail("0 <= dark < bright <= 255");
+    Bad("the image must be 16..8192 px each way");
+  if (!(mm_per_px > 0)) Bad("mm_per_px must be > 0");
+  if (!(bright > dark) || dark < 0 || bright > 255) Bad("0 <= dark < bright <= 255");
   if (!(noise_sigma >= 0) || !(psf_sigma_px >= 0) || !(drops_per_frame >= 0))
-    Fail("noise, blur and drops must be >= 0");
-  if (!(std::abs(distortion_k1) < 0.05)) Fail("distortion_k1 must be under 5 %");
+    Bad("noise, blur and drops must be >= 0");
+  if (!(std::abs(distortion_k1) < 0.05)) Bad("distortion_k1 must be under 5 %");
   if (!(std::abs(roll_deg) <= 5) || !(std::abs(pitch_deg) <= 5))
-    Fail("roll_deg and pitch_deg must be within 5 deg");
+    Bad("roll_deg and pitch_deg must be within 5 deg");
 }
 
 ToolFrame RenderToolFrame(const ToolDescription& tool,

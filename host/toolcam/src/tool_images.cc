@@ -14,17 +14,17 @@ constexpr const char* kFormat = "mlprobe-tool-images/1";
 
 ToolCameraModel ParseCamera(const jf::json& c, bool* calibrated) {
   ToolCameraModel m;
-  m.width_px = jf::Integer<ToolError>(c, "width_px", "camera");
-  m.height_px = jf::Integer<ToolError>(c, "height_px", "camera");
-  m.distortion_k1 = jf::NumberOr<ToolError>(c, "distortion_k1", 0.0, "camera");
+  m.width_px = jf::Integer<ToolInputError>(c, "width_px", "camera");
+  m.height_px = jf::Integer<ToolInputError>(c, "height_px", "camera");
+  m.distortion_k1 = jf::NumberOr<ToolInputError>(c, "distortion_k1", 0.0, "camera");
   // The lens' scale (nominal, or calibrated with the rest); the axis and tip when calibrated.
-  m.mm_per_px = jf::Number<ToolError>(c, "mm_per_px", "camera");
+  m.mm_per_px = jf::Number<ToolInputError>(c, "mm_per_px", "camera");
   *calibrated = c.contains("axis_u_px") && c.contains("tip_v_px");
   if (*calibrated) {
-    m.axis_u_px = jf::Number<ToolError>(c, "axis_u_px", "camera");
-    m.tip_v_px = jf::Number<ToolError>(c, "tip_v_px", "camera");
-    m.roll_deg = jf::NumberOr<ToolError>(c, "roll_deg", 0.0, "camera");
-    m.pitch_deg = jf::NumberOr<ToolError>(c, "pitch_deg", 0.0, "camera");
+    m.axis_u_px = jf::Number<ToolInputError>(c, "axis_u_px", "camera");
+    m.tip_v_px = jf::Number<ToolInputError>(c, "tip_v_px", "camera");
+    m.roll_deg = jf::NumberOr<ToolInputError>(c, "roll_deg", 0.0, "camera");
+    m.pitch_deg = jf::NumberOr<ToolInputError>(c, "pitch_deg", 0.0, "camera");
   }
   return m;
 }
@@ -32,23 +32,23 @@ ToolCameraModel ParseCamera(const jf::json& c, bool* calibrated) {
 }  // namespace
 
 ToolImages ParseToolImages(const std::string& text, const std::string& where) {
-  const jf::json j = jf::ParseDocument<ToolError>(text, kFormat, where);
+  const jf::json j = jf::ParseDocument<ToolInputError>(text, kFormat, where);
   ToolImages im;
-  im.camera = ParseCamera(jf::Object<ToolError>(j, "camera", where), &im.calibrated);
+  im.camera = ParseCamera(jf::Object<ToolInputError>(j, "camera", where), &im.calibrated);
   if (j.contains("spindle")) {
-    const auto& s = jf::Object<ToolError>(j, "spindle", where);
-    im.shift.y_mm = jf::NumberOr<ToolError>(s, "y_mm", 0.0, "spindle");
-    im.shift.z_mm = jf::NumberOr<ToolError>(s, "z_mm", 0.0, "spindle");
+    const auto& s = jf::Object<ToolInputError>(j, "spindle", where);
+    im.shift.y_mm = jf::NumberOr<ToolInputError>(s, "y_mm", 0.0, "spindle");
+    im.shift.z_mm = jf::NumberOr<ToolInputError>(s, "z_mm", 0.0, "spindle");
   }
-  const auto& strobe = jf::Object<ToolError>(j, "strobe", where);
-  im.positions = jf::Integer<ToolError>(strobe, "positions", "strobe");
-  im.blur_rad = jf::NumberOr<ToolError>(strobe, "pulse_width_us", 0.0, "strobe") * 1e-6 *
-                jf::Number<ToolError>(strobe, "rpm", "strobe") / 60 * 2 * base::kPi;
+  const auto& strobe = jf::Object<ToolInputError>(j, "strobe", where);
+  im.positions = jf::Integer<ToolInputError>(strobe, "positions", "strobe");
+  im.blur_rad = jf::NumberOr<ToolInputError>(strobe, "pulse_width_us", 0.0, "strobe") * 1e-6 *
+                jf::Number<ToolInputError>(strobe, "rpm", "strobe") / 60 * 2 * base::kPi;
   if (!j.contains("images") || !j.at("images").is_array())
-    throw ToolError(where + ": images must list the images");
+    throw ToolInputError(where + ": images must list the images");
   for (const auto& e : j.at("images")) {
-    im.files.push_back(jf::Text<ToolError>(e, "file", "image"));
-    im.position.push_back(jf::Integer<ToolError>(e, "position", "image"));
+    im.files.push_back(jf::Text<ToolInputError>(e, "file", "image"));
+    im.position.push_back(jf::Integer<ToolInputError>(e, "position", "image"));
   }
   return im;
 }

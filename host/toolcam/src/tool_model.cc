@@ -16,7 +16,7 @@ namespace {
 namespace jf = base::json_fields;
 using json = nlohmann::json;
 
-[[noreturn]] void Fail(const std::string& what) { throw ToolError("tool: " + what); }
+[[noreturn]] void Fail(const std::string& what) { throw ToolInputError("tool: " + what); }
 
 double Bell(double x) {  // 0 at 0 and 1, 1 in the middle, smooth at both ends
   return x <= 0 || x >= 1 ? 0.0 : 0.5 - 0.5 * std::cos(2 * M_PI * x);
@@ -24,16 +24,16 @@ double Bell(double x) {  // 0 at 0 and 1, 1 in the middle, smooth at both ends
 
 CuttingEdge ParseEdge(const json& e, const std::string& w) {
   CuttingEdge edge;
-  edge.radial_offset_mm = jf::NumberOr<ToolError>(e, "radial_offset_mm", 0.0, w);
-  edge.axial_offset_mm = jf::NumberOr<ToolError>(e, "axial_offset_mm", 0.0, w);
+  edge.radial_offset_mm = jf::NumberOr<ToolInputError>(e, "radial_offset_mm", 0.0, w);
+  edge.axial_offset_mm = jf::NumberOr<ToolInputError>(e, "axial_offset_mm", 0.0, w);
   if (e.contains("defects")) {
     if (!e.at("defects").is_array()) Fail(w + ".defects must be an array");
     for (size_t i = 0; i < e.at("defects").size(); ++i) {
       const json& d = e.at("defects")[i];
       const std::string dw = w + ".defects[" + std::to_string(i) + "]";
-      edge.defects.push_back({jf::Number<ToolError>(d, "h_mm", dw),
-                              jf::Number<ToolError>(d, "length_mm", dw),
-                              jf::Number<ToolError>(d, "depth_mm", dw)});
+      edge.defects.push_back({jf::Number<ToolInputError>(d, "h_mm", dw),
+                              jf::Number<ToolInputError>(d, "length_mm", dw),
+                              jf::Number<ToolInputError>(d, "depth_mm", dw)});
     }
   }
   if (e.contains("profile")) {
@@ -187,18 +187,18 @@ void ToolDescription::Validate() const {
 }
 
 ToolDescription ParseTool(const std::string& text) {
-  const json j = jf::ParseDocument<ToolError>(text, "mlprobe-tool/1", "tool");
+  const json j = jf::ParseDocument<ToolInputError>(text, "mlprobe-tool/1", "tool");
   ToolDescription t;
-  t.id = jf::Text<ToolError>(j, "id", "tool");
-  t.diameter_mm = jf::Number<ToolError>(j, "diameter_mm", "tool");
-  t.length_mm = jf::Number<ToolError>(j, "length_mm", "tool");
-  t.flutes = jf::Integer<ToolError>(j, "flutes", "tool");
-  t.corner_radius_mm = jf::NumberOr<ToolError>(j, "corner_radius_mm", 0.0, "tool");
-  t.helix_deg = jf::NumberOr<ToolError>(j, "helix_deg", 30.0, "tool");
-  t.flute_length_mm = jf::Number<ToolError>(j, "flute_length_mm", "tool");
-  t.core_ratio = jf::NumberOr<ToolError>(j, "core_ratio", t.core_ratio, "tool");
+  t.id = jf::Text<ToolInputError>(j, "id", "tool");
+  t.diameter_mm = jf::Number<ToolInputError>(j, "diameter_mm", "tool");
+  t.length_mm = jf::Number<ToolInputError>(j, "length_mm", "tool");
+  t.flutes = jf::Integer<ToolInputError>(j, "flutes", "tool");
+  t.corner_radius_mm = jf::NumberOr<ToolInputError>(j, "corner_radius_mm", 0.0, "tool");
+  t.helix_deg = jf::NumberOr<ToolInputError>(j, "helix_deg", 30.0, "tool");
+  t.flute_length_mm = jf::Number<ToolInputError>(j, "flute_length_mm", "tool");
+  t.core_ratio = jf::NumberOr<ToolInputError>(j, "core_ratio", t.core_ratio, "tool");
   if (j.contains("kind")) {
-    const std::string kind = jf::Text<ToolError>(j, "kind", "tool");
+    const std::string kind = jf::Text<ToolInputError>(j, "kind", "tool");
     if (kind != "pin" && kind != "cutter") Fail("kind must be cutter or pin");
     t.pin = kind == "pin";
   }
@@ -207,9 +207,9 @@ ToolDescription ParseTool(const std::string& text) {
     for (size_t k = 0; k < j.at("blades").size(); ++k) {
       const json& b = j.at("blades")[k];
       const std::string w = "tool.blades[" + std::to_string(k) + "]";
-      t.blades.push_back({jf::Number<ToolError>(b, "offset_mm", w),
-                          jf::Number<ToolError>(b, "width_mm", w),
-                          jf::Number<ToolError>(b, "extends_mm", w)});
+      t.blades.push_back({jf::Number<ToolInputError>(b, "offset_mm", w),
+                          jf::Number<ToolInputError>(b, "width_mm", w),
+                          jf::Number<ToolInputError>(b, "extends_mm", w)});
     }
   }
   if (j.contains("edges")) {
@@ -261,7 +261,7 @@ std::string ToJson(const ToolDescription& t) {
 }
 
 ToolDescription LoadTool(const std::string& path) {
-  return ParseTool(base::ReadFileAs<ToolError>(path, "tool: "));
+  return ParseTool(base::ReadFileAs<ToolInputError>(path, "tool: "));
 }
 
 }  // namespace mlp::toolcam

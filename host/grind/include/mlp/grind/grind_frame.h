@@ -9,6 +9,7 @@
 /// Image: x = origin_x + u mm_per_px, y = origin_y - v mm_per_px for pixel centres (u, v):
 /// y up, the material below the profile.
 
+#include "mlp/base/input_error.h"
 #include "mlp/geometry/profile2d.h"
 #include "mlp/geometry/types.h"
 
@@ -18,9 +19,16 @@
 
 namespace mlp::grind {
 
+/// A measurement without result (no contour on the line C-Mi). Bad input (a job file, a camera
+/// or frames that do not fit it) is a GrindInputError.
 class GrindError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+
+class GrindInputError : public base::InputError {
+ public:
+  using base::InputError::InputError;
 };
 
 struct GrindCamera {
@@ -35,7 +43,7 @@ struct GrindCamera {
   geometry::Vec2 ToPx(const geometry::Vec2& mm) const {
     return {(mm.x() - origin_x_mm) / mm_per_px, (origin_y_mm - mm.y()) / mm_per_px};
   }
-  void Validate() const;  ///< throws GrindError naming the field
+  void Validate() const;  ///< throws GrindInputError naming the field
 };
 
 /// Where the wheel's nose really was for a stroke.

@@ -25,8 +25,8 @@ struct GrindJob {
   std::vector<JobPoint> points;
 };
 
-/// Throws GrindError naming the field.
-GrindJob ParseJob(const std::string& json_text);
+/// Throws GrindInputError naming `where` (the file) and the field, or the profile's fault.
+GrindJob ParseJob(const std::string& json_text, const std::string& where = "grind job");
 std::string JobJson(const GrindJob& job);
 
 /// The demo's nominal: a flat, a convex arc R0.8 down to 45 deg, a flank, a concave arc R1.5

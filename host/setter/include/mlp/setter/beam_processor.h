@@ -45,7 +45,7 @@ struct ProcessorConfig {
   double gate_share = 0.04;        ///< of a tooth period: the schedule's window
   double hysteresis_share = 0.02;  ///< smaller swings are noise
   double hold_s = 0.003;           ///< not turning: beyond the threshold this long
-  void Validate() const;           ///< throws SetterError naming the field
+  void Validate() const;           ///< throws SetterInputError naming the field
 };
 
 struct Trigger {
@@ -74,7 +74,7 @@ class BeamProcessor {
   static constexpr int kSmooth = 9;      ///< the running average's length
   static constexpr int kSlopeMax = 512;  ///< samples in the pin's slope window (1 ms)
 
-  /// Throws SetterError for a configuration out of range.
+  /// Throws SetterInputError for a configuration out of range.
   explicit BeamProcessor(const ProcessorConfig& config);
   /// One sample in; true when it fired the trigger.
   bool Push(float volts);

@@ -16,14 +16,24 @@
 /// a(t) = -gap - r_max + dir * feed * t (dir +1 entering, -1 leaving), so the longest tooth
 /// meets the centre (50 %) when the axis is at -r_max.
 
+#include "mlp/base/input_error.h"
+
 #include <stdexcept>
 #include <vector>
 
 namespace mlp::setter {
 
+/// A measurement that gave no result: the pin never blocked the beam, a curve that does not
+/// fall. Bad input (a file, a model, tool, motion or processor configuration out of range) is a
+/// SetterInputError.
 class SetterError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+
+class SetterInputError : public base::InputError {
+ public:
+  using base::InputError::InputError;
 };
 
 struct BeamModel {
@@ -34,7 +44,7 @@ struct BeamModel {
   double rise = 0.015;            ///< the rise before blocking, share of clear_v
   double ripple = 0.006;          ///< the diffraction ripple's amplitude near the beam
   double drops_per_s = 0.0;       ///< coolant drops crossing the beam (Poisson)
-  void Validate() const;          ///< throws SetterError naming the field
+  void Validate() const;          ///< throws SetterInputError naming the field
 };
 
 /// What moves into the beam: a pin (not turning, `tooth_radius_mm` its one radius) or a tool
@@ -73,7 +83,7 @@ struct BeamSignal {
 /// ripple (share of the clear level).
 double Transmission(const BeamModel& beam, double intrusion_mm);
 
-/// Throws SetterError when the model, tool or motion is out of range.
+/// Throws SetterInputError when the model, tool or motion is out of range.
 BeamSignal GenerateSignal(const BeamModel& beam,
                           const ToolInBeam& tool,
                           const Motion& motion,

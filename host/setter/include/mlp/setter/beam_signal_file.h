@@ -13,8 +13,8 @@ namespace mlp::setter {
 /// The signal as `mlprobe-beam-signal/1` text (7 significant digits, float's precision).
 std::string BeamSignalText(const BeamSignal& s);
 
-/// Reads `mlprobe-beam-signal/1` text; throws SetterError naming `where` and the line. Only the
-/// sample rate and the voltages are filled.
+/// Reads `mlprobe-beam-signal/1` text; throws SetterInputError naming `where` and the line. Only
+/// the sample rate and the voltages are filled.
 BeamSignal ParseBeamSignal(const std::string& text, const std::string& where);
 
 /// The truth of a generated signal (`mlprobe-beam-truth/1`): where the axis was, and the drops.

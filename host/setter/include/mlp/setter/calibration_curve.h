@@ -26,14 +26,15 @@ struct CalibrationCurve {
 /// The curve from a pin's signal: the clear level (the median of the first 20 ms entering,
 /// the last leaving), the half-light crossing, x = feed x time from it, a cubic through the
 /// samples between 90 % and 10 %. Throws SetterError when the pin never blocks half the beam,
-/// or the curve is not monotonic over its span.
+/// or the curve is not monotonic over its span; SetterInputError without a sample rate, a feed
+/// or 80 ms of signal.
 CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
                                   double sample_rate_hz,
                                   double feed_mm_min,
                                   bool entering);
 
 std::string CurveJson(const CalibrationCurve& c);
-/// Throws SetterError naming the field.
-CalibrationCurve ParseCurve(const std::string& json_text);
+/// Throws SetterInputError naming `where` (the file) and the field.
+CalibrationCurve ParseCurve(const std::string& json_text, const std::string& where = "curve");
 
 }  // namespace mlp::setter

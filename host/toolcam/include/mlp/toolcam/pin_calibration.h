@@ -57,8 +57,11 @@ struct PinCalibration {
 std::string CameraCalibrationJson(const PinCalibration& p,
                                   const ToolCameraModel& base,
                                   const std::string& pin_id);
-/// Parses it; `base` gets the image size and the lens. Throws ToolError naming the field.
-PinCalibration ParseCameraCalibration(const std::string& json_text, ToolCameraModel* base);
+/// Parses it; `base` gets the image size and the lens. Throws ToolInputError naming `where`
+/// (the file) and the field.
+PinCalibration ParseCameraCalibration(const std::string& json_text,
+                                      ToolCameraModel* base,
+                                      const std::string& where = "camera calibration");
 
 /// `frames[i]` shows the pin turned to position `positions[i]` of `position_count` (the blades'
 /// depths need at least 8 images spread round the turn; a pin without blades needs one).

@@ -44,7 +44,7 @@ struct ToolCameraModel {
   /// Tool frame (y, h) [mm] of an ideal (undistorted) pixel position, and back.
   geometry::Vec2 ToolFromPixel(const geometry::Vec2& px) const;
   geometry::Vec2 PixelFromTool(const geometry::Vec2& yh) const;
-  void Validate() const;  ///< throws ToolError naming the field
+  void Validate() const;  ///< throws ToolInputError naming the field
 };
 
 /// A coolant drop or chip in a frame: a disc in the (y, h) plane.

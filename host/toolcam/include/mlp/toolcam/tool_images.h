@@ -21,7 +21,7 @@ struct ToolImages {
   std::vector<int> position;       ///< each image's strobe position
 };
 
-/// Reads `images.json` text; throws ToolError naming `where` and the field.
+/// Reads `images.json` text; throws ToolInputError naming `where` and the field.
 ToolImages ParseToolImages(const std::string& text, const std::string& where);
 
 /// The manifest of images rendered or recorded with `camera` under `plan`'s strobe.

@@ -8,6 +8,8 @@
 /// Tool frame: z along the spindle axis, up into the spindle, 0 at the nominal tip; the tool
 /// turns about z. Heights h are mm above the nominal tip.
 
+#include "mlp/base/input_error.h"
+
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -15,9 +17,17 @@
 
 namespace mlp::toolcam {
 
+/// A measurement or calibration without result: an outline too short, a flute not found.
+/// Bad input (a tool, images, camera or calibration file, a camera model or images that do not
+/// fit it) is a ToolInputError.
 class ToolError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
+};
+
+class ToolInputError : public base::InputError {
+ public:
+  using base::InputError::InputError;
 };
 
 /// A place along an edge where its radius differs from the ground edge's: smooth (a cosine
@@ -87,7 +97,7 @@ struct ToolDescription {
   /// pitch: a ray at image height h meets depth x at height h + x tan_pitch (tool_camera.h).
   /// A cutter's edge is taken at the depth of its outer point (its silhouette's part).
   ShadowSpans Shadow(double h_mm, double turn_rad, double tan_pitch) const;
-  /// Throws ToolError naming the first field out of range.
+  /// Throws ToolInputError naming the first field out of range.
   void Validate() const;
 
  private:
@@ -95,7 +105,7 @@ struct ToolDescription {
   ShadowSpans PinShadow(double h_mm, double turn_rad, double tan_pitch) const;
 };
 
-/// Parses and validates `mlprobe-tool/1`; throws ToolError naming the field.
+/// Parses and validates `mlprobe-tool/1`; throws ToolInputError naming the field.
 ToolDescription ParseTool(const std::string& json_text);
 ToolDescription LoadTool(const std::string& path);
 /// `mlprobe-tool/1` text that ParseTool reads back to the same tool.
