@@ -20,6 +20,8 @@
 #include <cstdint>
 #include <vector>
 
+#include <Eigen/Core>
+
 namespace mlp::sim {
 
 class SpeckleImager {
@@ -40,9 +42,11 @@ class SpeckleImager {
   void Image(std::vector<double>* pixel_e);
 
  private:
+  /// (re, im, incoherent, unused): a sub-sample's field and light, or a tap's weights of them.
+  using Cell = Eigen::Array4f;
   struct KernelRow {
-    int dy = 0, dx0 = 0;                  ///< the row's offset and its first tap's
-    std::vector<float> amplitude, power;  ///< Airy amplitude and its square, contiguous in dx
+    int dy = 0, dx0 = 0;     ///< the row's offset and its first tap's
+    std::vector<Cell> taps;  ///< (amplitude, amplitude, amplitude^2, 0), contiguous in dx
   };
   void Scatter(int x, int y, std::complex<float> a, float e);
 
@@ -51,9 +55,10 @@ class SpeckleImager {
   std::vector<KernelRow> kernel_;
   std::vector<std::complex<float>> phase_;  ///< per sub-sample, the surface's
   std::vector<float> irradiance_;
-  /// The image field (real, imaginary) and the incoherent light, with a margin of reach_ all
-  /// round so the kernel needs no bounds test.
-  std::vector<float> re_, im_, incoherent_;
+  /// The image field (real, imaginary) and the incoherent light per sub-sample, side by side
+  /// (one vector operation per tap), with a margin of reach_ all round so the kernel needs no
+  /// bounds test.
+  std::vector<Cell> field_;
   std::vector<int> lit_lo_, lit_hi_;  ///< lit sub-columns per sub-row of this frame
 };
 
