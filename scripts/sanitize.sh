@@ -3,13 +3,16 @@
 # that is both the project's clang build and its sanitized run (the release build is GCC's). The
 # seeded test data are drawn in one order on both compilers (tests/seeded_draw.h), so the
 # figures are the release run's. Builds build-sanitize (Release, -g1 for line numbers in reports)
-# and runs every test that takes under MLP_SANITIZE_MAX_S seconds (10) in the release run whose
-# timings ctest kept (build/Testing/Temporary/CTestCostData.txt): the few long accuracy sweeps
-# (about 25 tests, 90 % of the suite's time) go through the same code as the short tests and
-# would take CI past its 30 minutes under the sanitizers. Also left out: the arm64 cross build,
-# the libFuzzer run and the format check, which are not this build's code.
+# and runs every test but three: the long accuracy sweeps included since the hand-eye's
+# Jacobian, the simulator's span lists and the speckle cells made them fit (docs/BENCHMARKS.md).
+# The three left out take over 3 minutes each sanitized (413 s, 323 s, 194 s; the whole suite
+# 20.8 min on 2 cores against CI's 30 with the release run's 13) and go through the renderer,
+# speckle and tool camera that shorter sanitized tests also run; --all runs them too.
+# Left out always: the arm64 cross build, the libFuzzer run and the format check, which are not
+# this build's code, and the test that uses up the process's descriptors (below).
 # A report stops the test (-fno-sanitize-recover=all) and fails it. Exit code: ctest's.
-# Usage: bash scripts/sanitize.sh [--all]   (--all: every test, however long)
+# Usage: bash scripts/sanitize.sh [--all | --quick]   (--quick: only the tests under
+# MLP_SANITIZE_MAX_S seconds (10) in the release run whose timings ctest kept)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 MLP_BUILD_DIR=build-sanitize bash scripts/build.sh -DCMAKE_C_COMPILER=clang \
@@ -25,8 +28,13 @@ export MLP_TEST_TIME_SCALE=4
 # there as having an invalid vptr (seen: transport.cc catching std::exception, with "memory
 # cannot be printed" and "Can't create a socket pair ... errno 24" beside it).
 exclude='^(portability/|fuzz/|style/|host/HostileClient\.ListenersComeBackAfterTheDescriptorsRanOut$)'
+if [ "${1:-}" != "--all" ]; then
+  exclude="$exclude|^(verify/VerifyCli\.QuickAcceptanceThroughTheCalibratedChainMeetsTheIssueFigures"
+  exclude="$exclude|probe_fw/RealMetal\.GroundSteelBoreWithInterreflections"
+  exclude="$exclude|toolcam/ToolMeasure\.NoFalseFindingsOnACleanToolOver100SeededRuns)\$"
+fi
 costs=build/Testing/Temporary/CTestCostData.txt
-if [ "${1:-}" != "--all" ] && [ -f "$costs" ]; then
+if [ "${1:-}" = "--quick" ] && [ -f "$costs" ]; then
   # Lines "<name> <runs> <seconds>"; a name is a regex once its special characters are escaped.
   long=$(awk -v max="${MLP_SANITIZE_MAX_S:-10}" 'NF == 3 && $3 >= max { print $1 }' "$costs" |
     sed -e 's/[][\.*^$+?(){}|]/\\&/g' | paste -sd'|' -)

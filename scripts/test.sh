@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs dependencies, builds everything and runs every test (the README's test command):
 # the release build's whole suite (GCC), then the suite again under clang's ASan and UBSan
-# (scripts/sanitize.sh: every test that took under 10 s in the release run).
+# (scripts/sanitize.sh: every test but three long sweeps, which --all adds).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
