@@ -16,6 +16,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <unistd.h>
 
 namespace mlp::probe_fw {
 namespace {
@@ -30,8 +31,11 @@ const ChannelWeights kGreen{true, 0.0, 1.0, 0.0};
 
 Rgb PixelAt(int x, int y) { return {30 * x + 10, 40 * y + 5, 250 - 20 * x}; }
 
+// One folder per process: ctest -j runs this binary's tests side by side, and two of them
+// write m.raw (seen: one read the other's pattern, GRBG channel 0 giving 100 for 3200).
 fs::path Dir() {
-  const fs::path d = fs::temp_directory_path() / "mlp_colour_frames_test";
+  const fs::path d =
+      fs::temp_directory_path() / ("mlp_colour_frames_test_" + std::to_string(::getpid()));
   fs::create_directories(d);
   return d;
 }
