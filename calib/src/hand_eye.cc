@@ -357,6 +357,19 @@ struct Model {
   }
 };
 
+// The model at Ceres' parameter blocks (dtheta, t, c, scale, bias), M = exp(dtheta) R0.
+Model ModelAt(double const* const* x, const Mat3& start_rotation) {
+  Model m;
+  double rot[9];
+  ceres::AngleAxisToRotationMatrix(x[0], rot);  // column-major
+  m.rotation = Eigen::Map<const Mat3>(rot) * start_rotation;
+  m.translation = Vec3(x[1][0], x[1][1], x[1][2]);
+  m.centre = Vec3(x[2][0], x[2][1], x[2][2]);
+  m.scale = Vec3(x[3][0], x[3][1], x[3][2]);
+  m.bias = x[4][0];
+  return m;
+}
+
 // Jacobian row of one point's residual in (dtheta | t | c | scale | bias), analytically (see
 // Refine; the angle of incidence held where the bias is differentiated).
 Eigen::Matrix<double, 1, kParams> JacobianRow(const Model& m, const Pose3& h, const Vec3& p) {
@@ -405,15 +418,8 @@ class CaptureOnSphere : public ceres::CostFunction {
     *mutable_parameter_block_sizes() = {3, 3, 3, 3, 1};
   }
   bool Evaluate(double const* const* x, double* residuals, double** jacobians) const override {
-    const Vec3 dtheta(x[0][0], x[0][1], x[0][2]);
-    Model m;
-    double rot[9];
-    ceres::AngleAxisToRotationMatrix(x[0], rot);  // column-major, as Blocks::ToModel
-    m.rotation = Eigen::Map<const Mat3>(rot) * r0_;
-    m.translation = Vec3(x[1][0], x[1][1], x[1][2]);
-    m.centre = Vec3(x[2][0], x[2][1], x[2][2]);
-    m.scale = Vec3(x[3][0], x[3][1], x[3][2]);
-    const Mat3 left = LeftJacobianSo3(dtheta);
+    const Model m = ModelAt(x, r0_);  // its bias 0: AddCapture uses this cost only then
+    const Mat3 left = LeftJacobianSo3(Vec3(x[0][0], x[0][1], x[0][2]));
     for (Eigen::Index i = 0; i < points_.cols(); ++i) {
       const Vec3 p = points_.col(i);
       const double r = m.Residual(h_, p, radius_);
@@ -468,15 +474,8 @@ struct Blocks {
     b[0] = m.bias;
   }
   Model ToModel(const Mat3& start_rotation) const {
-    Model m;
-    double rot[9];
-    ceres::AngleAxisToRotationMatrix(dtheta, rot);  // column-major
-    m.rotation = Eigen::Map<const Mat3>(rot) * start_rotation;
-    m.translation = Vec3(t[0], t[1], t[2]);
-    m.centre = Vec3(c[0], c[1], c[2]);
-    m.scale = Vec3(s[0], s[1], s[2]);
-    m.bias = b[0];
-    return m;
+    const double* const blocks[] = {dtheta, t, c, s, b};
+    return ModelAt(blocks, start_rotation);
   }
 };
 
