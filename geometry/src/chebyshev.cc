@@ -85,86 +85,161 @@ Frame CirclePlaneFrame(const FitResult<Circle3>& circle, const Points3& points, 
 }
 
 // The least-squares circle as the start of a Chebyshev circle: one that did not converge is
-// still a start, and the fit says so (stats.converged) rather than giving no answer.
+// still a start, and the fit says so (stats.converged) rather than giving no answer. Its plane
+// is the least-squares plane of the points, where the zone is then found (chebyshev.h).
 FitOptions RelaxedStart() {
   FitOptions o;
   o.require_convergence = false;
+  o.circle3 = Circle3Definition::kPlaneThenCircle;
   return o;
 }
 
-// Radii from a centre, and unit directions.
-Eigen::VectorXd Radii(const Points2& p, const Vec2& c) {
+double ZoneWidth(const Eigen::VectorXd& r) { return r.maxCoeff() - r.minCoeff(); }
+
+// Radii from a centre.
+template <int N>
+Eigen::VectorXd Radii(const Eigen::Matrix<double, N, Eigen::Dynamic>& p,
+                      const Eigen::Matrix<double, N, 1>& c) {
   return (p.colwise() - c).colwise().norm();
 }
 
+// Zone models for the sequential LP: a state, the radii of the points from it (distances from
+// a centre or an axis), their gradient with respect to a step of D parameters, each in mm
+// (so that one trust region bounds them all), and the state moved by a step.
+
+// Circle (N = 2) or sphere (N = 3): the state is the centre, the step its offset.
+template <int N>
+struct CentreModel {
+  static constexpr int kDim = N;
+  using State = Eigen::Matrix<double, N, 1>;
+  using Step = Eigen::Matrix<double, N, 1>;
+  const Eigen::Matrix<double, N, Eigen::Dynamic>& p;
+
+  Eigen::VectorXd Radii(const State& c) const { return geometry::Radii<N>(p, c); }
+  Eigen::Matrix<double, Eigen::Dynamic, N> Gradient(const State& c) const {
+    Eigen::Matrix<double, N, Eigen::Dynamic> dirs = p.colwise() - c;
+    for (Eigen::Index i = 0; i < p.cols(); ++i) dirs.col(i) /= std::max(dirs.col(i).norm(), 1e-300);
+    return -dirs.transpose();
+  }
+  State Update(const State& c, const Step& step) const { return c + step; }
+};
+
+// Cylinder: the state is the axis (a point, kept at the foot of the centroid, and a unit
+// direction); the step moves the point across the axis (a, b along u, v) and tilts the axis so
+// that the ends of the data move by (c, d) [mm] (tilt = c / half_length): Carr & Ferreira's
+// linearisation of the distance to an axis.
+struct AxisModel {
+  static constexpr int kDim = 4;
+  struct State {
+    Vec3 point, axis;
+  };
+  using Step = Eigen::Vector4d;
+  const Points3& p;
+  Vec3 centroid;
+  double half_length;  // of the data along the axis [mm]
+
+  Points3 Local(const State& s) const {
+    Vec3 u, v;
+    internal::OrthonormalBasis(s.axis, &u, &v);
+    return internal::ToFrame(p, s.point, u, v, s.axis);
+  }
+  Eigen::VectorXd Radii(const State& s) const {
+    return Local(s).topRows<2>().colwise().norm().transpose();
+  }
+  Eigen::Matrix<double, Eigen::Dynamic, 4> Gradient(const State& s) const {
+    const Points3 local = Local(s);
+    Eigen::Matrix<double, Eigen::Dynamic, 4> g(p.cols(), 4);
+    for (Eigen::Index i = 0; i < p.cols(); ++i) {
+      const double rho = std::max(local.col(i).head<2>().norm(), 1e-300);
+      const double ux = local(0, i) / rho, uy = local(1, i) / rho, z = local(2, i) / half_length;
+      g.row(i) << -ux, -uy, -ux * z, -uy * z;
+    }
+    return g;
+  }
+  State Update(const State& s, const Step& step) const {
+    Vec3 u, v;
+    internal::OrthonormalBasis(s.axis, &u, &v);
+    const Vec3 axis = (s.axis + (step(2) * u + step(3) * v) / half_length).normalized();
+    const Vec3 point = s.point + step(0) * u + step(1) * v;
+    return {point + (centroid - point).dot(axis) * axis, axis};
+  }
+};
+
+template <class Model>
 struct SlpResult {
-  Vec2 center;
+  typename Model::State state;
   /// The step fell to rounding or the trust region shrank to nothing: a stationary point. False:
-  /// the iterations ran out, and `center` is the best iterate.
+  /// the iterations ran out, and `state` is the best iterate.
   bool converged = false;
 };
 
-// Sequential LP for circle zones. `objective(radii)` is the true objective (to minimise);
-// `build(c, radii, dirs, trust)` makes the linearised LP; returns the centre.
-SlpResult SequentialLp(
-    const Points2& p,
-    Vec2 center,
-    double scale,
-    const std::function<double(const Eigen::VectorXd&)>& objective,
-    const std::function<internal::LpResult(const Eigen::VectorXd&, const Points2&, double)>&
-        solve_lp,
-    int max_iterations,
-    const char* what) {
+// Sequential LP for zones of radii. `objective(radii)` is the true objective (to minimise);
+// `solve_lp(radii, gradient, trust)` solves the linearised LP, whose first kDim variables are
+// the step and whose others (radii) must not end on their bound ("unbounded").
+template <class Model, class Objective, class SolveLp>
+SlpResult<Model> SequentialLp(const Model& model,
+                              typename Model::State state,
+                              double scale,
+                              const Objective& objective,
+                              const SolveLp& solve_lp,
+                              int max_iterations,
+                              const char* what) {
+  constexpr int kDim = Model::kDim;
   double trust = 0.1 * scale;
-  double best = objective(Radii(p, center));
+  double best = objective(model.Radii(state));
   for (int it = 0; it < max_iterations; ++it) {
-    if (trust <= 1e-14 * scale) return {center, true};
-    const Eigen::VectorXd r = Radii(p, center);
-    Points2 dirs = p.colwise() - center;
-    for (Eigen::Index i = 0; i < p.cols(); ++i) dirs.col(i) /= std::max(r(i), 1e-300);
-    const auto lp = solve_lp(r, dirs, trust);
+    if (trust <= 1e-14 * scale) return {state, true};
+    const auto lp = solve_lp(model.Radii(state), model.Gradient(state), trust);
     if (!lp.optimal)
       throw GeometryError(ErrorCode::kNotConverged, std::string(what) + ": LP failed");
-    for (size_t k = 2; k < lp.bound_active.size(); ++k) {
+    for (size_t k = kDim; k < lp.bound_active.size(); ++k) {
       if (lp.bound_active[k]) {
         throw GeometryError(ErrorCode::kUnbounded,
                             std::string(what) + ": the points do not enclose a centre");
       }
     }
-    const Vec2 step = lp.x.head<2>();
-    const double value = objective(Radii(p, center + step));
+    const typename Model::Step step = lp.x.template head<kDim>();
+    const auto moved = model.Update(state, step);
+    const double value = objective(model.Radii(moved));
     if (value < best) {
-      center += step, best = value;
+      state = moved, best = value;
       if (step.norm() < 0.5 * trust) trust = std::max(step.norm(), 1e-14 * scale);
     } else {
       trust *= 0.25;
     }
-    if (step.norm() <= 1e-13 * scale) return {center, true};
+    if (step.norm() <= 1e-13 * scale) return {state, true};
   }
-  return {center, trust <= 1e-14 * scale};
+  return {state, trust <= 1e-14 * scale};
 }
 
-// Minimum-zone circle: variables (dx, dy, outer, inner): r_i - u_i.d <= outer, >= inner.
-internal::LpResult ZoneLp(const Eigen::VectorXd& r, const Points2& u, double trust) {
+// Minimum zone: variables (step[D], outer, inner): inner <= r_i + g_i.step <= outer.
+template <int D>
+internal::LpResult ZoneLp(const Eigen::VectorXd& r,
+                          const Eigen::Matrix<double, Eigen::Dynamic, D>& g,
+                          double trust) {
   const Eigen::Index n = r.size();
-  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(2 * n, 4);
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(2 * n, D + 2);
   Eigen::VectorXd b(2 * n);
-  a.topLeftCorner(n, 2) = -u.transpose();
-  a.col(2).head(n).setConstant(-1.0);
+  a.topLeftCorner(n, D) = g;
+  a.col(D).head(n).setConstant(-1.0);
   b.head(n) = -r;
-  a.bottomLeftCorner(n, 2) = u.transpose();
-  a.col(3).tail(n).setConstant(1.0);
+  a.bottomLeftCorner(n, D) = -g;
+  a.col(D + 1).tail(n).setConstant(1.0);
   b.tail(n) = r;
-  const Eigen::Vector4d c(0, 0, 1, -1);
-  const Eigen::Vector4d bound(trust, trust, kHuge, kHuge);
+  Eigen::VectorXd c = Eigen::VectorXd::Zero(D + 2);
+  c(D) = 1.0, c(D + 1) = -1.0;
+  Eigen::VectorXd bound = Eigen::VectorXd::Constant(D + 2, kHuge);
+  bound.head(D).setConstant(trust);
   return SolveSmallLp(c, a, b, bound);
 }
 
-// Maximum inscribed: maximise R with R + u_i.d <= r_i.
-internal::LpResult InscribedLp(const Eigen::VectorXd& r, const Points2& u, double trust) {
+// Maximum inscribed: maximise R with R <= r_i + g_i.step.
+internal::LpResult InscribedLp(const Eigen::VectorXd& r,
+                               const Eigen::Matrix<double, Eigen::Dynamic, 2>& g,
+                               double trust) {
   const Eigen::Index n = r.size();
   Eigen::MatrixXd a(n, 3);
-  a.leftCols(2) = u.transpose();
+  a.leftCols(2) = -g;
   a.col(2).setConstant(1.0);
   const Eigen::Vector3d c(0, 0, -1);
   const Eigen::Vector3d bound(trust, trust, kHuge);
@@ -317,11 +392,10 @@ MinZoneCircleFit FitMinZoneCircle(const Points3& points, const ZoneOptions& opti
   Points2 p;
   const Frame f = CirclePlaneFrame(ls, points, &p);
   const Vec2 start = Vec2::Zero();  // the frame is centred on the least-squares circle
-  const auto width = [](const Eigen::VectorXd& r) { return r.maxCoeff() - r.minCoeff(); };
-  const SlpResult slp = SequentialLp(p, start, ls.shape.radius, width, ZoneLp,
-                                     options.max_iterations, "minimum-zone circle");
-  const Vec2& c = slp.center;
-  const Eigen::VectorXd r = Radii(p, c);
+  const auto slp = SequentialLp(CentreModel<2>{p}, start, ls.shape.radius, ZoneWidth, ZoneLp<2>,
+                                options.max_iterations, "minimum-zone circle");
+  const Vec2& c = slp.state;
+  const Eigen::VectorXd r = Radii<2>(p, c);
   MinZoneCircleFit fit;
   fit.inner_radius = r.minCoeff();
   fit.outer_radius = r.maxCoeff();
@@ -333,6 +407,83 @@ MinZoneCircleFit FitMinZoneCircle(const Points3& points, const ZoneOptions& opti
   return fit;
 }
 
+MinZoneSphereFit FitMinZoneSphere(const Points3& points, const ZoneOptions& options) {
+  options.Check();
+  internal::CheckPoints(points, 5, "minimum-zone sphere");
+  const auto ls = FitSphere(points, RelaxedStart());  // checks the input, gives the start
+  const auto slp = SequentialLp(CentreModel<3>{points}, ls.shape.center, ls.shape.radius, ZoneWidth,
+                                ZoneLp<3>, options.max_iterations, "minimum-zone sphere");
+  const Eigen::VectorXd r = Radii<3>(points, slp.state);
+  MinZoneSphereFit fit;
+  fit.inner_radius = r.minCoeff();
+  fit.outer_radius = r.maxCoeff();
+  fit.sphericity = fit.outer_radius - fit.inner_radius;
+  fit.sphere = Sphere{slp.state, 0.5 * (fit.inner_radius + fit.outer_radius)};
+  fit.stats = internal::ComputeStats(
+      points.cols(), [&](Eigen::Index i) { return r(i) - fit.sphere.radius; }, 0);
+  fit.stats.converged = ls.stats.converged && slp.converged;
+  return fit;
+}
+
+MinZoneCylinderFit FitMinZoneCylinder(const Points3& points,
+                                      const ZoneOptions& options,
+                                      const std::optional<Cylinder>& initial) {
+  options.Check();
+  internal::CheckPoints(points, 7, "minimum-zone cylinder");
+  const auto ls = FitCylinder(points, RelaxedStart(), initial);  // checks the input, the start
+  const Vec3 centroid = points.rowwise().mean();
+  const Vec3& axis = ls.shape.axis;
+  const AxisModel::State start{ls.shape.point + (centroid - ls.shape.point).dot(axis) * axis, axis};
+  const double half_length =
+      (axis.transpose() * (points.colwise() - centroid)).cwiseAbs().maxCoeff();
+  const AxisModel model{points, centroid, half_length};
+  const auto slp = SequentialLp(model, start, ls.shape.radius, ZoneWidth, ZoneLp<4>,
+                                options.max_iterations, "minimum-zone cylinder");
+  const Eigen::VectorXd r = model.Radii(slp.state);
+  MinZoneCylinderFit fit;
+  fit.inner_radius = r.minCoeff();
+  fit.outer_radius = r.maxCoeff();
+  fit.cylindricity = fit.outer_radius - fit.inner_radius;
+  fit.cylinder = Cylinder{slp.state.point, internal::CanonicalSign<Vec3>(slp.state.axis),
+                          0.5 * (fit.inner_radius + fit.outer_radius)};
+  fit.stats = internal::ComputeStats(
+      points.cols(), [&](Eigen::Index i) { return r(i) - fit.cylinder.radius; }, 0);
+  fit.stats.converged = ls.stats.converged && slp.converged;
+  return fit;
+}
+
+// The 2D zones are the 3D ones of the points laid in the plane z = 0 (their least-squares plane
+// exactly, so the profile plane and the circle's plane are that plane): one solver, tested in
+// both, rather than a second copy of the realignment and the sequential LP.
+Points3 InPlaneZ0(const Points2& points) {
+  Points3 p = Points3::Zero(3, points.cols());
+  p.topRows<2>() = points;
+  return p;
+}
+
+MinZoneLine2Fit FitMinZoneLine2(const Points2& points, const ZoneOptions& options) {
+  const MinZoneLineFit zone = FitMinZoneLine(InPlaneZ0(points), options);
+  MinZoneLine2Fit fit;
+  fit.line = Line2{zone.line.point.head<2>(), zone.line.direction.head<2>().normalized()};
+  fit.straightness = zone.straightness;
+  fit.stats = internal::ComputeStats(
+      points.cols(), [&](Eigen::Index i) { return SignedDistance(fit.line, points.col(i).eval()); },
+      0);
+  fit.stats.converged = zone.stats.converged;
+  return fit;
+}
+
+MinZoneCircle2Fit FitMinZoneCircle2(const Points2& points, const ZoneOptions& options) {
+  const MinZoneCircleFit zone = FitMinZoneCircle(InPlaneZ0(points), options);
+  MinZoneCircle2Fit fit;
+  fit.circle = Circle2{zone.circle.center.head<2>(), zone.circle.radius};
+  fit.roundness = zone.roundness;
+  fit.inner_radius = zone.inner_radius;
+  fit.outer_radius = zone.outer_radius;
+  fit.stats = zone.stats;
+  return fit;
+}
+
 FunctionalCircleFit FitMaxInscribedCircle(const Points3& points, const ZoneOptions& options) {
   options.Check();
   const auto ls = FitCircle3(points, RelaxedStart());
@@ -340,16 +491,16 @@ FunctionalCircleFit FitMaxInscribedCircle(const Points3& points, const ZoneOptio
   const Frame f = CirclePlaneFrame(ls, points, &p);
   const Vec2 start = Vec2::Zero();  // the frame is centred on the least-squares circle
   const auto neg_min = [](const Eigen::VectorXd& r) { return -r.minCoeff(); };
-  const SlpResult slp = SequentialLp(p, start, ls.shape.radius, neg_min, InscribedLp,
-                                     options.max_iterations, "inscribed circle");
-  const Vec2& c = slp.center;
+  const auto slp = SequentialLp(CentreModel<2>{p}, start, ls.shape.radius, neg_min, InscribedLp,
+                                options.max_iterations, "inscribed circle");
+  const Vec2& c = slp.state;
   // The centre must lie inside the points' convex hull, or "inscribed" has no meaning: a centre
   // far beyond the least-squares radius means the LP ran away along an open arc.
   if ((c - start).norm() > ls.shape.radius) {
     throw GeometryError(ErrorCode::kUnbounded,
                         "inscribed circle: the points do not enclose a centre");
   }
-  const Eigen::VectorXd r = Radii(p, c);
+  const Eigen::VectorXd r = Radii<2>(p, c);
   FunctionalCircleFit fit;
   fit.circle = ToCircle3(f, c, r.minCoeff());
   fit.stats = internal::ComputeStats(
@@ -363,7 +514,7 @@ FunctionalCircleFit FitMinCircumscribedCircle(const Points3& points) {
   Points2 p;
   const Frame f = CirclePlaneFrame(points, &p);
   const Circle2 c = Welzl(p);
-  const Eigen::VectorXd r = Radii(p, c.center);
+  const Eigen::VectorXd r = Radii<2>(p, c.center);
   FunctionalCircleFit fit;
   fit.circle = ToCircle3(f, c.center, r.maxCoeff());
   fit.stats = internal::ComputeStats(

@@ -27,6 +27,8 @@ void FitOptions::Check() const {
   if (max_iterations < 1 || max_iterations > 100000) {
     throw GeometryError(ErrorCode::kInvalidArgument, "FitOptions.max_iterations must be 1..100000");
   }
+  if (circle3 != Circle3Definition::kSpatial && circle3 != Circle3Definition::kPlaneThenCircle)
+    throw GeometryError(ErrorCode::kInvalidArgument, "FitOptions.circle3 is not a definition");
 }
 
 double Covariance::StdDev(const std::string& name) const {

@@ -1,4 +1,5 @@
-// Least-squares circle (2D), sphere and circle in 3D (plane first, then circle: ISO/NIST).
+// Least-squares circle (2D), sphere and circle in 3D (plane first, then circle: NIST; the
+// ISO 10360-6 spatial circle refines it, fit_circle_space.cc).
 // Start: the algebraic fit of Kasa (IEEE Trans. Instrum. Meas. 25 (1976) 8); then
 // Levenberg-Marquardt on the geometric residual |p - c| - r, which is what ISO 10360-6 asks.
 
@@ -9,6 +10,7 @@
 #include <optional>
 
 #include "algebraic.h"
+#include "circle_space.h"
 #include "common.h"
 #include "lm.h"
 
@@ -263,10 +265,11 @@ FitResult<Sphere> FitSphere(const Points3& points, const FitOptions& options) {
   return fit;
 }
 
+namespace {
+
 // The plane first, then the circle in plane coordinates (u, v through the centroid); the
 // circle model projects the points on the fly, so no projected copy of the cloud is made.
-FitResult<Circle3> FitCircle3(const Points3& points, const FitOptions& options) {
-  options.Check();
+FitResult<Circle3> FitCircle3PlaneFirst(const Points3& points, const FitOptions& options) {
   internal::CheckPoints(points, 3, "circle", false);
   const auto m3 = internal::ComputeMoments<3>(points);
   const auto plane = internal::PlaneFromMoments(m3, points.cols());
@@ -303,6 +306,19 @@ FitResult<Circle3> FitCircle3(const Points3& points, const FitOptions& options) 
   in_plane.matrix = sol.covariance;
   fit.covariance = internal::TwoStageCovariance(plane, in_plane, {"center_u", "center_v"});
   return fit;
+}
+
+}  // namespace
+
+FitResult<Circle3> FitCircle3(const Points3& points, const FitOptions& options) {
+  options.Check();
+  if (options.circle3 == Circle3Definition::kPlaneThenCircle)
+    return FitCircle3PlaneFirst(points, options);
+  // The spatial circle starts from the plane-then-circle one; that start may stop short of
+  // convergence (the refinement decides), but not on a shape that is no circle.
+  FitOptions start = options;
+  start.require_convergence = false;
+  return internal::RefineCircle3InSpace(points, FitCircle3PlaneFirst(points, start), options);
 }
 
 }  // namespace mlp::geometry

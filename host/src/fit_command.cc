@@ -29,10 +29,12 @@ struct FitRequest {
   double unit_scale = 1.0;  // file units -> mm
   bool text = false;        // readable summary instead of JSON
   geometry::RobustOptions robust;
+  std::string circle3 = "spatial";  // or "plane-then-circle": fit.h, Circle3Definition
 };
 
 FitRequest ParseArgs(const std::vector<std::string>& args) {
-  const Args a(args, {{"--method", "--units", "--threshold", "--seed"}, {"--text"}, {}, true});
+  const Args a(
+      args, {{"--method", "--units", "--threshold", "--seed", "--circle3"}, {"--text"}, {}, true});
   FitRequest req;
   req.method = a.Text("--method", req.method);
   const std::string units = a.Text("--units", "mm");
@@ -54,6 +56,14 @@ FitRequest ParseArgs(const std::vector<std::string>& args) {
   if (positional.size() != 2) throw UsageError("expected SHAPE and FILE");
   req.shape = positional[0];
   req.path = positional[1];
+  req.circle3 = a.Text("--circle3", req.circle3);
+  if (req.circle3 != "spatial" && req.circle3 != "plane-then-circle")
+    throw UsageError("--circle3 must be spatial or plane-then-circle");
+  if (a.Has("--circle3") && req.shape != "circle")
+    throw UsageError("--circle3 is for a circle only");
+  req.robust.least_squares.circle3 = req.circle3 == "spatial"
+                                         ? geometry::Circle3Definition::kSpatial
+                                         : geometry::Circle3Definition::kPlaneThenCircle;
   return req;
 }
 
@@ -129,7 +139,22 @@ Json LsOrRobust(const FitRequest& req, const Points3& p, LsFn ls, RobustFn robus
   if (req.method == "robust") return RobustJson<Shape>(robust(p, req.robust), p.cols());
   throw UsageError("method " + req.method + " is not available for " + req.shape +
                    " (use ls or robust" +
-                   (req.shape == "line" || req.shape == "plane" ? ", minzone" : "") + ")");
+                   (req.shape == "line" || req.shape == "plane" || req.shape == "sphere" ||
+                            req.shape == "cylinder"
+                        ? ", minzone"
+                        : "") +
+                   ")");
+}
+
+// A zone between two concentric or coaxial surfaces: its mid-shape, width and radii.
+template <class Shape, class Zone>
+Json RadialZone(const Shape& shape, const char* width_name, const Zone& zone) {
+  Json j = ShapeJson(shape);
+  j[width_name] = zone.outer_radius - zone.inner_radius;
+  j["inner_radius"] = zone.inner_radius;
+  j["outer_radius"] = zone.outer_radius;
+  AddStats(zone.stats, &j);
+  return j;
 }
 
 Json MinZone(const std::string& shape, const Points3& p) {
@@ -145,23 +170,27 @@ Json MinZone(const std::string& shape, const Points3& p) {
     j = ShapeJson(f.plane);
     j["flatness"] = f.flatness;
     AddStats(f.stats, &j);
-  } else {
+  } else if (shape == "circle") {
     const auto f = geometry::FitMinZoneCircle(p);
-    j = ShapeJson(f.circle);
-    j["roundness"] = f.roundness;
-    j["inner_radius"] = f.inner_radius;
-    j["outer_radius"] = f.outer_radius;
-    AddStats(f.stats, &j);
+    j = RadialZone(f.circle, "roundness", f);
+  } else if (shape == "sphere") {
+    const auto f = geometry::FitMinZoneSphere(p);
+    j = RadialZone(f.sphere, "sphericity", f);
+  } else {
+    const auto f = geometry::FitMinZoneCylinder(p);
+    j = RadialZone(f.cylinder, "cylindricity", f);
   }
   return j;
 }
 
 Json Fit(const FitRequest& req, const Points3& p) {
   namespace g = geometry;
-  const auto opts = g::FitOptions{};
+  const g::FitOptions opts = req.robust.least_squares;
   const std::string& s = req.shape;
   const std::string& m = req.method;
-  if (m == "minzone" && (s == "line" || s == "plane" || s == "circle")) return MinZone(s, p);
+  if (m == "minzone" &&
+      (s == "line" || s == "plane" || s == "circle" || s == "sphere" || s == "cylinder"))
+    return MinZone(s, p);
   if ((m == "mic" || m == "mcc") && s == "circle") {
     const auto f = m == "mic" ? g::FitMaxInscribedCircle(p) : g::FitMinCircumscribedCircle(p);
     Json j = ShapeJson(f.circle);
@@ -173,8 +202,10 @@ Json Fit(const FitRequest& req, const Points3& p) {
   if (s == "circle") {
     if (m != "ls" && m != "robust")
       throw UsageError("circle methods: ls, robust, minzone, mic, mcc");
-    return LsOrRobust<g::Circle3>(
+    Json j = LsOrRobust<g::Circle3>(
         req, p, [&](const Points3& q) { return g::FitCircle3(q, opts); }, g::FitCircle3Robust);
+    j["definition"] = req.circle3;
+    return j;
   }
   if (s == "sphere") {
     return LsOrRobust<g::Sphere>(
@@ -236,10 +267,13 @@ bool AllFinite(const Json& j) {
 
 std::string FitUsage() {
   return "usage: mlp fit SHAPE [--method ls|robust|minzone|mic|mcc] [--units mm|m|um|in]\n"
-         "                     [--threshold MM] [--seed N] [--text] FILE\n"
+         "                     [--threshold MM] [--seed N] [--circle3 DEF] [--text] FILE\n"
          "  SHAPE: line plane circle sphere cylinder cone ellipse\n"
          "  FILE:  .xyz/.txt (x y z per line), .pcd, .ply, or - for stdin\n"
-         "  minzone: line (straightness), plane (flatness), circle (roundness);\n"
+         "  --circle3: spatial (ISO 10360-6, 3D distances; the default) or plane-then-circle\n"
+         "             (NIST: least-squares plane, then the circle in it)\n"
+         "  minzone: line (straightness), plane (flatness), circle (roundness),\n"
+         "           sphere (sphericity), cylinder (cylindricity);\n"
          "  mic/mcc: circle (maximum inscribed / minimum circumscribed).\n"
          "  Prints one JSON object (or, with --text, a readable summary), lengths in mm.\n"
          "  Exit 0 ok, 2 bad input, 1 internal error.\n";

@@ -129,7 +129,7 @@ TEST_P(NullSpace, Sphere) {
   EXPECT_NEAR(fit.shape.radius, truth.radius, kPositionTolMm);
 }
 
-TEST_P(NullSpace, Circle3) {
+TEST_P(NullSpace, Circle3PlaneThenCircle) {
   const Case c = GetParam();
   const Circle3 truth{Offset(), RandomDirection(rng_), 42.0};
   Vec3 u, v;
@@ -162,7 +162,39 @@ TEST_P(NullSpace, Circle3) {
       pts.col(i) = truth.center + q - q.dot(truth.normal) * truth.normal + e2(i) * truth.normal;
     }
   }
-  const auto fit = FitCircle3(pts);
+  // These data are stationary for the plane-then-circle definition (circle3_test.cc builds
+  // them for the spatial one).
+  FitOptions plane_first;
+  plane_first.circle3 = Circle3Definition::kPlaneThenCircle;
+  const auto fit = FitCircle3(pts, plane_first);
+  EXPECT_LT((fit.shape.center - truth.center).norm(), kPositionTolMm);
+  EXPECT_LT(AngleUpToSign(fit.shape.normal, truth.normal), kAngleTolRad);
+  EXPECT_NEAR(fit.shape.radius, truth.radius, kPositionTolMm);
+}
+
+// The ISO 10360-6 circle in space (fit_circle_space.cc): with radial deviations a_i and heights
+// h_i over the true circle at angles t_i, the gradient of the sum of squared 3D distances at
+// the truth is (-sum a cos t, -sum a sin t, -sum h, R sum h cos t, R sum h sin t, -sum a) in
+// (centre u, v, n; tilts; radius). Both a and h orthogonal to (1, cos t, sin t) make it vanish.
+TEST_P(NullSpace, Circle3Spatial) {
+  const Case c = GetParam();
+  const Circle3 truth{Offset(), RandomDirection(rng_), 42.0};
+  Vec3 u, v;
+  Frame(truth.normal, &u, &v);
+  Eigen::MatrixXd jac(c.n, 3);
+  std::vector<Vec3> radial(c.n);
+  for (int i = 0; i < c.n; ++i) {
+    const double t = 1.1 + c.span_deg * kDeg * i / (c.n - 1);
+    radial[i] = std::cos(t) * u + std::sin(t) * v;
+    jac.row(i) << 1.0, std::cos(t), std::sin(t);
+  }
+  const auto a = NullSpaceDeviations(jac, c.form * truth.radius, rng_);
+  const auto h = NullSpaceDeviations(jac, 0.5 * c.form * truth.radius, rng_);
+  Points3 pts(3, c.n);
+  for (int i = 0; i < c.n; ++i)
+    pts.col(i) = truth.center + (truth.radius + a(i)) * radial[i] + h(i) * truth.normal;
+  const auto fit = FitCircle3(pts);  // the spatial definition is the default
+  ASSERT_TRUE(TruthIsTheMinimum(fit.shape, truth, pts, false));
   EXPECT_LT((fit.shape.center - truth.center).norm(), kPositionTolMm);
   EXPECT_LT(AngleUpToSign(fit.shape.normal, truth.normal), kAngleTolRad);
   EXPECT_NEAR(fit.shape.radius, truth.radius, kPositionTolMm);

@@ -88,6 +88,49 @@ TEST(FitCli, EveryShapeAndMethodOnRealOrSyntheticFiles) {
   }
 }
 
+// The circle's two definitions by name, and the minimum zones of a sphere and a cylinder with
+// three lobes of 2 um (r = R + A cos 3 phi at every latitude / height, the extremes sampled):
+// both zones are exactly 2 A, to the 1 nm the text files carry.
+TEST(FitCli, CircleDefinitionsAndFormZones) {
+  constexpr double kLobeMm = 0.002, kFileRoundingMm = 1e-5;
+  std::string ring, ball, shaft;
+  for (int i = 0; i < 72; ++i) {
+    const double t = 2 * M_PI * i / 72;
+    ring += std::to_string(5 + 10 * std::cos(t)) + " " + std::to_string(10 * std::sin(t)) + " " +
+            std::to_string(0.02 * std::cos(2 * t)) + "\n";
+    for (int k = -4; k <= 4; ++k) {
+      const double r = 10.0 + kLobeMm * std::cos(3 * t), lat = 0.3 * k;
+      ball += std::to_string(r * std::cos(lat) * std::cos(t)) + " " +
+              std::to_string(r * std::cos(lat) * std::sin(t)) + " " +
+              std::to_string(r * std::sin(lat)) + "\n";
+      shaft += std::to_string(r * std::cos(t)) + " " + std::to_string(r * std::sin(t)) + " " +
+               std::to_string(5.0 * k) + "\n";
+    }
+  }
+  const auto ring_file = TempFile("ring.xyz", ring);
+  for (const char* definition : {"spatial", "plane-then-circle"}) {
+    const CliRun r =
+        RunMlp(std::string("fit circle --circle3 ") + definition + " " + ring_file.string());
+    ASSERT_EQ(r.exit_code, 0) << definition << r.out;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["definition"], definition);
+  }
+  const CliRun sphere =
+      RunMlp("fit sphere --method minzone " + TempFile("ball.xyz", ball).string());
+  ASSERT_EQ(sphere.exit_code, 0) << sphere.out;
+  EXPECT_NEAR(nlohmann::json::parse(sphere.out)["sphericity"].get<double>(), 2 * kLobeMm,
+              kFileRoundingMm);
+  const CliRun cyl =
+      RunMlp("fit cylinder --method minzone " + TempFile("shaft.xyz", shaft).string());
+  ASSERT_EQ(cyl.exit_code, 0) << cyl.out;
+  EXPECT_NEAR(nlohmann::json::parse(cyl.out)["cylindricity"].get<double>(), 2 * kLobeMm,
+              kFileRoundingMm);
+  // The definition is a circle's only, and one of the two.
+  EXPECT_EQ(RunMlp("fit plane --circle3 spatial " + ring_file.string() + " 2>/dev/null").exit_code,
+            2);
+  EXPECT_EQ(RunMlp("fit circle --circle3 nist " + ring_file.string() + " 2>/dev/null").exit_code,
+            2);
+}
+
 TEST(FitCli, BadInputExitsTwoWithNothingOnStdout) {
   const auto collinear = TempFile("collinear.xyz", "0 0 0\n1 1 1\n2 2 2\n3 3 3\n");
   const auto nan = TempFile("nan.xyz", "0 0 0\n1 0 0\n0 1 0\nabc 1 1\n");

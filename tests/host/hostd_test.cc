@@ -167,6 +167,7 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
   // Nominal 40.010 +-0.02: the bore (truly 40.000) is in tolerance, 10 um small; the finishing
   // tool's radius wear moves by half of that.
   json measure = test::BoreMeasureJob(captures, 40.010);
+  measure["cylindricity_tol_mm"] = 0.05;
   const auto run = site.Mlp("request " + site.Request("measure", measure));
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
   const json reply = json::parse(run.out);
@@ -182,6 +183,12 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
   EXPECT_NEAR(reply.at("centre_mm")[0].get<double>(), 0.0, kBoreCentreTolMm);
   EXPECT_NEAR(reply.at("centre_mm")[1].get<double>(), 0.0, kBoreCentreTolMm);
   EXPECT_EQ(reply.at("status"), "in_tolerance");
+  // The wall's minimum zone is at least twice the least-squares RMS (the zone's half-width
+  // bounds every residual from its mid-cylinder, whose RMS the least-squares one cannot beat).
+  const double cylindricity = reply.at("cylindricity_mm");
+  std::printf("bore: cylindricity %.2f um (virtual probe world)\n", cylindricity * 1e3);
+  EXPECT_GE(cylindricity, 2 * reply.at("rms_mm").get<double>());
+  EXPECT_LT(cylindricity, 0.05);
   const double change = reply.at("offset_change_mm");
   constexpr double kSameNumber = 1e-12;  // the reply's figures against each other
   EXPECT_NEAR(change, (reply.at("diameter_mm").get<double>() - 40.010) / 2, kSameNumber);
@@ -212,9 +219,14 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
   EXPECT_EQ(refused.exit_code, 6) << refused.out;
   EXPECT_NE(refused.err.find("exceeds the machine's limit"), std::string::npos) << refused.err;
   EXPECT_FALSE(fs::exists(site.dir / "lcnc" / "mlp_result.ngc"));
-  // A cloud changed on disk is not used.
+  // A cylindricity tolerance tighter than the wall: out of tolerance, and the reason says why.
   measure["nominal"]["diameter_mm"] = 40.010;
   measure["tolerance"] = {{"upper_mm", 0.02}, {"lower_mm", 0.02}};
+  measure["cylindricity_tol_mm"] = 0.2 * cylindricity;
+  const auto not_cylindrical = site.Mlp("request " + site.Request("cylindricity", measure));
+  EXPECT_EQ(not_cylindrical.exit_code, 5) << not_cylindrical.out << not_cylindrical.err;
+  EXPECT_NE(not_cylindrical.out.find("cylindricity"), std::string::npos) << not_cylindrical.out;
+  // A cloud changed on disk is not used.
   history::History h((site.dir / "data" / "history.sqlite").string());
   const std::string cloud = h.ExportJob(captures[0]).at("captures").at(0).at("cloud_path");
   std::ofstream(cloud, std::ios::app) << "x";

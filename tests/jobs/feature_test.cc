@@ -81,6 +81,29 @@ TEST(Bore, ShortArcsAndMissingWallsAreSaid) {
   EXPECT_THROW(MeasureBore(BorePoints(60.0, 0, 0, 360, 4), n), FeatureError);  // no nominal
 }
 
+// A three-lobed bore (r = R + A cos 3t at every depth, sampled every degree, so the six
+// extremes are points): its minimum zone is 2 A, centred, whatever the depth.
+TEST(Bore, CylindricityOfALobedWallWhenAsked) {
+  constexpr double kLobeMm = 0.004, kRadiusMm = 20.0;
+  constexpr double kZoneTolMm = 1e-7;  // exact data: the Chebyshev fit's own precision
+  std::vector<Vec3> p;
+  for (int depth = 2; depth <= 28; depth += 2) {
+    for (int deg = 0; deg < 360; ++deg) {
+      const double t = deg * M_PI / 180, r = kRadiusMm + kLobeMm * std::cos(3 * t);
+      p.emplace_back(r * std::cos(t), r * std::sin(t), -depth);
+    }
+  }
+  geometry::Points3 m(3, static_cast<Eigen::Index>(p.size()));
+  for (size_t i = 0; i < p.size(); ++i) m.col(static_cast<Eigen::Index>(i)) = p[i];
+  BoreNominal n;
+  n.diameter_mm = 40.0, n.depth_mm = 30.0;
+  EXPECT_EQ(MeasureBore(m, n).cylindricity_mm, 0.0);  // not asked: no Chebyshev fit
+  n.cylindricity = true;
+  const BoreMeasurement b = MeasureBore(m, n);
+  EXPECT_NEAR(b.cylindricity_mm, 2 * kLobeMm, kZoneTolMm);
+  EXPECT_TRUE(b.cylindricity_converged);
+}
+
 TEST(Boss, SizePositionAndSmallestRing) {
   // A D30.008 boss at (0.01, -0.02), its wall from z = -20 to -1, its top face and the floor
   // around it in the cloud.

@@ -243,6 +243,11 @@ BoreMeasurement MeasureBore(const geometry::Points3& points, const BoreNominal& 
   const Polar polar = PolarOf(pts, m.top_centre_mcs, m.axis_mcs);
   m.arc_span_deg = ArcSpanDeg(polar);
   m.deviation_by_degree_mm = Profile(polar, fit.shape.radius);
+  if (n.cylindricity) {
+    const geometry::MinZoneCylinderFit zone = geometry::FitMinZoneCylinder(pts, {}, fit.shape);
+    m.cylindricity_mm = zone.cylindricity;
+    m.cylindricity_converged = zone.stats.converged;
+  }
   // Functional size: the wall points projected along the fitted axis onto one plane.
   if (m.arc_span_deg > 180.0) {
     try {

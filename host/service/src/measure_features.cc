@@ -195,7 +195,11 @@ json FaceFields(const jobs::PlaneMeasurement& f) {
           {"area_mm2", f.area_mm2}};
 }
 
-Measured Cylindrical(const FeatureRequest& q, const jobs::BoreNominal& n, const Evidence& ev) {
+Measured Cylindrical(const FeatureRequest& q,
+                     const jobs::BoreNominal& nominal,
+                     const Evidence& ev) {
+  jobs::BoreNominal n = nominal;
+  n.cylindricity = q.cylindricity_tol_mm.has_value();  // a Chebyshev fit only where asked
   const jobs::BoreMeasurement b = jobs::MeasureBore(ev.points_mcs, n);
   Measured m;
   const bool functional = q.size != "ls";
@@ -212,12 +216,20 @@ Measured Cylindrical(const FeatureRequest& q, const jobs::BoreNominal& n, const 
               {"points", b.points},
               {"arc_span_deg", b.arc_span_deg}};
   CheckPosition(q, tp, q.nominal.feature, &m);
+  if (n.cylindricity) {
+    m.fields["cylindricity_mm"] = b.cylindricity_mm;
+    if (b.cylindricity_mm > *q.cylindricity_tol_mm)
+      m.problems.push_back("cylindricity " + Um(b.cylindricity_mm) + " over its tolerance " +
+                           Um(*q.cylindricity_tol_mm));
+  }
   m.found_mcs = b.top_centre_mcs, m.nominal_mcs = n.top_centre_mcs;
   m.fe.points = b.points;
   m.fe.arc_span_deg = b.arc_span_deg;
   m.fe.rms_mm = b.rms_mm;
-  // The functional size's own fit counts when it is the size decided on.
-  m.fe.converged = b.converged && (!functional || b.functional_converged);
+  // The functional size's own fit counts when it is the size decided on; the cylindricity's
+  // when a tolerance holds the part to it.
+  m.fe.converged =
+      b.converged && (!functional || b.functional_converged) && b.cylindricity_converged;
   m.bore = b;
   return m;
 }
@@ -468,6 +480,7 @@ Feature Cylinder(bool boss) {
          if (q->size != "ls") q->size = "functional";
          q->spec = Spec(r, "tolerance", n.diameter_mm, "mm");
          q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
+         q->cylindricity_tol_mm = OptionalNumber(r, "cylindricity_tol_mm");
        },
        Cylindrical,
        [](const jobs::BoreNominal& n, const O& o) { return jobs::BoreViews("wall", n, o); }});

@@ -58,10 +58,11 @@ struct FeatureRequest {
   /// The size decided on where there is a choice: "ls" or "functional" (a bore, a boss),
   /// "x" or "y" (a rectangle), "major" or "minor" (an ellipse); empty where there is none.
   std::string size;
-  jobs::SizeSpec spec;                       ///< that size's nominal and band
-  std::optional<jobs::SizeSpec> other_spec;  ///< a rectangle's other size, held to its band
-  std::optional<double> position_tol_mm;     ///< true position (ISO 1101), where asked
-  std::optional<double> flatness_tol_mm;     ///< a face's flatness, where asked
+  jobs::SizeSpec spec;                        ///< that size's nominal and band
+  std::optional<jobs::SizeSpec> other_spec;   ///< a rectangle's other size, held to its band
+  std::optional<double> position_tol_mm;      ///< true position (ISO 1101), where asked
+  std::optional<double> flatness_tol_mm;      ///< a face's flatness, where asked
+  std::optional<double> cylindricity_tol_mm;  ///< a bore's or boss's cylindricity, where asked
 };
 
 struct Measured {

@@ -30,6 +30,8 @@ struct BoreNominal {
   double band_mm = 0.5;
   /// Away from the rim and the bottom (their edges are not the wall).
   double edge_margin_mm = 1.0;
+  /// Also the minimum-zone cylindricity of the wall (ISO 12180, a Chebyshev fit).
+  bool cylindricity = false;
 };
 
 struct BoreMeasurement {
@@ -43,6 +45,10 @@ struct BoreMeasurement {
   double functional_diameter_mm = 0.0;
   /// The functional size's Chebyshev fit reached a stationary point (geometry chebyshev.h).
   bool functional_converged = true;
+  /// Minimum-zone cylindricity of the wall points [mm]; 0 unless BoreNominal::cylindricity.
+  double cylindricity_mm = 0.0;
+  /// Its Chebyshev fit reached its zone; true when none asked.
+  bool cylindricity_converged = true;
   double rms_mm = 0.0, max_abs_mm = 0.0;
   int points = 0;
   double arc_span_deg = 0.0;  ///< 360 minus the largest angular gap between wall points
