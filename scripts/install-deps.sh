@@ -17,6 +17,7 @@ packages=(
   g++-aarch64-linux-gnu qemu-user  # the firmware for the probe's board (scripts/build-arm64.sh)
   systemd valgrind  # systemd-analyze checks the board's unit; scripts/count-fw-instructions.sh
   linuxcnc-uspace  # the real controller for the LinuxCNC adapter tests and demo
+  linuxcnc-uspace-dev  # hal.h and liblinuxcnchal: the setter as a HAL component (mlp-setter-hal)
   clang libclang-rt-14-dev llvm  # the sanitized build, its symbolizer, the libFuzzer targets
 )
 # The probe board's arm64 packages are downloaded and extracted into a sysroot, never installed

@@ -4,6 +4,8 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 namespace mlp::test {
@@ -34,6 +36,12 @@ inline double TimeScale() {
   const char* env = std::getenv("MLP_TEST_TIME_SCALE");
   const double scale = env && *env ? std::strtod(env, nullptr) : 1.0;
   return scale >= 1.0 ? scale : 1.0;
+}
+
+/// A text file whole ("" when it cannot be read: the caller's assertion says what).
+inline std::string ReadText(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 }  // namespace mlp::test

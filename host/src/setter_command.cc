@@ -1,6 +1,7 @@
 #include "mlp/host/setter_command.h"
 
 #include "mlp/host/cli.h"
+#include "mlp/host/setter_station_args.h"
 #include "mlp/setter/beam_processor.h"
 #include "mlp/setter/beam_signal.h"
 #include "mlp/setter/beam_signal_file.h"
@@ -44,20 +45,6 @@ setter::BeamSignal ReadSignal(const std::string& path) {
   return setter::ParseBeamSignal(ReadInputFile(path), path);
 }
 
-std::vector<double> Radii(const std::string& list) {
-  std::vector<double> r;
-  std::stringstream s(list);
-  std::string item;
-  while (std::getline(s, item, ',')) {
-    char* end = nullptr;
-    const double x = std::strtod(item.c_str(), &end);
-    if (end == item.c_str() || *end != '\0' || !(x > 0))
-      throw UsageError("--teeth-mm takes radii > 0 separated by commas, not \"" + list + "\"");
-    r.push_back(x);
-  }
-  return r;
-}
-
 int Simulate(const std::vector<std::string>& args, std::ostream& out) {
   const Args f(args, {{"--out", "--rpm", "--teeth-mm", "--feed-mm-min", "--gap-mm", "--duration-s",
                        "--drops-per-s", "--noise-v", "--sample-rate-hz", "--seed"},
@@ -68,7 +55,7 @@ int Simulate(const std::vector<std::string>& args, std::ostream& out) {
   beam.drops_per_s = f.Number("--drops-per-s", 0.0);
   setter::ToolInBeam tool;
   tool.rpm = f.Number("--rpm", 0.0);
-  tool.tooth_radius_mm = Radii(f.Has("--teeth-mm") ? f.Text("--teeth-mm") : "3.0");
+  tool.tooth_radius_mm = ParseRadiiList("--teeth-mm", f.Text("--teeth-mm", "3.0"));
   setter::Motion m;
   m.feed_mm_min = f.Number("--feed-mm-min", m.feed_mm_min);
   m.gap_mm = f.Number("--gap-mm", m.gap_mm);

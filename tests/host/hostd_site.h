@@ -81,11 +81,6 @@ class Child {
   int exit_code_ = -1;
 };
 
-inline std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 // One folder per test: ctest may run the tests of this file at once.
 struct Site {
   fs::path dir;

@@ -10,6 +10,7 @@
 #include <future>
 
 #include "hostd_site.h"
+#include "linuxcnc_machine.h"
 #include "test_data.h"
 
 namespace mlp {
@@ -23,7 +24,6 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
 const std::string kConfig = mlp::test::SourceDir() + "/samples/linuxcnc/mlprobe-sim";
-const std::string kDriver = mlp::test::SourceDir() + "/tests/linuxcnc/lcnc.py";
 constexpr int kPort = 17433;              // this test's probe link
 constexpr int kAlignPort = 17438;         // the alignment test's
 constexpr int kPosePort = 17440;          // the controller-pose test's
@@ -38,47 +38,11 @@ constexpr double kPoseExact = 1e-9;      // a pose the controller reported, turn
 constexpr double kExactMm = 1e-6;        // LinuxCNC keeps doubles; our G10 lines carry 0.1 um
 constexpr double kRoundingMm = 0.00005;  // half the 0.1 um step of the G10 values
 
-// A headless LinuxCNC on a copy of the sample config (its tool table and var file are restored
-// for every run): started with the environment LINUXCNC.md lists, stopped through its display.
-class LinuxCnc {
+// A headless LinuxCNC with the M-codes' environment: the client and the host's socket.
+class LinuxCnc : public test::LinuxCnc {
  public:
-  LinuxCnc(const fs::path& config, const std::string& socket) : config_(config) {
-    fs::create_directories(config / "home");
-    fs::create_directories(config / "rtapi");
-    fs::permissions(config / "rtapi", fs::perms::all | fs::perms::sticky_bit);
-    env_ = "HOME=" + (config / "home").string() +
-           " RTAPI_UID=1000 RTAPI_FIFO_PATH=" + (config / "rtapi" / "fifo").string() +
-           " MLP=" + test::kMlp + " MLP_SOCKET=" + socket;
-    std::system(("cd " + config.string() + " && env " + env_ +
-                 " setsid linuxcnc -r mlprobe-sim.ini > linuxcnc.log 2>&1 &")
-                    .c_str());
-    // Up when the tool table's shared map exists: 1-3 s idle; a busy machine gets a minute.
-    for (int i = 0; i < 1200 && !fs::exists(config / "home" / ".tool.mmap"); ++i)
-      std::this_thread::sleep_for(50ms);
-  }
-  ~LinuxCnc() {
-    std::ofstream(config_ / "display.stop") << "";
-    // LinuxCNC cleans up once its display exits: wait so the next test can start one.
-    for (int i = 0; i < 1200 && RunProcess("pgrep -x milltask").exit_code == 0; ++i)
-      std::this_thread::sleep_for(50ms);
-  }
-  bool Up() const { return fs::exists(config_ / "home" / ".tool.mmap"); }
-  /// halcmd on the running machine (as the M-codes call it).
-  test::ProcessRun Hal(const std::string& args) const {
-    return RunProcess("env " + env_ + " halcmd " + args);
-  }
-  json Run(const std::string& program) const {
-    const fs::path p = config_ / "program.ngc";
-    std::ofstream(p) << program;
-    const auto r =
-        RunProcess("env " + env_ + " /usr/bin/python3 " + kDriver + " run " + p.string() + " 120");
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return r.exit_code == 0 ? json::parse(r.out) : json::object();
-  }
-
- private:
-  fs::path config_;
-  std::string env_;
+  LinuxCnc(const fs::path& config, const std::string& socket)
+      : test::LinuxCnc(config, "mlprobe-sim.ini", "MLP=" + test::kMlp + " MLP_SOCKET=" + socket) {}
 };
 
 // The site's machine lcnc-1 pointed at a fresh copy of the sample LinuxCNC config (its tool
@@ -146,9 +110,7 @@ TEST(LinuxCnc, AProbingJobSetsTheToolOffsetTheNextCutUses) {
 
   LinuxCnc cnc(config, site.socket);
   ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
-  const json before = json::parse(RunProcess("env HOME=" + (config / "home").string() +
-                                             " /usr/bin/python3 " + kDriver + " state")
-                                      .out);
+  const json before = cnc.State();
   EXPECT_NEAR(before.at("tools").at("12").at("diameter").get<double>(), 9.998, kExactMm);
 
   const json after = cnc.Run(kProgram);
