@@ -24,13 +24,16 @@ constexpr const char* kUsage =
     "usage: mlp setter simulate --out SIGNAL.txt [--rpm R] [--teeth-mm R1,R2,..]\n"
     "                           [--feed-mm-min F] [--gap-mm G] [--leaving] [--duration-s S]\n"
     "                           [--drops-per-s D] [--noise-v N] [--sample-rate-hz H] [--seed N]\n"
+    "                           [--reflective] [--tool-width-mm W]\n"
     "  the receiver's signal while a pin (--rpm 0, one radius) or a turning tool (a radius per\n"
     "  tooth) moves into (or out of) the beam; its truth in SIGNAL.txt.truth.json\n"
-    "       mlp setter calibrate --signal PIN.txt --feed-mm-min F [--leaving] --out CURVE.json\n"
+    "       mlp setter calibrate --signal PIN.txt --feed-mm-min F [--leaving] [--reflective]\n"
+    "                            --out CURVE.json\n"
     "                            [--json]\n"
     "  the calibration curve from a pin's signal (a cubic, mlprobe-beam-curve/1)\n"
-    "       mlp setter process --signal SIGNAL.txt --curve CURVE.json --rpm R --teeth N\n"
-    "                          --feed-mm-min F [--leaving] [--threshold-share S] [--json]\n"
+    "       mlp setter process --signal SIGNAL.txt (--curve CURVE.json | --no-curve) --rpm R\n"
+    "                          --teeth N --feed-mm-min F [--leaving] [--reflective]\n"
+    "                          [--threshold-share S] [--width-trigger-ms T] [--json]\n"
     "  the signal sample by sample as the setter's DSP: the trigger (the skip signal), the edge\n"
     "  it implies, the leading tooth's radius from the dips, each tooth's lag, what was rejected\n"
     "exit codes: 0 done (process: triggered), 2 bad arguments or files, 3 no trigger or no\n"
@@ -39,23 +42,26 @@ constexpr const char* kUsage =
 namespace fs = std::filesystem;
 
 // Every sub-command takes these switches.
-const std::set<std::string> kSwitches = {"--json", "--leaving"};
+const std::set<std::string> kSwitches = {"--json", "--leaving", "--reflective", "--no-curve"};
 
 setter::BeamSignal ReadSignal(const std::string& path) {
   return setter::ParseBeamSignal(ReadInputFile(path), path);
 }
 
 int Simulate(const std::vector<std::string>& args, std::ostream& out) {
-  const Args f(args, {{"--out", "--rpm", "--teeth-mm", "--feed-mm-min", "--gap-mm", "--duration-s",
-                       "--drops-per-s", "--noise-v", "--sample-rate-hz", "--seed"},
-                      kSwitches});
+  const Args f(args,
+               {{"--out", "--rpm", "--teeth-mm", "--feed-mm-min", "--gap-mm", "--duration-s",
+                 "--drops-per-s", "--noise-v", "--sample-rate-hz", "--seed", "--tool-width-mm"},
+                kSwitches});
   setter::BeamModel beam;
+  beam.reflective = f.Has("--reflective");
   beam.sample_rate_hz = f.Number("--sample-rate-hz", beam.sample_rate_hz);
   beam.noise_v = f.Number("--noise-v", beam.noise_v);
   beam.drops_per_s = f.Number("--drops-per-s", 0.0);
   setter::ToolInBeam tool;
   tool.rpm = f.Number("--rpm", 0.0);
   tool.tooth_radius_mm = ParseRadiiList("--teeth-mm", f.Text("--teeth-mm", "3.0"));
+  tool.width_mm = f.Number("--tool-width-mm", 0.0);
   setter::Motion m;
   m.feed_mm_min = f.Number("--feed-mm-min", m.feed_mm_min);
   m.gap_mm = f.Number("--gap-mm", m.gap_mm);
@@ -75,8 +81,9 @@ int Simulate(const std::vector<std::string>& args, std::ostream& out) {
 int Calibrate(const std::vector<std::string>& args, std::ostream& out) {
   const Args f(args, {{"--signal", "--feed-mm-min", "--out"}, kSwitches});
   const setter::BeamSignal s = ReadSignal(f.Text("--signal"));
-  const setter::CalibrationCurve c = setter::CalibrateFromPin(
-      s.volts, s.sample_rate_hz, f.Number("--feed-mm-min", 0.0), !f.Has("--leaving"));
+  const setter::CalibrationCurve c =
+      setter::CalibrateFromPin(s.volts, s.sample_rate_hz, f.Number("--feed-mm-min", 0.0),
+                               !f.Has("--leaving"), f.Has("--reflective"));
   WriteOutputFile(f.Text("--out"), setter::CurveJson(c));
   if (f.Has("--json")) {
     out << nlohmann::json::parse(setter::CurveJson(c)).dump() << "\n";
@@ -97,7 +104,12 @@ setter::ProcessorConfig ProcessorConfigFrom(const Args& f, const setter::BeamSig
   c.feed_mm_min = f.Number("--feed-mm-min", 0.0);
   c.entering = !f.Has("--leaving");
   c.threshold_share = f.Number("--threshold-share", c.threshold_share);
-  c.curve = setter::ParseCurve(ReadInputFile(f.Text("--curve")), f.Text("--curve"));
+  c.reflective = f.Has("--reflective");
+  c.width_trigger_s = f.Number("--width-trigger-ms", 0.0) / 1000;
+  if (f.Has("--no-curve") == f.Has("--curve"))
+    throw UsageError("give --curve CURVE.json, or --no-curve (a line through the minima)");
+  if (f.Has("--curve"))
+    c.curve = setter::ParseCurve(ReadInputFile(f.Text("--curve")), f.Text("--curve"));
   return c;
 }
 
@@ -128,7 +140,9 @@ nlohmann::ordered_json ProcessJson(const setter::BeamProcessor& p, int teeth) {
     j["edge_offset_mm"] = t.edge_offset_mm;
     j["tooth"] = t.tooth;
     j["extremes"] = t.extremes;
+    j["cause"] = setter::ToString(t.cause);
   }
+  j["deepest_share"] = p.DeepestShare();
   j["diameter_mm"] = std::isfinite(radius) ? nlohmann::ordered_json(2 * radius) : nullptr;
   nlohmann::ordered_json lags = nlohmann::ordered_json::array();
   for (int k = 0; k < teeth; ++k) {
@@ -146,11 +160,16 @@ void PrintProcess(const setter::BeamProcessor& p,
                   std::ostream& out) {
   const setter::Trigger& t = p.trigger();
   const double radius = p.ToothRadiusMm();
-  if (p.Triggered())
+  if (p.Triggered() && t.cause == setter::TriggerCause::kLine)
     out << std::fixed << std::setprecision(6) << "trigger at sample " << t.sample << " ("
         << t.time_s << " s): tooth " << t.tooth << "'s line (" << t.extremes
         << " extremes) crossed at " << t.threshold_time_s << " s; the edge is the latched "
         << "position less " << std::setprecision(4) << t.edge_offset_mm * 1e3 << " um\n";
+  else if (p.Triggered())
+    out << std::fixed << std::setprecision(6) << "trigger at sample " << t.sample << " ("
+        << t.time_s << " s): " << setter::ToString(t.cause) << " at " << t.threshold_time_s
+        << " s; the edge is the latched position less " << std::setprecision(4)
+        << t.edge_offset_mm * 1e3 << " um\n";
   if (std::isfinite(radius))
     out << std::fixed << std::setprecision(4) << "  diameter from the dips' widths " << 2 * radius
         << " mm\n";
@@ -163,16 +182,22 @@ void PrintProcess(const setter::BeamProcessor& p,
 }
 
 int Process(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args f(args,
-               {{"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min", "--threshold-share"},
-                kSwitches});
+  const Args f(args, {{"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min",
+                       "--threshold-share", "--width-trigger-ms"},
+                      kSwitches});
   const setter::BeamSignal s = ReadSignal(f.Text("--signal"));
   const setter::ProcessorConfig c = ProcessorConfigFrom(f, s);
   const auto p = std::make_unique<setter::BeamProcessor>(c);
   for (float v : s.volts) p->Push(v);
   const nlohmann::ordered_json j = ProcessJson(*p, c.teeth);
   const int code = p->Triggered() ? kExitOk : kExitNoResult;
-  if (!p->Triggered()) err << "mlp setter: no trigger in " << p->Samples() << " samples\n";
+  if (!p->Triggered())
+    err << "mlp setter: no trigger in " << p->Samples() << " samples; the deepest dip left "
+        << std::fixed << std::setprecision(1) << 100 * p->DeepestShare() << " % of the light"
+        << (p->DeepestShare() > c.threshold_share ? " (over the threshold: a tool thinner than the "
+                                                    "beam, or one that never reached it)"
+                                                  : "")
+        << "\n";
   if (f.Has("--json"))
     out << j.dump() << "\n";
   else

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "beam_cases.h"
 #include <gtest/gtest.h>
 
 namespace mlp::setter {
@@ -26,50 +27,11 @@ constexpr double kShareTol = 0.01;       // the curve's share of clear at the be
 constexpr double kSpanTolMm = 0.004;     // its 90 % to 10 % span against 0.038 mm
 constexpr double kInverseTol = 1e-9;     // IntrusionAt and Share are each other's inverse
 
-Motion Approach(double gap_mm, double duration_s, bool entering = true) {
-  Motion m;
-  m.feed_mm_min = 6.0, m.gap_mm = gap_mm, m.duration_s = duration_s, m.entering = entering;
-  return m;
-}
-
-// The curve from a D6 pin driven in from 5 beam radii out, no drops (a calibration is taken
-// with the coolant off).
-CalibrationCurve PinCurve() {
-  ToolInBeam pin;
-  pin.tooth_radius_mm = {3.0};
-  const BeamSignal s = GenerateSignal(BeamModel(), pin, Approach(0.15, 2.5), 1);
-  return CalibrateFromPin(s.volts, s.sample_rate_hz, 6.0, true);
-}
-
-ProcessorConfig Config(const CalibrationCurve& curve, double rpm, int teeth, bool entering) {
-  ProcessorConfig c;
-  c.rpm = rpm, c.teeth = teeth, c.feed_mm_min = 6.0, c.entering = entering, c.curve = curve;
-  return c;
-}
-
-struct Outcome {
-  bool triggered = false;
-  double edge_error_mm = 0, radius_mm = 0, lag_mm = 0;
-  int rejections = 0;
-};
-
-Outcome Process(const BeamSignal& s, const ProcessorConfig& c) {
-  BeamProcessor p(c);
-  for (float v : s.volts) p.Push(v);
-  Outcome r;
-  r.triggered = p.Triggered();
-  r.rejections = p.RejectionCount(Rejected::kOffSchedule) +
-                 p.RejectionCount(Rejected::kOutsideBand) + p.RejectionCount(Rejected::kTooSteep) +
-                 p.RejectionCount(Rejected::kNotHeld);
-  if (!r.triggered) return r;
-  const Trigger& t = p.trigger();
-  // What the control latches at the skip, less the offset: the edge; against the truth.
-  r.edge_error_mm = s.AxisAt(static_cast<double>(t.sample)) - t.edge_offset_mm - s.axis_at_edge_mm;
-  r.radius_mm = p.ToothRadiusMm();
-  for (int k = 0; k < c.teeth; ++k)
-    if (k != p.LeadingTooth()) r.lag_mm = p.ToothLagMm(k);
-  return r;
-}
+using test::Approach;
+using test::Config;
+using test::Outcome;
+using test::PinCurve;
+using test::Process;
 
 TEST(BeamSignal, FollowsTheKnifeEdgeAndTheTeeth) {
   BeamModel b;
@@ -231,7 +193,8 @@ TEST(BeamProcessor, RefusesSettingsItCannotWorkWith) {
   c = Config(curve, 1500, 2, true);
   c.threshold_share = 0.02;  // below the curve's span
   EXPECT_THROW(BeamProcessor{c}, SetterInputError);
-  c = Config(CalibrationCurve(), 1500, 2, true);
+  c = Config(curve, 1500, 2, true);
+  c.curve.hi_mm = c.curve.lo_mm;  // a curve with no span (without one: trigger_modes_test)
   EXPECT_THROW(BeamProcessor{c}, SetterInputError);
 }
 

@@ -69,3 +69,52 @@ TEST(SetterCli, SimulatesCalibratesAndTriggers) {
 }
 
 }  // namespace
+
+namespace {
+
+// The other triggers through the command: without a curve, a reflective setter with its own
+// curve, and a tool thinner than the beam (no trigger, how deep it went, exit 3).
+TEST(SetterCli, NoCurveReflectiveAndAThinTool) {
+  const std::string dir = "/tmp/mlp_setter_cli_modes";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const auto sim = [&](const std::string& args) {
+    return RunProcess(kMlp + " setter simulate --out " + dir + "/" + args).exit_code;
+  };
+  ASSERT_EQ(sim("tool.txt --rpm 1500 --teeth-mm 3.0,3.01 --gap-mm 0.06 --duration-s 1.2 --seed 5"),
+            0);
+  const std::string tool_args = " --rpm 1500 --teeth 2 --feed-mm-min 6 --json";
+  const auto no_curve =
+      RunProcess(kMlp + " setter process --signal " + dir + "/tool.txt --no-curve" + tool_args);
+  ASSERT_EQ(no_curve.exit_code, 0) << no_curve.err;
+  EXPECT_EQ(nlohmann::json::parse(no_curve.out).at("cause"),
+            "the leading tooth's line crossed the threshold");
+  // Reflective: a pin's reflection calibrated, then a tool's peaks.
+  ASSERT_EQ(sim("rpin.txt --reflective --gap-mm 0.15 --duration-s 2.5"), 0);
+  ASSERT_EQ(RunProcess(kMlp + " setter calibrate --reflective --signal " + dir +
+                       "/rpin.txt --feed-mm-min 6 --out " + dir + "/rcurve.json")
+                .exit_code,
+            0);
+  ASSERT_EQ(sim("rtool.txt --reflective --rpm 1500 --teeth-mm 3.0,3.01 --gap-mm 0.06 "
+                "--duration-s 1.2 --seed 6"),
+            0);
+  const auto reflective = RunProcess(kMlp + " setter process --reflective --signal " + dir +
+                                     "/rtool.txt --curve " + dir + "/rcurve.json" + tool_args);
+  EXPECT_EQ(reflective.exit_code, 0) << reflective.err;
+  // A 10 um wire through a 30 um beam: no trigger; the message says how deep it went.
+  ASSERT_EQ(sim("wire.txt --teeth-mm 0.5 --tool-width-mm 0.01 --gap-mm 0.1 --duration-s 2.5"), 0);
+  const auto wire = RunProcess(kMlp + " setter process --signal " + dir +
+                               "/wire.txt --no-curve --rpm 0 --teeth 1 --feed-mm-min 6");
+  EXPECT_EQ(wire.exit_code, 3);
+  EXPECT_NE(wire.err.find("over the threshold: a tool thinner than the beam"), std::string::npos)
+      << wire.err;
+  // A curve and --no-curve at once, or neither: bad arguments.
+  EXPECT_EQ(RunProcess(kMlp + " setter process --signal " + dir + "/tool.txt --no-curve --curve " +
+                       dir + "/rcurve.json" + tool_args)
+                .exit_code,
+            2);
+  EXPECT_EQ(
+      RunProcess(kMlp + " setter process --signal " + dir + "/tool.txt" + tool_args).exit_code, 2);
+}
+
+}  // namespace

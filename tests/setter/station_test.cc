@@ -47,7 +47,8 @@ struct Outcome {
 
 // The axis from `start_mm` along -1 at the feed, in cycles of 100-500 us (seeded), until the
 // skip or `travel_mm`; the position "latched" is the cycle's end, as motion would latch it.
-Outcome Approach(SetterStation* station, double start_mm, double travel_mm, double rpm, unsigned seed) {
+Outcome Approach(
+    SetterStation* station, double start_mm, double travel_mm, double rpm, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> cycle_s(100e-6, 500e-6);
   station->Arm(rpm);

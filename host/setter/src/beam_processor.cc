@@ -24,6 +24,18 @@ double Cross(double t0, double y0, double t1, double y1, double level) {
 
 }  // namespace
 
+const char* ToString(TriggerCause c) {
+  switch (c) {
+    case TriggerCause::kLine:
+      return "the leading tooth's line crossed the threshold";
+    case TriggerCause::kWidth:
+      return "a dip of the leading tooth reached the width set";
+    case TriggerCause::kPin:
+      return "the light held beyond the threshold";
+  }
+  return "?";
+}
+
 const char* ToString(Rejected r) {
   switch (r) {
     case Rejected::kOffSchedule:
@@ -43,11 +55,28 @@ void ProcessorConfig::Validate() const {
   if (!(rpm >= 0 && rpm <= 60000) || teeth < 1 || teeth > BeamProcessor::kMaxTeeth)
     Fail("rpm 0..60000, teeth 1..16");
   if (!(feed_mm_min > 0)) Fail("feed_mm_min must be > 0");
-  if (!(curve.clear_v > 0) || !(curve.hi_mm > curve.lo_mm)) Fail("no calibration curve");
-  if (!(threshold_share > curve.ShareLo() && threshold_share < curve.ShareHi()))
-    Fail("the threshold must lie on the calibration curve's span");
-  if (!(width_share > threshold_share && width_share < curve.ShareHi()))
-    Fail("the width's share must lie between the threshold and the curve's top");
+  if (HasCurve()) {
+    if (!(curve.hi_mm > curve.lo_mm)) Fail("the calibration curve has no span");
+    if (!(threshold_share > curve.ShareLo() && threshold_share < curve.ShareHi()))
+      Fail("the threshold must lie on the calibration curve's span");
+    if (!(width_share > threshold_share && width_share < curve.ShareHi()))
+      Fail("the width's share must lie between the threshold and the curve's top");
+  } else {
+    if (reflective)
+      Fail("a reflective setter needs its calibration curve (its full reflection is the level)");
+    if (!(clear_s >= 0.005 && clear_s <= 0.064))
+      Fail("clear_s: 5..64 ms (the clear level without a curve)");
+    if (!(line_share_lo > 0 && line_share_lo < threshold_share && threshold_share < line_share_hi &&
+          line_share_hi < 1))
+      Fail("without a curve: 0 < line_share_lo < threshold_share < line_share_hi < 1");
+    if (!(width_share > threshold_share && width_share < 1))
+      Fail("the width's share must lie between the threshold and 1");
+    if (!(z_tol > 0) || !(z_band > 0)) Fail("z_tol and z_band must be > 0");
+  }
+  if (!(width_trigger_s >= 0)) Fail("width_trigger_s must be >= 0 (0: off)");
+  if (!(confirm_share > 0 && confirm_share < threshold_share &&
+        threshold_share + confirm_share < 1))
+    Fail("confirm_share must be > 0 and keep threshold +- it within (0, 1)");
   if (fit_min < 3 || fit_min > BeamProcessor::kRing || !(fit_tol_mm > 0) || !(band_mm > 0) ||
       !(gate_share > 0 && gate_share < 0.25) || !(hysteresis_share > 0) || !(hold_s > 0))
     Fail("fit_min 3..8; tolerances, gate (under 1/4), hysteresis and hold > 0");
@@ -56,14 +85,60 @@ void ProcessorConfig::Validate() const {
 BeamProcessor::BeamProcessor(const ProcessorConfig& c) : cfg_(c) {
   c.Validate();
   if (c.rpm > 0) period_s_ = 60.0 / (c.rpm * c.teeth);
-  x_threshold_ = c.curve.IntrusionAt(c.threshold_share);
-  x_width_ = c.curve.IntrusionAt(c.width_share);
+  if (c.HasCurve()) clear_v_ = c.curve.clear_v;
+  x_threshold_ = ToIntrusion(c.threshold_share);
   feed_mm_s_ = c.feed_mm_min / 60.0;
   dir_ = c.entering ? 1.0 : -1.0;
+  // Entering, the shares fall towards the threshold; leaving, they rise towards it.
+  x_confirm_ = ToIntrusion(c.threshold_share + dir_ * c.confirm_share);
+}
+
+// erfcinv(2 share) by Newton's method on erfc (no inverse in the standard library): from 0,
+// six steps reach double precision for shares in [0.01, 0.99].
+double Probit(double share) {
+  const double target = 2.0 * std::clamp(share, 1e-6, 1.0 - 1e-6);
+  double z = 0.0;
+  for (int i = 0; i < 8; ++i) {
+    const double slope = -2.0 / std::sqrt(M_PI) * std::exp(-z * z);
+    const double step = (std::erfc(z) - target) / slope;
+    z -= step;
+    if (std::abs(step) < 1e-14) break;
+  }
+  return z;
+}
+
+double BeamProcessor::ToIntrusion(double share) const {
+  return cfg_.HasCurve() ? cfg_.curve.IntrusionAt(share) : Probit(share);
+}
+
+// Without a curve the clear level is measured first: the median of 1 ms means (a drop in the
+// window dims a few of them, not the median).
+bool BeamProcessor::ClearLevel(float volts) {
+  if (!std::isnan(clear_v_)) return true;
+  const int per_block = std::max(1, static_cast<int>(0.001 * cfg_.sample_rate_hz));
+  clear_block_sum_ += volts;
+  if (++clear_in_block_ < per_block) return false;
+  clear_blocks_[static_cast<size_t>(clear_block_n_++)] = clear_block_sum_ / per_block;
+  clear_block_sum_ = 0, clear_in_block_ = 0;
+  const int blocks = std::min(64, std::max(5, static_cast<int>(std::lround(cfg_.clear_s * 1000))));
+  if (clear_block_n_ < blocks) return false;
+  std::array<double, 64> sorted = clear_blocks_;
+  std::nth_element(sorted.begin(), sorted.begin() + blocks / 2, sorted.begin() + blocks);
+  clear_v_ = sorted[static_cast<size_t>(blocks / 2)];
+  if (!(clear_v_ > 0)) {  // dark: measure again
+    clear_v_ = std::numeric_limits<double>::quiet_NaN(), clear_block_n_ = 0;
+    return false;
+  }
+  smooth_.fill(1.0), smooth_sum_ = kSmooth;  // the average starts at the clear level
+  return false;
 }
 
 bool BeamProcessor::Push(float volts) {
-  const double share = volts / cfg_.curve.clear_v;
+  if (!ClearLevel(volts)) {
+    ++n_;
+    return false;
+  }
+  const double share = cfg_.reflective ? 1.0 - volts / clear_v_ : volts / clear_v_;
   const auto slot = static_cast<size_t>(n_ % kSmooth);
   smooth_sum_ += share - smooth_[slot];
   smooth_[slot] = share;
@@ -79,11 +154,27 @@ bool BeamProcessor::Push(float volts) {
   }
   const double now = static_cast<double>(n_) / cfg_.sample_rate_hz;
   if (!Triggered() && cfg_.rpm > 0 && !std::isnan(due_t_) && now >= due_t_) {
-    trigger_ = {n_, now, due_t_, dir_ * feed_mm_s_ * (now - due_t_), due_tooth_, due_extremes_};
+    trigger_ = {n_,
+                now,
+                due_t_,
+                dir_ * feed_mm_s_ * (now - due_t_),
+                due_tooth_,
+                due_extremes_,
+                TriggerCause::kLine};
+    fired = true;
+  }
+  if (!Triggered() && cfg_.rpm > 0 && !std::isnan(width_due_t_)) {
+    trigger_ = {n_,
+                now,
+                width_due_t_,
+                dir_ * feed_mm_s_ * (now - width_due_t_),
+                width_due_tooth_,
+                0,
+                TriggerCause::kWidth};
     fired = true;
   }
   if (!Triggered() && cfg_.rpm == 0 && cross_t_ >= 0 && now - cross_t_ >= cfg_.hold_s) {
-    trigger_ = {n_, now, cross_t_, dir_ * feed_mm_s_ * (now - cross_t_), -1, 0};
+    trigger_ = {n_, now, cross_t_, dir_ * feed_mm_s_ * (now - cross_t_), -1, 0, TriggerCause::kPin};
     fired = true;
   }
   ++n_;
@@ -147,6 +238,7 @@ double BeamProcessor::RawCross(double level, bool falling, double smoothed_t) co
 void BeamProcessor::FinishDip() {
   if (down_t_ >= 0 && up_t_ > down_t_ && dip_.share < cfg_.width_share)
     dip_.width_s = up_t_ - down_t_;
+  deepest_share_ = std::min(deepest_share_, dip_.share);
   dip_open_ = false;
   down_t_ = pending_down_t_, up_t_ = -1, pending_down_t_ = -1;
   Schedule(dip_);
@@ -238,20 +330,32 @@ void BeamProcessor::AddToTooth(const Dip& d) {
   const long turns = std::lround((d.t - t_ref_) / period_s_);
   const int k = static_cast<int>(((turns % cfg_.teeth) + cfg_.teeth) % cfg_.teeth);
   Tooth& th = teeth_[static_cast<size_t>(k)];
-  const CalibrationCurve& c = cfg_.curve;
   const long at = std::lround(d.t * cfg_.sample_rate_hz);
-  if (d.share < c.ShareLo()) th.deep_t = d.t;  // in further than the curve reaches
-  if (d.share >= c.ShareLo() && d.share <= c.ShareHi()) {
-    const double x = c.IntrusionAt(d.share);
+  // The span where a minimum is on its tooth's line: the curve's, or the near-linear one.
+  const double lo = cfg_.HasCurve() ? cfg_.curve.ShareLo() : cfg_.line_share_lo;
+  const double hi = cfg_.HasCurve() ? cfg_.curve.ShareHi() : cfg_.line_share_hi;
+  const double band = cfg_.HasCurve() ? cfg_.band_mm : cfg_.z_band;
+  if (d.share < lo) th.deep_t = d.t;  // in further than the line reaches
+  if (d.share >= lo && d.share <= hi) {
+    const double x = ToIntrusion(d.share);
+    // The band needs a line to hold: 3 extremes at the feed with a curve; without one (no
+    // speed to check a line against) fit_min, or a drop among the first 3 would lock the
+    // tooth's good minima out.
+    const int hold = cfg_.HasCurve() ? 3 : cfg_.fit_min;
     Fit f;
-    if (th.extremes.n >= 3 && th.extremes.Line(cfg_.band_mm, feed_mm_s_, dir_, &f) &&
-        f.inliers >= 3 && std::abs(x - (f.a + f.b * d.t)) > cfg_.band_mm) {
+    if (th.extremes.n >= hold && ToothLine(th, &f) && f.inliers >= hold &&
+        std::abs(x - (f.a + f.b * d.t)) > band) {
       Reject(Rejected::kOutsideBand, at);
       return;
     }
     th.extremes.Push(d.t, x);
   }
-  if (d.width_s > 0 && d.width_s < 0.5 * period_s_) AddWidth(&th, d);
+  if (d.width_s > 0 && d.width_s < 0.5 * period_s_) {
+    AddWidth(&th, d);
+    if (cfg_.width_trigger_s > 0 && d.width_s >= cfg_.width_trigger_s && std::isnan(width_due_t_) &&
+        (k == due_tooth_ || due_tooth_ < 0))
+      width_due_t_ = d.t, width_due_tooth_ = k;
+  }
   UpdatePrediction();
 }
 
@@ -271,6 +375,13 @@ void BeamProcessor::AddWidth(Tooth* th, const Dip& d) {
   r.Push(tt, y);
 }
 
+// A tooth's line: intrusions at the feed (+-50 %) with a curve; without one, shares falling
+// in the approach's sense (their rate in share is not known beforehand).
+bool BeamProcessor::ToothLine(const Tooth& th, Fit* fit) const {
+  if (cfg_.HasCurve()) return th.extremes.Line(cfg_.band_mm, feed_mm_s_, dir_, fit);
+  return th.extremes.Line(cfg_.z_band, 0, dir_, fit) && fit->b * dir_ > 0;
+}
+
 // The leading tooth (the furthest in now, among those with a line at the feed through two
 // extremes or more) triggers once its line holds `fit_min` extremes within `fit_tol_mm`: when
 // it crosses the threshold. A tooth ahead with too few extremes yet (drops spoiled its dips)
@@ -282,11 +393,16 @@ void BeamProcessor::UpdatePrediction() {
   int lead_k = -1;
   for (int k = 0; k < cfg_.teeth; ++k) {
     Fit f;
-    if (!teeth_[static_cast<size_t>(k)].extremes.Line(cfg_.band_mm, feed_mm_s_, dir_, &f)) continue;
+    if (!ToothLine(teeth_[static_cast<size_t>(k)], &f)) continue;
     if (f.a + f.b * now > best) best = f.a + f.b * now, lead = f, lead_k = k;
   }
   due_t_ = kNaN, due_tooth_ = lead_k;
-  if (lead_k < 0 || lead.inliers < cfg_.fit_min || lead.rms > cfg_.fit_tol_mm) return;
+  const double tol = cfg_.HasCurve() ? cfg_.fit_tol_mm : cfg_.z_tol;
+  if (lead_k < 0 || lead.inliers < cfg_.fit_min || lead.rms > tol) return;
+  // Extrapolate only from near the threshold (a thin tool's dips stop short of it).
+  const Ring& ring = teeth_[static_cast<size_t>(lead_k)].extremes;
+  const double latest = ring.x[static_cast<size_t>((ring.head + kRing - 1) % kRing)];
+  if (dir_ * (latest - x_confirm_) < 0) return;
   // A tooth that went in further than the curve reaches within the turns a line needs is
   // ahead of, or not yet comparable with, the leader (leaving the beam, the longest tooth
   // comes onto the curve last): wait for its line.
@@ -309,8 +425,13 @@ void BeamProcessor::PinStep(double y, double t) {
     Reject(Rejected::kNotHeld, n_);
     cross_t_ = -1;
   }
+  deepest_share_ = std::min(deepest_share_, y);
   const bool was_beyond = cfg_.entering ? prev_ < th : prev_ >= th;
   if (cross_t_ >= 0 || Triggered() || !beyond || was_beyond || slope_n_ <= m) return;
+  if (!cfg_.HasCurve()) {  // no slope to compare: the hold alone
+    cross_t_ = Cross(prev_t_, prev_, t, y, th);
+    return;
+  }
   const CalibrationCurve& c = cfg_.curve;
   const double x = x_threshold_;
   const double expected = (c.c[1] + x * (2 * c.c[2] + 3 * x * c.c[3])) * dir_ * feed_mm_s_;
@@ -360,9 +481,9 @@ double BeamProcessor::ToothLagMm(int k) const {
   const Tooth& lead = teeth_[static_cast<size_t>(due_tooth_)];
   const Tooth& other = teeth_[static_cast<size_t>(k)];
   Fit f0, f1;
-  if (!lead.extremes.Line(cfg_.band_mm, feed_mm_s_, dir_, &f0) ||
-      !other.extremes.Line(cfg_.band_mm, feed_mm_s_, dir_, &f1))
-    return kNaN;
+  if (!ToothLine(lead, &f0) || !ToothLine(other, &f1)) return kNaN;
+  if (!cfg_.HasCurve())  // in share, not mm: how much later it crosses the threshold, at the feed
+    return feed_mm_s_ * ((x_threshold_ - f1.a) / f1.b - (x_threshold_ - f0.a) / f0.b);
   const double t = lead.extremes.LastT();
   return (f0.a + f0.b * t) - (f1.a + f1.b * t);
 }

@@ -35,9 +35,11 @@ double ToolInBeam::Reach(double t) const {
   return reach;
 }
 
-double Transmission(const BeamModel& b, double e) {
+double Transmission(const BeamModel& b, double e, double width_mm) {
   const double w = b.beam_radius_mm;
   double t = 0.5 * std::erfc(std::sqrt(2.0) * e / w);
+  // A strip: the light beyond its trailing side passes again.
+  if (width_mm > 0) t += 1.0 - 0.5 * std::erfc(std::sqrt(2.0) * (e - width_mm) / w);
   // The rise just before blocking, and a ripple whose fringes close up towards the beam (a
   // knife edge's Fresnel pattern, in shape only).
   t += b.rise * std::exp(-std::pow((e + 1.5 * w) / (0.6 * w), 2));
@@ -54,6 +56,7 @@ BeamSignal GenerateSignal(const BeamModel& beam,
   if (tool.Teeth() < 1 || tool.Teeth() > 16 || !(tool.LongestRadius() > 0))
     Fail("the tool needs 1..16 teeth with radii > 0");
   if (!(tool.rpm >= 0 && tool.rpm <= 60000)) Fail("rpm: 0..60000");
+  if (!(tool.width_mm >= 0)) Fail("the tool's width must be >= 0 (0: a solid edge)");
   if (!(motion.feed_mm_min > 0 && motion.feed_mm_min <= 5000) || !(motion.gap_mm >= 0) ||
       !(motion.duration_s > 0 && motion.duration_s <= 60))
     Fail("feed 0..5000 mm/min, gap >= 0, duration 0..60 s");
@@ -83,7 +86,9 @@ BeamSignal GenerateSignal(const BeamModel& beam,
   size_t next_drop = 0;
   for (size_t i = 0; i < n; ++i) {
     const double t = static_cast<double>(i) * dt;
-    double v = beam.clear_v * Transmission(beam, s.AxisAt(static_cast<double>(i)) + tool.Reach(t));
+    const double pass =
+        Transmission(beam, s.AxisAt(static_cast<double>(i)) + tool.Reach(t), tool.width_mm);
+    double v = beam.clear_v * (beam.reflective ? 1.0 - pass : pass);
     while (next_drop < drops.size() && drops[next_drop].t + 4 * drops[next_drop].half < t)
       ++next_drop;
     for (size_t k = next_drop; k < drops.size() && drops[k].t - 4 * drops[k].half < t; ++k)

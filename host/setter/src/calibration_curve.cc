@@ -45,19 +45,25 @@ double CalibrationCurve::IntrusionAt(double share) const {
 CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
                                   double fs,
                                   double feed_mm_min,
-                                  bool entering) {
+                                  bool entering,
+                                  bool reflective) {
   const auto clear_n = static_cast<size_t>(0.02 * fs);
   if (!(fs > 0) || !(feed_mm_min > 0) || volts.size() < 4 * clear_n)
     throw SetterInputError(
         "calibration curve: needs a sample rate, a feed and at least 80 ms of signal");
   CalibrationCurve cur;
-  cur.clear_v = entering ? Median({volts.begin(), volts.begin() + static_cast<long>(clear_n)})
-                         : Median({volts.end() - static_cast<long>(clear_n), volts.end()});
-  if (!(cur.clear_v > 0)) Fail("the beam is dark before the pin");
+  // The level: the clear beam before the pin (transmissive), the full reflection with the pin
+  // in (reflective).
+  const bool level_first = entering != reflective;
+  cur.clear_v = level_first ? Median({volts.begin(), volts.begin() + static_cast<long>(clear_n)})
+                            : Median({volts.end() - static_cast<long>(clear_n), volts.end()});
+  if (!(cur.clear_v > 0))
+    Fail(reflective ? "no reflection with the pin in the beam" : "the beam is dark before the pin");
   // Shares in time order as the pin goes in (a leaving pin read backwards).
   std::vector<double> share(volts.size());
   for (size_t i = 0; i < volts.size(); ++i)
-    share[entering ? i : volts.size() - 1 - i] = volts[i] / cur.clear_v;
+    share[entering ? i : volts.size() - 1 - i] =
+        reflective ? 1.0 - volts[i] / cur.clear_v : volts[i] / cur.clear_v;
   // A 9-sample average against the noise: the half-light crossing on it (interpolated), and
   // the transition round it (from 95 % to 5 %) as the span that is fitted: a drop elsewhere
   // stays out.

@@ -34,7 +34,8 @@ float BeamSource::Sample(double t, double spindle_mm, double rpm) {
   tool.rpm = rpm;
   const double e =
       cfg_.approach_sign * (spindle_mm - cfg_.beam_mm) + cfg_.base_reach_mm + tool.Reach(t);
-  double v = cfg_.beam.clear_v * Transmission(cfg_.beam, e);
+  const double pass = Transmission(cfg_.beam, e, tool.width_mm);
+  double v = cfg_.beam.clear_v * (cfg_.beam.reflective ? 1.0 - pass : pass);
   // Coolant drops as in GenerateSignal, drawn as time comes: one at a time, Poisson gaps.
   if (cfg_.beam.drops_per_s > 0 && t >= next_drop_t_) {
     std::uniform_real_distribution<double> unit(0, 1);

@@ -21,6 +21,21 @@
 /// A tool not turning (a pin): the signal crossing the threshold share, its slope matching
 /// the calibration curve at the feed (a drop falls far faster) and held there `hold_s` (a drop
 /// passes).
+///
+/// Without a calibration curve (seed 003's "a line through the minima"): the clear level is
+/// the median of the first `clear_s`'s 1 ms means, and the beam is taken as Gaussian, its
+/// radius unknown: share = erfc(z) / 2 with z linear in the intrusion, so each tooth's minima,
+/// as z = erfcinv(2 share) between `line_share_lo` and `line_share_hi`, lie on a line in time
+/// (a line through the shares themselves bends with the beam's edge: measured +1.0..+1.7 um
+/// late). The trigger is where the leading tooth's line crosses the threshold: at 50 %, the
+/// beam's centre, the edge the curve gives. A pin is then checked by its hold alone.
+/// A predicted crossing fires only once the leading tooth has a minimum within
+/// `confirm_share` of the threshold: a tool thinner than the beam, whose dips stop short of
+/// it, is not extrapolated into a false trigger.
+/// A reflective setter (its light rising as the tool enters, a min-max-min per tooth) is read
+/// as the share 1 - volts / clear_v, with its curve made the same way.
+/// `width_trigger_s` adds seed 003's other trigger: a confirmed dip of the leading tooth as
+/// wide as that (its width grows as the tool goes in).
 
 #include "mlp/setter/calibration_curve.h"
 
@@ -45,8 +60,23 @@ struct ProcessorConfig {
   double gate_share = 0.04;        ///< of a tooth period: the schedule's window
   double hysteresis_share = 0.02;  ///< smaller swings are noise
   double hold_s = 0.003;           ///< not turning: beyond the threshold this long
-  void Validate() const;           ///< throws SetterInputError naming the field
+  bool reflective = false;         ///< the receiver sees the tool's reflection (needs a curve)
+  double width_trigger_s = 0.0;    ///< > 0: also fire on a leading tooth's dip this wide
+  double confirm_share = 0.15;     ///< a line fires once a minimum is this near the threshold
+  // Without a curve (curve.clear_v == 0):
+  double clear_s = 0.02;        ///< the clear level from this much signal first
+  double z_tol = 0.025;         ///< a tooth's minima's rms about their line in z (~0.5 um)
+  double z_band = 0.05;         ///< a tooth's next minimum this close to its line in z (~1 um)
+  double line_share_hi = 0.85;  ///< minima on a line only between these shares
+  double line_share_lo = 0.1;
+  bool HasCurve() const { return curve.clear_v > 0; }
+  void Validate() const;  ///< throws SetterInputError naming the field
 };
+
+/// What fired: a tooth's line crossing the threshold, a dip as wide as width_trigger_s, or a
+/// pin's held crossing.
+enum class TriggerCause { kLine, kWidth, kPin };
+const char* ToString(TriggerCause c);
 
 struct Trigger {
   long sample = -1;  ///< the sample that fired it (-1: not yet)
@@ -57,6 +87,7 @@ struct Trigger {
   double edge_offset_mm = 0.0;
   int tooth = -1;    ///< the tooth whose line triggered; -1 not turning
   int extremes = 0;  ///< on its line
+  TriggerCause cause = TriggerCause::kLine;
 };
 
 enum class Rejected { kOffSchedule, kOutsideBand, kTooSteep, kNotHeld };
@@ -87,6 +118,13 @@ class BeamProcessor {
   double ToothLagMm(int tooth) const;
   int LeadingTooth() const;
   long Samples() const { return n_; }
+  /// The deepest dip's share of the clear light so far (a pin: the lowest average); 1 before
+  /// any. A tool thinner than the beam never takes it under the threshold: no trigger, and
+  /// this says how close it came.
+  double DeepestShare() const { return deepest_share_; }
+  /// The clear level the shares are of [V]: the curve's, or (without one) measured; NaN
+  /// while it is being measured.
+  double ClearV() const { return clear_v_; }
   int RejectionCount(Rejected r) const { return rejection_count_[static_cast<size_t>(r)]; }
   /// The last 16 rejections, oldest first.
   std::array<Rejection, 16> RecentRejections(int* count) const;
@@ -125,9 +163,18 @@ class BeamProcessor {
   void UpdatePrediction();
   void PinStep(double share, double t);
   void Reject(Rejected r, long sample);
+  bool ClearLevel(float volts);  // without a curve: false while the clear level is measured
+  bool ToothLine(const Tooth& th, Fit* fit) const;
+  double ToIntrusion(double share) const;  // the curve's x, or z = erfcinv(2 share) without one
 
   ProcessorConfig cfg_;
-  double period_s_ = 0, x_threshold_ = 0, x_width_ = 0, feed_mm_s_ = 0, dir_ = 1;
+  double clear_v_ = std::numeric_limits<double>::quiet_NaN();
+  std::array<double, 64> clear_blocks_{};  // 1 ms means of the signal, for the clear level
+  int clear_block_n_ = 0, clear_in_block_ = 0;
+  double clear_block_sum_ = 0, deepest_share_ = 1;
+  double width_due_t_ = std::numeric_limits<double>::quiet_NaN();
+  int width_due_tooth_ = -1;
+  double period_s_ = 0, x_threshold_ = 0, x_confirm_ = 0, feed_mm_s_ = 0, dir_ = 1;
   long n_ = 0;
   std::array<double, kSmooth> smooth_{};
   double smooth_sum_ = 0;

@@ -44,7 +44,11 @@ struct BeamModel {
   double rise = 0.015;            ///< the rise before blocking, share of clear_v
   double ripple = 0.006;          ///< the diffraction ripple's amplitude near the beam
   double drops_per_s = 0.0;       ///< coolant drops crossing the beam (Poisson)
-  void Validate() const;          ///< throws SetterInputError naming the field
+  /// A reflective setter: the receiver sees the light the tool reflects back, clear_v times
+  /// the share the tool takes out of the beam (dark with nothing in it; a peak per tooth, the
+  /// min-max-min of seed 003).
+  bool reflective = false;
+  void Validate() const;  ///< throws SetterInputError naming the field
 };
 
 /// What moves into the beam: a pin (not turning, `tooth_radius_mm` its one radius) or a tool
@@ -54,6 +58,10 @@ struct ToolInBeam {
   std::vector<double> tooth_radius_mm;  ///< one per tooth (a pin: its radius)
   double core_share = 0.6;              ///< the core between the teeth, share of the smallest
   double start_turn_rad = 0.0;          ///< tooth 0's angle from the approach at t = 0
+  /// > 0: a tool thinner than the beam, this wide along the approach behind its reach (a
+  /// micro drill's shank): it takes out at most erf(width / (sqrt 2 w)) of the light, under
+  /// half when width < 0.95 w. 0: a solid edge.
+  double width_mm = 0.0;
   int Teeth() const { return static_cast<int>(tooth_radius_mm.size()); }
   double LongestRadius() const;
   /// How far the tool reaches past its axis along the approach at time t.
@@ -80,8 +88,8 @@ struct BeamSignal {
 };
 
 /// The share of the beam an edge at intrusion e passes, with the diffraction's rise and
-/// ripple (share of the clear level).
-double Transmission(const BeamModel& beam, double intrusion_mm);
+/// ripple (share of the clear level); with `width_mm` > 0 a strip that wide behind the edge.
+double Transmission(const BeamModel& beam, double intrusion_mm, double width_mm = 0.0);
 
 /// Throws SetterInputError when the model, tool or motion is out of range.
 BeamSignal GenerateSignal(const BeamModel& beam,

@@ -27,11 +27,14 @@ struct CalibrationCurve {
 /// the last leaving), the half-light crossing, x = feed x time from it, a cubic through the
 /// samples between 90 % and 10 %. Throws SetterError when the pin never blocks half the beam,
 /// or the curve is not monotonic over its span; SetterInputError without a sample rate, a feed
-/// or 80 ms of signal.
+/// or 80 ms of signal. `reflective`: the receiver sees the pin's reflection; the level is the
+/// full reflection (the pin all in: the last 20 ms entering) and the shares 1 - volts / level,
+/// as BeamProcessor reads a reflective setter.
 CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
                                   double sample_rate_hz,
                                   double feed_mm_min,
-                                  bool entering);
+                                  bool entering,
+                                  bool reflective = false);
 
 std::string CurveJson(const CalibrationCurve& c);
 /// Throws SetterInputError naming `where` (the file) and the field.
