@@ -114,11 +114,26 @@ CalibrationRecord MakeRecord(const CalibrationRecord& parent,
   rec.point_rms_mm = r.residual_after_rms_mm;
   rec.points_used = rec.points_rejected = 0;
   rec.centre_spread_rms_mm = 0.0;
+  // Seed 002: the correction rotated into every orientation of the original's table (its datum
+  // recomputed with the corrected mount at that orientation's flange rotation), then the
+  // orientations the recheck measured. The parent's record itself is left as it was.
   std::vector<std::string> ids;
   std::vector<Pose3> poses;
-  for (const auto& c : captures) ids.push_back(c.id), poses.push_back(c.mcs_from_flange);
+  for (const OrientationDatum& d : parent.orientations) {
+    Pose3 flange = Pose3::Identity();
+    const double angle = d.flange_rotation_vector_rad.norm();
+    if (angle > 0)
+      flange.linear() =
+          Eigen::AngleAxisd(angle, d.flange_rotation_vector_rad / angle).toRotationMatrix();
+    ids.push_back(d.capture_id), poses.push_back(flange);
+  }
+  for (const auto& c : captures)
+    ids.push_back("recheck " + c.id), poses.push_back(c.mcs_from_flange);
   rec.orientations = Orientations(r.flange_from_probe, ids, poses);
   rec.notes = r.not_determined;
+  rec.notes.push_back("the original's " + std::to_string(parent.orientations.size()) +
+                      " orientations updated with the correction, " +
+                      std::to_string(captures.size()) + " measured in the recheck");
   rec.offset_in_flange_mm = r.offset_in_flange_mm;
   rec.rotation_in_flange_rad = r.rotation_in_flange_rad;
   rec.centre_shift_mm = r.centre_shift_mm;

@@ -108,6 +108,64 @@ TEST(Recheck, MovedSphereIsSeparatedFromTheProbeWithThreeOrientationsOrMore) {
   EXPECT_TRUE(reported);
 }
 
+// Seed 002's "at least three orientations": exactly three separate a re-mounted sphere from the
+// mount's change.
+TEST(Recheck, ExactlyThreeOrientationsSeparateAMovedSphere) {
+  const testing::Truth truth = testing::DefaultTruth();
+  testing::Truth now = Disturbed(truth, Vec3(1e-4, 0, 2e-4), Vec3(-0.02, 0.04, 0.01));
+  now.centre_mcs += Vec3(-0.1, 0.25, -0.05);
+  RecheckOptions o = Original(truth);
+  o.sphere_moved = true;
+  const RecheckResult r = Recheck(Measure(now, testing::PoseSet::kFiveAxis, 3, 9), o);
+  // Three centres (9 equations) for rotation, offset and the sphere's shift (9 unknowns): no
+  // redundancy, so each centre's noise goes straight into the split, which the 2 um / 5 arcsec
+  // of redundant sets (six orientations: 0.6 um, 1.1 arcsec) need not hold. Measured 2.8 um,
+  // 4.5 arcsec; the sphere's shift, which the disturbance is about, to 0.8 um.
+  constexpr double kExactlyDeterminedMm = 0.005, kExactlyDeterminedArcsec = 10.0;
+  const double offset_err =
+      (r.flange_from_probe.translation() - now.flange_from_probe.translation()).norm();
+  const double rot_err = testing::Arcsec(now.flange_from_probe.inverse() * r.flange_from_probe);
+  std::printf(
+      "exactly three orientations, sphere moved: offset %.3f um, rotation %.2f arcsec, "
+      "sphere shift %.3f um\n",
+      offset_err * 1e3, rot_err, (r.centre_shift_mm - Vec3(-0.1, 0.25, -0.05)).norm() * 1e3);
+  EXPECT_LT(offset_err, kExactlyDeterminedMm);
+  EXPECT_LT(rot_err, kExactlyDeterminedArcsec);
+  EXPECT_LT((r.centre_shift_mm - Vec3(-0.1, 0.25, -0.05)).norm(), kOffsetTolMm);
+  EXPECT_TRUE(r.not_determined.empty());
+  EXPECT_FALSE(r.full_calibration_required) << r.reason;
+}
+
+// The sphere re-mounted, its new centre measured by another probe (a touch probe, 1 um): one
+// orientation then gives the laser probe's offset against that centre.
+TEST(Recheck, ASphereCentreKnownFromAnotherProbeServesAsTheReference) {
+  const testing::Truth truth = testing::DefaultTruth();
+  testing::Truth now = Disturbed(truth, Vec3::Zero(), Vec3(0.03, -0.05, 0.02));
+  now.centre_mcs += Vec3(0.3, -0.2, 0.1);
+  RecheckOptions o = Original(truth);
+  o.original_centre_mcs = now.centre_mcs + Vec3(0.0006, -0.0005, 0.0004);  // the other probe's
+  const RecheckResult r = Recheck(Measure(now, testing::PoseSet::kFiveAxis, 1, 10), o);
+  ExpectRecovered(r, now, "one orientation, centre from another probe");
+  // Against the original centre instead, the sphere's move would be read as the probe's.
+  const RecheckResult wrong =
+      Recheck(Measure(now, testing::PoseSet::kFiveAxis, 1, 10), Original(truth));
+  EXPECT_GT((wrong.flange_from_probe.translation() - now.flange_from_probe.translation()).norm(),
+            0.3);
+}
+
+// A changed window or a dirty lens: the sphere looks 4 um larger in radius. The recheck says so
+// (seed 002's apparent tip-radius change) beside the mount's change.
+TEST(Recheck, AnApparentRadiusChangeIsReported) {
+  const testing::Truth truth = testing::DefaultTruth();
+  testing::Truth now = Disturbed(truth, Vec3::Zero(), Vec3(0.02, 0.0, -0.01));
+  now.radius_mm += 0.004;
+  const RecheckResult r =
+      Recheck(Measure(now, testing::PoseSet::kThreeAxisWithM19, 4, 11), Original(truth));
+  std::printf("apparent radius change %.3f um (injected 4 um)\n",
+              r.apparent_radius_change_mm * 1e3);
+  EXPECT_NEAR(r.apparent_radius_change_mm, 0.004, kRadiusChangeTolMm);
+}
+
 TEST(Recheck, TooLargeOrNonRigidChangesAskForAFullCalibration) {
   const testing::Truth truth = testing::DefaultTruth();
   const testing::Truth crashed = Disturbed(truth, Vec3::Zero(), Vec3(0.8, 0.0, 0.0));

@@ -78,6 +78,24 @@ TEST(CalibrationStore, RecheckKeepsTheOriginalAndNeverCompounds) {
   EXPECT_EQ(store.Latest("P1")->kind, RecordKind::kRecheck);
   EXPECT_EQ(store.List("P1").size(), 2u);                      // the original is still there
   EXPECT_THROW(MakeRecord(recheck, change, rc), RecordError);  // no recheck of a recheck
+  // The original's per-orientation table carried forward, each datum with the corrected mount
+  // at its own flange orientation, then the recheck's orientation.
+  const CalibrationRecord back = store.Load("P1", recheck.calibration_id);
+  ASSERT_EQ(back.orientations.size(), full.orientations.size() + 1);
+  constexpr double kExactMm = 1e-12;
+  for (size_t i = 0; i < full.orientations.size(); ++i) {
+    const OrientationDatum& before = full.orientations[i];
+    const OrientationDatum& after = back.orientations[i];
+    EXPECT_EQ(after.capture_id, before.capture_id);
+    const Eigen::Matrix3d flange = captures[i].mcs_from_flange.linear();
+    EXPECT_LT((after.probe_origin_offset_mcs_mm - before.probe_origin_offset_mcs_mm -
+               flange * Vec3(0.01, 0, 0))
+                  .norm(),
+              kExactMm);
+    EXPECT_LT((after.probe_axis_mcs - before.probe_axis_mcs).norm(), kExactMm);  // no rotation
+  }
+  EXPECT_EQ(back.orientations.back().capture_id, "recheck r1");
+  EXPECT_EQ(store.Load("P1", full.calibration_id).orientations.size(), full.orientations.size());
 }
 
 // A hand-eye measured against a board: its own fields round-trip, the sphere's are absent, and a

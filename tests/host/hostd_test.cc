@@ -356,6 +356,19 @@ TEST(Hostd, CalibratesTheProbeAndRechecksIt) {
   const json r2 = json::parse(again.out);
   EXPECT_EQ(r2.at("parent_id"), reply.at("calibration_id"));
   EXPECT_LT(r2.at("residual_after_rms_mm").get<double>(), 0.002);
+  EXPECT_EQ(r2.at("sphere_centre_from"), "the full calibration");
+  // The sphere's centre as another probe measured it (here: where the scene has it), the
+  // reference instead; with sphere_moved as well, a named refusal.
+  recheck["sphere_centre_mm"] = {200, 100, -250};
+  const auto touch = site.Mlp("request " + site.Request("recheck_touch", recheck));
+  ASSERT_EQ(touch.exit_code, 0) << touch.out << touch.err;
+  const json r3 = json::parse(touch.out);
+  EXPECT_EQ(r3.at("sphere_centre_from"), "the request (another probe)");
+  EXPECT_LT(r3.at("residual_after_rms_mm").get<double>(), 0.002);
+  recheck["sphere_moved"] = true;
+  const auto both = site.Mlp("request " + site.Request("recheck_both", recheck));
+  EXPECT_EQ(both.exit_code, 7);
+  EXPECT_NE(both.err.find("sphere_moved and sphere_centre_mm"), std::string::npos) << both.err;
   // Translations only: under-determined, the job says which poses would fix it.
   json flat = request;
   flat["captures"] = {captures[0]};

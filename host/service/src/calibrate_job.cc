@@ -3,6 +3,8 @@
 #include "mlp/calib/hand_eye_json.h"
 #include "mlp/calib/recheck.h"
 
+#include <optional>
+
 #include "job_common.h"
 
 namespace mlp::service {
@@ -40,12 +42,21 @@ calib::HandEyeOptions ParseCalibrateRequest(const json& r) {
 struct RecheckRequest {
   double sphere_radius_mm = 0.0;
   bool sphere_moved = false;
+  /// The sphere's centre measured by another probe (a touch probe after re-mounting it):
+  /// the reference instead of the full calibration's centre (seed 002).
+  std::optional<Eigen::Vector3d> sphere_centre_mcs;
 };
 
 RecheckRequest ParseRecheckRequest(const json& r) {
   RecheckRequest q;
   q.sphere_radius_mm = Radius(r);
   q.sphere_moved = jf::FlagOr<JobInputError>(r, "sphere_moved", false, "request");
+  if (r.contains("sphere_centre_mm"))
+    q.sphere_centre_mcs = jf::Vector3<JobInputError>(r, "sphere_centre_mm", "request");
+  if (q.sphere_moved && q.sphere_centre_mcs)
+    throw JobInputError(
+        "request: sphere_moved and sphere_centre_mm together (a centre measured by another probe "
+        "is the reference, not solved again)");
   RequireCaptures(r);
   return q;
 }
@@ -101,12 +112,14 @@ json RunRecheckJob(JobContext& ctx, const json& r) {
     o.sphere_radius_mm = request.sphere_radius_mm;
     o.sphere_moved = request.sphere_moved;
     o.original_flange_from_probe = original.flange_from_probe;
-    o.original_centre_mcs = original.sphere_centre_mcs;
+    o.original_centre_mcs = request.sphere_centre_mcs.value_or(original.sphere_centre_mcs);
     std::vector<calib::RecheckCapture> captures;
     for (auto& s : LoadStoredCaptures(ctx, r.at("captures"), run.job))
       captures.push_back({s.id, s.mcs_from_flange, std::move(s.points_in_probe)});
     const calib::RecheckResult c = calib::Recheck(captures, o);
     run.reply["parent_id"] = original.calibration_id;
+    run.reply["sphere_centre_from"] =
+        request.sphere_centre_mcs ? "the request (another probe)" : "the full calibration";
     run.reply.update(json(calib::RecheckResultJson(c)));
     ctx.history.AddResult(run.job, {"recheck", run.reply, json::object()});
     if (c.full_calibration_required) {

@@ -78,6 +78,9 @@ CalibrationRecord MakeRecord(const std::string& probe_serial,
                              const BoardHandEyeResult& result,
                              const std::vector<RobotImage>& images);
 /// A new record from a recheck against `parent` (a sphere hand-eye; throws RecordError else).
+/// Its orientations: every one of the parent's, with its datum recomputed from the corrected
+/// mount (seed 002: the correction rotated into every orientation), then the recheck's own
+/// (ids "recheck <capture id>").
 CalibrationRecord MakeRecord(const CalibrationRecord& parent,
                              const RecheckResult& result,
                              const std::vector<RecheckCapture>& captures);
