@@ -212,6 +212,101 @@ TEST(Surface, PatchAgainstItsNominal) {
   EXPECT_NEAR(m.rms_mm, std::hypot(kProudMm, kNoiseMm), kRmsTolMm);
 }
 
+// A free-form patch (a quadric with cubic terms: every rigid motion changes it, 40 x 40 mm),
+// its nominal as vector points; the measured patch has a 5 um bump and 1 um noise and was
+// clamped off its place by 0.4 mrad and (15, -20, 10) um. Without a best fit the deviations
+// hold the misplacement; with one, the motion is undone and the form (the bump) is left.
+double Freeform(double x, double y) {
+  return 0.002 * x * x - 0.001 * y * y + 2e-5 * x * x * x + 1.5e-5 * y * y * y + 1e-5 * x * x * y;
+}
+Vec3 FreeformNormal(double x, double y) {
+  const double dx = 0.004 * x + 6e-5 * x * x + 2e-5 * x * y;
+  const double dy = -0.002 * y + 4.5e-5 * y * y + 1e-5 * x * x;
+  return Vec3(-dx, -dy, 1).normalized();
+}
+
+TEST(Surface, BestFitUndoesTheClampingAndLeavesTheForm) {
+  std::ostringstream text;
+  for (int i = -40; i <= 40; ++i)
+    for (int k = -40; k <= 40; ++k) {
+      const double x = 0.5 * i, y = 0.5 * k;
+      const Vec3 nrm = FreeformNormal(x, y);
+      text << x << ' ' << y << ' ' << Freeform(x, y) << ' ' << nrm.x() << ' ' << nrm.y() << ' '
+           << nrm.z() << '\n';
+    }
+  SurfaceNominal nominal = ParseVectorPoints(text.str());
+  nominal.spacing_mm = 0.5;
+  constexpr double kBumpMm = 0.005, kNoise = 0.001;
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> u(-19.5, 19.5);
+  std::normal_distribution<double> noise(0, kNoise);
+  const Eigen::Matrix3d clamp_r =
+      Eigen::AngleAxisd(4e-4, Vec3(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+  const Vec3 clamp_t(0.015, -0.02, 0.01);
+  geometry::Points3 truth(3, 15000), measured(3, 15000);
+  for (Eigen::Index i = 0; i < truth.cols(); ++i) {
+    const double x = u(rng);
+    const double y = u(rng);
+    const double e = noise(rng);
+    const double bump = kBumpMm * std::exp(-(std::pow(x - 8, 2) + std::pow(y + 5, 2)) / 18);
+    truth.col(i) = Vec3(x, y, Freeform(x, y)) + (bump + e) * FreeformNormal(x, y);
+    measured.col(i) = clamp_r * truth.col(i) + clamp_t;
+  }
+  const SurfaceMeasurement placed = MeasureSurface(measured, nominal);
+  nominal.best_fit = true;
+  const SurfaceMeasurement form = MeasureSurface(measured, nominal);
+  // The motion found brings each point back onto where it was before the clamping along the
+  // surface's normal. Along the surface it may slide: a smooth patch barely tells a slide from
+  // a tilt (here only its cubic terms do), which changes no deviation; that is printed.
+  double worst_normal = 0, worst_along = 0;
+  for (Eigen::Index i = 0; i < measured.cols(); ++i) {
+    const auto& f = form.best_fit;
+    const Eigen::Matrix3d r =
+        Eigen::AngleAxisd(f.rotation_rad.norm(), f.rotation_rad.normalized()).toRotationMatrix();
+    const Vec3 back = r * (measured.col(i) - f.about_mcs) + f.about_mcs + f.translation_mm;
+    const Vec3 nrm = FreeformNormal(truth(0, i), truth(1, i));
+    const double normal = (back - truth.col(i)).dot(nrm);
+    worst_normal = std::max(worst_normal, std::abs(normal));
+    worst_along = std::max(worst_along, (back - truth.col(i) - normal * nrm).norm());
+  }
+  std::printf(
+      "surface: profile %.2f um as placed, %.2f um after the best fit (%d iterations); "
+      "points back within %.2f um along the normal (%.1f um along the surface)\n",
+      placed.profile_mm * 1e3, form.profile_mm * 1e3, form.best_fit.iterations, worst_normal * 1e3,
+      worst_along * 1e3);
+  EXPECT_TRUE(form.best_fit.converged);
+  EXPECT_TRUE(form.best_fit.not_determined.empty());
+  // The bump pulls the fit by a share of its volume over the patch: well under a micrometre.
+  constexpr double kBackTolMm = 0.001;
+  EXPECT_LT(worst_normal, kBackTolMm);
+  EXPECT_GT(placed.profile_mm, 0.03);  // the misplacement dominates as placed
+  EXPECT_GT(form.profile_mm, 2 * kBumpMm);
+  EXPECT_LT(form.profile_mm, 2 * (kBumpMm + 5 * kNoise));
+  EXPECT_EQ(form.points, 15000);
+}
+
+// A flat patch fixes only its normal's translation and its two tilts: the best fit says which
+// three motions it leaves.
+TEST(Surface, ABestFitOfAPlaneSaysWhatItCannotFix) {
+  std::ostringstream text;
+  for (int i = -20; i <= 20; ++i)
+    for (int k = -20; k <= 20; ++k) text << 0.5 * i << ' ' << 0.5 * k << " 0 0 0 1\n";
+  SurfaceNominal nominal = ParseVectorPoints(text.str());
+  nominal.spacing_mm = 0.5;
+  nominal.best_fit = true;
+  geometry::Points3 p(3, 2000);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-9.5, 9.5);
+  for (Eigen::Index i = 0; i < p.cols(); ++i) {
+    const double x = u(rng);
+    const double y = u(rng);
+    p.col(i) = Vec3(x, y, 0.02 + 0.001 * x);  // 20 um high, tilted 1 mrad
+  }
+  const SurfaceMeasurement m = MeasureSurface(p, nominal);
+  EXPECT_EQ(m.best_fit.not_determined.size(), 3u);
+  EXPECT_LT(m.profile_mm, 1e-6);  // the height and the tilt are fixed and taken out
+}
+
 TEST(Surface, BadNominalsAreSaid) {
   EXPECT_THROW(ParseVectorPoints("1 2 3 0 0 1\n1 2 x 0 0 1\n"), FeatureError);
   EXPECT_THROW(ParseVectorPoints("1 2 3 0 0 1 7\n"), FeatureError);

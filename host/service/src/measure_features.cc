@@ -153,6 +153,7 @@ jobs::SurfaceNominal SurfaceNominalOf(const json& j, const std::string& data_dir
   }
   n.spacing_mm = jf::NumberOr<JobInputError>(j, "spacing_mm", n.spacing_mm, kNom);
   n.band_mm = jf::NumberOr<JobInputError>(j, "band_mm", n.band_mm, kNom);
+  n.best_fit = jf::FlagOr<JobInputError>(j, "best_fit", false, kNom);
   return n;
 }
 
@@ -387,6 +388,14 @@ Measured Surface(const FeatureRequest& /*request*/,
   m.fields = {{"profile_mm", s.profile_mm}, {"mean_mm", s.mean_mm},  {"min_mm", s.min_mm},
               {"max_mm", s.max_mm},         {"rms_mm", s.rms_mm},    {"points", s.points},
               {"coverage", s.coverage},     {"area_mm2", s.area_mm2}};
+  if (nominal.best_fit) {  // the form alone: the points laid on the nominal first
+    m.fields["best_fit"] = {{"rotation_rad", JsonVec(s.best_fit.rotation_rad)},
+                            {"translation_mm", JsonVec(s.best_fit.translation_mm)},
+                            {"about_mm", JsonVec(s.best_fit.about_mcs)},
+                            {"iterations", s.best_fit.iterations},
+                            {"not_determined", s.best_fit.not_determined}};
+    m.fe.converged = s.best_fit.converged;
+  }
   m.fe.points = s.points;
   m.fe.area_mm2 = s.area_mm2;
   m.panels = {jobs::PointsPanel("against the nominal", s.points_mcs, s.deviation_mm,
