@@ -60,6 +60,9 @@ std::string LengthProgram(double expected_mm) {
 TEST(LinuxCncSetter, LengthAndRadiusReachTheToolTableAndABrokenToolStops) {
   ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0)
       << "linuxcnc-uspace is not installed: bash scripts/install-deps.sh";
+  ASSERT_TRUE(fs::exists(test::Program("mlp-setter-hal")))
+      << "mlp-setter-hal was not built: it needs linuxcnc-uspace-dev (bash "
+         "scripts/install-deps.sh)";
   const fs::path config = SetterConfig("length");
   test::LinuxCnc cnc(config, "mlprobe-sim.ini", PathWithSetter());
   ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
