@@ -59,48 +59,40 @@ Eigen::Matrix<double, 6, 6> SecondOrder(double h,
 
 // Gradient and Hessian of the sum of squares at a circle, in the parameters of a step in the
 // frame (u, v, n) of that circle: the centre's offset along u, v, n [mm]; the normal's tilt
-// towards u and v [rad]; the radius [mm]. `jtj` is J^T J (Gauss-Newton), plus the residuals'
-// second-order term sum r H(r) (the exact Hessian) with `newton`.
-class SpatialCircleModel {
- public:
-  static constexpr int kParams = 6;
-  using State = CircleState;
-  using Mat6 = Eigen::Matrix<double, 6, 6>;
-
-  SpatialCircleModel(const Points3& points, const Vec3& origin, bool newton)
-      : points_(points), origin_(origin), newton_(newton) {}
-
-  NormalEquations<kParams> Linearize(const State& s,
-                                     NormalEquations<kParams>* sink = nullptr) const {
-    Vec3 u, v;
-    OrthonormalBasis(s.normal, &u, &v);
-    Accumulator<kParams> acc(sink);
-    Mat6 second_order = Mat6::Zero();
-    for (Eigen::Index i = 0; i < points_.cols(); ++i) {
-      const Vec3 q = points_.col(i) - origin_ - s.center;
-      const double x = q.dot(u), y = q.dot(v), h = q.dot(s.normal);
-      const double rho = std::hypot(x, y);
-      // A point on the axis has no radial direction: its rho - r row informs the radius only.
-      const double inv = 1.0 / std::max(rho, std::numeric_limits<double>::min());
-      const Step6 grad_h = (Step6() << 0.0, 0.0, -1.0, x, y, 0.0).finished();
-      const Step6 grad_rho =
-          (Step6() << -x * inv, -y * inv, 0.0, -h * x * inv, -h * y * inv, 0.0).finished();
-      acc.Add(grad_h, h);
-      acc.Add(grad_rho - Step6::Unit(5), rho - s.radius);
-      if (newton_ && rho > 0.0)
-        second_order += SecondOrder(h, rho, inv, grad_h, grad_rho, s.radius);
-    }
-    NormalEquations<kParams> ne = acc.Finish(sink);
-    ne.Finish();
-    if (newton_) ne.jtj += second_order;
-    return ne;
-  }
-
- private:
-  const Points3& points_;
-  Vec3 origin_;
-  bool newton_;
+// towards u and v [rad]; the radius [mm]. `ne` holds J^T J (Gauss-Newton) and J^T r;
+// `second_order` the residuals' sum r H(r), which makes J^T J + it the exact Hessian (computed
+// only when asked: one pass gives both).
+struct CircleLinearization {
+  NormalEquations<6> ne;
+  Eigen::Matrix<double, 6, 6> second_order = Eigen::Matrix<double, 6, 6>::Zero();
 };
+
+CircleLinearization Linearize(const Points3& points,
+                              const Vec3& origin,
+                              const CircleState& s,
+                              bool with_second_order) {
+  Vec3 u, v;
+  OrthonormalBasis(s.normal, &u, &v);
+  Accumulator<6> acc(nullptr);
+  CircleLinearization out;
+  for (Eigen::Index i = 0; i < points.cols(); ++i) {
+    const Vec3 q = points.col(i) - origin - s.center;
+    const double x = q.dot(u), y = q.dot(v), h = q.dot(s.normal);
+    const double rho = std::hypot(x, y);
+    // A point on the axis has no radial direction: its rho - r row informs the radius only.
+    const double inv = 1.0 / std::max(rho, std::numeric_limits<double>::min());
+    const Step6 grad_h = (Step6() << 0.0, 0.0, -1.0, x, y, 0.0).finished();
+    const Step6 grad_rho =
+        (Step6() << -x * inv, -y * inv, 0.0, -h * x * inv, -h * y * inv, 0.0).finished();
+    acc.Add(grad_h, h);
+    acc.Add(grad_rho - Step6::Unit(5), rho - s.radius);
+    if (with_second_order && rho > 0.0)
+      out.second_order += SecondOrder(h, rho, inv, grad_h, grad_rho, s.radius);
+  }
+  out.ne = acc.Finish(nullptr);
+  out.ne.Finish();
+  return out;
+}
 
 // The best circle for a given normal: height = mean height, centre and radius = the 2D
 // least-squares circle of the points in the plane's (u, v). `ss` is the spatial sum of squares.
@@ -136,24 +128,24 @@ ProjectedCircle BestCircleFor(const Points3& points, const Vec3& origin, const V
 // Hessian is the Schur complement of the full Hessian onto the tilts (implicit function
 // theorem). Where that is not positive definite (far from a minimum), the Gauss-Newton one.
 Eigen::Vector2d ReducedNewtonStep(const Points3& points, const Vec3& origin, const CircleState& s) {
-  Eigen::Vector2d step = Eigen::Vector2d::Zero();
-  for (const bool newton : {true, false}) {
-    const auto ne = SpatialCircleModel(points, origin, newton).Linearize(s);
+  const CircleLinearization lin = Linearize(points, origin, s, true);
+  const Eigen::Matrix<double, 6, 6> newton = lin.ne.jtj + lin.second_order;
+  for (const Eigen::Matrix<double, 6, 6>* hessian : {&newton, &lin.ne.jtj}) {
     const std::array<int, 4> shape_idx{0, 1, 2, 5};
     const std::array<int, 2> tilt_idx{3, 4};
     Eigen::Matrix4d h_ss;
     Eigen::Matrix<double, 4, 2> h_st;
     Eigen::Matrix2d h_tt;
     for (int i = 0; i < 4; ++i) {
-      for (int j = 0; j < 4; ++j) h_ss(i, j) = ne.jtj(shape_idx[i], shape_idx[j]);
-      for (int j = 0; j < 2; ++j) h_st(i, j) = ne.jtj(shape_idx[i], tilt_idx[j]);
+      for (int j = 0; j < 4; ++j) h_ss(i, j) = (*hessian)(shape_idx[i], shape_idx[j]);
+      for (int j = 0; j < 2; ++j) h_st(i, j) = (*hessian)(shape_idx[i], tilt_idx[j]);
     }
     for (int i = 0; i < 2; ++i)
-      for (int j = 0; j < 2; ++j) h_tt(i, j) = ne.jtj(tilt_idx[i], tilt_idx[j]);
+      for (int j = 0; j < 2; ++j) h_tt(i, j) = (*hessian)(tilt_idx[i], tilt_idx[j]);
     const Eigen::Matrix2d reduced = h_tt - h_st.transpose() * h_ss.ldlt().solve(h_st);
     const Eigen::LLT<Eigen::Matrix2d> llt(reduced);
     if (llt.info() != Eigen::Success) continue;
-    step = llt.solve(-Eigen::Vector2d(ne.jtr(3), ne.jtr(4)));
+    const Eigen::Vector2d step = llt.solve(-Eigen::Vector2d(lin.ne.jtr(3), lin.ne.jtr(4)));
     if (step.allFinite()) return step;
   }
   return Eigen::Vector2d::Zero();
@@ -213,7 +205,7 @@ FitResult<Circle3> RefineCircle3InSpace(const Points3& points,
     ThrowNotConverged("circle", total_iterations);
   }
   // The rank test and the covariance take the Gauss-Newton matrix J^T J, as every other fit.
-  const NormalEquations<6> ne = SpatialCircleModel(points, origin, false).Linearize(state);
+  const NormalEquations<6> ne = Linearize(points, origin, state, false).ne;
   // Lengths in mm; tilts in rad times the radius, their lever arm.
   const Step6 units = (Step6() << 1.0, 1.0, 1.0, scale, scale, 1.0).finished();
   if (IsRankDeficient(ne, units)) ThrowDegenerate("circle", "parameters not separable");

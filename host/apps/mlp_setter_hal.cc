@@ -57,15 +57,6 @@ bool MakePins(const std::string& name, int comp, Pins* p) {
          hal_pin_s32_new(pin("samples").c_str(), HAL_OUT, &p->samples, comp) == 0;
 }
 
-int Rejections(const mlp::setter::BeamProcessor* p) {
-  if (p == nullptr) return 0;
-  int n = 0;
-  for (auto r : {mlp::setter::Rejected::kOffSchedule, mlp::setter::Rejected::kOutsideBand,
-                 mlp::setter::Rejected::kTooSteep, mlp::setter::Rejected::kNotHeld})
-    n += p->RejectionCount(r);
-  return n;
-}
-
 // One cycle: arm / disarm on the pin's edge, the samples of the time passed, the outputs.
 void Cycle(mlp::host::SetterStationArgs& station_args,
            std::optional<mlp::setter::SetterStation>& station,
@@ -86,7 +77,7 @@ void Cycle(mlp::host::SetterStationArgs& station_args,
   *p->trigger = station->Triggered();
   *p->edge_offset_mm = station->Triggered() ? station->trigger().edge_offset_mm : 0.0;
   *p->deepest_share = station->DeepestShare();
-  *p->rejections = Rejections(station->processor());
+  *p->rejections = station->processor()->RejectionCount();
   *p->samples = static_cast<std::int32_t>(std::min<long>(station->Samples(), INT32_MAX));
 }
 

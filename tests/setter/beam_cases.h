@@ -39,9 +39,7 @@ inline Outcome Process(const BeamSignal& s, const ProcessorConfig& c) {
   for (float v : s.volts) p.Push(v);
   Outcome r;
   r.triggered = p.Triggered();
-  r.rejections = p.RejectionCount(Rejected::kOffSchedule) +
-                 p.RejectionCount(Rejected::kOutsideBand) + p.RejectionCount(Rejected::kTooSteep) +
-                 p.RejectionCount(Rejected::kNotHeld);
+  r.rejections = p.RejectionCount();
   if (!r.triggered) return r;
   const Trigger& t = p.trigger();
   // What the control latches at the skip, less the offset: the edge; against the truth.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include <Eigen/Eigenvalues>
 #include <flann/flann.hpp>
@@ -109,8 +110,12 @@ std::string DescribeMotion(const Vec6& v, double lever_mm) {
 // the points on the patch against their nominal points' tangent planes, re-associated after
 // every step. Rotations are scaled by the patch's radius so the step is in mm throughout;
 // directions the patch does not fix (an eigenvalue under 1e-8 of the largest) are left out
-// and reported. Moves `points` and returns the motion.
-SurfaceBestFit BestFit(geometry::Points3* points, const SurfaceNominal& n, NominalIndex& index) {
+// and reported. `on`: the points' association as given (it starts the first step). Moves
+// `points` and returns the motion.
+SurfaceBestFit BestFit(geometry::Points3* points,
+                       const SurfaceNominal& n,
+                       NominalIndex& index,
+                       std::vector<OnPatch> on) {
   SurfaceBestFit fit;
   fit.about_mcs = points->rowwise().mean();
   const Vec3& c = fit.about_mcs;
@@ -119,7 +124,7 @@ SurfaceBestFit BestFit(geometry::Points3* points, const SurfaceNominal& n, Nomin
   Eigen::Matrix3d r_total = Eigen::Matrix3d::Identity();
   Vec3 t_total = Vec3::Zero();
   for (int it = 0; it < 50; ++it) {
-    const std::vector<OnPatch> on = Associate(*points, n, index);
+    if (it > 0) on = Associate(*points, n, index);
     if (static_cast<int>(on.size()) < kMinPoints) break;
     Mat6 jtj = Mat6::Zero();
     Vec6 jtr = Vec6::Zero();
@@ -178,9 +183,11 @@ SurfaceMeasurement MeasureSurface(const geometry::Points3& points, const Surface
                          " points on the nominal patch, at least " + std::to_string(kMinPoints) +
                          " needed");
     moved.resize(3, static_cast<Eigen::Index>(on.size()));
-    for (size_t j = 0; j < on.size(); ++j)
+    for (size_t j = 0; j < on.size(); ++j) {
       moved.col(static_cast<Eigen::Index>(j)) = points.col(on[j].point);
-    m.best_fit = BestFit(&moved, n, index);
+      on[j].point = static_cast<Eigen::Index>(j);  // now an index into `moved`
+    }
+    m.best_fit = BestFit(&moved, n, index, std::move(on));
     measured = &moved;
   }
   const std::vector<OnPatch> on = Associate(*measured, n, index);

@@ -43,7 +43,8 @@ struct SurfaceMeasurement {
   /// Each point on the patch: the deviation along the nominal normal, + where material stands
   /// proud of the nominal (the surface is too high) [mm].
   std::vector<double> deviation_mm;
-  geometry::Points3 points_mcs;  ///< the points those deviations belong to
+  /// The points those deviations belong to (after a best fit: moved by it onto the nominal).
+  geometry::Points3 points_mcs;
   double mean_mm = 0.0, min_mm = 0.0, max_mm = 0.0, rms_mm = 0.0;
   /// The smallest zone centred on the nominal holding every point: 2 max |deviation| [mm].
   double profile_mm = 0.0;

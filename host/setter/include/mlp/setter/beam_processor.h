@@ -126,6 +126,12 @@ class BeamProcessor {
   /// while it is being measured.
   double ClearV() const { return clear_v_; }
   int RejectionCount(Rejected r) const { return rejection_count_[static_cast<size_t>(r)]; }
+  /// Every reason's rejections together.
+  int RejectionCount() const {
+    int n = 0;
+    for (int c : rejection_count_) n += c;
+    return n;
+  }
   /// The last 16 rejections, oldest first.
   std::array<Rejection, 16> RecentRejections(int* count) const;
 
