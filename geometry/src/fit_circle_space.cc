@@ -145,7 +145,7 @@ Eigen::Vector2d ReducedNewtonStep(const Points3& points, const Vec3& origin, con
     const Eigen::Matrix2d reduced = h_tt - h_st.transpose() * h_ss.ldlt().solve(h_st);
     const Eigen::LLT<Eigen::Matrix2d> llt(reduced);
     if (llt.info() != Eigen::Success) continue;
-    const Eigen::Vector2d step = llt.solve(-Eigen::Vector2d(lin.ne.jtr(3), lin.ne.jtr(4)));
+    Eigen::Vector2d step = llt.solve(-Eigen::Vector2d(lin.ne.jtr(3), lin.ne.jtr(4)));
     if (step.allFinite()) return step;
   }
   return Eigen::Vector2d::Zero();
