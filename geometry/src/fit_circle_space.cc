@@ -20,6 +20,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "circle_space.h"
 #include "common.h"
@@ -123,32 +124,45 @@ ProjectedCircle BestCircleFor(const Points3& points, const Vec3& origin, const V
   return best;
 }
 
-// Newton step on the two tilts of the reduced sum of squares f(n) = min over centre and radius:
-// at the inner optimum the gradient is the tilts' part of J^T r (the others vanish), and the
-// Hessian is the Schur complement of the full Hessian onto the tilts (implicit function
-// theorem). Where that is not positive definite (far from a minimum), the Gauss-Newton one.
-Eigen::Vector2d ReducedNewtonStep(const Points3& points, const Vec3& origin, const CircleState& s) {
-  const CircleLinearization lin = Linearize(points, origin, s, true);
-  const Eigen::Matrix<double, 6, 6> newton = lin.ne.jtj + lin.second_order;
-  for (const Eigen::Matrix<double, 6, 6>* hessian : {&newton, &lin.ne.jtj}) {
-    const std::array<int, 4> shape_idx{0, 1, 2, 5};
-    const std::array<int, 2> tilt_idx{3, 4};
-    Eigen::Matrix4d h_ss;
-    Eigen::Matrix<double, 4, 2> h_st;
-    Eigen::Matrix2d h_tt;
-    for (int i = 0; i < 4; ++i) {
-      for (int j = 0; j < 4; ++j) h_ss(i, j) = (*hessian)(shape_idx[i], shape_idx[j]);
-      for (int j = 0; j < 2; ++j) h_st(i, j) = (*hessian)(shape_idx[i], tilt_idx[j]);
-    }
-    for (int i = 0; i < 2; ++i)
-      for (int j = 0; j < 2; ++j) h_tt(i, j) = (*hessian)(tilt_idx[i], tilt_idx[j]);
-    const Eigen::Matrix2d reduced = h_tt - h_st.transpose() * h_ss.ldlt().solve(h_st);
-    const Eigen::LLT<Eigen::Matrix2d> llt(reduced);
-    if (llt.info() != Eigen::Success) continue;
-    Eigen::Vector2d step = llt.solve(-Eigen::Vector2d(lin.ne.jtr(3), lin.ne.jtr(4)));
-    if (step.allFinite()) return step;
+// The step on the two tilts of the reduced sum of squares f(n) = min over centre and radius,
+// with `hessian` the full one: at the inner optimum the gradient is the tilts' part of J^T r
+// (the others vanish) and the reduced Hessian is the Schur complement onto the tilts (implicit
+// function theorem). Empty when that is not positive definite.
+std::optional<Eigen::Vector2d> ReducedStep(const Eigen::Matrix<double, 6, 6>& hessian,
+                                           const Step6& jtr) {
+  const std::array<int, 4> shape_idx{0, 1, 2, 5};
+  const std::array<int, 2> tilt_idx{3, 4};
+  Eigen::Matrix4d h_ss;
+  Eigen::Matrix<double, 4, 2> h_st;
+  Eigen::Matrix2d h_tt;
+  for (int i = 0; i < 4; ++i) {
+    for (int j = 0; j < 4; ++j) h_ss(i, j) = hessian(shape_idx[i], shape_idx[j]);
+    for (int j = 0; j < 2; ++j) h_st(i, j) = hessian(shape_idx[i], tilt_idx[j]);
   }
-  return Eigen::Vector2d::Zero();
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j) h_tt(i, j) = hessian(tilt_idx[i], tilt_idx[j]);
+  const Eigen::Matrix2d reduced = h_tt - h_st.transpose() * h_ss.ldlt().solve(h_st);
+  const Eigen::LLT<Eigen::Matrix2d> llt(reduced);
+  if (llt.info() != Eigen::Success) return std::nullopt;
+  Eigen::Vector2d step = llt.solve(-Eigen::Vector2d(jtr(3), jtr(4)));
+  if (!step.allFinite()) return std::nullopt;
+  return step;
+}
+
+// A tilt step under this [rad] moves no point beyond rounding: stationary.
+constexpr double kStationaryTiltRad = 1e-12;
+
+// Newton's step (Gauss-Newton's where the Hessian is not positive definite: far from a
+// minimum). The Gauss-Newton step comes first, from a cheap pass: when it is already below
+// rounding the point is stationary and the second-order pass, the costly one (a 6 x 6 term per
+// point), is not made. That is every fit of points close to one plane.
+Eigen::Vector2d ReducedNewtonStep(const Points3& points, const Vec3& origin, const CircleState& s) {
+  const CircleLinearization gn = Linearize(points, origin, s, false);
+  const std::optional<Eigen::Vector2d> gn_step = ReducedStep(gn.ne.jtj, gn.ne.jtr);
+  if (gn_step && gn_step->norm() <= kStationaryTiltRad) return *gn_step;
+  const CircleLinearization lin = Linearize(points, origin, s, true);
+  if (auto step = ReducedStep(lin.ne.jtj + lin.second_order, lin.ne.jtr)) return *step;
+  return gn_step.value_or(Eigen::Vector2d::Zero());
 }
 
 Vec3 Tilted(const Vec3& normal, const Eigen::Vector2d& tilt) {
@@ -179,8 +193,7 @@ FitResult<Circle3> RefineCircle3InSpace(const Points3& points,
   while (!converged && iterations < options.max_iterations) {
     ++iterations;
     const Eigen::Vector2d step = ReducedNewtonStep(points, origin, current.state);
-    // A tilt moving no point by more than 1e-12 of the radius: stationary to rounding.
-    if (step.norm() * scale <= 1e-12 * scale) {
+    if (step.norm() <= kStationaryTiltRad) {
       converged = true;
       break;
     }

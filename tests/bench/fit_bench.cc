@@ -107,6 +107,18 @@ void BM_MlpCircle(benchmark::State& state) {
   state.counters["dir_err_urad"] = AngleUrad(fit.shape.normal, kAxis);
 }
 
+// The same circle by NIST's definition (plane first, then the circle): the spatial one above
+// (ISO 10360-6, the default) starts from it.
+void BM_MlpCirclePlaneFirst(benchmark::State& state) {
+  const auto& d = Cached("circle", static_cast<int>(state.range(0)));
+  FitOptions options;
+  options.circle3 = Circle3Definition::kPlaneThenCircle;
+  FitResult<Circle3> fit;
+  for (auto _ : state) benchmark::DoNotOptimize(fit = FitCircle3(d.points, options));
+  state.counters["pos_err_um"] = 1e3 * (fit.shape.center - kCenter).norm();
+  state.counters["dir_err_urad"] = AngleUrad(fit.shape.normal, kAxis);
+}
+
 void BM_MlpCylinder(benchmark::State& state) {
   const auto& d = Cached("cylinder", static_cast<int>(state.range(0)));
   FitResult<Cylinder> fit;
@@ -168,6 +180,18 @@ void BM_MlpRoundnessMinZone(benchmark::State& state) {
   const auto& d = Cached("circle", static_cast<int>(state.range(0)));
   MinZoneCircleFit fit;
   for (auto _ : state) benchmark::DoNotOptimize(fit = FitMinZoneCircle(d.points));
+}
+
+void BM_MlpSphericityMinZone(benchmark::State& state) {
+  const auto& d = Cached("sphere", static_cast<int>(state.range(0)));
+  MinZoneSphereFit fit;
+  for (auto _ : state) benchmark::DoNotOptimize(fit = FitMinZoneSphere(d.points));
+}
+
+void BM_MlpCylindricityMinZone(benchmark::State& state) {
+  const auto& d = Cached("cylinder", static_cast<int>(state.range(0)));
+  MinZoneCylinderFit fit;
+  for (auto _ : state) benchmark::DoNotOptimize(fit = FitMinZoneCylinder(d.points));
 }
 
 // ---- PCL: SACSegmentation (RANSAC, threshold 4 sigma) + optimizeCoefficients ----
@@ -272,6 +296,7 @@ BENCHMARK(BM_PclPlane) MLP_SIZES;
 BENCHMARK(BM_MlpSphere) MLP_SIZES;
 BENCHMARK(BM_PclSphere) MLP_SIZES;
 BENCHMARK(BM_MlpCircle) MLP_SIZES;
+BENCHMARK(BM_MlpCirclePlaneFirst) MLP_SIZES;
 BENCHMARK(BM_PclCircle) MLP_SIZES;
 BENCHMARK(BM_MlpCylinder) MLP_SIZES;
 BENCHMARK(BM_PclCylinder) MLP_SIZES;
@@ -280,6 +305,8 @@ BENCHMARK(BM_MlpCone) MLP_SIZES;
 BENCHMARK(BM_MlpEllipse) MLP_SIZES;
 BENCHMARK(BM_MlpFlatnessMinZone) MLP_SIZES;
 BENCHMARK(BM_MlpRoundnessMinZone) MLP_SIZES;
+BENCHMARK(BM_MlpSphericityMinZone) MLP_SIZES;
+BENCHMARK(BM_MlpCylindricityMinZone) MLP_SIZES;
 
 }  // namespace
 
