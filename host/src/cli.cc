@@ -8,6 +8,13 @@
 
 namespace mlp::host {
 
+std::string HalComponentName(const std::string& name) {
+  if (name.empty() || name.size() > 40 ||
+      name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789-_") != std::string::npos)
+    throw UsageError("--name: 1..40 of a-z 0-9 - _ (a HAL name)");
+  return name;
+}
+
 std::string ReadInputFile(const std::string& path) {
   try {
     return base::ReadFile(path);

@@ -23,11 +23,12 @@ namespace fs = std::filesystem;
 constexpr int kExitCannotMeasure = 3;
 constexpr double kVectorScale = 20;  // the picture's vectors, times their length
 constexpr const char* kUsage =
-    "usage: mlp grind render --out DIR [--cases N] [--seed S] [--limit-mm E]\n"
+    "usage: mlp grind render --out DIR [--cases N] [--seed S] [--limit-mm E] [--bevel-deg A]\n"
     "  back-lit frames of the demo profile ground with a seeded sweep of machine errors (N\n"
     "  cutting points: none, offset out, offset in, worn nose in turn): DIR/job.json (what\n"
     "  the measurement reads: camera, profile, wheel, limit, per point its frames and the NC's\n"
-    "  C and Mi), the frames, DIR/truth.json\n"
+    "  C and Mi), the frames, DIR/truth.json; --bevel-deg: a double-bevel wheel, its flanks A\n"
+    "  deg from its axis, tip down (else a round nose)\n"
     "       mlp grind measure --job DIR/job.json [--png FILE.png] [--json]\n"
     "  per cutting point: good / under-feed / over-feed, d = |Mr - Mi|, the wheel's error and\n"
     "  the compensation vector for the motion controller; the picture: the nominal, each\n"
@@ -37,7 +38,7 @@ constexpr const char* kUsage =
 nlohmann::json Pair(const Vec2& v) { return {v.x(), v.y()}; }
 
 int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args f(args, {{"--out", "--cases", "--seed", "--limit-mm"}, {"--json"}});
+  const Args f(args, {{"--out", "--cases", "--seed", "--limit-mm", "--bevel-deg"}, {"--json"}});
   const std::string dir = f.Text("--out");
   const int n = static_cast<int>(f.Number("--cases", 8));
   if (n < 1 || n > 200) throw UsageError("--cases: 1..200");
@@ -45,8 +46,17 @@ int Render(const std::vector<std::string>& args, std::ostream& out, std::ostream
   grind::GrindJob job;
   job.profile = grind::DemoProfile();
   job.limit_mm = f.Number("--limit-mm", job.limit_mm);
+  if (f.Has("--bevel-deg")) {
+    job.bevel.on = true;
+    job.bevel.half_angle_deg = f.Number("--bevel-deg", job.bevel.half_angle_deg);
+    try {
+      job.bevel.Validate();
+    } catch (const grind::GrindInputError& e) {
+      throw UsageError(std::string("--bevel-deg: ") + e.what());
+    }
+  }
   const geometry::Profile2 p(job.profile);
-  const auto cases = grind::SweepCases(p, job.wheel_radius_mm, job.limit_mm, n, seed);
+  const auto cases = grind::SweepCases(p, job.wheel_radius_mm, job.limit_mm, n, seed, job.bevel);
   fs::create_directories(dir);
   nlohmann::ordered_json truth = nlohmann::ordered_json::array();
   for (size_t i = 0; i < cases.size(); ++i) {
@@ -131,7 +141,8 @@ std::vector<grind::PointResult> MeasurePoints(const grind::GrindJob& job,
                                   {after.data(), job.camera.width_px, job.camera.height_px},
                                   pt.c_mm,
                                   pt.mi_mm};
-    results.push_back(grind::MeasurePoint(input, p, job.camera, job.wheel_radius_mm, job.limit_mm));
+    results.push_back(
+        grind::MeasurePoint(input, p, job.camera, job.wheel_radius_mm, job.limit_mm, job.bevel));
   }
   return results;
 }
@@ -142,6 +153,8 @@ nlohmann::ordered_json PointsJson(const std::vector<grind::PointResult>& results
     points.push_back({{"feed", grind::ToString(r.feed)},
                       {"d_mm", r.d_mm},
                       {"mr_mm", Pair(r.mr_mm)},
+                      {"search_case", r.search_case},
+                      {"search_by_rows", r.search_by_rows},
                       {"error_dir", Pair(r.error_dir)},
                       {"error_mm", r.error_mm},
                       {"wheel_cut", r.wheel_cut},

@@ -3,8 +3,7 @@
 #include "mlp/base/args.h"
 #include "mlp/host/cli.h"
 
-#include <cstdlib>
-#include <sstream>
+#include <algorithm>
 
 namespace mlp::host {
 
@@ -22,20 +21,13 @@ const char* SetterStationUsage() {
 
 std::vector<double> ParseRadiiList(const std::string& option, const std::string& list) {
   std::vector<double> r;
-  std::stringstream s(list);
-  std::string item;
-  while (std::getline(s, item, ',')) {
-    char* end = nullptr;
-    const double x = std::strtod(item.c_str(), &end);
-    if (end == item.c_str() || *end != '\0' || !(x > 0)) {
-      std::string why = option;
-      why += " takes radii > 0 separated by commas, not \"";
-      why += list;
-      throw UsageError(why + "\"");
-    }
-    r.push_back(x);
+  try {
+    r = base::ParseNumberList(option, list);
+  } catch (const UsageError&) {
+    r.clear();
   }
-  if (r.empty()) throw UsageError(option + " needs at least one radius");
+  if (r.empty() || *std::min_element(r.begin(), r.end()) <= 0)
+    throw UsageError(option + " takes radii > 0 separated by commas, not \"" + list + "\"");
   return r;
 }
 
@@ -44,10 +36,7 @@ SetterStationArgs ParseSetterStationArgs(const std::vector<std::string>& args) {
                              "--feed-mm-min", "--threshold-share", "--sample-rate-hz", "--noise-v",
                              "--drops-per-s", "--seed", "--cycle-us"}});
   SetterStationArgs out;
-  out.name = a.Text("--name", out.name);
-  if (out.name.empty() || out.name.size() > 40 ||
-      out.name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789-_") != std::string::npos)
-    throw UsageError("--name: 1..40 of a-z 0-9 - _ (a HAL name)");
+  out.name = HalComponentName(a.Text("--name", out.name));
   setter::SetterStationConfig& c = out.config;
   const std::string curve_path = a.Text("--curve");
   c.processor.curve = setter::ParseCurve(ReadInputFile(curve_path), curve_path);

@@ -72,5 +72,12 @@ TEST(Args, PositionalsOnlyWhereTheCommandTakesThem) {
   EXPECT_NE(ErrorOf({"-x"}, spec).find("-x"), std::string::npos);
 }
 
+TEST(Args, ANumberListIsFiniteNumbersBetweenCommas) {
+  EXPECT_EQ(ParseNumberList("--xy", "0.03,-1e-2"), (std::vector<double>{0.03, -0.01}));
+  EXPECT_EQ(ParseNumberList("--xy", "7"), (std::vector<double>{7}));
+  for (const char* bad : {"", "1,,2", "1,x", "1,nan", "1;2"})
+    EXPECT_THROW(ParseNumberList("--xy", bad), UsageError) << bad;
+}
+
 }  // namespace
 }  // namespace mlp::base

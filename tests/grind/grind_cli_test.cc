@@ -38,6 +38,24 @@ TEST(GrindCli, RendersAndMeasuresASweepIntoCompensations) {
   const auto text = RunProcess(kMlp + " grind measure --job " + dir + "/job.json");
   EXPECT_NE(text.out.find("4 points:"), std::string::npos) << text.out;
   EXPECT_EQ(RunProcess(kMlp + " grind measure --job " + dir + "/truth.json").exit_code, 2);
+  // A double-bevel wheel: the job carries it, the measurement follows it.
+  const std::string bevel = dir + "/bevel";
+  ASSERT_EQ(
+      RunProcess(kMlp + " grind render --out " + bevel + " --cases 2 --bevel-deg 35").exit_code, 0);
+  const auto job = nlohmann::json::parse(mlp::test::ReadText(bevel + "/job.json"));
+  EXPECT_EQ(job.at("bevel").at("half_angle_deg"), 35.0);
+  const auto bevel_run = RunProcess(kMlp + " grind measure --job " + bevel + "/job.json --json");
+  ASSERT_EQ(bevel_run.exit_code, 0) << bevel_run.err;
+  const auto bevel_truth =
+      nlohmann::json::parse(mlp::test::ReadText(bevel + "/truth.json")).at("points");
+  const auto bevel_got = nlohmann::json::parse(bevel_run.out).at("points");
+  ASSERT_EQ(bevel_got.size(), 2u);
+  for (size_t i = 0; i < bevel_got.size(); ++i) {
+    EXPECT_EQ(bevel_got[i].at("feed"), bevel_truth[i].at("feed")) << "point " << i;
+    EXPECT_NEAR(bevel_got[i].at("d_mm").get<double>(), bevel_truth[i].at("d_mm").get<double>(),
+                kDTolMm);
+  }
+  EXPECT_EQ(RunProcess(kMlp + " grind render --out " + bevel + " --bevel-deg 95").exit_code, 2);
   EXPECT_EQ(RunProcess(kMlp + " grind measure").exit_code, 2);
 }
 

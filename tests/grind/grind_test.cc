@@ -5,6 +5,7 @@
 
 #include "mlp/grind/grind_job.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -23,17 +24,27 @@ double AngleDeg(const Vec2& a, const Vec2& b) {
   return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180 / M_PI;
 }
 
+// The case's frames, rendered, and the measurement's input on them.
+struct CaseFrames {
+  CaseFrames(const geometry::Profile2& p, const GrindJob& job, const ErrorCase& c, unsigned seed) {
+    RenderCase(p, job, c, seed, &before, &after);
+    in = {{before.data(), job.camera.width_px, job.camera.height_px},
+          {after.data(), job.camera.width_px, job.camera.height_px},
+          c.c_mm,
+          c.mi_mm};
+  }
+  CaseFrames(const CaseFrames&) = delete;  // `in` points into the frames
+  CaseFrames& operator=(const CaseFrames&) = delete;
+  std::vector<std::uint8_t> before, after;
+  PointInput in;
+};
+
 PointResult Measure(const geometry::Profile2& p,
                     const GrindJob& job,
                     const ErrorCase& c,
                     unsigned seed) {
-  std::vector<std::uint8_t> before, after;
-  RenderCase(p, job, c, seed, &before, &after);
-  const PointInput in{{before.data(), job.camera.width_px, job.camera.height_px},
-                      {after.data(), job.camera.width_px, job.camera.height_px},
-                      c.c_mm,
-                      c.mi_mm};
-  return MeasurePoint(in, p, job.camera, job.wheel_radius_mm, job.limit_mm);
+  const CaseFrames f(p, job, c, seed);
+  return MeasurePoint(f.in, p, job.camera, job.wheel_radius_mm, job.limit_mm, job.bevel);
 }
 
 TEST(Grind, ASeededSweepIsClassifiedAndItsErrorsRecovered) {
@@ -107,6 +118,47 @@ TEST(Grind, OverlappingStrokesOfAWholePassStillShowTheWheelsError) {
   EXPECT_GE(measured, 9);
 }
 
+// Seed 001's double-bevel wheel (flanks 35 deg from its axis, its tip down): the nose's arc
+// spans +-55 deg, so on the profile's flank and arcs the flanks cut too and the removed
+// region's edge is part flank. A seeded sweep measured against the wheel's edge; the same
+// frames measured as if the nose were round show the flanks matter.
+TEST(Grind, ADoubleBevelWheelsErrorIsMeasuredToItsEdge) {
+  GrindJob job;
+  job.profile = DemoProfile();
+  job.bevel.on = true;
+  job.bevel.half_angle_deg = 35;
+  const geometry::Profile2 p(job.profile);
+  const std::vector<ErrorCase> cases =
+      SweepCases(p, job.wheel_radius_mm, job.limit_mm, 24, 11, job.bevel);
+  double worst_d = 0, worst_dir = 0, worst_size = 0, round_worst = 0;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const ErrorCase& c = cases[i];
+    const unsigned seed = 300 + 2 * static_cast<unsigned>(i);
+    const CaseFrames frames(p, job, c, seed);
+    const PointResult r =
+        MeasurePoint(frames.in, p, job.camera, job.wheel_radius_mm, job.limit_mm, job.bevel);
+    const std::string what = "case " + std::to_string(i) + " (" + ToString(c.feed) + ")";
+    ASSERT_EQ(r.feed, c.feed) << what << ": d " << r.d_mm * 1e3 << " um, true " << c.d_mm * 1e3;
+    EXPECT_NEAR(r.d_mm, c.d_mm, kDTolMm) << what;
+    worst_d = std::max(worst_d, std::abs(r.d_mm - c.d_mm));
+    if (c.feed != Feed::kUnderFeed) continue;
+    EXPECT_LT(AngleDeg(r.error_dir, c.error_dir), kDirTolDeg) << what;
+    EXPECT_NEAR(r.error_mm, c.error_mm, kSizeTolMm) << what;
+    worst_dir = std::max(worst_dir, AngleDeg(r.error_dir, c.error_dir));
+    worst_size = std::max(worst_size, std::abs(r.error_mm - c.error_mm));
+    const PointResult round =
+        MeasurePoint(frames.in, p, job.camera, job.wheel_radius_mm, job.limit_mm);
+    round_worst =
+        std::max(round_worst, (round.error_dir * round.error_mm - c.error_dir * c.error_mm).norm());
+  }
+  std::printf(
+      "double-bevel wheel, 24 cases: all classified right; d within %.2f um; under-feed "
+      "direction within %.2f deg, size within %.2f um; measured as a round nose: off by up to "
+      "%.2f um\n",
+      worst_d * 1e3, worst_dir, worst_size * 1e3, round_worst * 1e3);
+  EXPECT_GT(round_worst, 3 * kSizeTolMm);  // the flanks matter: a round nose misreads them
+}
+
 // A stroke 0.2 mm out (more than the 0.15 mm of stock): nothing removed; an under-feed by the
 // stock, along the normal.
 TEST(Grind, AStrokeThatDidNotCutGivesTheNormalAndTheExcess) {
@@ -122,6 +174,75 @@ TEST(Grind, AStrokeThatDidNotCutGivesTheNormalAndTheExcess) {
   EXPECT_FALSE(r.wheel_cut);
   EXPECT_NEAR(r.d_mm, job.stock_mm, kDTolMm);
   EXPECT_LT((r.compensation_mm + f.normal * r.d_mm).norm(), 1e-12);
+}
+
+// The seed's six search cases (Fig. 3) and its one-column case, each met on purpose: a groove
+// whose flanks face right (C in a later column than Mi: cases 1-3) and left (4-6) and whose
+// flats put C over Mi (0); the material everywhere the nominal plus k, so Mr = Mi + k n
+// exactly on the flats and flanks: k past the nose's radius (the contour beyond C), inside it
+// (between C and Mi) and below the nominal (beyond Mi).
+TEST(Grind, TheSeedsSixSearchCasesEachFindMr) {
+  const double s2 = std::sqrt(0.5);
+  const std::vector<geometry::ProfileSegment> groove = {
+      {Vec2(0.05, 2.5), Vec2(1.0, 2.5), false, Vec2::Zero(), true},
+      {Vec2(1.0, 2.5), Vec2(2.0, 1.5), false, Vec2::Zero(), true},
+      {Vec2(2.0, 1.5), Vec2(3.0, 1.5), false, Vec2::Zero(), true},
+      {Vec2(3.0, 1.5), Vec2(4.0, 2.5), false, Vec2::Zero(), true},
+      {Vec2(4.0, 2.5), Vec2(5.0, 2.5), false, Vec2::Zero(), true}};
+  const geometry::Profile2 p(groove);
+  const GrindCamera cam;
+  constexpr double kNoseMm = 0.3, kLimitMm = 0.01;
+  struct Where {
+    Vec2 mi, n;
+    int cases[3];  // beyond C, between, beyond Mi
+  };
+  const Where where[] = {{Vec2(1.5, 2.0), Vec2(s2, s2), {1, 2, 3}},
+                         {Vec2(3.5, 2.0), Vec2(-s2, s2), {4, 5, 6}},
+                         {Vec2(2.5, 1.5), Vec2(0, 1), {0, 0, 0}}};
+  const double stock_mm[3] = {0.4, 0.15, -0.1};
+  std::vector<int> seen;
+  double worst = 0;
+  for (int k = 0; k < 3; ++k) {
+    const auto frame = RenderGrindFrame(p, stock_mm[k], {}, cam, 40 + static_cast<unsigned>(k));
+    const geometry::GreyView view{frame.data(), cam.width_px, cam.height_px};
+    for (const Where& w : where) {
+      const PointResult r =
+          MeasurePoint({view, view, w.mi + kNoseMm * w.n, w.mi}, p, cam, kNoseMm, kLimitMm);
+      const Vec2 mr_true = w.mi + stock_mm[k] * w.n;
+      EXPECT_EQ(r.search_case, w.cases[k]) << "k " << stock_mm[k];
+      EXPECT_FALSE(r.search_by_rows);
+      EXPECT_LT((r.mr_mm - mr_true).norm(), kDTolMm) << "case " << w.cases[k];
+      EXPECT_EQ(r.feed, stock_mm[k] > 0 ? Feed::kUnderFeed : Feed::kOverFeed);
+      worst = std::max(worst, (r.mr_mm - mr_true).norm());
+      seen.push_back(r.search_case);
+    }
+  }
+  std::sort(seen.begin(), seen.end());
+  EXPECT_EQ(seen, (std::vector<int>{0, 0, 0, 1, 2, 3, 4, 5, 6}));
+  std::printf("the seed's six search cases and the one-column case: Mr within %.3f um\n",
+              worst * 1e3);
+}
+
+// A contour steeper than 45 deg: the rows play the columns' part (the seed's column sort
+// cannot follow a wall); a step whose wall is 80 deg from the flat.
+TEST(Grind, ASteepWallIsSearchedAlongTheRows) {
+  const Vec2 wall_dir = Vec2(std::cos(-80 * M_PI / 180), std::sin(-80 * M_PI / 180));
+  const Vec2 top_end(2.4, 2.8), wall_end = top_end + 1.6 * wall_dir;
+  const std::vector<geometry::ProfileSegment> step = {
+      {Vec2(0.05, 2.8), top_end, false, Vec2::Zero(), true},
+      {top_end, wall_end, false, Vec2::Zero(), true},
+      {wall_end, Vec2(5.0, wall_end.y()), false, Vec2::Zero(), true}};
+  const geometry::Profile2 p(step);
+  const GrindCamera cam;
+  constexpr double kNoseMm = 0.3, kLimitMm = 0.01, kStockMm = 0.05;
+  const auto frame = RenderGrindFrame(p, kStockMm, {}, cam, 50);
+  const geometry::GreyView view{frame.data(), cam.width_px, cam.height_px};
+  const geometry::ProfileFoot f = p.Closest(top_end + 0.8 * wall_dir);
+  const PointResult r =
+      MeasurePoint({view, view, f.point + kNoseMm * f.normal, f.point}, p, cam, kNoseMm, kLimitMm);
+  EXPECT_TRUE(r.search_by_rows);
+  EXPECT_EQ(r.search_case, 5);  // between: C's row above Mi's (rows grow downwards)
+  EXPECT_LT((r.mr_mm - (f.point + kStockMm * f.normal)).norm(), kDTolMm);
 }
 
 TEST(Grind, RefusesWhatItCannotMeasure) {
@@ -156,7 +277,16 @@ TEST(Grind, AJobFileReadsBack) {
   GrindJob job;
   job.profile = DemoProfile();
   job.points.push_back({"b.pgm", "a.pgm", Vec2(1, 3), Vec2(1, 2)});
+  job.bevel.on = true;
+  job.bevel.half_angle_deg = 35;
+  job.bevel.tip_dir = Vec2(0.6, -0.8);
   const GrindJob back = ParseJob(JobJson(job));
+  EXPECT_TRUE(back.bevel.on);
+  EXPECT_EQ(back.bevel.half_angle_deg, 35);
+  EXPECT_EQ(back.bevel.tip_dir, job.bevel.tip_dir);
+  GrindJob round = job;
+  round.bevel.on = false;
+  EXPECT_FALSE(ParseJob(JobJson(round)).bevel.on);  // no bevel: a round nose
   ASSERT_EQ(back.profile.size(), job.profile.size());
   EXPECT_TRUE(back.profile[1].arc);
   EXPECT_FALSE(back.profile[1].ccw);

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <string>
 #include <thread>
 
@@ -17,6 +18,22 @@
 namespace mlp::test {
 
 inline const std::string kLinuxCncDriver = mlp::test::SourceDir() + "/tests/linuxcnc/lcnc.py";
+
+/// A copy of the sample machine (samples/linuxcnc/mlprobe-sim) in the temporary folder under
+/// `name`, its INI with `halfile` loaded after orient_sim.hal and HAL_PIN_VARS on: the two
+/// lines SETTER.md and GRIND.md ask a machine's INI for.
+inline std::filesystem::path SampleConfigWith(const std::string& name, const std::string& halfile) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / name;
+  fs::remove_all(dir);
+  fs::copy(SourceDir() + "/samples/linuxcnc/mlprobe-sim", dir, fs::copy_options::recursive);
+  std::string ini = ReadText(dir / "mlprobe-sim.ini");
+  ini = std::regex_replace(ini, std::regex("HALFILE = orient_sim.hal\n"),
+                           "HALFILE = orient_sim.hal\nHALFILE = " + halfile + "\n");
+  ini = std::regex_replace(ini, std::regex("\\[RS274NGC\\]\n"), "[RS274NGC]\nHAL_PIN_VARS = 1\n");
+  std::ofstream(dir / "mlprobe-sim.ini") << ini;
+  return dir;
+}
 
 class LinuxCnc {
  public:

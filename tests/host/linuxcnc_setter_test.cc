@@ -8,8 +8,6 @@
 // along X (turning at 1500 rpm, 10 coolant drops a second).
 
 #include <filesystem>
-#include <fstream>
-#include <regex>
 
 #include "linuxcnc_machine.h"
 #include "process_run.h"
@@ -22,7 +20,6 @@ namespace {
 namespace fs = std::filesystem;
 using test::RunProcess;
 
-const std::string kConfig = mlp::test::SourceDir() + "/samples/linuxcnc/mlprobe-sim";
 // The skip reaches motion a user-space cycle (200 us) and a servo period (1 ms) after the
 // processor fires, 0.1 um at 6 mm/min; on a loaded 2-core machine a cycle can take 10 ms
 // (1 um). Besides the setter's own edge error (beam_test: 1 um).
@@ -32,19 +29,6 @@ constexpr double kExactMm = 1e-6;                  // the table holds what G10 w
 constexpr double kBeamZ = -200.0, kBeamX = 100.0;  // setter.hal
 constexpr double kTipRadiusMm = 0.5;               // setter.hal's mlp-setter-z --teeth-mm
 constexpr double kLongToothMm = 3.01;              // mlp-setter-x's longest tooth
-
-// A copy of the sample config with the two lines SETTER.md asks for.
-fs::path SetterConfig(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("mlp_linuxcnc_setter_" + name);
-  fs::remove_all(dir);
-  fs::copy(kConfig, dir, fs::copy_options::recursive);
-  std::string ini = test::ReadText(dir / "mlprobe-sim.ini");
-  ini = std::regex_replace(ini, std::regex("HALFILE = orient_sim.hal\n"),
-                           "HALFILE = orient_sim.hal\nHALFILE = setter.hal\n");
-  ini = std::regex_replace(ini, std::regex("\\[RS274NGC\\]\n"), "[RS274NGC]\nHAL_PIN_VARS = 1\n");
-  std::ofstream(dir / "mlprobe-sim.ini") << ini;
-  return dir;
-}
 
 std::string PathWithSetter() {
   return "PATH=" + fs::path(test::Program("mlp-setter-hal")).parent_path().string() + ":" +
@@ -63,7 +47,7 @@ TEST(LinuxCncSetter, LengthAndRadiusReachTheToolTableAndABrokenToolStops) {
   ASSERT_TRUE(fs::exists(test::Program("mlp-setter-hal")))
       << "mlp-setter-hal was not built: it needs linuxcnc-uspace-dev (bash "
          "scripts/install-deps.sh)";
-  const fs::path config = SetterConfig("length");
+  const fs::path config = test::SampleConfigWith("mlp_linuxcnc_setter_length", "setter.hal");
   test::LinuxCnc cnc(config, "mlprobe-sim.ini", PathWithSetter());
   ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
   for (const char* pin : {"mlp-setter-z.samples", "mlp-setter-x.samples"})

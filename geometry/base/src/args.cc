@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <sstream>
 
 namespace mlp::base {
 
@@ -69,6 +70,14 @@ double ParseNumber(const std::string& name, const std::string& text) {
   if (text.empty() || *end != '\0' || !std::isfinite(v))
     throw UsageError(name + " needs a number, got '" + text + "'");
   return v;
+}
+
+std::vector<double> ParseNumberList(const std::string& name, const std::string& text) {
+  std::vector<double> out;
+  std::stringstream s(text);
+  for (std::string item; std::getline(s, item, ',');) out.push_back(ParseNumber(name, item));
+  if (out.empty()) throw UsageError(name + " needs numbers separated by commas");
+  return out;
 }
 
 long long ParseInteger(const std::string& name, const std::string& text, long long min) {

@@ -14,15 +14,21 @@ using geometry::Vec2;
 
 constexpr int kSub = 8;  // sub-samples a side in pixels on the boundary, jittered (stratified)
 
-// Negative inside the material: the stock region's signed distance and each disc's, combined
-// (max: inside the stock and outside every disc). Each term is 1-Lipschitz, so |f| bounds the
-// distance to the boundary from below: a pixel whose centre is over 0.75 px from it is whole.
+struct Swept {
+  Vec2 center;
+  WheelSection section;
+};
+
+// Negative inside the material: the stock region's signed distance and each stroke's section's,
+// combined (max: inside the stock and outside every section). Each term is 1-Lipschitz, so |f|
+// bounds the distance to the boundary from below: a pixel whose centre is over 0.75 px from it
+// is whole.
 double Material(const geometry::Profile2& p,
                 double stock,
-                const std::vector<WheelStroke>& s,
+                const std::vector<Swept>& s,
                 const Vec2& x) {
   double f = p.Closest(x).signed_distance - stock;
-  for (const WheelStroke& w : s) f = std::max(f, w.radius_mm - (x - w.center_mm).norm());
+  for (const Swept& w : s) f = std::max(f, -w.section.SignedDistanceMm(x - w.center));
   return f;
 }
 
@@ -39,8 +45,13 @@ std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,
                                            double stock_mm,
                                            const std::vector<WheelStroke>& strokes,
                                            const GrindCamera& c,
-                                           unsigned seed) {
+                                           unsigned seed,
+                                           const WheelBevel& bevel) {
   c.Validate();
+  std::vector<Swept> swept;
+  swept.reserve(strokes.size());
+  for (const WheelStroke& w : strokes)
+    swept.push_back({w.center_mm, WheelSection(w.radius_mm, bevel)});
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0, 1);
   const size_t n = base::RasterSize(c.width_px, c.height_px);
@@ -56,7 +67,7 @@ std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,
   for (int by = 0; by * kBlock < c.height_px; ++by)
     for (int bx = 0; bx * kBlock < c.width_px; ++bx) {
       const Vec2 mid(bx * kBlock + (kBlock - 1) / 2.0, by * kBlock + (kBlock - 1) / 2.0);
-      const double f = Material(nominal, stock_mm, strokes, c.ToMm(mid));
+      const double f = Material(nominal, stock_mm, swept, c.ToMm(mid));
       block_state[base::RasterIndex(bx, by, blocks_across)] = f < -block_reach  ? 1
                                                               : f > block_reach ? -1
                                                                                 : 0;
@@ -66,7 +77,7 @@ std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,
       const signed char state =
           block_state[base::RasterIndex(u / kBlock, v / kBlock, blocks_across)];
       const double f =
-          state != 0 ? state * -1.0 : Material(nominal, stock_mm, strokes, c.ToMm({u, v}));
+          state != 0 ? state * -1.0 : Material(nominal, stock_mm, swept, c.ToMm({u, v}));
       double share = f < -whole ? 1.0 : 0.0;
       if (std::abs(f) <= whole) {
         int inside = 0;
@@ -77,7 +88,7 @@ std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,
             const double jitter_v = unit(rng);
             const double jitter_u = unit(rng);
             const Vec2 q(u - 0.5 + (i + jitter_u) / kSub, v - 0.5 + (j + jitter_v) / kSub);
-            inside += Material(nominal, stock_mm, strokes, c.ToMm(q)) < 0;
+            inside += Material(nominal, stock_mm, swept, c.ToMm(q)) < 0;
           }
         share = static_cast<double>(inside) / (kSub * kSub);
       }

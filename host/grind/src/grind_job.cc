@@ -26,11 +26,10 @@ Vec2 Pair(const nlohmann::json& j, const std::string& where) {
 
 nlohmann::json Pair(const Vec2& v) { return {v.x(), v.y()}; }
 
-// Where the line from C along u meets the real nose (centre C + offset, radius r'): the far
-// root (the side towards the material).
-double OnRealNose(const Vec2& offset, const Vec2& u, double r_real) {
-  const double ud = u.dot(offset);
-  return ud + std::sqrt(ud * ud - offset.squaredNorm() + r_real * r_real);
+// Where the line from C along u leaves the real wheel (its nose's centre C + offset): the far
+// crossing (the side towards the material).
+double OnRealWheel(const Vec2& offset, const Vec2& u, const WheelSection& real) {
+  return real.Crossings(-offset, u).back();
 }
 
 }  // namespace
@@ -49,8 +48,12 @@ std::vector<geometry::ProfileSegment> DemoProfile() {
           {arc2_end, Vec2(5.0, arc2_end.y()), false, Vec2::Zero(), true}};
 }
 
-std::vector<ErrorCase> SweepCases(
-    const geometry::Profile2& p, double r, double e, int n, unsigned seed) {
+std::vector<ErrorCase> SweepCases(const geometry::Profile2& p,
+                                  double r,
+                                  double e,
+                                  int n,
+                                  unsigned seed,
+                                  const WheelBevel& bevel) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0, 1);
   std::vector<ErrorCase> cases;
@@ -66,7 +69,7 @@ std::vector<ErrorCase> SweepCases(
     if (kind == 2) c.offset_mm = -f.normal * size + t * (2 * e * side);
     if (kind == 3) c.wear_mm = size;
     c.mi_mm = f.point, c.c_mm = f.point + r * f.normal;
-    const double t_real = OnRealNose(c.offset_mm, -f.normal, r - c.wear_mm);
+    const double t_real = OnRealWheel(c.offset_mm, -f.normal, WheelSection(r - c.wear_mm, bevel));
     c.d_mm = std::abs(t_real - r);
     if (std::abs(c.d_mm - e) < 0.2 * e) continue;  // too near the limit to be a fair case
     c.feed = c.d_mm <= e ? Feed::kGood : t_real < r ? Feed::kUnderFeed : Feed::kOverFeed;
@@ -83,9 +86,9 @@ void RenderCase(const geometry::Profile2& nominal,
                 unsigned seed,
                 std::vector<std::uint8_t>* before,
                 std::vector<std::uint8_t>* after) {
-  *before = RenderGrindFrame(nominal, job.stock_mm, {}, job.camera, seed);
+  *before = RenderGrindFrame(nominal, job.stock_mm, {}, job.camera, seed, job.bevel);
   const WheelStroke stroke{c.c_mm + c.offset_mm, job.wheel_radius_mm - c.wear_mm};
-  *after = RenderGrindFrame(nominal, job.stock_mm, {stroke}, job.camera, seed + 1);
+  *after = RenderGrindFrame(nominal, job.stock_mm, {stroke}, job.camera, seed + 1, job.bevel);
 }
 
 void WritePgm(const std::string& path, int w, int h, const std::vector<std::uint8_t>& px) {
@@ -111,6 +114,13 @@ GrindJob ParseJob(const std::string& text, const std::string& where) {
   g.limit_mm = jf::Number<E>(j, "limit_mm", where);
   g.stock_mm = jf::NumberOr<E>(j, "stock_mm", g.stock_mm, where);
   if (!(g.wheel_radius_mm > 0) || !(g.limit_mm > 0)) throw E(where + ": R, e > 0");
+  if (j.contains("bevel")) {  // a double-bevel wheel (wheel.h)
+    const auto& b = jf::Object<E>(j, "bevel", where);
+    g.bevel.on = true;
+    g.bevel.half_angle_deg = jf::Number<E>(b, "half_angle_deg", "bevel");
+    g.bevel.tip_dir = Pair(b.value("tip_dir", nlohmann::json()), "bevel.tip_dir");
+    g.bevel.Validate();
+  }
   if (!j.contains("profile") || !j.at("profile").is_array())
     throw E(where + ": profile must list segments");
   for (size_t k = 0; k < j.at("profile").size(); ++k) {
@@ -156,18 +166,20 @@ std::string JobJson(const GrindJob& g) {
                       {"after", p.after},
                       {"c_mm", Pair(p.c_mm)},
                       {"mi_mm", Pair(p.mi_mm)}});
-  const nlohmann::ordered_json j = {{"format", "mlprobe-grind/1"},
-                                    {"camera",
-                                     {{"width_px", g.camera.width_px},
-                                      {"height_px", g.camera.height_px},
-                                      {"mm_per_px", g.camera.mm_per_px},
-                                      {"origin_x_mm", g.camera.origin_x_mm},
-                                      {"origin_y_mm", g.camera.origin_y_mm}}},
-                                    {"wheel_radius_mm", g.wheel_radius_mm},
-                                    {"limit_mm", g.limit_mm},
-                                    {"stock_mm", g.stock_mm},
-                                    {"profile", profile},
-                                    {"points", points}};
+  nlohmann::ordered_json j = {{"format", "mlprobe-grind/1"},
+                              {"camera",
+                               {{"width_px", g.camera.width_px},
+                                {"height_px", g.camera.height_px},
+                                {"mm_per_px", g.camera.mm_per_px},
+                                {"origin_x_mm", g.camera.origin_x_mm},
+                                {"origin_y_mm", g.camera.origin_y_mm}}},
+                              {"wheel_radius_mm", g.wheel_radius_mm},
+                              {"limit_mm", g.limit_mm},
+                              {"stock_mm", g.stock_mm},
+                              {"profile", profile},
+                              {"points", points}};
+  if (g.bevel.on)
+    j["bevel"] = {{"half_angle_deg", g.bevel.half_angle_deg}, {"tip_dir", Pair(g.bevel.tip_dir)}};
   return j.dump(1) + "\n";
 }
 

@@ -21,6 +21,9 @@ using base::ParseInteger;
 using base::ParseNumber;
 using base::UsageError;
 
+/// A HAL component's name (its pins' prefix): 1..40 of a-z 0-9 - _; UsageError otherwise.
+std::string HalComponentName(const std::string& name);
+
 /// A file named on the command line, whole; UsageError (exit kExitBadInput) when unreadable.
 std::string ReadInputFile(const std::string& path);
 

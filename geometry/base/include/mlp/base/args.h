@@ -72,6 +72,8 @@ class Args {
 
 /// The whole of `text` as a finite number; UsageError naming `name` otherwise.
 double ParseNumber(const std::string& name, const std::string& text);
+/// Finite numbers separated by commas ("0.03,-0.01"), at least one; UsageError naming `name`.
+std::vector<double> ParseNumberList(const std::string& name, const std::string& text);
 /// The whole of `text` as a whole number >= `min`; UsageError naming `name` otherwise.
 long long ParseInteger(const std::string& name, const std::string& text, long long min = 0);
 

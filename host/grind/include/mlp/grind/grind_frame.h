@@ -2,9 +2,10 @@
 /// @file Back-lit frames of a workpiece being ground to a curve (seed 001), synthetic with
 /// their truth. A telecentric camera sees the silhouette (the material dark on the back-light);
 /// frames are taken with the reciprocating wheel at its top, out of view. The material is the
-/// previous pass's (the nominal profile plus `stock_mm` outwards) less every disc the wheel's
-/// nose has swept: a round nose of radius R whose real centre is the NC's C moved by the
-/// machine's error (an offset; wear makes the nose smaller; an offset inwards over-cuts).
+/// previous pass's (the nominal profile plus `stock_mm` outwards) less every section the wheel
+/// has swept (wheel.h: a round nose of radius R, or a double-bevel wheel with that tip arc)
+/// whose real centre is the NC's C moved by the machine's error (an offset; wear makes the
+/// nose smaller; an offset inwards over-cuts).
 ///
 /// Image: x = origin_x + u mm_per_px, y = origin_y - v mm_per_px for pixel centres (u, v):
 /// y up, the material below the profile.
@@ -12,6 +13,7 @@
 #include "mlp/base/input_error.h"
 #include "mlp/geometry/profile2d.h"
 #include "mlp/geometry/types.h"
+#include "mlp/grind/wheel.h"
 
 #include <cstdint>
 #include <stdexcept>
@@ -52,11 +54,13 @@ struct WheelStroke {
   double radius_mm = 0.0;
 };
 
-/// The material left: the nominal plus `stock_mm` less the strokes' discs.
+/// The material left: the nominal plus `stock_mm` less the wheel's section at each stroke
+/// (the nose's disc, or with `bevel` the double-bevel wheel's rounded wedge).
 std::vector<std::uint8_t> RenderGrindFrame(const geometry::Profile2& nominal,
                                            double stock_mm,
                                            const std::vector<WheelStroke>& strokes,
                                            const GrindCamera& camera,
-                                           unsigned seed);
+                                           unsigned seed,
+                                           const WheelBevel& bevel = {});
 
 }  // namespace mlp::grind

@@ -22,6 +22,7 @@ struct GrindJob {
   GrindCamera camera;
   std::vector<geometry::ProfileSegment> profile;
   double wheel_radius_mm = 1.0, limit_mm = 0.01, stock_mm = 0.15;
+  WheelBevel bevel;  ///< the wheel's flanks (`bevel` in the file); off: a round nose
   std::vector<JobPoint> points;
 };
 
@@ -51,7 +52,8 @@ std::vector<ErrorCase> SweepCases(const geometry::Profile2& nominal,
                                   double wheel_radius_mm,
                                   double limit_mm,
                                   int n,
-                                  unsigned seed);
+                                  unsigned seed,
+                                  const WheelBevel& bevel = {});
 
 /// The case's frames (before and after its stroke), rendered.
 void RenderCase(const geometry::Profile2& nominal,

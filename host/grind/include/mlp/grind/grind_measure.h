@@ -5,21 +5,21 @@
 /// C = Mi + R n). From the frame after the stroke:
 /// 1. the actual contour: every sub-pixel crossing of the half grey level (geometry/contour.h)
 ///    near Mi, sorted along the nominal;
-/// 2. Mr, the contour on the line C-Mi: the seed's directed search (from the contour point
-///    nearest Mi, along the contour while the distance to the line falls; stop once it grows
-///    under one pixel), then a line through the contour points within 3 px of there
-///    intersected with C-Mi (sub-pixel);
+/// 2. Mr, the contour on the line C-Mi: the seed's search in its six cases (contour_search.h),
+///    then a line through the contour points within 3 px of there intersected with C-Mi
+///    (sub-pixel);
 /// 3. d = |Mr - Mi|: good when d <= e; else under-feed (material left, Mr between C and Mi) or
 ///    over-feed (over-cut, Mr beyond Mi);
 /// 4. under-feed: where the wheel really was, from the frames before and after the stroke:
 ///    the after-contour's points that were inside the material before (the edge of the
-///    region the stroke removed: the real nose's arc); for directions within +-90 deg of the
-///    profile normal, each point's distance along it to the theoretical nose circle; the
+///    region the stroke removed: the real nose's arc, and a double-bevel wheel's flanks where
+///    they cut); for directions within +-90 deg of the profile normal, each point's distance
+///    along it to the wheel's theoretical edge (wheel.h: the nose circle, or arc and flanks); the
 ///    direction with the smallest spread is the error's, its mean distance the size (0.5 deg
 ///    steps, then 0.01 deg). No such points (the wheel did not cut): the normal and the
 ///    excess d. When no shift explains the arc (its spread over 1 um: the nose is worn
-///    smaller), a circle through the edge instead: its centre's shift plus its lost radius
-///    along the normal is the error;
+///    smaller), a circle through the edge's arc points instead: its centre's shift plus its
+///    lost radius along the normal is the error;
 /// 5. the compensation the motion controller receives: under-feed, the wheel moved back by
 ///    the error found (towards the material); over-feed, along the normal away from it by
 ///    the over-cut + 2 e (retract safely).
@@ -40,6 +40,8 @@ struct PointResult {
   Feed feed = Feed::kGood;
   geometry::Vec2 mr_mm = geometry::Vec2::Zero();  ///< the actual contour on C-Mi
   double d_mm = 0.0;                              ///< |Mr - Mi|
+  int search_case = 0;          ///< the seed's case that found Mr (1..6; 0: one column)
+  bool search_by_rows = false;  ///< the rows played the columns' part (a steep contour)
   /// Under-feed: the wheel's error found (unit direction, size); otherwise the normal and d.
   geometry::Vec2 error_dir = geometry::Vec2::UnitY();
   double error_mm = 0.0;
@@ -60,10 +62,12 @@ struct PointInput {
 
 /// Throws GrindError when the frame shows no contour on the line C-Mi (or the frames do not
 /// match the camera).
+/// `bevel`: the wheel's flanks (wheel.h); off, a round nose.
 PointResult MeasurePoint(const PointInput& in,
                          const geometry::Profile2& nominal,
                          const GrindCamera& camera,
                          double wheel_radius_mm,
-                         double limit_mm);
+                         double limit_mm,
+                         const WheelBevel& bevel = {});
 
 }  // namespace mlp::grind
