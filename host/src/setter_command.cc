@@ -33,16 +33,18 @@ constexpr const char* kUsage =
     "  the calibration curve from a pin's signal (a cubic, mlprobe-beam-curve/1)\n"
     "       mlp setter process --signal SIGNAL.txt (--curve CURVE.json | --no-curve) --rpm R\n"
     "                          --teeth N --feed-mm-min F [--leaving] [--reflective]\n"
-    "                          [--threshold-share S] [--width-trigger-ms T] [--json]\n"
+    "                          [--threshold-share S] [--width-trigger-ms T] [--rise] [--json]\n"
     "  the signal sample by sample as the setter's DSP: the trigger (the skip signal), the edge\n"
-    "  it implies, the leading tooth's radius from the dips, each tooth's lag, what was rejected\n"
+    "  it implies, the leading tooth's radius from the dips, each tooth's lag, what was rejected;\n"
+    "  --rise: a pin entering, its rise p predicts the crossing (a curve that knows the rise)\n"
     "exit codes: 0 done (process: triggered), 2 bad arguments or files, 3 no trigger or no\n"
     "calibration (the reason is printed), 1 bug\n";
 
 namespace fs = std::filesystem;
 
 // Every sub-command takes these switches.
-const std::set<std::string> kSwitches = {"--json", "--leaving", "--reflective", "--no-curve"};
+const std::set<std::string> kSwitches = {"--json", "--leaving", "--reflective", "--no-curve",
+                                         "--rise"};
 
 setter::BeamSignal ReadSignal(const std::string& path) {
   return setter::ParseBeamSignal(ReadInputFile(path), path);
@@ -106,6 +108,7 @@ setter::ProcessorConfig ProcessorConfigFrom(const Args& f, const setter::BeamSig
   c.threshold_share = f.Number("--threshold-share", c.threshold_share);
   c.reflective = f.Has("--reflective");
   c.width_trigger_s = f.Number("--width-trigger-ms", 0.0) / 1000;
+  c.rise_predicts = f.Has("--rise");
   if (f.Has("--no-curve") == f.Has("--curve"))
     throw UsageError("give --curve CURVE.json, or --no-curve (a line through the minima)");
   if (f.Has("--curve"))
@@ -142,6 +145,7 @@ nlohmann::ordered_json ProcessJson(const setter::BeamProcessor& p, int teeth) {
     j["extremes"] = t.extremes;
     j["cause"] = setter::ToString(t.cause);
   }
+  if (std::isfinite(p.PredictedCrossingS())) j["predicted_crossing_s"] = p.PredictedCrossingS();
   j["deepest_share"] = p.DeepestShare();
   j["diameter_mm"] = std::isfinite(radius) ? nlohmann::ordered_json(2 * radius) : nullptr;
   nlohmann::ordered_json lags = nlohmann::ordered_json::array();

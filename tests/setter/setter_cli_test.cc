@@ -48,6 +48,15 @@ TEST(SetterCli, SimulatesCalibratesAndTriggers) {
   EXPECT_NEAR(j.at("diameter_mm").get<double>(), 6.02, kDiameterTolMm);
   const auto text = RunProcess(process);
   EXPECT_NE(text.out.find("trigger at sample"), std::string::npos) << text.out;
+  // The calibration pin itself, read with its rise p predicting the crossing.
+  EXPECT_GT(nlohmann::json::parse(cal.out).at("rise_share").get<double>(), 0.0);
+  const auto rise = RunProcess(kMlp + " setter process --signal " + dir + "/pin.txt --curve " +
+                               dir + "/curve.json --rpm 0 --teeth 1 --feed-mm-min 6 --rise --json");
+  ASSERT_EQ(rise.exit_code, 0) << rise.err;
+  const auto r = nlohmann::json::parse(rise.out);
+  EXPECT_EQ(r.at("cause"), "the light crossed the threshold when the rise p predicted");
+  EXPECT_NEAR(r.at("predicted_crossing_s").get<double>(), r.at("threshold_time_s").get<double>(),
+              0.02);  // 2 um at 6 mm/min: the rise's window
   // A tool that never reaches the beam: no trigger, exit 3; a file that is not a signal: 2.
   ASSERT_EQ(RunProcess(kMlp + " setter simulate --out " + dir +
                        "/far.txt --rpm 1500 --teeth-mm 3,3 --gap-mm 1 --drops-per-s 30")

@@ -32,6 +32,8 @@ const char* ToString(TriggerCause c) {
       return "a dip of the leading tooth reached the width set";
     case TriggerCause::kPin:
       return "the light held beyond the threshold";
+    case TriggerCause::kRise:
+      return "the light crossed the threshold when the rise p predicted";
   }
   return "?";
 }
@@ -78,11 +80,17 @@ void ProcessorConfig::Validate() const {
         threshold_share + confirm_share < 1))
     Fail("confirm_share must be > 0 and keep threshold +- it within (0, 1)");
   if (fit_min < 3 || fit_min > BeamProcessor::kRing || !(fit_tol_mm > 0) || !(band_mm > 0) ||
-      !(gate_share > 0 && gate_share < 0.25) || !(hysteresis_share > 0) || !(hold_s > 0))
-    Fail("fit_min 3..8; tolerances, gate (under 1/4), hysteresis and hold > 0");
+      !(gate_share > 0 && gate_share < 0.25) || !(hysteresis_share > 0) || !(hold_s > 0) ||
+      !(drop_max_s > 0))
+    Fail("fit_min 3..8; tolerances, gate (under 1/4), hysteresis, hold and drop_max_s > 0");
+  if (rise_predicts && (rpm > 0 || !entering || reflective || !HasCurve() ||
+                        !(curve.rise_share > 0) || !(rise_window_mm > 0)))
+    Fail(
+        "rise_predicts: a pin entering a transmissive setter, its curve with a rise, a window > 0");
 }
 
-BeamProcessor::BeamProcessor(const ProcessorConfig& c) : cfg_(c) {
+BeamProcessor::BeamProcessor(const ProcessorConfig& c)
+    : cfg_(c), rise_(c.curve.rise_share / 2, kRiseMinS) {
   c.Validate();
   if (c.rpm > 0) period_s_ = 60.0 / (c.rpm * c.teeth);
   if (c.HasCurve()) clear_v_ = c.curve.clear_v;
@@ -173,8 +181,16 @@ bool BeamProcessor::Push(float volts) {
                 TriggerCause::kWidth};
     fired = true;
   }
-  if (!Triggered() && cfg_.rpm == 0 && cross_t_ >= 0 && now - cross_t_ >= cfg_.hold_s) {
-    trigger_ = {n_, now, cross_t_, dir_ * feed_mm_s_ * (now - cross_t_), -1, 0, TriggerCause::kPin};
+  if (!Triggered() && cfg_.rpm == 0 && cross_t_ >= 0 &&
+      (rise_confirmed_ || now - cross_t_ >= cfg_.hold_s)) {
+    trigger_ = {n_,
+                now,
+                cross_t_,
+                dir_ * feed_mm_s_ * (now - cross_t_),
+                -1,
+                0,
+                rise_confirmed_ ? TriggerCause::kRise : TriggerCause::kPin,
+                predicted_cross_t_};
     fired = true;
   }
   ++n_;
@@ -425,7 +441,17 @@ void BeamProcessor::PinStep(double y, double t) {
     Reject(Rejected::kNotHeld, n_);
     cross_t_ = -1;
   }
+  if (cfg_.rise_predicts && rise_.Add(t, y))  // the pin's edge is due at the threshold then
+    predicted_cross_t_ = rise_.PeakTimeS() + (x_threshold_ - cfg_.curve.rise_mm) / feed_mm_s_;
   deepest_share_ = std::min(deepest_share_, y);
+  if (!beyond) steep_t_ = -1;  // the light came back: whatever fell was a drop
+  if (cfg_.HasCurve() && steep_t_ >= 0 && cross_t_ < 0 && !Triggered() &&
+      t - steep_t_ >= cfg_.drop_max_s) {  // beyond for longer than a drop: the pin crossed
+    cross_t_ = t - std::abs(ToIntrusion(y) - x_threshold_) / feed_mm_s_;
+    steep_t_ = -1;
+    rise_confirmed_ = std::abs(cross_t_ - predicted_cross_t_) * feed_mm_s_ <= cfg_.rise_window_mm;
+    return;
+  }
   const bool was_beyond = cfg_.entering ? prev_ < th : prev_ >= th;
   if (cross_t_ >= 0 || Triggered() || !beyond || was_beyond || slope_n_ <= m) return;
   if (!cfg_.HasCurve()) {  // no slope to compare: the hold alone
@@ -438,9 +464,11 @@ void BeamProcessor::PinStep(double y, double t) {
   const double measured = (y - then) * cfg_.sample_rate_hz / m;
   if (std::abs(measured) > 3 * std::abs(expected) + 2 * cfg_.hysteresis_share * 1000 / m) {
     Reject(Rejected::kTooSteep, n_);
+    steep_t_ = t;
     return;
   }
   cross_t_ = Cross(prev_t_, prev_, t, y, th);
+  rise_confirmed_ = std::abs(cross_t_ - predicted_cross_t_) * feed_mm_s_ <= cfg_.rise_window_mm;
 }
 
 void BeamProcessor::Reject(Rejected r, long sample) {

@@ -2,6 +2,7 @@
 
 #include "mlp/base/json_fields.h"
 #include "mlp/setter/beam_signal.h"
+#include "mlp/setter/rise.h"
 
 #include <algorithm>
 #include <cmath>
@@ -41,6 +42,56 @@ double CalibrationCurve::IntrusionAt(double share) const {
   }
   return x;
 }
+
+namespace {
+
+// The rise p before the fall (rise.h): the highest average before it, over 6 times the
+// averaged clear signal's scatter, its bump's peak through RiseFinder; x from the half-light
+// crossing as the curve's.
+void FindRise(const std::vector<double>& avg,
+              size_t clear_n,
+              size_t fall,
+              double t50,
+              double mm_per_sample,
+              double fs,
+              CalibrationCurve* cur) {
+  double sum = 0, sum2 = 0, peak = 0;
+  for (size_t i = 4; i < clear_n; ++i) sum += avg[i], sum2 += avg[i] * avg[i];
+  const double n = static_cast<double>(clear_n - 4), mean = sum / n;
+  const double scatter = std::sqrt(std::max(0.0, sum2 / n - mean * mean));
+  for (size_t i = 4; i < fall; ++i) peak = std::max(peak, avg[i] - 1.0);
+  if (!(peak > 6 * scatter)) return;
+  RiseFinder rise(peak / 2, kRiseMinS);
+  for (size_t i = 4; i < fall && !rise.Found(); ++i) rise.Add(static_cast<double>(i) / fs, avg[i]);
+  if (!rise.Found()) return;
+  cur->rise_share = peak;
+  cur->rise_mm = (rise.PeakTimeS() * fs - t50) * mm_per_sample;
+}
+
+// The cubic through the (x, share) samples, its span, and the check that it falls throughout.
+void FitCubic(const std::vector<std::pair<double, double>>& pts, CalibrationCurve* cur) {
+  if (pts.size() < 50) Fail("fewer than 50 samples between 90 % and 10 %: feed too fast");
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(pts.size()), 4);
+  Eigen::VectorXd b(static_cast<Eigen::Index>(pts.size()));
+  double lo = 1e300, hi = -1e300;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const double x = pts[i].first;
+    a.row(static_cast<Eigen::Index>(i)) << 1, x, x * x, x * x * x;
+    b(static_cast<Eigen::Index>(i)) = pts[i].second;
+    lo = std::min(lo, x), hi = std::max(hi, x);
+  }
+  const Eigen::Vector4d coef = a.colPivHouseholderQr().solve(b);
+  for (int k = 0; k < 4; ++k) cur->c[k] = coef(k);
+  cur->rms = std::sqrt((a * coef - b).squaredNorm() / static_cast<double>(pts.size()));
+  cur->samples = static_cast<int>(pts.size());
+  // The span: from the first 90 % to the last 10 % crossing of the fitted curve.
+  cur->lo_mm = lo, cur->hi_mm = hi;
+  for (double x = lo; x <= hi; x += (hi - lo) / 200)
+    if (cur->c[1] + x * (2 * cur->c[2] + 3 * x * cur->c[3]) >= 0)
+      Fail("the fitted curve is not falling over its span (a drop during the calibration?)");
+}
+
+}  // namespace
 
 CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
                                   double fs,
@@ -82,29 +133,12 @@ CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
   while (first > 0 && avg[first - 1] < 0.95) --first;
   while (last + 1 < avg.size() && avg[last + 1] > 0.05) ++last;
   const double mm_per_sample = feed_mm_min / 60 / fs;
+  if (!reflective) FindRise(avg, clear_n, first, t50, mm_per_sample, fs, &cur);
   std::vector<std::pair<double, double>> pts;  // (x, share)
   for (size_t i = first; i <= last; ++i)
     if (share[i] <= kShareHi && share[i] >= kShareLo)
       pts.emplace_back((static_cast<double>(i) - t50) * mm_per_sample, share[i]);
-  if (pts.size() < 50) Fail("fewer than 50 samples between 90 % and 10 %: feed too fast");
-  Eigen::MatrixXd a(static_cast<Eigen::Index>(pts.size()), 4);
-  Eigen::VectorXd b(static_cast<Eigen::Index>(pts.size()));
-  double lo = 1e300, hi = -1e300;
-  for (size_t i = 0; i < pts.size(); ++i) {
-    const double x = pts[i].first;
-    a.row(static_cast<Eigen::Index>(i)) << 1, x, x * x, x * x * x;
-    b(static_cast<Eigen::Index>(i)) = pts[i].second;
-    lo = std::min(lo, x), hi = std::max(hi, x);
-  }
-  const Eigen::Vector4d coef = a.colPivHouseholderQr().solve(b);
-  for (int k = 0; k < 4; ++k) cur.c[k] = coef(k);
-  cur.rms = std::sqrt((a * coef - b).squaredNorm() / static_cast<double>(pts.size()));
-  cur.samples = static_cast<int>(pts.size());
-  // The span: from the first 90 % to the last 10 % crossing of the fitted curve.
-  cur.lo_mm = lo, cur.hi_mm = hi;
-  for (double x = lo; x <= hi; x += (hi - lo) / 200)
-    if (cur.c[1] + x * (2 * cur.c[2] + 3 * x * cur.c[3]) >= 0)
-      Fail("the fitted curve is not falling over its span (a drop during the calibration?)");
+  FitCubic(pts, &cur);
   return cur;
 }
 
@@ -115,7 +149,9 @@ std::string CurveJson(const CalibrationCurve& c) {
                                     {"hi_mm", c.hi_mm},
                                     {"cubic", {c.c[0], c.c[1], c.c[2], c.c[3]}},
                                     {"rms_share", c.rms},
-                                    {"samples", c.samples}};
+                                    {"samples", c.samples},
+                                    {"rise_share", c.rise_share},
+                                    {"rise_mm", c.rise_mm}};
   return j.dump(1) + "\n";
 }
 
@@ -135,6 +171,10 @@ CalibrationCurve ParseCurve(const std::string& text, const std::string& where) {
   if (cubic_bad()) throw E(where + ": cubic must hold 4 numbers");
   for (int k = 0; k < 4; ++k) c.c[k] = j.at("cubic")[static_cast<size_t>(k)].get<double>();
   c.rms = jf::NumberOr<E>(j, "rms_share", 0.0, where);
+  c.rise_share = jf::NumberOr<E>(j, "rise_share", 0.0, where);
+  c.rise_mm = jf::NumberOr<E>(j, "rise_mm", 0.0, where);
+  if (!(c.rise_share >= 0 && c.rise_share < 0.2) || !(std::abs(c.rise_mm) < 1))
+    throw E(where + ": rise_share 0..0.2, |rise_mm| < 1");
   if (!(c.clear_v > 0) || !(c.hi_mm > c.lo_mm)) throw E(where + ": clear_v > 0, hi > lo");
   return c;
 }

@@ -20,7 +20,9 @@
 ///
 /// A tool not turning (a pin): the signal crossing the threshold share, its slope matching
 /// the calibration curve at the feed (a drop falls far faster) and held there `hold_s` (a drop
-/// passes).
+/// passes). A drop over the crossing itself makes the fall too steep; when the light then stays
+/// beyond the threshold longer than a drop lasts (`drop_max_s`), the pin crossed under the
+/// drop, and the curve says when: the share now is how far it has gone past.
 ///
 /// Without a calibration curve (seed 003's "a line through the minima"): the clear level is
 /// the median of the first `clear_s`'s 1 ms means, and the beam is taken as Gaussian, its
@@ -34,10 +36,15 @@
 /// it, is not extrapolated into a false trigger.
 /// A reflective setter (its light rising as the tool enters, a min-max-min per tooth) is read
 /// as the share 1 - volts / clear_v, with its curve made the same way.
+/// `rise_predicts` (a pin entering, with a curve that knows its rise p): the rise's peak
+/// predicts when the crossing is due (rise.h); a crossing within `rise_window_mm` of the
+/// prediction (at the feed) fires at once, without the hold (a drop comes at random, the
+/// rise says when the pin's edge arrives); elsewhere the hold decides as before.
 /// `width_trigger_s` adds seed 003's other trigger: a confirmed dip of the leading tooth as
 /// wide as that (its width grows as the tool goes in).
 
 #include "mlp/setter/calibration_curve.h"
+#include "mlp/setter/rise.h"
 
 #include <array>
 #include <limits>
@@ -60,9 +67,12 @@ struct ProcessorConfig {
   double gate_share = 0.04;        ///< of a tooth period: the schedule's window
   double hysteresis_share = 0.02;  ///< smaller swings are noise
   double hold_s = 0.003;           ///< not turning: beyond the threshold this long
+  double drop_max_s = 0.008;       ///< the longest a coolant drop darkens the beam
   bool reflective = false;         ///< the receiver sees the tool's reflection (needs a curve)
   double width_trigger_s = 0.0;    ///< > 0: also fire on a leading tooth's dip this wide
   double confirm_share = 0.15;     ///< a line fires once a minimum is this near the threshold
+  bool rise_predicts = false;      ///< a pin: the rise p predicts the crossing (needs a curve)
+  double rise_window_mm = 0.003;   ///< a crossing this near the prediction fires at once
   // Without a curve (curve.clear_v == 0):
   double clear_s = 0.02;        ///< the clear level from this much signal first
   double z_tol = 0.025;         ///< a tooth's minima's rms about their line in z (~0.5 um)
@@ -73,9 +83,9 @@ struct ProcessorConfig {
   void Validate() const;  ///< throws SetterInputError naming the field
 };
 
-/// What fired: a tooth's line crossing the threshold, a dip as wide as width_trigger_s, or a
-/// pin's held crossing.
-enum class TriggerCause { kLine, kWidth, kPin };
+/// What fired: a tooth's line crossing the threshold, a dip as wide as width_trigger_s, a
+/// pin's held crossing, or a pin's crossing where its rise predicted it.
+enum class TriggerCause { kLine, kWidth, kPin, kRise };
 const char* ToString(TriggerCause c);
 
 struct Trigger {
@@ -88,6 +98,8 @@ struct Trigger {
   int tooth = -1;    ///< the tooth whose line triggered; -1 not turning
   int extremes = 0;  ///< on its line
   TriggerCause cause = TriggerCause::kLine;
+  /// A pin with rise_predicts: when the rise said the crossing was due (NaN: no rise seen).
+  double predicted_time_s = std::numeric_limits<double>::quiet_NaN();
 };
 
 enum class Rejected { kOffSchedule, kOutsideBand, kTooSteep, kNotHeld };
@@ -122,6 +134,8 @@ class BeamProcessor {
   /// any. A tool thinner than the beam never takes it under the threshold: no trigger, and
   /// this says how close it came.
   double DeepestShare() const { return deepest_share_; }
+  /// rise_predicts: when the rise says the threshold crossing is due [s]; NaN before.
+  double PredictedCrossingS() const { return predicted_cross_t_; }
   /// The clear level the shares are of [V]: the curve's, or (without one) measured; NaN
   /// while it is being measured.
   double ClearV() const { return clear_v_; }
@@ -203,6 +217,10 @@ class BeamProcessor {
   std::array<double, kSlopeMax> slope_ring_{};
   int slope_n_ = 0;
   double cross_t_ = -1;
+  double steep_t_ = -1;  // a fall through the threshold rejected as too steep (a drop?)
+  RiseFinder rise_;
+  double predicted_cross_t_ = std::numeric_limits<double>::quiet_NaN();
+  bool rise_confirmed_ = false;
   std::array<int, 4> rejection_count_{};
   std::array<Rejection, 16> recent_{};
   int recent_n_ = 0;

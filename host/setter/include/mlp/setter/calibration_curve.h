@@ -15,6 +15,9 @@ struct CalibrationCurve {
   double c[4] = {0, 0, 0, 0};       ///< share = c0 + c1 x + c2 x^2 + c3 x^3
   double rms = 0.0;                 ///< of the fit, share of clear
   int samples = 0;                  ///< fitted
+  /// The rise p before blocking (rise.h): its height above clear (share; 0: none seen) and
+  /// its peak's intrusion (mm, negative: before the beam's centre).
+  double rise_share = 0.0, rise_mm = 0.0;
 
   double Share(double x_mm) const;
   /// The intrusion at which the curve passes `share` (inside [lo, hi]; clamped to them).
@@ -29,7 +32,8 @@ struct CalibrationCurve {
 /// or the curve is not monotonic over its span; SetterInputError without a sample rate, a feed
 /// or 80 ms of signal. `reflective`: the receiver sees the pin's reflection; the level is the
 /// full reflection (the pin all in: the last 20 ms entering) and the shares 1 - volts / level,
-/// as BeamProcessor reads a reflective setter.
+/// as BeamProcessor reads a reflective setter. A transmissive setter's rise p (a bump over
+/// 6 times the averaged noise before the fall) is found and kept with the curve.
 CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
                                   double sample_rate_hz,
                                   double feed_mm_min,
