@@ -7,9 +7,11 @@
 #include "mlp/history/history.h"
 
 #include <memory>
+#include <random>
 #include <thread>
 
 #include "hostd_site.h"
+#include "seeded_draw.h"
 
 namespace mlp {
 namespace {
@@ -237,8 +239,10 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
 
 // Seed 004's alignment on the demo plate (samples/scenes/demo_plate.json): top face A, holes B
 // and C -> G54 with its rotation about Z, against the scene's truth, through the product's chain
-// (the as-built probe, its calibration, the hand-eye calibrated first).
-TEST(Hostd, AlignsThePlateToPlaneCircleCircle) {
+// (the as-built probe, its calibration, the hand-eye calibrated first). Then the seed's general
+// plane - line - point: A, the front edge from two touch points on the front face (the
+// controller's probe, 1 um scatter), hole B as the point.
+TEST(Hostd, AlignsThePlateToPlaneCircleCircleAndPlaneLinePoint) {
   Site site("align", kAlignPort);
   Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
   ASSERT_TRUE(site.WaitFor([&] { return fs::exists(site.socket); }));
@@ -307,6 +311,54 @@ TEST(Hostd, AlignsThePlateToPlaneCircleCircle) {
   const auto refused = site.Mlp("request " + site.Request("far", far));
   EXPECT_EQ(refused.exit_code, 6) << refused.out;
   EXPECT_NE(refused.err.find("from where it was expected"), std::string::npos) << refused.err;
+  EXPECT_FALSE(fs::exists(site.dir / "lcnc" / "mlp_result.ngc"));
+
+  // Plane - line - point: the front face (work y -25) touched at x 10 and 90, 10 mm down; the
+  // origin on A over the front edge, level with hole B: work (0, -25, 0).
+  const Eigen::Matrix3d rz = Eigen::AngleAxisd(angle, geometry::Vec3::UnitZ()).toRotationMatrix();
+  const geometry::Vec3 work_origin(origin[0].get<double>(), origin[1].get<double>(),
+                                   origin[2].get<double>());
+  std::mt19937 rng(404);
+  std::normal_distribution<double> touch(0.0, 0.001);
+  json touched = json::array();
+  for (const double x : {10.0, 90.0}) {
+    const geometry::Vec3 p =
+        work_origin + rz * geometry::Vec3(x, -25, -10) + test::DrawVec3(touch, rng);
+    touched.push_back({p.x(), p.y(), p.z()});
+  }
+  json plp = {{"op", "align"},
+              {"machine", "lcnc-1"},
+              {"method", "plane-line-point"},
+              {"work_offset", 2},
+              {"expected_origin_mm", {250, 95, -310}},
+              {"plane_a", align.at("plane_a")},
+              {"line_b", {{"points_mm", touched}}},
+              {"hole_c", align.at("circle_b")}};
+  const auto plp_run = site.Mlp("request " + site.Request("plp", plp));
+  ASSERT_EQ(plp_run.exit_code, 0) << plp_run.out << plp_run.err;
+  const json plp_reply = json::parse(plp_run.out);
+  const geometry::Vec3 plp_truth = work_origin + rz * geometry::Vec3(0, -25, 0);
+  double plp_error_um[3];
+  for (int k = 0; k < 3; ++k)
+    plp_error_um[k] = (plp_reply.at("origin_mm")[k].get<double>() - plp_truth(k)) * 1e3;
+  const double plp_rotation_arcsec =
+      (plp_reply.at("rotation_z_deg").get<double>() * M_PI / 180 - angle) * 180 / M_PI * 3600;
+  std::printf(
+      "plane-line-point (two touch points, hole B): origin error (%.2f, %.2f, %.2f) um, rotation "
+      "error %.2f arcsec\n",
+      plp_error_um[0], plp_error_um[1], plp_error_um[2], plp_rotation_arcsec);
+  for (double e : plp_error_um) EXPECT_LT(std::abs(e), kOriginTolUm);
+  EXPECT_LT(std::abs(plp_rotation_arcsec), kRotationTolArcsec);
+  EXPECT_NE(test::ReadText(site.dir / "lcnc" / "mlp_result.ngc").find("G10 L2 P2 X"),
+            std::string::npos);
+  // Two touch points a millimetre apart would make X of their scatter: refused, nothing written.
+  json close = plp;
+  close["line_b"]["points_mm"][1] = {touched[0][0].get<double>() + 1.0, touched[0][1],
+                                     touched[0][2]};
+  fs::remove(site.dir / "lcnc" / "mlp_result.ngc");
+  const auto too_close = site.Mlp("request " + site.Request("close", close));
+  EXPECT_EQ(too_close.exit_code, 7) << too_close.out;
+  EXPECT_NE(too_close.err.find("5 mm apart"), std::string::npos) << too_close.err;
   EXPECT_FALSE(fs::exists(site.dir / "lcnc" / "mlp_result.ngc"));
 }
 

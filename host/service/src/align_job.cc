@@ -82,6 +82,34 @@ struct Datum {
   json fields;
 };
 
+// A hole measured as a bore (request.NAME: captures and nominal): its fitted axis where it
+// meets plane A; the gate's evidence and the reply's fields for it.
+Vec3 HoleOnPlane(JobContext& ctx,
+                 const json& r,
+                 const char* name,
+                 const geometry::Pose3& m,
+                 std::int64_t job,
+                 const jobs::PlaneMeasurement& a,
+                 Datum* d) {
+  const std::string w = std::string("request.") + name;
+  const json& f = jf::Object<JobInputError>(r, name, "request");
+  if (!f.contains("captures")) throw JobInputError(w + ".captures must list capture jobs");
+  const Evidence ev = LoadCaptures(ctx, f.at("captures"), m, job);
+  const jobs::BoreMeasurement b = jobs::MeasureBore(
+      ev.points_mcs, ParseBoreNominal(jf::Object<JobInputError>(f, "nominal", w), w + ".nominal"));
+  Vec3 centre = AxisOnPlane(b, a.plane);
+  d->fe.arc_span_deg = std::min(d->fe.arc_span_deg.value_or(360.0), b.arc_span_deg);
+  d->fe.rms_mm = std::max(d->fe.rms_mm, b.rms_mm);
+  d->fe.points = std::min(d->fe.points, b.points);
+  d->fe.converged = d->fe.converged && b.converged;
+  d->fields[name] = {{"centre_mm", JsonVec(centre)},
+                     {"diameter_mm", b.diameter_mm},
+                     {"rms_mm", b.rms_mm},
+                     {"points", b.points},
+                     {"arc_span_deg", b.arc_span_deg}};
+  return centre;
+}
+
 // Plane A, then the two bores' axes where they meet it: the origin at the first, X towards
 // the second.
 void PlaneCircleCircle(JobContext& ctx,
@@ -90,52 +118,90 @@ void PlaneCircleCircle(JobContext& ctx,
                        std::int64_t job,
                        const jobs::PlaneMeasurement& a,
                        Datum* d) {
-  Vec3 centres[2];
-  const char* names[2] = {"circle_b", "circle_c"};
-  double min_span = 360.0;
-  for (int k = 0; k < 2; ++k) {
-    const std::string w = std::string("request.") + names[k];
-    const json& f = jf::Object<JobInputError>(r, names[k], "request");
-    if (!f.contains("captures")) throw JobInputError(w + ".captures must list capture jobs");
-    const Evidence ev = LoadCaptures(ctx, f.at("captures"), m, job);
-    const jobs::BoreMeasurement b = jobs::MeasureBore(
-        ev.points_mcs,
-        ParseBoreNominal(jf::Object<JobInputError>(f, "nominal", w), w + ".nominal"));
-    centres[k] = AxisOnPlane(b, a.plane);
-    min_span = std::min(min_span, b.arc_span_deg);
-    d->fe.rms_mm = std::max(d->fe.rms_mm, b.rms_mm);
-    d->fe.points = std::min(d->fe.points, b.points);
-    d->fe.converged = d->fe.converged && b.converged;
-    d->fields[names[k]] = {{"centre_mm", JsonVec(centres[k])},
-                           {"diameter_mm", b.diameter_mm},
-                           {"rms_mm", b.rms_mm},
-                           {"points", b.points},
-                           {"arc_span_deg", b.arc_span_deg}};
-  }
-  d->fe.arc_span_deg = min_span;
-  d->mcs_from_work = geometry::DatumPlaneCircleCircle(a.plane, centres[0], centres[1]);
+  const Vec3 b = HoleOnPlane(ctx, r, "circle_b", m, job, a, d);
+  const Vec3 c = HoleOnPlane(ctx, r, "circle_c", m, job, a, d);
+  d->mcs_from_work = geometry::DatumPlaneCircleCircle(a.plane, b, c);
 }
 
-// The 3-2-1 alignment: with a line probe the "line" is face B's trace on A and the "point" is
-// face C, each a whole face rather than 2 and 1 touch points. A's normal is Z, the edge where
-// B meets A sets X, C fixes the origin along it.
-void ThreePlanes(JobContext& ctx,
-                 const json& r,
-                 const geometry::Pose3& m,
-                 std::int64_t job,
-                 const jobs::PlaneMeasurement& a,
-                 Datum* d) {
-  const jobs::PlaneMeasurement b =
-      MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_b", "request"), "request.plane_b", m,
-                  job, &d->probe);
-  const jobs::PlaneMeasurement c =
-      MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_c", "request"), "request.plane_c", m,
-                  job, &d->probe);
-  d->fe.rms_mm = std::max({a.rms_mm, b.rms_mm, c.rms_mm});
-  d->fe.points = std::min({a.points, b.points, c.points});
-  const geometry::Line3 edge = Intersection(a.plane, b.plane);
-  const Vec3 corner = Intersection(b.plane, c.plane).point;
-  d->mcs_from_work = geometry::DatumPlaneLinePoint(a.plane, edge, corner);
+// One point of a list: [x, y, z] in mm, finite.
+Vec3 ListedPoint(const json& e, const std::string& where) {
+  if (!e.is_array() || e.size() != 3 ||
+      !std::all_of(e.begin(), e.end(), [](const json& x) { return x.is_number(); }))
+    throw JobInputError(where + " must be [x, y, z] in mm");
+  Vec3 v(e[0].get<double>(), e[1].get<double>(), e[2].get<double>());
+  if (!v.allFinite()) throw JobInputError(where + " must be finite");
+  return v;
+}
+
+// The secondary line (seed 004's "line", its two touch points): face B's trace on A
+// ("plane_b": a line probe takes the whole face), or a part edge measured as two points on it
+// ("line_b": {"points_mm": [p, q]}, machine coordinates, from the controller's touch probe or a
+// measured edge; p -> q is X).
+geometry::Line3 SecondaryLine(JobContext& ctx,
+                              const json& r,
+                              const geometry::Pose3& m,
+                              std::int64_t job,
+                              const jobs::PlaneMeasurement& a,
+                              Datum* d) {
+  if (r.contains("plane_b")) {
+    const jobs::PlaneMeasurement b =
+        MeasureFace(ctx, r.at("plane_b"), "request.plane_b", m, job, &d->probe);
+    d->fe.rms_mm = std::max(d->fe.rms_mm, b.rms_mm);
+    d->fe.points = std::min(d->fe.points, b.points);
+    d->fields["plane_b"] = {{"normal", JsonVec(b.plane.normal)}, {"rms_mm", b.rms_mm}};
+    return Intersection(a.plane, b.plane);
+  }
+  const json& l = jf::Object<JobInputError>(r, "line_b", "request (plane_b or line_b)");
+  if (!l.contains("points_mm") || !l.at("points_mm").is_array() || l.at("points_mm").size() != 2)
+    throw JobInputError("request.line_b.points_mm must hold two points [x, y, z]");
+  const Vec3 p = ListedPoint(l.at("points_mm")[0], "request.line_b.points_mm[0]");
+  const Vec3 q = ListedPoint(l.at("points_mm")[1], "request.line_b.points_mm[1]");
+  // Two touch points closer than this make X from their scatter, not from the edge.
+  constexpr double kMinSpanMm = 5.0;
+  if (!((q - p).norm() >= kMinSpanMm))
+    throw JobInputError("request.line_b: the two points must be at least 5 mm apart");
+  d->fields["line_b"] = {{"points_mm", l.at("points_mm")}, {"span_mm", (q - p).norm()}};
+  return {p, (q - p).normalized()};
+}
+
+// The tertiary point (seed 004's "point"): face C ("plane_c": where the line meets it), a hole
+// ("hole_c": its fitted axis on A, measured as a bore), or a point ("point_c": {"point_mm"}).
+Vec3 TertiaryPoint(JobContext& ctx,
+                   const json& r,
+                   const geometry::Pose3& m,
+                   std::int64_t job,
+                   const jobs::PlaneMeasurement& a,
+                   const geometry::Line3& line,
+                   Datum* d) {
+  if (r.contains("plane_c")) {
+    const jobs::PlaneMeasurement c =
+        MeasureFace(ctx, r.at("plane_c"), "request.plane_c", m, job, &d->probe);
+    d->fe.rms_mm = std::max(d->fe.rms_mm, c.rms_mm);
+    d->fe.points = std::min(d->fe.points, c.points);
+    d->fields["plane_c"] = {{"normal", JsonVec(c.plane.normal)}, {"rms_mm", c.rms_mm}};
+    const double along = line.direction.dot(c.plane.normal);
+    if (!(std::abs(along) > 1e-6))
+      throw JobInputError("request.plane_c runs along the line: it cannot fix the origin");
+    return line.point + line.direction * ((c.plane.point - line.point).dot(c.plane.normal) / along);
+  }
+  if (r.contains("hole_c")) return HoleOnPlane(ctx, r, "hole_c", m, job, a, d);
+  const json& p = jf::Object<JobInputError>(r, "point_c", "request (plane_c, hole_c or point_c)");
+  Vec3 point = jf::Vector3<JobInputError>(p, "point_mm", "request.point_c");
+  d->fields["point_c"] = {{"point_mm", JsonVec(point)}};
+  return point;
+}
+
+// The 3-2-1 alignment: Z = A's normal, X along the secondary line, the origin on the line
+// (on A) level with the tertiary point.
+void PlaneLinePoint(JobContext& ctx,
+                    const json& r,
+                    const geometry::Pose3& m,
+                    std::int64_t job,
+                    const jobs::PlaneMeasurement& a,
+                    Datum* d) {
+  const geometry::Line3 line = SecondaryLine(ctx, r, m, job, a, d);
+  const Vec3 point = TertiaryPoint(ctx, r, m, job, a, line, d);
+  d->mcs_from_work = geometry::DatumPlaneLinePoint(a.plane, line, point);
 }
 
 Datum MeasureDatum(JobContext& ctx,
@@ -154,7 +220,7 @@ Datum MeasureDatum(JobContext& ctx,
   if (request.method == "plane-circle-circle")
     PlaneCircleCircle(ctx, r, flange_from_probe, job, a, &d);
   else
-    ThreePlanes(ctx, r, flange_from_probe, job, a, &d);
+    PlaneLinePoint(ctx, r, flange_from_probe, job, a, &d);
   return d;
 }
 
