@@ -28,6 +28,9 @@ export MLP_TEST_TIME_SCALE=4
 # there as having an invalid vptr (seen: transport.cc catching std::exception, with "memory
 # cannot be printed" and "Can't create a socket pair ... errno 24" beside it).
 exclude='^(portability/|fuzz/|style/|host/HostileClient\.ListenersComeBackAfterTheDescriptorsRanOut$)'
+# The grinding cell in LinuxCNC renders a frame per top of stroke in real time: under ASan a
+# frame takes longer than the macro's stroke and tops are missed (the release run holds it).
+exclude="$exclude|^host/LinuxCncGrind\\."
 if [ "${1:-}" != "--all" ]; then
   exclude="$exclude|^(verify/VerifyCli\.QuickAcceptanceThroughTheCalibratedChainMeetsTheIssueFigures"
   exclude="$exclude|probe_fw/RealMetal\.GroundSteelBoreWithInterreflections"

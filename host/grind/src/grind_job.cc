@@ -27,9 +27,11 @@ Vec2 Pair(const nlohmann::json& j, const std::string& where) {
 nlohmann::json Pair(const Vec2& v) { return {v.x(), v.y()}; }
 
 // Where the line from C along u leaves the real wheel (its nose's centre C + offset): the far
-// crossing (the side towards the material).
+// crossing (the side towards the material); NaN when the line misses it (an offset beyond the
+// nose: no fair case).
 double OnRealWheel(const Vec2& offset, const Vec2& u, const WheelSection& real) {
-  return real.Crossings(-offset, u).back();
+  const std::vector<double> t = real.Crossings(-offset, u);
+  return t.empty() ? std::nan("") : t.back();
 }
 
 }  // namespace
@@ -71,7 +73,7 @@ std::vector<ErrorCase> SweepCases(const geometry::Profile2& p,
     c.mi_mm = f.point, c.c_mm = f.point + r * f.normal;
     const double t_real = OnRealWheel(c.offset_mm, -f.normal, WheelSection(r - c.wear_mm, bevel));
     c.d_mm = std::abs(t_real - r);
-    if (std::abs(c.d_mm - e) < 0.2 * e) continue;  // too near the limit to be a fair case
+    if (!(std::abs(c.d_mm - e) >= 0.2 * e)) continue;  // too near the limit, or no crossing
     c.feed = c.d_mm <= e ? Feed::kGood : t_real < r ? Feed::kUnderFeed : Feed::kOverFeed;
     c.error_dir = c.wear_mm > 0 ? f.normal : Vec2(c.offset_mm.normalized());
     c.error_mm = c.wear_mm > 0 ? c.wear_mm : c.offset_mm.norm();
