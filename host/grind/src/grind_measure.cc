@@ -16,25 +16,18 @@ using geometry::Vec2;
 
 [[noreturn]] void Fail(const std::string& what) { throw GrindError("grind point: " + what); }
 
-struct ContourPoint {
-  Vec2 p;    // mm
-  double s;  // along the nominal
-};
-
-// The after-frame's contour within `radius` of `near`, sorted along the nominal.
-std::vector<ContourPoint> Contour(const geometry::GreyView& im,
-                                  const GrindCamera& c,
-                                  const geometry::Profile2& nominal,
-                                  const Vec2& near,
-                                  double radius) {
+// The after-frame's contour within `radius` of `near` (mm). Unordered: the search sorts it its
+// own way (contour_search.h), and nothing else depends on the order.
+std::vector<Vec2> Contour(const geometry::GreyView& im,
+                          const GrindCamera& c,
+                          const Vec2& near,
+                          double radius) {
   const geometry::Points2 px = geometry::AllCrossings(im, geometry::HalfLevel(im));
-  std::vector<ContourPoint> out;
+  std::vector<Vec2> out;
   for (Eigen::Index i = 0; i < px.cols(); ++i) {
     const Vec2 p = c.ToMm(px.col(i));
-    if ((p - near).norm() < radius) out.push_back({p, nominal.Closest(p).s});
+    if ((p - near).norm() < radius) out.push_back(p);
   }
-  std::sort(out.begin(), out.end(),
-            [](const ContourPoint& a, const ContourPoint& b) { return a.s < b.s; });
   return out;
 }
 
@@ -106,7 +99,7 @@ void WornNose(const WheelSection& wheel,
 void UnderFeed(const PointInput& in,
                const GrindCamera& cam,
                const WheelSection& wheel,
-               const std::vector<ContourPoint>& pts,
+               const std::vector<Vec2>& pts,
                const Vec2& n,
                double e,
                PointResult* res) {
@@ -115,13 +108,13 @@ void UnderFeed(const PointInput& in,
   // range, about 0.8 px inside the old edge (a point on the untouched stock reads the level).
   const double before_level = geometry::HalfLevel(in.before) - 0.4 * (cam.bright - cam.dark);
   std::vector<Vec2> edge;
-  for (const ContourPoint& q : pts) {
-    const Vec2 px = cam.ToPx(q.p);
+  for (const Vec2& q : pts) {
+    const Vec2 px = cam.ToPx(q);
     if (px.x() < 0 || px.y() < 0 || px.x() >= cam.width_px - 1 || px.y() >= cam.height_px - 1)
       continue;
     if (Bilinear(in.before, px) < before_level &&
-        wheel.SignedDistanceMm(q.p - in.c_mm) < 4 * e + res->d_mm)
-      edge.push_back(q.p - in.c_mm);
+        wheel.SignedDistanceMm(q - in.c_mm) < 4 * e + res->d_mm)
+      edge.push_back(q - in.c_mm);
   }
   res->edge_points = static_cast<int>(edge.size());
   if (edge.size() < 10) {  // the wheel did not cut: the normal and the excess
@@ -176,14 +169,11 @@ PointResult MeasurePoint(const PointInput& in,
   const Vec2 u = (in.mi_mm - in.c_mm).normalized();
   const Vec2 n = nominal.Closest(in.mi_mm).normal;
   // Within two nose radii: the search reaches a radius beyond C (the seed's cases 1 and 4).
-  const std::vector<ContourPoint> pts = Contour(in.after, cam, nominal, in.mi_mm, 2 * r);
+  const std::vector<Vec2> pts = Contour(in.after, cam, in.mi_mm, 2 * r);
   if (pts.size() < 10) Fail("no contour near Mi");
   PointResult res;
-  std::vector<Vec2> search;
-  search.reserve(pts.size());
-  for (const ContourPoint& q : pts) search.push_back(q.p);
-  res.contour_mm = search;
-  const LineCrossing crossing = FindContourOnLine(search, in.c_mm, in.mi_mm, cam.mm_per_px);
+  res.contour_mm = pts;
+  const LineCrossing crossing = FindContourOnLine(pts, in.c_mm, in.mi_mm, cam.mm_per_px);
   res.search_case = crossing.seed_case, res.search_by_rows = crossing.by_rows;
   const double t = crossing.t_mm;
   const double ti = (in.mi_mm - in.c_mm).norm();

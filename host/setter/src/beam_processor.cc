@@ -430,6 +430,11 @@ void BeamProcessor::UpdatePrediction() {
 }
 
 // Not turning: the threshold's crossing, its slope against the curve's at the feed, the hold.
+// The crossing at `cross_t` came where the rise said (NaN before a rise: never).
+bool BeamProcessor::RiseConfirms(double cross_t) const {
+  return std::abs(cross_t - predicted_cross_t_) * feed_mm_s_ <= cfg_.rise_window_mm;
+}
+
 void BeamProcessor::PinStep(double y, double t) {
   const int m = std::min(kSlopeMax, static_cast<int>(0.001 * cfg_.sample_rate_hz));
   const double then = slope_ring_[static_cast<size_t>(slope_n_ % m)];
@@ -449,7 +454,7 @@ void BeamProcessor::PinStep(double y, double t) {
       t - steep_t_ >= cfg_.drop_max_s) {  // beyond for longer than a drop: the pin crossed
     cross_t_ = t - std::abs(ToIntrusion(y) - x_threshold_) / feed_mm_s_;
     steep_t_ = -1;
-    rise_confirmed_ = std::abs(cross_t_ - predicted_cross_t_) * feed_mm_s_ <= cfg_.rise_window_mm;
+    rise_confirmed_ = RiseConfirms(cross_t_);
     return;
   }
   const bool was_beyond = cfg_.entering ? prev_ < th : prev_ >= th;
@@ -468,7 +473,7 @@ void BeamProcessor::PinStep(double y, double t) {
     return;
   }
   cross_t_ = Cross(prev_t_, prev_, t, y, th);
-  rise_confirmed_ = std::abs(cross_t_ - predicted_cross_t_) * feed_mm_s_ <= cfg_.rise_window_mm;
+  rise_confirmed_ = RiseConfirms(cross_t_);
 }
 
 void BeamProcessor::Reject(Rejected r, long sample) {

@@ -4,7 +4,7 @@
 /// The NC gives the theoretical wheel-nose centre C and cutting point Mi (Mi on the nominal,
 /// C = Mi + R n). From the frame after the stroke:
 /// 1. the actual contour: every sub-pixel crossing of the half grey level (geometry/contour.h)
-///    near Mi, sorted along the nominal;
+///    within 2 R of Mi;
 /// 2. Mr, the contour on the line C-Mi: the seed's search in its six cases (contour_search.h),
 ///    then a line through the contour points within 3 px of there intersected with C-Mi
 ///    (sub-pixel);

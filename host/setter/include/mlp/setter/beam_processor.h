@@ -182,6 +182,7 @@ class BeamProcessor {
   void AddWidth(Tooth* th, const Dip& d);
   void UpdatePrediction();
   void PinStep(double share, double t);
+  bool RiseConfirms(double cross_t) const;
   void Reject(Rejected r, long sample);
   bool ClearLevel(float volts);  // without a curve: false while the clear level is measured
   bool ToothLine(const Tooth& th, Fit* fit) const;
