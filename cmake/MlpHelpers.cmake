@@ -27,13 +27,16 @@ endfunction()
 # mlp_add_test(<module> <name> SOURCES ... DEPS ... [RESOURCE_LOCK lock] [TIMEOUT s]): one
 # gtest binary, tests discovered as <module>/<Suite>.<Case> so ctest -R geometry/ selects a
 # module. Tests sharing a RESOURCE_LOCK never run at once under ctest -j (one LinuxCNC per
-# machine). TIMEOUT (default 300 s; 4 times that sanitized) is a hang guard, not a speed check.
+# machine). TIMEOUT (default 300 s; 4 times that sanitized or under qemu-user, the arm64 build's
+# tests) is a hang guard, not a speed check.
 function(mlp_add_test module name)
   cmake_parse_arguments(ARG "" "RESOURCE_LOCK;TIMEOUT" "SOURCES;DEPS" ${ARGN})
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
   if(MLP_SANITIZE)  # the guard scaled as the tests' own waits are (MLP_TEST_TIME_SCALE=4)
+    math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * 4")
+  elseif(CMAKE_CROSSCOMPILING)  # emulated: the virtual probes' renders took 243 and 284 s of 300
     math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * 4")
   endif()
   set(target test_${module}_${name})

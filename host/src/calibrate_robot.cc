@@ -354,8 +354,8 @@ int Map(const Options& o, std::ostream& out, std::ostream& err) {
     for (const Vec3& p : cloud) xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
     const std::string file =
         (fs::path(o.out) / (fs::path(found[i].name).stem().string() + ".ply")).string();
-    probe_fw::CloudFileMeta meta{model.serial, record->calibration_id, found[i].name, flange,
-                                 "base"};
+    probe_fw::CloudFileMeta meta{
+        model.serial, record->calibration_id, found[i].name, flange, "base", std::nullopt};
     probe_fw::WriteCloudPly(file, xyz, std::vector<float>(cloud.size(), 1.0f), meta);
     e["cloud"] = file, e["points"] = cloud.size();
     images.push_back(e);

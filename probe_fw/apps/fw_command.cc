@@ -86,6 +86,7 @@ std::unique_ptr<FrameSource> OpenSource(const base::Args& o, const ProbeModel& p
 
 struct Summary {
   size_t frames = 0, laser_frames = 0, points = 0, roi_pixels = 0;
+  std::optional<base::EdgeSight> edge;  ///< the LED frame's edge of an edge ROI
   StripeCounts counts;
   double seconds = 0.0;
 };
@@ -115,6 +116,7 @@ void Print(const Summary& s,
                                 {"probe_serial", meta.probe_serial},
                                 {"capture_id", meta.capture_id},
                                 {"seconds", s.seconds}};
+    if (s.edge) j["edge"] = {{"points", s.edge->points}, {"rms_px", s.edge->rms_px}};
     out << j.dump(2) << "\n";
     return;
   }
@@ -125,8 +127,11 @@ void Print(const Summary& s,
       << " saturated, " << s.counts.double_peak << " double-peaked, " << s.counts.too_wide
       << " too wide, " << s.counts.too_narrow << " too narrow, " << s.counts.cut
       << " cut by the ROI, " << s.counts.indirect << " indirect light (reflections), "
-      << s.counts.reflectance_dropped << " reflectance changing too fast\n"
-      << "  probe " << meta.probe_serial << ", capture " << meta.capture_id << ", " << s.seconds
+      << s.counts.reflectance_dropped << " reflectance changing too fast\n";
+  if (s.edge)
+    out << "  edge on the LED frame: " << s.edge->points << " points, " << s.edge->rms_px
+        << " px rms about its line\n";
+  out << "  probe " << meta.probe_serial << ", capture " << meta.capture_id << ", " << s.seconds
       << " s\n";
 }
 
@@ -176,9 +181,11 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   }
   Summary s;
   const CaptureFrames frames = ReadAll(*source, &s, err);
-  const RowMask mask = ParseRoi(roi, frames.laser[0].aoi, frames.led ? &*frames.led : nullptr);
+  const RoiFound found = LocateRoi(roi, frames.laser[0].aoi, frames.led ? &*frames.led : nullptr);
+  const RowMask& mask = found.mask;
   const auto cloud = ReconstructSweep(probe, frames.laser, mask, StripeOptions{}, &s.counts);
-  WriteCloudPly(path, cloud, meta);
+  if (found.edge) s.edge = SightOfEdge(probe.camera, *found.edge);
+  WriteCloudPly(path, cloud, meta, s.edge);
   s.laser_frames = frames.laser.size();
   s.points = cloud.size();
   s.roi_pixels = mask.PixelCount();

@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 namespace mlp::probe_fw {
@@ -99,13 +100,14 @@ std::optional<HoleRoi> FindHole(const Frame& led,
 }
 
 std::optional<LineEdgeRoi> FindLineEdge(const Frame& led, const Vec2& hint_px, double radius_px) {
-  std::vector<Vec2> near;
+  std::vector<EdgePoint> near;
   for (const EdgePoint& e : SubpixelEdges(led)) {
-    if ((e.position_px - hint_px).norm() <= radius_px) near.push_back(e.position_px);
+    if ((e.position_px - hint_px).norm() <= radius_px) near.push_back(e);
   }
   if (near.size() < 12) return std::nullopt;
   geometry::Points3 pts(3, static_cast<Eigen::Index>(near.size()));
-  for (size_t i = 0; i < near.size(); ++i) pts.col(static_cast<Eigen::Index>(i)) << near[i], 0.0;
+  for (size_t i = 0; i < near.size(); ++i)
+    pts.col(static_cast<Eigen::Index>(i)) << near[i].position_px, 0.0;
   try {
     geometry::RobustOptions options;
     options.inlier_threshold_mm = 0.5;  // pixels here, as for holes
@@ -116,10 +118,49 @@ std::optional<LineEdgeRoi> FindLineEdge(const Frame& led, const Vec2& hint_px, d
     edge.point_px = p0 + edge.direction * edge.direction.dot(hint_px - p0);
     edge.edge_points = fit.fit.stats.n;
     edge.rms_px = fit.fit.stats.rms;
+    // The gradient points dark -> bright: its mean over the line's points says the lit side.
+    Vec2 gradient = Vec2::Zero();
+    for (int i : fit.inliers) {
+      edge.inliers_px.push_back(near[static_cast<size_t>(i)].position_px);
+      gradient += near[static_cast<size_t>(i)].gradient;
+    }
+    const Vec2 normal(-edge.direction.y(), edge.direction.x());
+    edge.bright_side = normal.dot(gradient) >= 0.0 ? normal : Vec2(-normal);
     return edge;
   } catch (const geometry::GeometryError&) {
     return std::nullopt;
   }
+}
+
+base::EdgeSight SightOfEdge(const CameraModel& camera, const LineEdgeRoi& edge) {
+  const auto ray = [&](const Vec2& px) {
+    return Vec3(camera.Undistort(px).homogeneous()).normalized();
+  };
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  double first = 0.0, last = 0.0;
+  Vec2 first_px = edge.point_px, last_px = edge.point_px;
+  for (const Vec2& p : edge.inliers_px) {
+    const Vec3 r = ray(p);
+    scatter += r * r.transpose();
+    const double along = edge.direction.dot(p - edge.point_px);
+    if (along < first) first = along, first_px = p;
+    if (along > last) last = along, last_px = p;
+  }
+  // Eigenvalues ascending: the first vector is the plane's normal.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(scatter);
+  base::EdgeSight s;
+  s.normal_in_probe = eigen.eigenvectors().col(0).normalized();
+  if (s.normal_in_probe.dot(ray(edge.point_px + 2.0 * edge.bright_side)) < 0.0)
+    s.normal_in_probe = -s.normal_in_probe;
+  const auto in_plane = [&](const Vec2& px) {
+    const Vec3 r = ray(px);
+    return Vec3(r - s.normal_in_probe * s.normal_in_probe.dot(r)).normalized();
+  };
+  s.first_ray_in_probe = in_plane(first_px);
+  s.last_ray_in_probe = in_plane(last_px);
+  s.rms_px = edge.rms_px;
+  s.points = static_cast<std::uint32_t>(edge.inliers_px.size());
+  return s;
 }
 
 RowMask BandMask(const Aoi& aoi, const Vec2& point, const Vec2& direction, double half_width) {

@@ -32,7 +32,11 @@ constexpr int kFaceErodePx = 6;
 }  // namespace
 
 RowMask ParseRoi(const std::string& spec, const Aoi& aoi, const Frame* led) {
-  if (spec == "full") return RowMask::Full(aoi);
+  return LocateRoi(spec, aoi, led).mask;
+}
+
+RoiFound LocateRoi(const std::string& spec, const Aoi& aoi, const Frame* led) {
+  if (spec == "full") return {RowMask::Full(aoi), std::nullopt};
   const bool hole = spec.rfind("hole:", 0) == 0, face = spec.rfind("face:", 0) == 0;
   const bool edge = spec.rfind("edge:", 0) == 0;
   if (hole || face || edge) {
@@ -43,6 +47,7 @@ RowMask ParseRoi(const std::string& spec, const Aoi& aoi, const Frame* led) {
     }
     const Vec2 hint = ParseHint(spec.substr(5), spec);
     RowMask m;
+    std::optional<LineEdgeRoi> line;
     if (hole) {
       const auto found = FindHole(*led, hint, 10.0, 2.0 * std::max(aoi.width, aoi.height));
       if (!found) throw RoiError("no hole around " + spec.substr(5) + " in the LED frame");
@@ -52,11 +57,12 @@ RowMask ParseRoi(const std::string& spec, const Aoi& aoi, const Frame* led) {
       const auto found = FindLineEdge(*led, hint, kEdgeSearchPx);
       if (!found) throw RoiError("no straight edge near " + spec.substr(5) + " in the LED frame");
       m = BandMask(aoi, found->point_px, found->direction, kEdgeBandPx);
+      line = found;
     } else {
       m = FaceMask(*led, hint, kFaceErodePx);
     }
     if (m.PixelCount() == 0) throw RoiError("the ROI " + spec + " holds no pixel of the AOI");
-    return m;
+    return {m, line};
   }
   if (spec.rfind("rect:", 0) == 0) {
     const Aoi r = ParseAoi(spec.substr(5));
@@ -71,7 +77,7 @@ RowMask ParseRoi(const std::string& spec, const Aoi& aoi, const Frame* led) {
         m.rows[static_cast<size_t>(y)].push_back({b, e}), pixels += static_cast<size_t>(e - b);
     }
     if (pixels == 0) throw RoiError("the ROI " + spec + " does not overlap the frames' AOI");
-    return m;
+    return {m, std::nullopt};
   }
   throw RoiError("ROI_SPEC is full or rect:X0,Y0,W,H, got '" + spec + "'");
 }

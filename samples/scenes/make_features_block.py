@@ -47,15 +47,25 @@ CHAMFER = dict(angle_deg=60.02, top_width=4.0)
 CROWN = dict(x0=165.0, length=30.0, cy=35.0, axis_z=-47.0, r=50.0, proud=0.004)
 
 
+# The right wall (x = 200 on the drawing), under the top face's right edge: made 8 um proud at
+# y = 0 and turned 0.02 deg about Z (proud by 17.6 um more for every 50 mm towards the back).
+RIGHT_WALL = dict(x0=200.008, turn_deg=0.02)
+
+
 def block():
     c = CHAMFER
     a = math.radians(c["angle_deg"])
     # The chamfer's face: through the top edge line y = top_width, z = 0, normal out of the
     # material (forwards and up), angle_deg from the top face's normal.
     n = (0.0, -math.sin(a), math.cos(a))
-    body = {"intersection": [box((0, 0, -40), (200, 100, 0)),
+    w = RIGHT_WALL
+    t = math.radians(w["turn_deg"])
+    body = {"intersection": [box((0, 0, -40), (201, 100, 0)),
                              {"halfspace": {"point": mcs(0, c["top_width"], 0),
-                                            "normal": [0.0, round(n[1], 12), round(n[2], 12)]}}]}
+                                            "normal": [0.0, round(n[1], 12), round(n[2], 12)]}},
+                             {"halfspace": {"point": mcs(w["x0"], 0, 0),
+                                            "normal": [round(math.cos(t), 12),
+                                                       round(-math.sin(t), 12), 0.0]}}]}
     p = POCKET
     cuts = [box((p["cx"] - p["sx"] / 2, p["cy"] - p["sy"] / 2, -p["depth"]),
                 (p["cx"] + p["sx"] / 2, p["cy"] + p["sy"] / 2, 1))]
@@ -137,6 +147,14 @@ def inspection():
                      "datum_direction": [0, 0, 1], "angle_deg": 60},
          "tolerance": {"upper_deg": 0.1, "lower_deg": 0.1},
          "truth": {"angle_deg": CHAMFER["angle_deg"]}},
+        {"feature": "edge",
+         "nominal": {"face": {"point_mm": mcs(199, 27.5, 0), "normal": [0, 0, 1],
+                              "within_mm": 22},
+                     "point_mm": mcs(200, 27.5, 0), "wall_normal": [1, 0, 0], "length_mm": 40},
+         "tolerance": tol,
+         "truth": {"offset_mm": round(RIGHT_WALL["x0"] - 200 + 27.5 * math.tan(
+                       math.radians(RIGHT_WALL["turn_deg"])), 9),
+                   "angle_deg": -RIGHT_WALL["turn_deg"]}},
         {"feature": "surface",
          "nominal": {"points": crown_nominal(), "spacing_mm": 0.5},
          "profile_tol_mm": 0.05,

@@ -55,8 +55,8 @@ std::vector<std::string> WriteHole(const std::string& name,
       quality.push_back(1.0f);
     }
     const std::string path = (kDir / (name + std::to_string(q) + ".ply")).string();
-    mlp::probe_fw::WriteCloudPly(path, xyz, quality,
-                                 {"P", "c", name, Eigen::Isometry3d::Identity()});
+    mlp::probe_fw::WriteCloudPly(
+        path, xyz, quality, {"P", "c", name, Eigen::Isometry3d::Identity(), "probe", std::nullopt});
     files.push_back(path);
   }
   return files;
@@ -74,7 +74,7 @@ std::vector<std::string> WriteFace(int per_capture) {
     for (int i = 0; i < per_capture; ++i)
       xyz.insert(xyz.end(), {spots[s][0] + u(rng), spots[s][1] + u(rng), noise(rng)});
     const std::string path = (kDir / ("face" + std::to_string(s) + ".ply")).string();
-    mlp::probe_fw::WriteCloudPly(path, xyz, quality, {"P", "c", "face", {}});
+    mlp::probe_fw::WriteCloudPly(path, xyz, quality, {"P", "c", "face", {}, "probe", std::nullopt});
     files.push_back(path);
   }
   return files;

@@ -161,6 +161,28 @@ inline bool MachineRuns(const Site& site, const std::string& machine, const std:
   });
 }
 
+// A request through `mlp request --json`: the reply, or {} after a failure the test reports.
+inline json RequestOn(const Site& site, const std::string& name, const json& request) {
+  const auto run = site.Mlp("request " + site.Request(name, request) + " --json");
+  EXPECT_EQ(run.exit_code, 0) << name << ": " << run.out << run.err;
+  return run.exit_code == 0 ? json::parse(run.out) : json::object();
+}
+
+// The captures a plan job planned, taken on `machine`: their capture job ids.
+inline std::vector<std::int64_t> TakePlan(const Site& site,
+                                          const std::string& machine,
+                                          const std::string& name,
+                                          const json& plan) {
+  std::vector<std::int64_t> ids;
+  for (const json& c : plan.at("captures")) {
+    json capture = c;
+    capture["op"] = "capture", capture["machine"] = machine;
+    const json reply = RequestOn(site, name + "-" + c.at("capture_id").get<std::string>(), capture);
+    if (reply.contains("job_id")) ids.push_back(reply.at("job_id"));
+  }
+  return ids;
+}
+
 // Every capture of `scene` whose id starts with `prefix`, taken through the service on
 // `machine` (default AOI 300 x 200 px at the sensor's centre; every second column reaching
 // it, as the host plans with the probe model `model`): the capture job ids in the scene's order.

@@ -244,6 +244,9 @@ TEST(Hostd, MeasuresABoreAndWritesTheOffsetForLinuxCnc) {
 // controller's probe, 1 um scatter), hole B as the point.
 TEST(Hostd, AlignsThePlateToPlaneCircleCircleAndPlaneLinePoint) {
   Site site("align", kAlignPort);
+  json config = json::parse(test::ReadText(site.dir / "hostd.json"));
+  config["probes"][0]["model_file"] = test::kCalibratedModel;  // the plan of the edges needs it
+  std::ofstream(site.dir / "hostd.json") << config.dump(1);
   Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
   ASSERT_TRUE(site.WaitFor([&] { return fs::exists(site.socket); }));
   test::CalibrateThroughChain(site, "lcnc-1", kAlignPort);
@@ -360,6 +363,59 @@ TEST(Hostd, AlignsThePlateToPlaneCircleCircleAndPlaneLinePoint) {
   EXPECT_EQ(too_close.exit_code, 7) << too_close.out;
   EXPECT_NE(too_close.err.find("5 mm apart"), std::string::npos) << too_close.err;
   EXPECT_FALSE(fs::exists(site.dir / "lcnc" / "mlp_result.ngc"));
+
+  // The line from the LED frames instead (seed 004's edge ROI), planned from the drawing as the
+  // macro knows it (no rotation): the front edge (work y -25, views at work x 10 and 90), then
+  // the left edge (work x -25, views at work y 10 and 50) for the corner.
+  const auto edge_captures = [&](const std::string& name, const json& point, const json& wall,
+                                 double length) {
+    const json plan = test::RequestOn(site, name + "-plan",
+                                      {{"op", "plan"},
+                                       {"machine", "lcnc-1"},
+                                       {"feature", "edge"},
+                                       {"nominal",
+                                        {{"face", {{"point_mm", o}, {"normal", {0, 0, 1}}}},
+                                         {"point_mm", point},
+                                         {"wall_normal", wall},
+                                         {"length_mm", length}}}});
+    return test::TakePlan(site, "lcnc-1", name, plan);
+  };
+  const auto front = edge_captures("front", {300, 95, -310}, {0, -1, 0}, 80);
+  const auto left = edge_captures("left", {225, 150, -310}, {-1, 0, 0}, 40);
+  ASSERT_EQ(front.size(), 2u);
+  ASSERT_EQ(left.size(), 2u);
+  const auto align_error = [&](const json& request, const geometry::Vec3& want,
+                               const std::string& name, const char* what) {
+    const json got = test::RequestOn(site, name, request);
+    ASSERT_TRUE(got.contains("origin_mm")) << what << ": " << got.dump();
+    double e[3];
+    for (int k = 0; k < 3; ++k) e[k] = (got.at("origin_mm")[k].get<double>() - want(k)) * 1e3;
+    const double rotation_arcsec =
+        (got.at("rotation_z_deg").get<double>() * M_PI / 180 - angle) * 180 / M_PI * 3600;
+    std::printf(
+        "plane-line-point (%s): origin error (%.2f, %.2f, %.2f) um, rotation error %.2f arcsec; "
+        "front edge straightness %.2f um over %.1f mm\n",
+        what, e[0], e[1], e[2], rotation_arcsec,
+        got.at("line_b").at("straightness_mm").get<double>() * 1e3,
+        got.at("line_b").at("span_mm").get<double>());
+    for (double x : e) EXPECT_LT(std::abs(x), kOriginTolUm) << what;
+    EXPECT_LT(std::abs(rotation_arcsec), kRotationTolArcsec) << what;
+  };
+  json by_edge = plp;
+  by_edge["line_b"] = {{"edges", front}};
+  align_error(by_edge, plp_truth, "edge-hole", "front edge, hole B");
+  json corner = by_edge;
+  corner.erase("hole_c");
+  corner["edge_c"] = {{"edges", left}};
+  corner["expected_origin_mm"] = {225, 95, -310};
+  align_error(corner, work_origin + rz * geometry::Vec3(-25, -25, 0), "edge-corner",
+              "front and left edges");
+  // A capture without an edge (a face capture) is refused as the line, naming why.
+  json no_edge = by_edge;
+  no_edge["line_b"]["edges"] = {face.at(0)};
+  const auto refused_edge = site.Mlp("request " + site.Request("no-edge", no_edge));
+  EXPECT_EQ(refused_edge.exit_code, 7) << refused_edge.out;
+  EXPECT_NE(refused_edge.err.find("holds no edge"), std::string::npos) << refused_edge.err;
 }
 
 TEST(Hostd, CalibratesTheProbeAndRechecksIt) {

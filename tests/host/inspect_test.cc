@@ -22,24 +22,6 @@ constexpr double kPositionTolMm = 0.005;      // positions within 5 um (as the a
 constexpr double kAngleTolDeg = 10.0 / 3600;  // angles within 10 arcsec
 constexpr double kSurfaceMeanTolMm = 0.001;   // the curvature bias of a 0.5 mm nominal grid
 
-json RequestOn(const Site& site, const std::string& name, const json& request) {
-  const auto run = site.Mlp("request " + site.Request(name, request) + " --json");
-  EXPECT_EQ(run.exit_code, 0) << name << ": " << run.out << run.err;
-  return run.exit_code == 0 ? json::parse(run.out) : json::object();
-}
-
-// The planned captures of one feature, taken: their capture job ids.
-std::vector<std::int64_t> TakePlan(const Site& site, const std::string& name, const json& plan) {
-  std::vector<std::int64_t> ids;
-  for (const json& c : plan.at("captures")) {
-    json capture = c;
-    capture["op"] = "capture", capture["machine"] = "vmc-1";
-    const json reply = RequestOn(site, name + "-" + c.at("capture_id").get<std::string>(), capture);
-    if (reply.contains("job_id")) ids.push_back(reply.at("job_id"));
-  }
-  return ids;
-}
-
 // Each truth value against the reply's: positions (arrays) and sizes in mm, angles in deg.
 void CheckAgainstTruth(const std::string& feature, const json& truth, const json& reply) {
   for (const auto& [key, want] : truth.items()) {
@@ -76,7 +58,7 @@ TEST(Inspect, PlansCapturesAndMeasuresEveryFeatureOfTheBlock) {
   Child probe(AsBuiltProbeArgs(site, kFeaturesBlock, kInspectPort), site.dir / "sim.log");
   ASSERT_TRUE(ProbeConnected(site));
   const json inspection = json::parse(ReadText(kFeaturesBlock)).at("inspection");
-  ASSERT_EQ(inspection.size(), 7u);
+  ASSERT_EQ(inspection.size(), 8u);
   for (const json& f : inspection) {
     const std::string feature = f.at("feature");
     json plan_request = {
@@ -84,7 +66,7 @@ TEST(Inspect, PlansCapturesAndMeasuresEveryFeatureOfTheBlock) {
     if (f.contains("views_per_circle")) plan_request["views_per_circle"] = f["views_per_circle"];
     const json plan = RequestOn(site, feature + "-plan", plan_request);
     ASSERT_TRUE(plan.contains("captures")) << feature;
-    const auto captures = TakePlan(site, feature, plan);
+    const auto captures = TakePlan(site, "vmc-1", feature, plan);
     ASSERT_EQ(captures.size(), plan.at("captures").size()) << feature;
     json measure = f;
     measure.erase("truth"), measure.erase("views_per_circle");

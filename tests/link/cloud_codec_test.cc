@@ -7,6 +7,7 @@
 #include "mlp/sim/render.h"
 
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "test_data.h"
@@ -78,6 +79,60 @@ TEST(CloudCodec, FirmwareCloudUnderFourBytesPerPointWithoutLoss) {
   EXPECT_EQ(DecodeCloud(EncodeCloud(q, true)).xyz, q.xyz);
 }
 
+// An edge as the firmware reports it: a plane through the camera centre, rays in it.
+base::EdgeSight TestEdge() {
+  base::EdgeSight e;
+  e.normal_in_probe = Eigen::Vector3d(0.0, 0.9995, -0.0316).normalized();
+  const Eigen::Vector3d down = e.normal_in_probe.cross(Eigen::Vector3d::UnitX()).normalized();
+  const Eigen::Vector3d ahead = down.z() > 0 ? down : Eigen::Vector3d(-down);
+  e.first_ray_in_probe = (ahead - 0.012 * Eigen::Vector3d::UnitX()).normalized();
+  e.last_ray_in_probe = (ahead + 0.012 * Eigen::Vector3d::UnitX()).normalized();
+  e.rms_px = 0.0625;
+  e.points = 233;
+  return e;
+}
+
+// Link version 3: the LED frame's edge rides with the cloud, exactly; an edge that is not one
+// is refused on encode and on decode.
+TEST(CloudCodec, TheLedFramesEdgeRidesAlongExactly) {
+  LinkCloud c;
+  c.xyz = {1, 2, 3};
+  c.quality = {0.5f};
+  c.edge = TestEdge();
+  for (bool compress : {false, true}) {
+    const LinkCloud d = DecodeCloud(EncodeCloud(c, compress));
+    ASSERT_TRUE(d.edge);
+    EXPECT_TRUE(d.edge->normal_in_probe == c.edge->normal_in_probe);
+    EXPECT_TRUE(d.edge->first_ray_in_probe == c.edge->first_ray_in_probe);
+    EXPECT_TRUE(d.edge->last_ray_in_probe == c.edge->last_ray_in_probe);
+    EXPECT_EQ(d.edge->rms_px, c.edge->rms_px);
+    EXPECT_EQ(d.edge->points, c.edge->points);
+  }
+  c.edge.reset();
+  EXPECT_FALSE(DecodeCloud(EncodeCloud(c, false)).edge);
+  c.edge = TestEdge();
+  c.edge->first_ray_in_probe = -c.edge->first_ray_in_probe;  // behind the camera
+  try {
+    EncodeCloud(c, false);
+    ADD_FAILURE() << "an edge behind the camera was encoded";
+  } catch (const LinkError& e) {
+    EXPECT_NE(std::string(e.what()).find("behind the camera"), std::string::npos) << e.what();
+  }
+  // The same on decode: the normal's first number made 2 in the bytes (it follows the three
+  // strings, the pose, three timestamps and the presence byte).
+  c.edge = TestEdge();
+  Bytes b = EncodeCloud(c, false);
+  const size_t normal_at = 3 * 2 + 16 * 8 + 3 * 8 + 1;
+  const double two = 2.0;
+  std::memcpy(&b[normal_at], &two, sizeof two);
+  try {
+    DecodeCloud(b);
+    ADD_FAILURE() << "a normal of length 2 was decoded";
+  } catch (const LinkError& e) {
+    EXPECT_NE(std::string(e.what()).find("unit length"), std::string::npos) << e.what();
+  }
+}
+
 TEST(CloudCodec, BadCloudsAreRefusedOnEncode) {
   LinkCloud c;
   c.xyz = {0, 0, 1e9};  // 1000 km
@@ -99,6 +154,7 @@ TEST(CloudCodec, HostilePayloadsAreTypedErrors) {
   LinkCloud c;
   c.xyz = {1, 2, 3, 4, 5, 6};
   c.quality = {0.1f, 0.9f};
+  c.edge = TestEdge();
   const Bytes good = EncodeCloud(c, true);
   // Every truncation and every single-byte change either decodes to a consistent cloud or throws
   // LinkError: never a crash, never an exception of another type.

@@ -267,7 +267,8 @@ TEST(CloudFile, RoundTripWithThePose) {
   const std::string path = ::testing::TempDir() + "/cloud.ply";
   Eigen::Isometry3d h;
   h.matrix() << 1, 0, 0, 30.125, 0, -1, 0, 30, 0, 0, -1, 120.000000001, 0, 0, 0, 1;
-  WriteCloudPly(path, {1.5, -2.25, 120.0, 0, 0, 99.5}, {0.5f, 1.0f}, {"P-1", "cal-7", "c1", h});
+  WriteCloudPly(path, {1.5, -2.25, 120.0, 0, 0, 99.5}, {0.5f, 1.0f},
+                {"P-1", "cal-7", "c1", h, "probe", std::nullopt});
   const CloudFile f = ReadCloudPly(path);
   EXPECT_EQ(f.meta.probe_serial, "P-1");
   EXPECT_EQ(f.meta.calibration_id, "cal-7");
@@ -277,14 +278,16 @@ TEST(CloudFile, RoundTripWithThePose) {
   // A file whose pose is not a rigid transform (scaled here) is refused, naming why.
   Eigen::Isometry3d scaled = h;
   scaled.matrix()(0, 0) = 1.1;
-  WriteCloudPly(path, {1.5, -2.25, 120.0}, {0.5f}, {"P-1", "cal-7", "c1", scaled});
+  WriteCloudPly(path, {1.5, -2.25, 120.0}, {0.5f},
+                {"P-1", "cal-7", "c1", scaled, "probe", std::nullopt});
   try {
     ReadCloudPly(path);
     ADD_FAILURE() << "a scaled pose was read";
   } catch (const CloudFileError& e) {
     EXPECT_NE(std::string(e.what()).find("not orthonormal"), std::string::npos) << e.what();
   }
-  WriteCloudPly(path, {1.5, -2.25, 120.0, 0, 0, 99.5}, {0.5f, 1.0f}, {"P-1", "cal-7", "c1", h});
+  WriteCloudPly(path, {1.5, -2.25, 120.0, 0, 0, 99.5}, {0.5f, 1.0f},
+                {"P-1", "cal-7", "c1", h, "probe", std::nullopt});
   EXPECT_EQ(f.xyz, (std::vector<double>{1.5, -2.25, 120.0, 0, 0, 99.5}));
   EXPECT_EQ(f.quality, (std::vector<float>{0.5f, 1.0f}));
   EXPECT_THROW(WriteCloudPly(path, {1, 2}, {1.0f}, {}), CloudFileError);  // sizes differ
@@ -293,6 +296,46 @@ TEST(CloudFile, RoundTripWithThePose) {
   EXPECT_THROW(ReadCloudPly(path), CloudFileError);
   std::ofstream(path) << "ply\nformat ascii 1.0\nend_header\n";
   EXPECT_THROW(ReadCloudPly(path), CloudFileError);
+}
+
+// The LED frame's edge rides in a comment, exactly; one that is not an edge is refused.
+TEST(CloudFile, RoundTripWithTheEdge) {
+  const std::string path = ::testing::TempDir() + "/edge.ply";
+  base::EdgeSight edge;
+  edge.normal_in_probe = Eigen::Vector3d(0.3, -0.9, 0.1).normalized();
+  const Eigen::Vector3d along = edge.normal_in_probe.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d mid = edge.normal_in_probe.cross(along).normalized();
+  edge.first_ray_in_probe = (mid.z() > 0 ? mid : Eigen::Vector3d(-mid)) - 0.01 * along;
+  edge.first_ray_in_probe.normalize();
+  edge.last_ray_in_probe = (mid.z() > 0 ? mid : Eigen::Vector3d(-mid)) + 0.01 * along;
+  edge.last_ray_in_probe.normalize();
+  edge.rms_px = 0.125;
+  edge.points = 117;
+  WriteCloudPly(path, {1.5, -2.25, 120.0}, {0.5f}, {"P-1", "cal-7", "c1", {}, "probe", edge});
+  const CloudFile f = ReadCloudPly(path);
+  ASSERT_TRUE(f.meta.edge);
+  EXPECT_TRUE(f.meta.edge->normal_in_probe == edge.normal_in_probe);  // exact: 17 digits
+  EXPECT_TRUE(f.meta.edge->first_ray_in_probe == edge.first_ray_in_probe);
+  EXPECT_TRUE(f.meta.edge->last_ray_in_probe == edge.last_ray_in_probe);
+  EXPECT_EQ(f.meta.edge->rms_px, 0.125);
+  EXPECT_EQ(f.meta.edge->points, 117u);
+  WriteCloudPly(path, {1.5, -2.25, 120.0}, {0.5f}, {"P-1", "cal-7", "c1", {}, "probe", {}});
+  EXPECT_FALSE(ReadCloudPly(path).meta.edge);
+  // A ray off the edge's plane is no edge: refused with the reason.
+  base::EdgeSight bent = edge;
+  bent.last_ray_in_probe = Eigen::Vector3d(0.3, 0.1, 1.0).normalized();
+  std::ofstream out(path, std::ios::trunc);
+  out << "ply\nformat binary_little_endian 1.0\ncomment edge";
+  for (double v : base::EdgeSightNumbers(bent)) out << " " << v;
+  out << " 117\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\n"
+         "property float quality\nend_header\n";
+  out.close();
+  try {
+    ReadCloudPly(path);
+    ADD_FAILURE() << "a bent edge was read";
+  } catch (const CloudFileError& e) {
+    EXPECT_NE(std::string(e.what()).find("off the edge's plane"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -147,6 +147,33 @@ TEST(Roi, LineEdgeMatchesTheProjectedTrueEdge) {
       "edge:" + std::to_string(hint.x()) + "," + std::to_string(hint.y()), o.aoi, &r.led);
   constexpr double kBandTolPx = 2000.0;  // the band's pixel count, 41 rows wide
   EXPECT_NEAR(static_cast<double>(band.PixelCount()), 41.0 * 400.0 / std::cos(0.3), kBandTolPx);
+
+  // What the capture reports: the plane of rays through the edge, in the probe frame. The true
+  // edge lies in it (0.1 px at 120 mm is 2.6 um); the top face (x < 10) is on its lit side; its
+  // end rays meet the top face on the edge, within the search radius of the hint.
+  const probe_fw::RoiFound found = probe_fw::LocateRoi(
+      "edge:" + std::to_string(hint.x()) + "," + std::to_string(hint.y()), o.aoi, &r.led);
+  ASSERT_TRUE(found.edge);
+  EXPECT_EQ(found.mask.PixelCount(), band.PixelCount());
+  const base::EdgeSight sight = probe_fw::SightOfEdge(probe.model().camera, *found.edge);
+  constexpr double kSightTolMm = 0.0026;
+  double off_plane = 0.0;
+  for (double y = -1.5; y <= 1.5; y += 0.25)
+    off_plane =
+        std::max(off_plane, std::abs(sight.normal_in_probe.dot(probe_from_mcs * Vec3(10, y, 0))));
+  std::printf("edge sight: %u points, true edge within %.2f um of its plane\n", sight.points,
+              off_plane * 1e3);
+  EXPECT_LT(off_plane, kSightTolMm);
+  EXPECT_GT(sight.normal_in_probe.dot(probe_from_mcs * Vec3(8, 0, 0)), 0.0);
+  EXPECT_LT(sight.normal_in_probe.dot(probe_from_mcs * Vec3(12, 0, 0)), 0.0);
+  const Pose3 mcs_from_probe = probe.McsFromProbe(c);
+  for (const Vec3& ray : {sight.first_ray_in_probe, sight.last_ray_in_probe}) {
+    const Vec3 d = mcs_from_probe.linear() * ray, from = mcs_from_probe.translation();
+    const Vec3 on_top = from - d * (from.z() / d.z());
+    EXPECT_NEAR(on_top.x(), 10.0, kSightTolMm);
+    EXPECT_LT(std::abs(on_top.y()), 61.0 * 120.0 / probe.model().camera.fx_px);  // 60 px search
+  }
+  EXPECT_EQ(sight.points, found.edge->inliers_px.size());
 }
 
 }  // namespace

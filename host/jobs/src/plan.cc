@@ -89,6 +89,25 @@ std::vector<ViewTarget> FaceViews(const std::string& id,
   return {t};
 }
 
+std::vector<ViewTarget> EdgeViews(const std::string& id,
+                                  const EdgeNominal& n,
+                                  const PlanOptions& o) {
+  n.Check();
+  const Vec3 normal = n.face.normal_mcs.normalized(), along = n.Direction();
+  std::vector<ViewTarget> views;
+  for (int k = 0; k < n.views; ++k) {
+    const double s = n.views == 1 ? 0.0 : n.length_mm * (k / (n.views - 1.0) - 0.5);
+    const Vec3 at = n.point_mcs + s * along;
+    ViewTarget t;
+    t.id = id + "_" + std::to_string(k + 1);
+    t.mcs_from_camera = CameraAt(at, -normal, along, o.standoff_mm);
+    t.patch_mcs = FlatPatch(at, along, n.Outward(), o.patch_mm / 2, o.patch_mm / 2);
+    t.edge_hint_mcs = at;
+    views.push_back(t);
+  }
+  return views;
+}
+
 std::vector<ViewTarget> BoreViews(const std::string& id,
                                   const BoreNominal& n,
                                   const PlanOptions& o) {
@@ -221,6 +240,12 @@ std::vector<PlannedCapture> PlanCaptures(const std::vector<ViewTarget>& views,
     c.first_column = std::clamp(std::floor(c0) - o.column_margin, 0.0, last);
     c.last_column = std::clamp(std::ceil(c1) + o.column_margin, c.first_column, last);
     c.column_step = o.column_step;
+    if (view.edge_hint_mcs) {
+      const geometry::Vec2 hint = cam.Project(camera_from_mcs * *view.edge_hint_mcs);
+      char roi[64];
+      std::snprintf(roi, sizeof roi, "edge:%.1f,%.1f", hint.x(), hint.y());
+      c.roi = roi;
+    }
     plan.push_back(c);
   }
   return plan;

@@ -82,6 +82,22 @@ struct Datum {
   json fields;
 };
 
+// The captures request.NAME.KEY lists (capture jobs), loaded into the machine frame.
+Evidence NamedCaptures(JobContext& ctx,
+                       const json& r,
+                       const char* name,
+                       const char* key,
+                       const geometry::Pose3& m,
+                       std::int64_t job) {
+  const std::string w = std::string("request.") + name + "." + key;
+  const json& f = jf::Object<JobInputError>(r, name, "request");
+  if (!f.contains(key)) throw JobInputError(w + " must list capture jobs");
+  Evidence ev = LoadCaptures(ctx, f.at(key), m, job);
+  if (std::string(key) == "edges" && ev.edges.size() != f.at(key).size())
+    throw JobInputError(w + ": a capture holds no edge (take it with an edge:x,y ROI)");
+  return ev;
+}
+
 // A hole measured as a bore (request.NAME: captures and nominal): its fitted axis where it
 // meets plane A; the gate's evidence and the reply's fields for it.
 Vec3 HoleOnPlane(JobContext& ctx,
@@ -92,11 +108,10 @@ Vec3 HoleOnPlane(JobContext& ctx,
                  const jobs::PlaneMeasurement& a,
                  Datum* d) {
   const std::string w = std::string("request.") + name;
-  const json& f = jf::Object<JobInputError>(r, name, "request");
-  if (!f.contains("captures")) throw JobInputError(w + ".captures must list capture jobs");
-  const Evidence ev = LoadCaptures(ctx, f.at("captures"), m, job);
-  const jobs::BoreMeasurement b = jobs::MeasureBore(
-      ev.points_mcs, ParseBoreNominal(jf::Object<JobInputError>(f, "nominal", w), w + ".nominal"));
+  const Evidence ev = NamedCaptures(ctx, r, name, "captures", m, job);
+  const json& n = jf::Object<JobInputError>(r.at(name), "nominal", w);
+  const jobs::BoreMeasurement b =
+      jobs::MeasureBore(ev.points_mcs, ParseBoreNominal(n, w + ".nominal"));
   Vec3 centre = AxisOnPlane(b, a.plane);
   d->fe.arc_span_deg = std::min(d->fe.arc_span_deg.value_or(360.0), b.arc_span_deg);
   d->fe.rms_mm = std::max(d->fe.rms_mm, b.rms_mm);
@@ -133,10 +148,32 @@ Vec3 ListedPoint(const json& e, const std::string& where) {
   return v;
 }
 
+// A part edge on plane A from the LED frames of edge captures (request.NAME.edges: capture jobs
+// taken with an "edge:x,y" ROI, e.g. from a plan of an "edge" feature); its fields in the reply.
+jobs::EdgeMeasurement EdgeOnA(JobContext& ctx,
+                              const json& r,
+                              const char* name,
+                              const geometry::Pose3& m,
+                              std::int64_t job,
+                              const jobs::PlaneMeasurement& a,
+                              Datum* d) {
+  const Evidence ev = NamedCaptures(ctx, r, name, "edges", m, job);
+  jobs::EdgeMeasurement e = jobs::MeasureEdge(ev.edges, a.plane);
+  d->fields[name] = {{"point_mm", JsonVec(e.line_mcs.point)},
+                     {"direction", JsonVec(e.line_mcs.direction)},
+                     {"span_mm", e.span_mm},
+                     {"straightness_mm", e.straightness_mm},
+                     {"views", e.views},
+                     {"edge_points", e.points},
+                     {"rms_px", e.rms_px}};
+  return e;
+}
+
 // The secondary line (seed 004's "line", its two touch points): face B's trace on A
 // ("plane_b": a line probe takes the whole face), or a part edge measured as two points on it
 // ("line_b": {"points_mm": [p, q]}, machine coordinates, from the controller's touch probe or a
-// measured edge; p -> q is X).
+// measured edge; p -> q is X), or the edge in the LED frames ("line_b": {"edges": [captures]};
+// X runs with the part on +Y).
 geometry::Line3 SecondaryLine(JobContext& ctx,
                               const json& r,
                               const geometry::Pose3& m,
@@ -152,8 +189,10 @@ geometry::Line3 SecondaryLine(JobContext& ctx,
     return Intersection(a.plane, b.plane);
   }
   const json& l = jf::Object<JobInputError>(r, "line_b", "request (plane_b or line_b)");
+  if (l.contains("edges")) return EdgeOnA(ctx, r, "line_b", m, job, a, d).line_mcs;
   if (!l.contains("points_mm") || !l.at("points_mm").is_array() || l.at("points_mm").size() != 2)
-    throw JobInputError("request.line_b.points_mm must hold two points [x, y, z]");
+    throw JobInputError(
+        "request.line_b must hold edges (edge captures) or points_mm (two points [x, y, z])");
   const Vec3 p = ListedPoint(l.at("points_mm")[0], "request.line_b.points_mm[0]");
   const Vec3 q = ListedPoint(l.at("points_mm")[1], "request.line_b.points_mm[1]");
   // Two touch points closer than this make X from their scatter, not from the edge.
@@ -164,8 +203,21 @@ geometry::Line3 SecondaryLine(JobContext& ctx,
   return {p, (q - p).normalized()};
 }
 
+// Where two lines on plane A cross (the midpoint of their closest points).
+Vec3 Crossing(const geometry::Line3& b, const geometry::Line3& c) {
+  // Edges closer than 10 deg to parallel make a corner of their scatter.
+  constexpr double kMinSin = 0.17;
+  const Vec3 n = b.direction.cross(c.direction);
+  if (!(n.norm() > kMinSin))
+    throw JobInputError("request.edge_c runs within 10 deg of the line: it makes no corner");
+  const double tb = (c.point - b.point).cross(c.direction).dot(n) / n.squaredNorm();
+  const double tc = (c.point - b.point).cross(b.direction).dot(n) / n.squaredNorm();
+  return 0.5 * (b.point + tb * b.direction + c.point + tc * c.direction);
+}
+
 // The tertiary point (seed 004's "point"): face C ("plane_c": where the line meets it), a hole
-// ("hole_c": its fitted axis on A, measured as a bore), or a point ("point_c": {"point_mm"}).
+// ("hole_c": its fitted axis on A, measured as a bore), a corner ("edge_c": {"edges": [edge
+// captures]}, where that edge meets the line), or a point ("point_c": {"point_mm"}).
 Vec3 TertiaryPoint(JobContext& ctx,
                    const json& r,
                    const geometry::Pose3& m,
@@ -185,7 +237,13 @@ Vec3 TertiaryPoint(JobContext& ctx,
     return line.point + line.direction * ((c.plane.point - line.point).dot(c.plane.normal) / along);
   }
   if (r.contains("hole_c")) return HoleOnPlane(ctx, r, "hole_c", m, job, a, d);
-  const json& p = jf::Object<JobInputError>(r, "point_c", "request (plane_c, hole_c or point_c)");
+  if (r.contains("edge_c")) {
+    Vec3 corner = Crossing(line, EdgeOnA(ctx, r, "edge_c", m, job, a, d).line_mcs);
+    d->fields["edge_c"]["corner_mm"] = JsonVec(corner);
+    return corner;
+  }
+  const json& p =
+      jf::Object<JobInputError>(r, "point_c", "request (plane_c, hole_c, edge_c or point_c)");
   Vec3 point = jf::Vector3<JobInputError>(p, "point_mm", "request.point_c");
   d->fields["point_c"] = {{"point_mm", JsonVec(point)}};
   return point;

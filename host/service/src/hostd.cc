@@ -366,9 +366,9 @@ struct Hostd::Impl {
         throw history::HistoryError("the cloud file " + path +
                                     " exists already (a history that restarted its job numbers?): "
                                     "not written over");
-      probe_fw::WriteCloudPly(
-          path, cloud.xyz, cloud.quality,
-          {cloud.probe_serial, cloud.calibration_id, cloud.capture_id, cloud.mcs_from_flange});
+      probe_fw::WriteCloudPly(path, cloud.xyz, cloud.quality,
+                              {cloud.probe_serial, cloud.calibration_id, cloud.capture_id,
+                               cloud.mcs_from_flange, "probe", cloud.edge});
       const std::string sha = history::Sha256OfFile(path);
       const json& pose = request.at("mcs_from_flange");
       history.AddCapture(job, {id, pose, path, sha, static_cast<std::int64_t>(cloud.size())});
@@ -382,6 +382,8 @@ struct Hostd::Impl {
                     {"cloud_sha256", sha},
                     {"probe_calibration_id", cloud.calibration_id},
                     {"timings_ms", timings}};
+      if (cloud.edge)
+        reply["edge"] = {{"points", cloud.edge->points}, {"rms_px", cloud.edge->rms_px}};
       history.FinishJob(job, history::JobStatus::kDone, reply, timings);  // throws: failed
       return reply;
     } catch (const std::exception& e) {

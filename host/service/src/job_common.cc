@@ -208,6 +208,7 @@ std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
     s.id = row.at("capture_id");
     s.probe_serial = f.meta.probe_serial;
     s.mcs_from_flange = *f.meta.mcs_from_flange;
+    s.edge = f.meta.edge;
     s.points_in_probe = Eigen::Map<const Eigen::Matrix3Xd>(
         f.xyz.data(), 3, static_cast<Eigen::Index>(f.quality.size()));
     ctx.history.AddCapture(job, {row.at("capture_id"), row.at("pose"), path, row.at("cloud_sha256"),
@@ -227,8 +228,9 @@ Evidence LoadCaptures(JobContext& ctx,
   for (StoredCapture& s : LoadStoredCaptures(ctx, capture_jobs, job)) {
     e.probe_serial = s.probe_serial;
     n += s.points_in_probe.cols();
-    parts.push_back(
-        geometry::TransformPoints(s.mcs_from_flange * flange_from_probe, s.points_in_probe));
+    const geometry::Pose3 mcs_from_probe = s.mcs_from_flange * flange_from_probe;
+    parts.push_back(geometry::TransformPoints(mcs_from_probe, s.points_in_probe));
+    if (s.edge) e.edges.push_back(jobs::EdgeViewInMcs(*s.edge, mcs_from_probe, s.id));
   }
   e.points_mcs.resize(3, n);
   Eigen::Index at = 0;

@@ -6,6 +6,7 @@
 #include "mlp/calib/record.h"
 #include "mlp/geometry/types.h"
 #include "mlp/history/history.h"
+#include "mlp/jobs/edge.h"
 #include "mlp/jobs/feature.h"
 #include "mlp/nc/nc_output.h"
 #include "mlp/service/config.h"
@@ -70,6 +71,7 @@ constexpr int kNamedCaptureMaxAgeS = 3600;
 struct Evidence {
   geometry::Points3 points_mcs;
   std::string probe_serial;
+  std::vector<jobs::EdgeView> edges;  ///< of the captures whose firmware found an edge
 };
 
 /// A stored capture: its cloud in the probe frame and the flange pose H it was taken at.
@@ -77,6 +79,7 @@ struct StoredCapture {
   std::string id, probe_serial;
   geometry::Pose3 mcs_from_flange = geometry::Pose3::Identity();
   geometry::Points3 points_in_probe;
+  std::optional<base::EdgeSight> edge;  ///< the LED frame's edge of an edge ROI
 };
 
 /// The clouds of earlier capture jobs (`capture_jobs`: ids) on this machine, each checked

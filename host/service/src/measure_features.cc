@@ -130,6 +130,24 @@ jobs::EllipseNominal ParseEllipse(const json& j, bool inside) {
 // A vector point file (x y z i j k a line, ~60 bytes) of a million points, at most.
 constexpr std::size_t kMaxVectorPointsBytes = 64u << 20;
 
+// {"face": a plane nominal, "point_mm", "wall_normal", "length_mm" (0), "views" (2, or 1 on
+// a zero length)}.
+jobs::EdgeNominal ParseEdge(const json& j) {
+  jobs::EdgeNominal n;
+  n.face = ParsePlaneNominal(jf::Object<JobInputError>(j, "face", kNom), kNom + ".face");
+  n.point_mcs = jf::Vector3<JobInputError>(j, "point_mm", kNom);
+  n.wall_normal_mcs = jf::Vector3<JobInputError>(j, "wall_normal", kNom);
+  n.length_mm = jf::NumberOr<JobInputError>(j, "length_mm", 0.0, kNom);
+  n.views = j.contains("views") ? jf::Integer<JobInputError>(j, "views", kNom)
+                                : (n.length_mm > 0.0 ? 2 : 1);
+  try {
+    n.Check();
+  } catch (const jobs::FeatureError& e) {
+    throw JobInputError(kNom + ": " + e.what());
+  }
+  return n;
+}
+
 jobs::SurfaceNominal SurfaceNominalOf(const json& j, const std::string& data_dir) {
   jobs::SurfaceNominal n;
   if (j.contains("vector_points_file")) {
@@ -403,6 +421,31 @@ Measured Surface(const FeatureRequest& /*request*/,
   return m;
 }
 
+// A straight edge from the LED frames (seed 004): where the face meets the wall, against its
+// nominal: the offset across it (+: the wall proud) decided on, the angle beside it.
+Measured Edge(const FeatureRequest& /*request*/, const jobs::EdgeNominal& n, const Evidence& ev) {
+  const jobs::PlaneMeasurement f = jobs::MeasurePlane(ev.points_mcs, n.face);
+  const jobs::EdgeMeasurement e = jobs::MeasureEdge(ev.edges, f.plane);
+  const jobs::EdgeDeviation d = jobs::CompareEdge(e, n);
+  Measured m;
+  m.size = d.offset_mm;
+  m.fields = {{"offset_mm", d.offset_mm},
+              {"angle_deg", d.angle_deg},
+              {"edge",
+               {{"point_mm", JsonVec(d.found_mcs)},
+                {"direction", JsonVec(e.line_mcs.direction)},
+                {"span_mm", e.span_mm},
+                {"straightness_mm", e.straightness_mm},
+                {"views", e.views},
+                {"edge_points", e.points},
+                {"rms_px", e.rms_px}}},
+              {"face", FaceFields(f)}};
+  AddFace(f, &m.fe);
+  m.found_mcs = d.found_mcs, m.nominal_mcs = n.point_mcs;
+  m.panels = {jobs::FacePanel("the face", ev.points_mcs, f)};
+  return m;
+}
+
 // ---- Planning -----------------------------------------------------------------------------
 
 std::vector<jobs::ViewTarget> Join(std::vector<jobs::ViewTarget> a,
@@ -589,6 +632,16 @@ Feature SurfaceFeature() {
        Surface, jobs::SurfaceViews});
 }
 
+Feature EdgeFeature() {
+  return Row<jobs::EdgeNominal>(
+      {Traits("offset", -1.0, false, false),  // a wall proud by e: the side cutter's radius -e
+       [](const json& j, const std::string&) { return ParseEdge(j); },
+       [](const json& r, const jobs::EdgeNominal&, FeatureRequest* q) {
+         q->spec = Spec(r, "tolerance", 0.0, "mm");
+       },
+       Edge, [](const jobs::EdgeNominal& n, const O& o) { return jobs::EdgeViews("edge", n, o); }});
+}
+
 const std::map<std::string, Feature>& Features() {
   static const std::map<std::string, Feature> features = {
       {"bore", Cylinder(false)},
@@ -604,6 +657,7 @@ const std::map<std::string, Feature>& Features() {
       {"ellipse_bore", EllipseFeature(true)},
       {"ellipse_boss", EllipseFeature(false)},
       {"surface", SurfaceFeature()},
+      {"edge", EdgeFeature()},
   };
   return features;
 }

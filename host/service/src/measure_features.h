@@ -33,7 +33,8 @@ struct FeatureNominal {
                              jobs::AngleNominal,
                              jobs::PcdNominal,
                              jobs::EllipseNominal,
-                             jobs::SurfaceNominal>;
+                             jobs::SurfaceNominal,
+                             jobs::EdgeNominal>;
   std::string feature;  ///< "bore", "face", ... (CheckFeatureName)
   Shape shape;
 };

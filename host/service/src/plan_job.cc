@@ -29,7 +29,8 @@ json CaptureJson(const jobs::PlannedCapture& c) {
   return {{"capture_id", c.id},
           {"mcs_from_flange", jf::PoseToJson(c.mcs_from_flange)},
           {"aoi", {c.aoi.x0, c.aoi.y0, c.aoi.width, c.aoi.height}},
-          {"columns", {c.first_column, c.last_column, c.column_step}}};
+          {"columns", {c.first_column, c.last_column, c.column_step}},
+          {"roi", c.roi}};
 }
 
 // A plan request: the feature's nominal and the plan's options, read once and checked.

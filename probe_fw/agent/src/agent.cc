@@ -64,9 +64,10 @@ link::LinkCloud ProbeAgent::Capture(const link::CaptureRequest& request) {
   out.last_frame_ns = WallClockNs();
   const std::vector<Frame> laser(std::make_move_iterator(frames.begin() + 1),
                                  std::make_move_iterator(frames.end()));
-  const RowMask mask = ParseRoi(request.roi, laser.front().aoi, &frames.front());
+  const RoiFound roi = LocateRoi(request.roi, laser.front().aoi, &frames.front());
   StripeCounts counts;
-  const std::vector<CloudPoint> cloud = ReconstructSweep(model_, laser, mask, {}, &counts);
+  const std::vector<CloudPoint> cloud = ReconstructSweep(model_, laser, roi.mask, {}, &counts);
+  if (roi.edge) out.edge = SightOfEdge(model_.camera, *roi.edge);
   out.capture_id = request.capture_id;
   out.probe_serial = model_.serial;
   out.calibration_id = model_.calibration_id;

@@ -28,6 +28,13 @@ std::string OneLine(std::string s) {
   return s;
 }
 
+// " %.17g" per number: exact in a comment.
+void PutExact(std::ostream& out, double v) {
+  char number[32];
+  std::snprintf(number, sizeof number, " %.17g", v);
+  out << number;
+}
+
 }  // namespace
 
 void WriteCloudPly(const std::string& path,
@@ -45,12 +52,13 @@ void WriteCloudPly(const std::string& path,
         << "comment capture_id " << OneLine(meta.capture_id) << "\n";
     if (meta.mcs_from_flange) {
       out << "comment mcs_from_flange";  // row-major, exact (17 significant digits)
-      char number[32];
-      for (double v : base::RowMajor(*meta.mcs_from_flange)) {
-        std::snprintf(number, sizeof number, " %.17g", v);
-        out << number;
-      }
+      for (double v : base::RowMajor(*meta.mcs_from_flange)) PutExact(out, v);
       out << "\n";
+    }
+    if (meta.edge) {
+      out << "comment edge";  // normal, first ray, last ray, rms px, points (base/edge_sight.h)
+      for (double v : base::EdgeSightNumbers(*meta.edge)) PutExact(out, v);
+      out << " " << meta.edge->points << "\n";
     }
     out << "element vertex " << quality.size() << "\n"
         << "property float x\nproperty float y\nproperty float z\nproperty float quality\n"
@@ -98,6 +106,20 @@ void ReadMetaComment(const std::string& path,
     std::string why;
     if (!base::PoseFromRowMajor(h, &pose, &why)) throw Bad(path, "mcs_from_flange: " + why);
     meta->mcs_from_flange = pose;
+  }
+  if (name == "edge") {
+    std::array<double, 10> v{};
+    long long points = -1;
+    std::istringstream numbers(rest);
+    for (double& x : v)
+      if (!(numbers >> x)) throw Bad(path, "edge must hold 10 numbers and a point count");
+    if (!(numbers >> points) || points < 0 || points > (1ll << 31))
+      throw Bad(path, "edge must hold 10 numbers and a point count");
+    base::EdgeSight edge;
+    std::string why;
+    if (!base::EdgeSightFromNumbers(v, static_cast<std::uint32_t>(points), &edge, &why))
+      throw Bad(path, "edge: " + why);
+    meta->edge = edge;
   }
 }
 

@@ -97,6 +97,31 @@ void ReadBody(const Bytes& body, LinkCloud* c, std::size_t n) {
   r.ExpectEnd();
 }
 
+// The edge: a presence byte, then its ten numbers and point count (base/edge_sight.h).
+void PutEdge(Bytes* out, const std::optional<base::EdgeSight>& edge) {
+  PutU8(out, edge ? 1 : 0);
+  if (!edge) return;
+  const std::array<double, 10> v = base::EdgeSightNumbers(*edge);
+  base::EdgeSight checked;
+  std::string why;
+  if (!base::EdgeSightFromNumbers(v, edge->points, &checked, &why)) Bad("edge: " + why);
+  for (double x : v) PutF64(out, x);
+  PutU32(out, edge->points);
+}
+
+std::optional<base::EdgeSight> GetEdge(Reader* r) {
+  const std::uint8_t present = r->U8();
+  if (present == 0) return std::nullopt;
+  if (present != 1) Bad("edge presence byte " + std::to_string(present));
+  std::array<double, 10> v{};
+  for (double& x : v) x = r->F64();
+  const std::uint32_t points = r->U32();
+  base::EdgeSight edge;
+  std::string why;
+  if (!base::EdgeSightFromNumbers(v, points, &edge, &why)) Bad("edge: " + why);
+  return edge;
+}
+
 }  // namespace
 
 Bytes EncodeCloud(const LinkCloud& c, bool compress) {
@@ -119,6 +144,7 @@ Bytes EncodeCloud(const LinkCloud& c, bool compress) {
   PutU64(&out, static_cast<std::uint64_t>(c.first_frame_ns));
   PutU64(&out, static_cast<std::uint64_t>(c.last_frame_ns));
   PutU64(&out, static_cast<std::uint64_t>(c.processed_ns));
+  PutEdge(&out, c.edge);
   PutU32(&out, static_cast<std::uint32_t>(c.size()));
   const Bytes body = Body(c);
   if (!compress) {
@@ -151,6 +177,7 @@ LinkCloud DecodeCloud(const Bytes& payload) {
   c.first_frame_ns = static_cast<std::int64_t>(r.U64());
   c.last_frame_ns = static_cast<std::int64_t>(r.U64());
   c.processed_ns = static_cast<std::int64_t>(r.U64());
+  c.edge = GetEdge(&r);
   const std::size_t n = r.U32();
   if (n > kMaxCloudPoints) Bad("point count " + std::to_string(n) + " over the limit");
   const std::size_t max_body = 3 * (4 + kMaxVarint * n) + n;  // three streams + quality

@@ -136,8 +136,11 @@ VirtualProbe::Pixel VirtualProbe::Trace(const Pose3& mcs_from_probe,
 }
 
 // Reflectance x cos(view) per pixel for the LED frame: the pixel centre's, or on an edge (a
-// 4-neighbour has another reflectance or misses the workpiece) the mean over n x n sub-pixel
-// rays. cos(view) varies smoothly and needs no more than the centre.
+// 4-neighbour has another reflectance, misses the workpiece or answers more than
+// kLedStepFraction differently) the mean over n x n sub-pixel rays. cos(view) varies smoothly and
+// needs no more than the centre.
+constexpr double kLedStepFraction = 0.2;
+
 std::vector<double> VirtualProbe::LedResponse(const Pose3& pose,
                                               const SweepOptions& o,
                                               const std::vector<Pixel>& pixels) const {
@@ -154,7 +157,10 @@ std::vector<double> VirtualProbe::LedResponse(const Pose3& pose,
         const int xn = x + dx, yn = y + dy;
         if (xn < 0 || yn < 0 || xn >= w || yn >= h) continue;
         const Pixel& q = pixels[static_cast<size_t>(yn) * w + xn];
-        edge |= q.hit != pixels[i].hit || q.reflectance != pixels[i].reflectance;
+        // A reflectance or a depth edge (the lit face against one seen edge-on, or nothing).
+        edge |= q.hit != pixels[i].hit || q.reflectance != pixels[i].reflectance ||
+                std::abs(value(q) - value(pixels[i])) >
+                    kLedStepFraction * std::max(value(q), value(pixels[i]));
       }
       if (!edge) continue;
       double sum = 0.0;

@@ -20,6 +20,9 @@ probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe,
     o.last_column = plan.columns.back();
     o.column_step = r.column_step;
     o.seed = seed ^ std::hash<std::string>{}(r.capture_id);
+    // A real pixel integrates its whole area: sampled at its centre only, an edge along the
+    // pixel rows reads whole pixels (13 um steps at 120 mm) and its slope vanishes.
+    o.led_supersampling = kServedLedSupersampling;
     // The model's photometry is that of the link's default exposure: a longer one (dark metal)
     // collects proportionally more light, and clips sooner on a glint.
     o.exposure = plan.exposure_us / kReferenceExposureUs;

@@ -3,8 +3,10 @@
 /// from their edge contour, faces by thresholding. The region becomes a RowMask: only its pixels
 /// are processed in the laser frames.
 
+#include "mlp/base/edge_sight.h"
 #include "mlp/geometry/types.h"
 #include "mlp/probe_fw/frame.h"
+#include "mlp/probe_fw/probe_model.h"
 #include "mlp/probe_fw/stripe.h"
 
 #include <optional>
@@ -44,12 +46,21 @@ std::optional<HoleRoi> FindHole(const Frame& led,
 /// A straight edge: the line (sensor pixels) fitted robustly to the edge points within
 /// `radius_px` of `hint_px`. Empty when fewer than 12 edge points lie there or they make no line.
 struct LineEdgeRoi {
-  Vec2 point_px = Vec2::Zero();    ///< on the line, nearest to the hint
-  Vec2 direction = Vec2::UnitX();  ///< unit
+  Vec2 point_px = Vec2::Zero();      ///< on the line, nearest to the hint
+  Vec2 direction = Vec2::UnitX();    ///< unit
+  Vec2 bright_side = Vec2::UnitY();  ///< unit normal of the line towards the lit face
   int edge_points = 0;
   double rms_px = 0.0;
+  std::vector<Vec2> inliers_px;  ///< the edge points on the line
 };
 std::optional<LineEdgeRoi> FindLineEdge(const Frame& led, const Vec2& hint_px, double radius_px);
+
+/// The edge as the camera saw it (base/edge_sight.h): the plane through the camera centre that
+/// holds the undistorted rays of the edge points, the total-least-squares plane through the
+/// origin (the smallest eigenvector of sum r r^T over the unit rays r; a straight 3D edge is a
+/// plane of rays however the lens bends its image), oriented to the lit side, and the rays to
+/// the outermost points along the line.
+base::EdgeSight SightOfEdge(const CameraModel& camera, const LineEdgeRoi& edge);
 
 /// Pixels of the AOI within `half_width_px` of the line.
 RowMask BandMask(const Aoi& aoi, const Vec2& point_px, const Vec2& direction, double half_width_px);

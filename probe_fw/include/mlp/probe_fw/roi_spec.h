@@ -3,8 +3,10 @@
 /// the host asks for and the firmware turns into a RowMask on the LED frame.
 
 #include "mlp/probe_fw/frame.h"
+#include "mlp/probe_fw/roi.h"
 #include "mlp/probe_fw/stripe.h"
 
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -23,6 +25,14 @@ class RoiError : public std::invalid_argument {
 /// through the edge points within 60 px: a band of +-20 px along it) or "face:x,y" (the bright
 /// face holding that pixel, eroded by 6 px). Throws RoiError.
 RowMask ParseRoi(const std::string& spec, const Aoi& aoi, const Frame* led);
+
+/// The region of a ROI_SPEC and, for "edge:x,y", the straight edge it was found from (which the
+/// capture reports: seed 004's line from the LED frame).
+struct RoiFound {
+  RowMask mask;
+  std::optional<LineEdgeRoi> edge;
+};
+RoiFound LocateRoi(const std::string& spec, const Aoi& aoi, const Frame* led);
 
 /// "x0,y0,width,height" in sensor pixels. Throws RoiError.
 Aoi ParseAoi(const std::string& text);

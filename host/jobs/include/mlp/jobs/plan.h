@@ -14,10 +14,12 @@
 
 #include "mlp/geometry/types.h"
 #include "mlp/jobs/composite.h"
+#include "mlp/jobs/edge.h"
 #include "mlp/jobs/surface.h"
 #include "mlp/probe_fw/frame.h"
 #include "mlp/probe_fw/probe_model.h"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,6 +43,9 @@ struct ViewTarget {
   std::string id;
   geometry::Pose3 mcs_from_camera = geometry::Pose3::Identity();
   geometry::Points3 patch_mcs;
+  /// A view of a straight edge: the point on it whose image is the firmware's hint for the
+  /// edge ROI ("edge:x,y", probe_fw/roi_spec.h).
+  std::optional<geometry::Vec3> edge_hint_mcs;
 };
 
 struct PlannedCapture {
@@ -48,6 +53,7 @@ struct PlannedCapture {
   geometry::Pose3 mcs_from_flange = geometry::Pose3::Identity();
   probe_fw::Aoi aoi;
   double first_column = 0.0, last_column = 0.0, column_step = 2.0;
+  std::string roi = "full";  ///< the firmware's ROI_SPEC
 };
 
 /// The views of each feature (one per face, `views_per_circle` per circular wall).
@@ -61,6 +67,12 @@ std::vector<ViewTarget> WidthViews(const WidthNominal& n, const PlanOptions& o);
 std::vector<ViewTarget> RectangleViews(const RectangleNominal& n, const PlanOptions& o);
 std::vector<ViewTarget> EllipseViews(const EllipseNominal& n, const PlanOptions& o);
 std::vector<ViewTarget> SurfaceViews(const SurfaceNominal& n, const PlanOptions& o);
+/// `n.views` views square on the face, spread evenly over `n.length_mm` of the edge (one: at its
+/// point), each aimed at the edge so that its rays there run along the face's normal; the
+/// camera's x along the edge.
+std::vector<ViewTarget> EdgeViews(const std::string& id,
+                                  const EdgeNominal& n,
+                                  const PlanOptions& o);
 
 /// The flange pose, AOI and columns of each view for this probe (its camera and projector model)
 /// mounted with `flange_from_probe` (M). Throws FeatureError when a view's patch is not in front

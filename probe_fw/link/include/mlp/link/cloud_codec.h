@@ -5,10 +5,12 @@
 /// Decoding reproduces the quantised cloud bit for bit; every coordinate is within 0.05 um of
 /// the original.
 
+#include "mlp/base/edge_sight.h"
 #include "mlp/link/wire.h"
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,13 +36,16 @@ struct LinkCloud {
   /// the frame times it splits a capture's time into frames and firmware, the rest of the
   /// host's round trip being the link's.
   std::int64_t processed_ns = 0;
+  /// The straight edge the firmware found on the LED frame for an `edge:X,Y` ROI (since link
+  /// version 3); empty for other ROIs.
+  std::optional<base::EdgeSight> edge;
   std::vector<double> xyz;     ///< x y z per point [mm], probe frame
   std::vector<float> quality;  ///< 0..1 per point
   std::size_t size() const { return quality.size(); }
 };
 
 /// Throws LinkError (kMalformedPayload) for a coordinate beyond int32 at 0.1 um, NaN, a
-/// quality outside 0..1 or mismatched sizes.
+/// quality outside 0..1, mismatched sizes or an edge that is not one (base::EdgeSightFromNumbers).
 Bytes EncodeCloud(const LinkCloud& cloud, bool compress);
 /// Throws LinkError (kMalformedPayload) on anything inconsistent, before allocating more than
 /// the stated point count allows.

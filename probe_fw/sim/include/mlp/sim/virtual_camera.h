@@ -13,6 +13,9 @@ namespace mlp::sim {
 
 /// The exposure the probe model's photometry (noise.*_e) is given for: the link's default.
 constexpr double kReferenceExposureUs = 100.0;
+/// The LED frame's edge pixels are the mean of n x n rays over the pixel, as a real pixel
+/// integrates its area (SweepOptions::led_supersampling).
+constexpr int kServedLedSupersampling = 8;
 
 /// Noise is seeded from `seed` and the capture id, so a repeated request renders the same
 /// frames. The request's exposure scales every light by exposure_us / kReferenceExposureUs. The

@@ -1,0 +1,138 @@
+#include "mlp/jobs/edge.h"
+
+#include "mlp/base/units.h"
+#include "mlp/geometry/fit.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace mlp::jobs {
+namespace {
+
+using geometry::Plane;
+using geometry::Vec3;
+
+// A ray further than this from the face's normal meets it at a grazing angle: a small error in
+// the ray's direction moves the point a long way.
+constexpr double kMinRayCos = 0.17;  // 80 deg
+// Samples per segment in the line fit: views weigh equally whatever their segment's length.
+constexpr int kSamplesPerSegment = 11;
+
+Vec3 OnFace(const Vec3& camera, const Vec3& ray, const Plane& face, const std::string& id) {
+  const double along = ray.dot(face.normal);
+  if (!(std::abs(along) >= kMinRayCos))
+    throw FeatureError("edge of capture " + id + ": its rays graze the face (view it from above)");
+  const double t = (face.point - camera).dot(face.normal) / along;
+  if (!(t > 0.0)) throw FeatureError("edge of capture " + id + ": the face is behind the camera");
+  return camera + t * ray;
+}
+
+// Into the material, in the face: the lit side of the sight plane.
+Vec3 IntoMaterial(const EdgeView& v, const Plane& face) {
+  const Vec3 m = v.normal_mcs - face.normal * face.normal.dot(v.normal_mcs);
+  if (!(m.norm() > kMinRayCos))
+    throw FeatureError("edge of capture " + v.capture_id + ": seen edge-on to the face");
+  return m.normalized();
+}
+
+geometry::Line3 LineThrough(const std::vector<EdgeMeasurement::Segment>& segments) {
+  if (segments.size() == 1) {
+    const auto& s = segments.front();
+    if (!((s.last_mcs - s.first_mcs).norm() > 0.0))
+      throw FeatureError("edge: its segment has no length");
+    return {0.5 * (s.first_mcs + s.last_mcs), (s.last_mcs - s.first_mcs).normalized()};
+  }
+  geometry::Points3 samples(3, static_cast<Eigen::Index>(kSamplesPerSegment * segments.size()));
+  Eigen::Index k = 0;
+  for (const auto& s : segments)
+    for (int i = 0; i < kSamplesPerSegment; ++i)
+      samples.col(k++) = s.first_mcs + (s.last_mcs - s.first_mcs) * i / (kSamplesPerSegment - 1.0);
+  return geometry::FitLine3(samples).shape;
+}
+
+}  // namespace
+
+EdgeView EdgeViewInMcs(const base::EdgeSight& s,
+                       const geometry::Pose3& mcs_from_probe,
+                       const std::string& capture_id) {
+  EdgeView v;
+  v.capture_id = capture_id;
+  v.camera_mcs = mcs_from_probe.translation();  // the probe frame is the camera's
+  v.normal_mcs = mcs_from_probe.linear() * s.normal_in_probe;
+  v.first_ray_mcs = mcs_from_probe.linear() * s.first_ray_in_probe;
+  v.last_ray_mcs = mcs_from_probe.linear() * s.last_ray_in_probe;
+  v.rms_px = s.rms_px;
+  v.points = static_cast<int>(s.points);
+  return v;
+}
+
+EdgeMeasurement MeasureEdge(const std::vector<EdgeView>& views, const Plane& face_in) {
+  if (views.empty()) throw FeatureError("edge: no capture with an edge");
+  Plane face = face_in;
+  face.normal.normalize();
+  EdgeMeasurement m;
+  Vec3 material = Vec3::Zero();
+  for (const EdgeView& v : views) {
+    m.segments_mcs.push_back({OnFace(v.camera_mcs, v.first_ray_mcs, face, v.capture_id),
+                              OnFace(v.camera_mcs, v.last_ray_mcs, face, v.capture_id)});
+    material += IntoMaterial(v, face);
+    m.points += v.points;
+    m.rms_px = std::max(m.rms_px, v.rms_px);
+  }
+  const Vec3 first = IntoMaterial(views.front(), face);
+  for (const EdgeView& v : views) {
+    if (!(IntoMaterial(v, face).dot(first) > 0.9))
+      throw FeatureError("edge: capture " + v.capture_id +
+                         " sees the lit face on the other side "
+                         "of the edge from capture " +
+                         views.front().capture_id);
+  }
+  m.into_material_mcs = material.normalized();
+  m.line_mcs = LineThrough(m.segments_mcs);
+  const Vec3 x = m.into_material_mcs.cross(face.normal);
+  if (m.line_mcs.direction.dot(x) < 0.0) m.line_mcs.direction = -m.line_mcs.direction;
+  double lo = 1e300, hi = -1e300;
+  for (const auto& s : m.segments_mcs) {
+    for (const Vec3* p : {&s.first_mcs, &s.last_mcs}) {
+      const Vec3 d = *p - m.line_mcs.point;
+      const double t = d.dot(m.line_mcs.direction);
+      lo = std::min(lo, t), hi = std::max(hi, t);
+      m.straightness_mm = std::max(m.straightness_mm, (d - t * m.line_mcs.direction).norm());
+    }
+  }
+  m.span_mm = hi - lo;
+  m.views = static_cast<int>(views.size());
+  return m;
+}
+
+Vec3 EdgeNominal::Direction() const {
+  return face.normal_mcs.normalized().cross(Outward()).normalized();
+}
+
+Vec3 EdgeNominal::Outward() const {
+  const Vec3 n = face.normal_mcs.normalized();
+  return (wall_normal_mcs - n * n.dot(wall_normal_mcs)).normalized();
+}
+
+void EdgeNominal::Check() const {
+  const Vec3 n = face.normal_mcs.normalized();
+  if (!(face.normal_mcs.norm() > 0.0) ||
+      !((wall_normal_mcs - n * n.dot(wall_normal_mcs)).norm() > 0.5 * wall_normal_mcs.norm()))
+    throw FeatureError("edge: the wall's normal must lie across the face (within 60 deg of it)");
+  if (!(length_mm >= 0.0 && length_mm <= 2000.0))
+    throw FeatureError("edge: length_mm must be in 0..2000");
+  if (views < 1 || views > 8) throw FeatureError("edge: views must be 1..8");
+}
+
+EdgeDeviation CompareEdge(const EdgeMeasurement& m, const EdgeNominal& n) {
+  const Vec3 d = m.line_mcs.direction;
+  EdgeDeviation e;
+  e.found_mcs = m.line_mcs.point + d * d.dot(n.point_mcs - m.line_mcs.point);
+  e.offset_mm = (e.found_mcs - n.point_mcs).dot(n.Outward());
+  const Vec3 nominal = n.Direction();
+  const Vec3 face = n.face.normal_mcs.normalized();
+  e.angle_deg = std::atan2(nominal.cross(d).dot(face), std::abs(nominal.dot(d))) * base::kDegPerRad;
+  return e;
+}
+
+}  // namespace mlp::jobs
