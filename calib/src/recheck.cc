@@ -171,6 +171,41 @@ std::vector<int> ActiveUnknowns(int n, bool sphere_moved) {
   return active;
 }
 
+// One Gauss-Newton step dx (over the active unknowns) from the Jacobian and the residuals
+// through the SVD: a direction whose singular value is below `min_singular` is not determined
+// by the views; it is left out (kept from the original) and listed in `undetermined`.
+Eigen::VectorXd TruncatedStep(const Eigen::MatrixXd& j,
+                              const Eigen::VectorXd& e,
+                              const std::vector<int>& active,
+                              double min_singular,
+                              std::vector<detail::Vec9>* undetermined) {
+  const int m = static_cast<int>(active.size());
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(j, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+
+  Eigen::VectorXd dx = Eigen::VectorXd::Zero(m);
+  undetermined->clear();
+  for (int k = 0; k < sv.size(); ++k) {
+    if (sv(k) > kRankTolerance * sv(0) && sv(k) > min_singular) {
+      dx -= svd.matrixV().col(k) * (svd.matrixU().col(k).dot(e) / sv(k));
+    } else {
+      detail::Vec9 v = detail::Vec9::Zero();
+      for (int c = 0; c < m; ++c) v(active[static_cast<size_t>(c)]) = svd.matrixV()(c, k);
+      undetermined->push_back(v);
+    }
+  }
+  return dx;
+}
+
+// The step's active unknowns applied: the rotation (scaled by the lever) on the left of M's.
+void Apply(const Eigen::VectorXd& dx, const std::vector<int>& active, double lever_mm, State* s) {
+  detail::Vec9 full_dx = detail::Vec9::Zero();
+  for (size_t c = 0; c < active.size(); ++c) full_dx(active[c]) = dx(static_cast<Eigen::Index>(c));
+  s->rotation = Exp(full_dx.head<3>() / lever_mm) * s->rotation;
+  s->translation += full_dx.segment<3>(3);
+  s->centre += full_dx.tail<3>();
+}
+
 // Gauss-Newton on h_i (R q_i + t) = c over the active unknowns, each step through the SVD:
 // directions the orientations do not determine are kept from the original and listed.
 State SolveMountChange(const std::vector<RecheckCapture>& captures,
@@ -194,24 +229,7 @@ State SolveMountChange(const std::vector<RecheckCapture>& captures,
         j.block<3, 1>(3 * i, c) = full.col(active[static_cast<size_t>(c)]);
       e.segment<3>(3 * i) = s.Residual(h, q[static_cast<size_t>(i)]);
     }
-    Eigen::JacobiSVD<Eigen::MatrixXd> svd(j, Eigen::ComputeThinU | Eigen::ComputeThinV);
-    const Eigen::VectorXd& sv = svd.singularValues();
-    Eigen::VectorXd dx = Eigen::VectorXd::Zero(m);
-    undetermined->clear();
-    for (int k = 0; k < sv.size(); ++k) {
-      if (sv(k) > kRankTolerance * sv(0)) {
-        dx -= svd.matrixV().col(k) * (svd.matrixU().col(k).dot(e) / sv(k));
-      } else {
-        detail::Vec9 v = detail::Vec9::Zero();
-        for (int c = 0; c < m; ++c) v(active[static_cast<size_t>(c)]) = svd.matrixV()(c, k);
-        undetermined->push_back(v);
-      }
-    }
-    detail::Vec9 full_dx = detail::Vec9::Zero();
-    for (int c = 0; c < m; ++c) full_dx(active[static_cast<size_t>(c)]) = dx(c);
-    s.rotation = Exp(full_dx.head<3>() / lever_mm) * s.rotation;
-    s.translation += full_dx.segment<3>(3);
-    s.centre += full_dx.tail<3>();
+    Apply(TruncatedStep(j, e, active, 0.0, undetermined), active, lever_mm, &s);
   }
   return s;
 }
@@ -241,10 +259,13 @@ void FillChange(const std::vector<RecheckCapture>& captures,
 }
 
 // Why a quick fix will not do (empty: it will), the first limit passed.
-std::string WhyFullCalibration(const RecheckResult& r,
-                               const DepthScale& depth,
-                               bool scale_changed,
-                               const RecheckOptions& o) {
+std::string WhyFullCalibration(
+    const RecheckResult& r,
+    const DepthScale& depth,
+    bool scale_changed,
+    const RecheckOptions& o,
+    const char* what = "sphere centres",
+    const char* meaning = "the change is not a rigid shift of the mount") {
   const double turned_deg = r.rotation_in_flange_rad.norm() * base::kDegPerRad;
   std::ostringstream why;
   why.precision(4);
@@ -260,14 +281,153 @@ std::string WhyFullCalibration(const RecheckResult& r,
     why << "the mount turned " << turned_deg << " degrees (quick fix limit " << o.max_rotation_deg
         << " degrees)";
   } else if (r.residual_after_rms_mm > o.max_residual_mm) {
-    why << "after the best rigid correction the sphere centres still disagree by "
+    why << "after the best rigid correction the " << what << " still disagree by "
         << r.residual_after_rms_mm * 1e3 << " um RMS (limit " << o.max_residual_mm * 1e3
-        << " um): the change is not a rigid shift of the mount";
+        << " um): " << meaning;
   }
   return why.str();
 }
 
+// ---- The part as the artefact -------------------------------------------------------------
+
+// Points per capture in the part's fit: enough that each view's offset is known to far below
+// the probe's noise; more only cost time (a bore view holds 25,000).
+constexpr int kPartPointsPerCapture = 2000;
+// A direction known worse than this (1 sigma) is kept from the original.
+constexpr double kPartDeterminedMm = 0.0005;
+
+Vec3 Gradient(const PartSurface& s, const Vec3& x) {
+  Vec3 u = s.direction_mcs.normalized();
+  if (s.kind == PartSurface::Kind::kPlane) return u;
+  const Vec3 d = x - s.point_mcs, radial = d - d.dot(u) * u;
+  return radial.norm() > 0 ? Vec3(radial.normalized()) : Vec3::Zero();
+}
+
+// Every k-th finite point of each capture, at most kPartPointsPerCapture.
+std::vector<geometry::Points3> Thinned(const std::vector<RecheckCapture>& captures) {
+  std::vector<geometry::Points3> out;
+  for (const RecheckCapture& c : captures) {
+    std::vector<Eigen::Index> finite;
+    for (Eigen::Index i = 0; i < c.points_in_probe.cols(); ++i)
+      if (c.points_in_probe.col(i).allFinite()) finite.push_back(i);
+    if (static_cast<int>(finite.size()) < kMinPoints)
+      Bad("capture " + c.id + ": " + std::to_string(finite.size()) + " points on the part");
+    const size_t every = (finite.size() + kPartPointsPerCapture - 1) / kPartPointsPerCapture;
+    geometry::Points3 p(3, static_cast<Eigen::Index>((finite.size() + every - 1) / every));
+    for (size_t k = 0; k < finite.size(); k += every)
+      p.col(static_cast<Eigen::Index>(k / every)) = c.points_in_probe.col(finite[k]);
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+// Each capture's points' mean signed distance from the surface with the mount of `s`.
+std::vector<double> MeanDistances(const std::vector<RecheckCapture>& captures,
+                                  const std::vector<geometry::Points3>& points,
+                                  const PartSurface& surface,
+                                  const State& s) {
+  std::vector<double> mean;
+  for (size_t i = 0; i < captures.size(); ++i) {
+    double sum = 0.0;
+    for (Eigen::Index k = 0; k < points[i].cols(); ++k)
+      sum += surface.Distance(captures[i].mcs_from_flange *
+                              (s.rotation * points[i].col(k) + s.translation));
+    mean.push_back(sum / static_cast<double>(points[i].cols()));
+  }
+  return mean;
+}
+
+// Gauss-Newton on distance(h_i (R p + t)) = 0 over the mount's six unknowns, each step through
+// the SVD; the noise level that decides what is determined is the points' scatter about their
+// own capture's mean (a view's mean offset is what the change moves, not noise).
+State SolvePartChange(const std::vector<RecheckCapture>& captures,
+                      const std::vector<geometry::Points3>& points,
+                      const PartSurface& surface,
+                      const State& original,
+                      double lever_mm,
+                      std::vector<detail::Vec9>* undetermined) {
+  const std::vector<int> active = {0, 1, 2, 3, 4, 5};
+  Eigen::Index rows = 0;
+  for (const auto& p : points) rows += p.cols();
+  State s = original;
+  for (int step = 0; step < kGaussNewtonSteps; ++step) {
+    Eigen::MatrixXd j(rows, 6);
+    Eigen::VectorXd e(rows);
+    double scatter = 0.0;
+    Eigen::Index row = 0;
+    for (size_t i = 0; i < captures.size(); ++i) {
+      const Pose3& h = captures[i].mcs_from_flange;
+      const Eigen::Index first = row;
+      for (Eigen::Index k = 0; k < points[i].cols(); ++k, ++row) {
+        const Vec3 a = s.rotation * points[i].col(k), x = h * (a + s.translation);
+        const Eigen::RowVector3d g = Gradient(surface, x).transpose() * h.linear();
+        j.block<1, 3>(row, 0) = -g * Skew(a) / lever_mm;
+        j.block<1, 3>(row, 3) = g;
+        e(row) = surface.Distance(x);
+      }
+      const auto view = e.segment(first, row - first);
+      scatter += (view.array() - view.mean()).square().sum();
+    }
+    const double sigma =
+        std::sqrt(scatter / static_cast<double>(std::max<Eigen::Index>(1, rows - 6)));
+    Apply(TruncatedStep(j, e, active, sigma / kPartDeterminedMm, undetermined), active, lever_mm,
+          &s);
+  }
+  return s;
+}
+
 }  // namespace
+
+double PartSurface::Distance(const Vec3& x) const {
+  const Vec3 u = direction_mcs.normalized(), d = x - point_mcs;
+  if (kind == Kind::kPlane) return d.dot(u);
+  return (d - d.dot(u) * u).norm() - radius_mm;
+}
+
+RecheckResult RecheckOnPart(const std::vector<RecheckCapture>& captures,
+                            const PartSurface& surface,
+                            const RecheckOptions& o) {
+  o.Check();
+  if (captures.empty()) Bad("no capture of the part");
+  if (!surface.point_mcs.allFinite() || !(surface.direction_mcs.norm() > 0) ||
+      !surface.direction_mcs.allFinite() ||
+      (surface.kind == PartSurface::Kind::kCylinder && !(surface.radius_mm > 0)))
+    Bad("the part's reference surface is not one");
+  const std::vector<geometry::Points3> points = Thinned(captures);
+  const State original{o.original_flange_from_probe.linear(),
+                       o.original_flange_from_probe.translation(), o.original_centre_mcs};
+  std::vector<detail::Vec9> undetermined;
+  const State s = SolvePartChange(captures, points, surface, original, o.lever_mm, &undetermined);
+  RecheckResult result;
+  for (const auto& v : undetermined)
+    result.not_determined.push_back(detail::Describe(v) + " (kept from the original)");
+  result.flange_from_probe.linear() = s.rotation;
+  result.flange_from_probe.translation() = s.translation;
+  result.centre_mcs = original.centre;
+  result.offset_in_flange_mm = s.translation - original.translation;
+  const Eigen::AngleAxisd change(s.rotation * original.rotation.transpose());
+  result.rotation_in_flange_rad = change.axis() * change.angle();
+  const std::vector<double> before = MeanDistances(captures, points, surface, original);
+  const std::vector<double> after = MeanDistances(captures, points, surface, s);
+  double ss = 0.0, sum = 0.0;
+  for (size_t i = 0; i < captures.size(); ++i) {
+    result.residual_before_mm.push_back(std::abs(before[i]));
+    result.residual_after_mm.push_back(std::abs(after[i]));
+    ss += after[i] * after[i], sum += before[i];
+  }
+  const double n = static_cast<double>(captures.size());
+  result.residual_after_rms_mm = std::sqrt(ss / n);
+  // Before the correction: views all round a bore cancel a sideways move, not a change of the
+  // depth the probe reads, which a mount offset along the views would otherwise take up.
+  result.apparent_radius_change_mm = sum / n;
+  result.reason =
+      WhyFullCalibration(result, DepthScale{}, false, o, "captures and the part",
+                         "the part does not see all of the change, or it is not a rigid shift "
+                         "of the mount; recalibrate on the sphere");
+  result.full_calibration_required = !result.reason.empty();
+  if (!result.flange_from_probe.matrix().allFinite()) Bad("the correction did not converge");
+  return result;
+}
 
 void RecheckOptions::Check() const {
   if (!(sphere_radius_mm > 0)) Bad("sphere radius must be > 0");

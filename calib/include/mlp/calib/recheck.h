@@ -70,4 +70,33 @@ struct RecheckResult {
 /// declared moved and fewer than 3 orientations were measured.
 RecheckResult Recheck(const std::vector<RecheckCapture>& captures, const RecheckOptions& options);
 
+/// Seed 002's "a calibration artefact or other feature": a surface of the part in the machine,
+/// measured with the original calibration before the disturbance (a bore's axis and radius, or
+/// a face), is the artefact. Measured again after it, the mount's change is what puts the new
+/// points back on it. A point says only its distance from the surface: a face leaves the offsets
+/// along itself open, a bore seen from one side the offset along its axis and more; a direction
+/// the views determine worse than 0.5 um (1 sigma, from the points' own scatter) is kept from the
+/// original and listed, as with the sphere. The surface must not have moved.
+struct PartSurface {
+  enum class Kind { kCylinder, kPlane };
+  Kind kind = Kind::kCylinder;
+  Vec3 point_mcs = Vec3::Zero();       ///< on the axis, or on the plane
+  Vec3 direction_mcs = Vec3::UnitZ();  ///< the axis, or the plane's normal
+  double radius_mm = 0.0;              ///< a cylinder's
+  /// Signed distance of a point from the surface [mm]: + outside a cylinder's radius, + on the
+  /// normal's side of a plane.
+  double Distance(const Vec3& x_mcs) const;
+};
+
+/// The mount and limits of `options` (its sphere fields are not used); `max_residual_mm` bounds
+/// the RMS over the captures of their points' mean distance from the surface after the
+/// correction. In the result, per capture residuals are that mean distance (absolute), the
+/// centre fields are the original's, and the apparent radius change is the mean over the
+/// captures of their mean distance before the correction (a bore read larger, +: views all round
+/// it cancel a sideways move but not a changed depth reading, which to walls seen from inside
+/// is the same as a mount offset along the view). Throws HandEyeError (kBadInput).
+RecheckResult RecheckOnPart(const std::vector<RecheckCapture>& captures,
+                            const PartSurface& surface,
+                            const RecheckOptions& options);
+
 }  // namespace mlp::calib
