@@ -36,9 +36,12 @@ constexpr int kAlignPort = 17434;            // the alignment test's probe link
 constexpr double kOriginTolUm = 5.0;         // issue 6: alignment origin within 5 um
 constexpr double kRotationTolArcsec = 10.0;  // and rotation within 10 arcsec
 constexpr double kFaceHeightTolMm = 0.001;
+constexpr double kPartViewTolMm = 0.0005;           // a wall view's mean distance after the recheck
+constexpr double kPartCentreTolMm = 0.001;          // the hole measured after it, against before
 constexpr int kCrashPort = 17437;                   // the crash test's probe link
 constexpr int kFailurePort = 17441;                 // the failure paths test's
 constexpr int kCalibratePort = 17435;               // the hand-eye test's probe link
+constexpr int kPartRecheckPort = 17442;             // the recheck-on-the-part test's
 constexpr double kHandEyeTranslationTolMm = 0.002;  // issue 5: M within 2 um
 constexpr double kHandEyeRotationTolArcsec = 5.0;   // and 5 arcsec
 
@@ -483,6 +486,107 @@ TEST(Hostd, CalibratesTheProbeAndRechecksIt) {
   const auto under = site.Mlp("request " + site.Request("under", flat));
   EXPECT_EQ(under.exit_code, 7);
   EXPECT_FALSE(under.err.empty());
+}
+
+// Seed 002's recheck on the part instead of the sphere: the demo plate's hole B, measured with
+// the sphere calibration before the probe was re-seated, is the artefact. The virtual machine
+// moves the mount 15 um and 12 arcsec (its scene's M); hole B's four wall views taken again
+// read it off by that; the recheck on them makes the hole measure as it did before.
+TEST(Hostd, RechecksOnThePartAfterTheMountMoved) {
+  Site site("partcheck", kPartRecheckPort);
+  Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+  const auto serve = [&](const std::string& scene) {
+    return std::make_unique<Child>(
+        std::vector<std::string>{kSim, "serve", "--probe", kProbe, "--scene", scene, "--port",
+                                 std::to_string(kPartRecheckPort), "--key",
+                                 (site.dir / "probe.key").string()},
+        site.dir / "sim.log");
+  };
+  auto probe = serve(test::kDemoPlate);
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const json calibrate = {{"op", "calibrate"},
+                          {"machine", "lcnc-1"},
+                          {"captures", test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate,
+                                                               "sphere_", {824, 618, 400, 300})},
+                          {"sphere_radius_mm", 12.7}};
+  const json calibrated = test::RequestOn(site, "calibrate", calibrate);
+  ASSERT_TRUE(calibrated.contains("calibration_id"));
+  const auto before = test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, "b_wall");
+  ASSERT_EQ(before.size(), 4u);
+  json hole = {
+      {"op", "measure"},
+      {"machine", "lcnc-1"},
+      {"feature", "bore"},
+      {"nominal", {{"top_centre_mm", {250, 120, -310}}, {"diameter_mm", 20}, {"depth_mm", 20}}},
+      {"tolerance", {{"upper_mm", 0.05}, {"lower_mm", 0.05}}}};
+  // The hole as measured: centre x, y and diameter [mm].
+  const auto measure_hole = [&](const std::vector<std::int64_t>& captures, const char* name) {
+    json m = hole;
+    m["captures"] = captures;
+    const json r = test::RequestOn(site, name, m);
+    return r.contains("centre_mm")
+               ? geometry::Vec3(r["centre_mm"][0].get<double>(), r["centre_mm"][1].get<double>(),
+                                r["diameter_mm"].get<double>())
+               : geometry::Vec3::Constant(1e9);
+  };
+  const geometry::Vec3 reference = measure_hole(before, "hole-before");
+
+  // Re-seated: the scene's mount turned and moved; the old probe gone before the new one comes.
+  json scene = json::parse(test::ReadText(test::kDemoPlate));
+  json& mount = scene["flange_from_probe"];
+  for (int k = 0; k < 3; ++k) {
+    mount["translation_mm"][k] = mount["translation_mm"][k].get<double>() + 0.009 - 0.003 * k;
+    mount["rotation_vector_rad"][k] =
+        mount["rotation_vector_rad"][k].get<double>() + (k == 2 ? 5e-5 : 2e-5);
+  }
+  const std::string moved = (site.dir / "moved.json").string();
+  std::ofstream(moved) << scene.dump(1);
+  probe.reset();
+  ASSERT_TRUE(site.WaitFor([&] {
+    const auto s = site.Mlp("status --json");
+    return s.exit_code == 0 && json::parse(s.out).at("probes").at(0).at("connected") == false;
+  }));
+  probe = serve(moved);
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const auto after = test::CaptureSceneViews(site, "lcnc-1", moved, "b_wall");
+  ASSERT_EQ(after.size(), 4u);
+  const geometry::Vec3 disturbed = measure_hole(after, "hole-disturbed");
+
+  const json recheck = {
+      {"op", "recheck"},
+      {"machine", "lcnc-1"},
+      {"captures", after},
+      {"part",
+       {{"feature", "bore"}, {"nominal", hole.at("nominal")}, {"reference_captures", before}}}};
+  const json r = test::RequestOn(site, "recheck-part", recheck);
+  ASSERT_TRUE(r.contains("calibration_id")) << r.dump();
+  EXPECT_EQ(r.at("artefact"), "part");
+  EXPECT_EQ(r.at("parent_id"), calibrated.at("calibration_id"));
+  for (size_t i = 0; i < 4; ++i) {
+    std::printf("part recheck, wall view %zu: mean distance %.2f um before, %.3f um after\n", i,
+                r.at("residual_before_mm")[i].get<double>() * 1e3,
+                r.at("residual_after_mm")[i].get<double>() * 1e3);
+    EXPECT_LT(r.at("residual_after_mm")[i].get<double>(), kPartViewTolMm);
+  }
+  for (const json& n : r.at("not_determined"))
+    std::printf("  not determined: %s\n", n.get<std::string>().c_str());
+  const geometry::Vec3 corrected = measure_hole(after, "hole-corrected");
+  // Seen from inside, the move is a change of the depth every wall view reads: the diameter
+  // shows it, the centre hardly.
+  std::printf(
+      "hole B against before the move: with the original calibration centre %.2f um, diameter "
+      "%+.2f um; after the recheck on the hole centre %.2f um, diameter %+.2f um\n",
+      (disturbed - reference).head<2>().norm() * 1e3, (disturbed.z() - reference.z()) * 1e3,
+      (corrected - reference).head<2>().norm() * 1e3, (corrected.z() - reference.z()) * 1e3);
+  EXPECT_GT(std::abs(disturbed.z() - reference.z()), 0.005);  // the move shows
+  EXPECT_LT((corrected - reference).head<2>().norm(), kPartCentreTolMm);
+  EXPECT_NEAR(corrected.z(), reference.z(), kPartCentreTolMm);
+  // One artefact at a time.
+  json both = recheck;
+  both["sphere_moved"] = true;
+  const auto refused = site.Mlp("request " + site.Request("recheck-both", both));
+  EXPECT_EQ(refused.exit_code, 7);
+  EXPECT_NE(refused.err.find("one artefact"), std::string::npos) << refused.err;
 }
 
 // The host crashes while a job waits for its capture: the job is not left "running" (the next
