@@ -71,21 +71,19 @@ EdgeMeasurement MeasureEdge(const std::vector<EdgeView>& views, const Plane& fac
   Plane face = face_in;
   face.normal.normalize();
   EdgeMeasurement m;
+  const Vec3 first = IntoMaterial(views.front(), face);
   Vec3 material = Vec3::Zero();
   for (const EdgeView& v : views) {
+    const Vec3 into = IntoMaterial(v, face);
+    if (!(into.dot(first) > 0.9))
+      throw FeatureError("edge: capture " + v.capture_id +
+                         " sees the lit face on the other side of the edge from capture " +
+                         views.front().capture_id);
     m.segments_mcs.push_back({OnFace(v.camera_mcs, v.first_ray_mcs, face, v.capture_id),
                               OnFace(v.camera_mcs, v.last_ray_mcs, face, v.capture_id)});
-    material += IntoMaterial(v, face);
+    material += into;
     m.points += v.points;
     m.rms_px = std::max(m.rms_px, v.rms_px);
-  }
-  const Vec3 first = IntoMaterial(views.front(), face);
-  for (const EdgeView& v : views) {
-    if (!(IntoMaterial(v, face).dot(first) > 0.9))
-      throw FeatureError("edge: capture " + v.capture_id +
-                         " sees the lit face on the other side "
-                         "of the edge from capture " +
-                         views.front().capture_id);
   }
   m.into_material_mcs = material.normalized();
   m.line_mcs = LineThrough(m.segments_mcs);

@@ -92,10 +92,7 @@ Evidence NamedCaptures(JobContext& ctx,
   const std::string w = std::string("request.") + name + "." + key;
   const json& f = jf::Object<JobInputError>(r, name, "request");
   if (!f.contains(key)) throw JobInputError(w + " must list capture jobs");
-  Evidence ev = LoadCaptures(ctx, f.at(key), m, job);
-  if (std::string(key) == "edges" && ev.edges.size() != f.at(key).size())
-    throw JobInputError(w + ": a capture holds no edge (take it with an edge:x,y ROI)");
-  return ev;
+  return LoadCaptures(ctx, f.at(key), m, job);
 }
 
 // A hole measured as a bore (request.NAME: captures and nominal): its fitted axis where it
@@ -158,6 +155,9 @@ jobs::EdgeMeasurement EdgeOnA(JobContext& ctx,
                               const jobs::PlaneMeasurement& a,
                               Datum* d) {
   const Evidence ev = NamedCaptures(ctx, r, name, "edges", m, job);
+  if (ev.edges.size() != r.at(name).at("edges").size())
+    throw JobInputError(std::string("request.") + name +
+                        ".edges: a capture holds no edge (take it with an edge:x,y ROI)");
   jobs::EdgeMeasurement e = jobs::MeasureEdge(ev.edges, a.plane);
   d->fields[name] = {{"point_mm", JsonVec(e.line_mcs.point)},
                      {"direction", JsonVec(e.line_mcs.direction)},
