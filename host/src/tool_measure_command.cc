@@ -101,35 +101,43 @@ cv::Point2d ToPixel(const geometry::Vec2& yh, const toolcam::ToolCameraModel& c)
           cy + (v - cy) * (1 + c.distortion_k1 * rho2)};
 }
 
-// The principal image of every flute, side by side in rows of two: the fitted model in green,
-// contamination yellow, wear blue, build-up red, the figures on top.
+// One view's tile: its image, the fitted model in green, contamination yellow, wear blue,
+// build-up red, the figures on top.
+cv::Mat ViewTile(const std::vector<std::vector<std::uint8_t>>& images,
+                 const toolcam::ToolCameraModel& camera,
+                 const toolcam::FluteView& v,
+                 const std::string& title) {
+  const cv::Scalar kColour[] = {{0, 0, 0}, {0, 220, 255}, {255, 80, 0}, {0, 0, 255}};
+  const auto& px = images[static_cast<size_t>(v.frame)];
+  cv::Mat grey(camera.height_px, camera.width_px, CV_8UC1, const_cast<std::uint8_t*>(px.data()));
+  cv::Mat tile;
+  cv::cvtColor(grey, tile, cv::COLOR_GRAY2BGR);
+  std::vector<cv::Point> model;
+  for (const auto& p : v.model_yh) model.push_back(ToPixel(p, camera));
+  cv::polylines(tile, model, false, cv::Scalar(0, 200, 0), 1, cv::LINE_AA);
+  for (size_t i = 0; i < v.points_yh.size(); ++i)
+    if (v.point_kind[i] != toolcam::FluteView::kUsed)
+      cv::circle(tile, ToPixel(v.points_yh[i], camera), 2, kColour[v.point_kind[i]], cv::FILLED);
+  std::ostringstream t;
+  t.setf(std::ios::fixed);
+  t.precision(4);
+  t << title << ": r " << v.radius_mm << " mm, tip " << std::showpos << std::setprecision(2)
+    << v.tip_h_mm * 1e3 << std::noshowpos << " um, " << v.findings.size() << " finding(s)";
+  cv::putText(tile, t.str(), {12, 28}, cv::FONT_HERSHEY_SIMPLEX, 0.7, {0, 0, 160}, 2, cv::LINE_AA);
+  return tile;
+}
+
+// The principal images of every flute (both flanks' with the axis in view), in rows of two.
 void WriteOverlay(const std::string& path,
                   const std::vector<std::vector<std::uint8_t>>& images,
                   const toolcam::ToolCameraModel& camera,
                   const toolcam::ToolMeasurement& m) {
   std::vector<cv::Mat> tiles;
-  const cv::Scalar kColour[] = {{0, 0, 0}, {0, 220, 255}, {255, 80, 0}, {0, 0, 255}};
   for (size_t k = 0; k < m.flutes.size(); ++k) {
     const auto& f = m.flutes[k];
-    const auto& px = images[static_cast<size_t>(f.frame)];
-    cv::Mat grey(camera.height_px, camera.width_px, CV_8UC1, const_cast<std::uint8_t*>(px.data()));
-    cv::Mat tile;
-    cv::cvtColor(grey, tile, cv::COLOR_GRAY2BGR);
-    std::vector<cv::Point> model;
-    for (const auto& p : f.model_yh) model.push_back(ToPixel(p, camera));
-    cv::polylines(tile, model, false, cv::Scalar(0, 200, 0), 1, cv::LINE_AA);
-    for (size_t i = 0; i < f.points_yh.size(); ++i)
-      if (f.point_kind[i] != toolcam::FluteMeasurement::kUsed)
-        cv::circle(tile, ToPixel(f.points_yh[i], camera), 2, kColour[f.point_kind[i]], cv::FILLED);
-    std::ostringstream t;
-    t.setf(std::ios::fixed);
-    t.precision(4);
-    t << "flute " << k + 1 << ": r " << f.radius_mm << " mm, tip " << std::showpos
-      << std::setprecision(2) << f.tip_h_mm * 1e3 << std::noshowpos << " um, " << f.findings.size()
-      << " finding(s)";
-    cv::putText(tile, t.str(), {12, 28}, cv::FONT_HERSHEY_SIMPLEX, 0.7, {0, 0, 160}, 2,
-                cv::LINE_AA);
-    tiles.push_back(tile);
+    const std::string name = "flute " + std::to_string(k + 1);
+    tiles.push_back(ViewTile(images, camera, f.plus, f.minus ? name + " +y" : name));
+    if (f.minus) tiles.push_back(ViewTile(images, camera, *f.minus, name + " -y"));
   }
   if (tiles.size() % 2)
     tiles.push_back(cv::Mat(tiles[0].size(), tiles[0].type(), cv::Scalar(255, 255, 255)));
@@ -144,38 +152,62 @@ void WriteOverlay(const std::string& path,
   if (!cv::imwrite(path, all)) throw UsageError("cannot write " + path);
 }
 
+nlohmann::json ViewJson(const toolcam::FluteView& v) {
+  nlohmann::json findings = nlohmann::json::array();
+  for (const auto& d : v.findings) {
+    nlohmann::json j = {{"kind", d.buildup ? "build-up" : "wear"},
+                        {"on", d.on_end ? "end" : "flank"},
+                        {"h_mm", d.h_mm},
+                        {"length_mm", d.length_mm},
+                        {"max_mm", d.max_mm},
+                        {"area_mm2", d.area_mm2}};
+    if (d.on_end) j["y_mm"] = d.y_mm;
+    findings.push_back(j);
+  }
+  return {{"side", v.side > 0 ? "+y" : "-y"},
+          {"image", v.frame},
+          {"angle_deg", v.angle_deg},
+          {"radius_mm", v.radius_mm},
+          {"tip_h_mm", v.tip_h_mm},
+          {"rms_mm", v.rms_mm},
+          {"points", v.points},
+          {"removed", v.removed},
+          {"findings", findings}};
+}
+
 nlohmann::json MeasurementJson(const toolcam::ToolDescription& tool,
                                const toolcam::ToolMeasurement& m) {
   nlohmann::json flutes = nlohmann::json::array();
+  double mean_radius = 0;
+  for (const auto& f : m.flutes) mean_radius += f.radius_mm / static_cast<double>(m.flutes.size());
   for (const auto& f : m.flutes) {
-    nlohmann::json findings = nlohmann::json::array();
-    for (const auto& d : f.findings)
-      findings.push_back({{"kind", d.buildup ? "build-up" : "wear"},
-                          {"h_mm", d.h_mm},
-                          {"length_mm", d.length_mm},
-                          {"max_mm", d.max_mm},
-                          {"area_mm2", d.area_mm2}});
-    flutes.push_back({{"image", f.frame},
+    nlohmann::json views = nlohmann::json::array({ViewJson(f.plus)});
+    if (f.minus) views.push_back(ViewJson(*f.minus));
+    flutes.push_back({{"edge", f.edge + 1},
                       {"angle_deg", f.angle_deg},
                       {"radius_mm", f.radius_mm},
+                      {"runout_mm", f.radius_mm - mean_radius},
                       {"tip_h_mm", f.tip_h_mm},
-                      {"rms_mm", f.rms_mm},
-                      {"points", f.points},
-                      {"removed", f.removed},
-                      {"findings", findings}});
+                      {"views", views}});
   }
-  return {{"tool", tool.id},
-          {"radius_mm", m.radius_mm},
-          {"diameter_mm", 2 * m.radius_mm},
-          {"length_mm", tool.length_mm - m.tip_h_mm},
-          {"runout_mm", m.runout_mm},
-          {"eccentricity_mm", m.eccentricity_mm},
-          {"flutes", flutes}};
+  nlohmann::json j = {{"tool", tool.id},
+                      {"radius_mm", m.radius_mm},
+                      {"diameter_mm", 2 * m.radius_mm},
+                      {"length_mm", tool.length_mm - m.tip_h_mm},
+                      {"runout_mm", m.runout_mm},
+                      {"eccentricity_mm", m.eccentricity_mm},
+                      {"both_flanks", m.both_flanks},
+                      {"worst_finding_mm", m.worst_finding_mm},
+                      {"wear_limit_mm", tool.wear_limit_mm},
+                      {"flutes", flutes}};
+  if (m.both_flanks) j["axis_offset_mm"] = m.axis_offset_mm;
+  return j;
 }
 
 // The measured length (Z) and diameter (D) into tool `number` of a LinuxCNC tool table,
 // through nc's one writer (checked, whole or not at all, logged beside the table). Wear or
-// build-up found refuses unless accepted: a tool to look at is not a tool to set.
+// build-up beyond the tool's wear limit refuses unless accepted: a tool to look at is not a
+// tool to set; within it the tool is set and the findings reported.
 nc::ToolTableUpdateResult UpdateToolTable(const std::string& file,
                                           int number,
                                           double max_change_mm,
@@ -183,12 +215,13 @@ nc::ToolTableUpdateResult UpdateToolTable(const std::string& file,
                                           const toolcam::ToolDescription& tool,
                                           const toolcam::ToolMeasurement& m,
                                           const std::string& images) {
-  int findings = 0;
-  for (const auto& f : m.flutes) findings += static_cast<int>(f.findings.size());
-  if (findings > 0 && !accept_findings)
-    throw RefusedError("tool table not changed: " + std::to_string(findings) +
-                       " finding(s) of wear or build-up: look at the tool (--accept-findings "
-                       "writes it anyway)");
+  if (m.OverWearLimit(tool) && !accept_findings) {
+    std::ostringstream why;
+    why << std::fixed << std::setprecision(1) << "tool table not changed: wear or build-up of "
+        << m.worst_finding_mm * 1e3 << " um beyond the tool's wear limit of "
+        << tool.wear_limit_mm * 1e3 << " um: look at the tool (--accept-findings writes it anyway)";
+    throw RefusedError(why.str());
+  }
   nc::ToolUpdate update;
   update.tool = number;
   update.tool_id = tool.id;
@@ -201,21 +234,38 @@ nc::ToolTableUpdateResult UpdateToolTable(const std::string& file,
   }
 }
 
+void PrintView(const toolcam::FluteView& v, const std::string& indent, std::ostream& out) {
+  for (const auto& d : v.findings) {
+    out << std::setprecision(3) << indent << (d.buildup ? "build-up" : "wear");
+    if (d.on_end)
+      out << " on the end at y " << d.y_mm << " mm, h " << d.h_mm << " mm: ";
+    else
+      out << " at h " << d.h_mm << " mm: ";
+    out << std::setprecision(1) << d.max_mm * 1e3 << " um, " << std::setprecision(3) << d.length_mm
+        << " mm long, " << std::setprecision(5) << d.area_mm2 << " mm2\n";
+  }
+}
+
 void PrintMeasurement(const toolcam::ToolDescription& tool,
                       const toolcam::ToolMeasurement& m,
                       std::ostream& out) {
   out << std::fixed << std::setprecision(4) << "tool " << tool.id << ": diameter "
       << 2 * m.radius_mm << " mm, length " << tool.length_mm - m.tip_h_mm << " mm, runout "
       << std::setprecision(1) << m.runout_mm * 1e3 << " um\n";
+  if (m.both_flanks)
+    out << "  both flanks in view: the spindle axis " << std::showpos << m.axis_offset_mm * 1e3
+        << std::noshowpos << " um across from the camera's calibration\n";
   for (size_t k = 0; k < m.flutes.size(); ++k) {
     const auto& f = m.flutes[k];
     out << std::setprecision(4) << "  flute " << k + 1 << ": radius " << f.radius_mm << " mm, tip "
-        << std::setprecision(2) << f.tip_h_mm * 1e3 << " um, rms " << f.rms_mm * 1e3 << " um\n";
-    for (const auto& d : f.findings)
-      out << std::setprecision(3) << "    " << (d.buildup ? "build-up" : "wear") << " at h "
-          << d.h_mm << " mm: " << std::setprecision(1) << d.max_mm * 1e3 << " um, "
-          << std::setprecision(3) << d.length_mm << " mm long\n";
+        << std::setprecision(2) << f.tip_h_mm * 1e3 << " um, rms " << f.plus.rms_mm * 1e3
+        << " um\n";
+    PrintView(f.plus, f.minus ? "    +y: " : "    ", out);
+    if (f.minus) PrintView(*f.minus, "    -y: ", out);
   }
+  if (m.worst_finding_mm > 0)
+    out << std::setprecision(1) << "  worst finding " << m.worst_finding_mm * 1e3
+        << " um, the tool's wear limit " << tool.wear_limit_mm * 1e3 << " um\n";
 }
 
 void SaveReference(const std::string& path,

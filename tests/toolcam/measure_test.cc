@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "test_data.h"
+#include "tool_runs.h"
 #include <gtest/gtest.h>
 
 namespace mlp::toolcam {
@@ -36,56 +37,29 @@ ToolCameraModel SmallCamera(double drops) {
   return c;
 }
 
-struct MeasuredRun {
-  ToolMeasurement m;
-  std::vector<double> turn;  ///< each frame's true turn [rad]
-};
+using test::EdgeFacing;
+using test::MeasuredRun;
 
-// Renders a plan's frames of `tool` and measures them against the nominal.
 MeasuredRun RenderAndMeasure(const ToolDescription& tool,
                              const ToolDescription& nominal,
                              const ToolCameraModel& c,
                              unsigned seed,
                              double resolution_deg = 7.2) {
-  StrobeRequest r;
-  r.rpm = 5000, r.frame_rate_hz = 50, r.resolution_deg = resolution_deg, r.pulse_share = 0.1;
-  const StrobePlan plan = PlanStrobe(r);
-  std::mt19937 rng(seed);
-  const double start = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng);
-  const double blur = plan.pulse_width_us * 1e-6 * plan.rpm / 60 * 2 * M_PI;
-  MeasuredRun run;
-  std::vector<std::vector<std::uint8_t>> frames;
-  for (int pos : plan.position) {
-    run.turn.push_back(start + 2 * M_PI * pos / plan.positions);
-    frames.push_back(RenderToolFrame(tool, c, run.turn.back(), blur, rng).pixels);
-  }
-  MeasureOptions o;
-  o.h_ref_mm = 1.5;
-  run.m = MeasureTool(frames, plan.position, plan.positions, nominal, c, o);
-  return run;
-}
-
-// The edge at +y at the reference height in the frame turned `turn`.
-int EdgeFacing(const ToolDescription& t, double turn, double h_ref) {
-  int best = 0;
-  double best_y = -1e300;
-  for (int k = 0; k < t.flutes; ++k) {
-    const double y = std::sin(t.EdgeAngle(k, h_ref, turn));
-    if (y > best_y) best_y = y, best = k;
-  }
-  return best;
+  test::RunSetup setup;
+  setup.resolution_deg = resolution_deg;
+  return test::RenderAndMeasure(tool, nominal, c, seed, setup);
 }
 
 void ExpectEdgesMatch(const ToolDescription& t, const MeasuredRun& run, double tol_mm) {
   ASSERT_EQ(run.m.flutes.size(), static_cast<size_t>(t.flutes));
   for (const FluteMeasurement& f : run.m.flutes) {
-    const int k = EdgeFacing(t, run.turn[static_cast<size_t>(f.frame)], 1.5);
+    const int k = EdgeFacing(t, run.turn[static_cast<size_t>(f.plus.frame)], 1.5);
     const double r_true = t.Radius() + t.edges[static_cast<size_t>(k)].radial_offset_mm;
     std::printf(
         "  edge %d: radius %.4f (true %.4f, %+.2f um), tip %+.2f um (true %+.2f), rms %.2f um, "
         "%d points, %d removed\n",
         k + 1, f.radius_mm, r_true, (f.radius_mm - r_true) * 1e3, f.tip_h_mm * 1e3, t.TipH(k) * 1e3,
-        f.rms_mm * 1e3, f.points, f.removed);
+        f.plus.rms_mm * 1e3, f.plus.points, f.plus.removed);
     EXPECT_NEAR(f.radius_mm, r_true, tol_mm) << "edge " << k + 1;
     EXPECT_NEAR(f.tip_h_mm, t.TipH(k), tol_mm) << "edge " << k + 1;
   }
@@ -101,7 +75,8 @@ TEST(ToolMeasure, ACleanToolsEdgesToAMicrometre) {
   EXPECT_NEAR(run.m.radius_mm, 5.006, kCleanTolMm);      // edge 2 cuts the wall
   EXPECT_NEAR(run.m.tip_h_mm, -0.004, kCleanTolMm);      // and the floor
   EXPECT_NEAR(run.m.runout_mm, 0.009, 2 * kCleanTolMm);  // 5.006 - 4.997
-  for (const auto& f : run.m.flutes) EXPECT_TRUE(f.findings.empty()) << "a finding on a clean edge";
+  for (const auto& f : run.m.flutes)
+    EXPECT_TRUE(f.plus.findings.empty()) << "a finding on a clean edge";
 }
 
 // A camera turned 0.4 deg about x and 0.3 deg about y (as its calibration says): the rolled
@@ -117,7 +92,8 @@ TEST(ToolMeasure, AMountTurnedAboutXAndYIsMeasuredThroughItsCalibration) {
   c.roll_deg = 0.4, c.pitch_deg = 0.3;
   const MeasuredRun run = RenderAndMeasure(runout, nominal, c, 13);
   ExpectEdgesMatch(runout, run, kCleanTolMm);
-  for (const auto& f : run.m.flutes) EXPECT_TRUE(f.findings.empty()) << "a finding on a clean edge";
+  for (const auto& f : run.m.flutes)
+    EXPECT_TRUE(f.plus.findings.empty()) << "a finding on a clean edge";
 }
 
 TEST(ToolMeasure, CoolantDropsAreLeftOut) {
@@ -125,7 +101,7 @@ TEST(ToolMeasure, CoolantDropsAreLeftOut) {
   const MeasuredRun run = RenderAndMeasure(nominal, nominal, SmallCamera(3.0), 12);
   ExpectEdgesMatch(nominal, run, kDropsTolMm);
   for (const auto& f : run.m.flutes)
-    EXPECT_TRUE(f.findings.empty()) << "a drop taken for a finding";
+    EXPECT_TRUE(f.plus.findings.empty()) << "a drop taken for a finding";
 }
 
 TEST(ToolMeasure, FindsTheChipAndTheBuiltUpEdge) {
@@ -135,8 +111,8 @@ TEST(ToolMeasure, FindsTheChipAndTheBuiltUpEdge) {
   ExpectEdgesMatch(worn, run, kCleanTolMm);
   int chips = 0, buildups = 0;
   for (const FluteMeasurement& f : run.m.flutes) {
-    const int k = EdgeFacing(worn, run.turn[static_cast<size_t>(f.frame)], 1.5);
-    for (const Finding& d : f.findings) {
+    const int k = EdgeFacing(worn, run.turn[static_cast<size_t>(f.plus.frame)], 1.5);
+    for (const Finding& d : f.plus.findings) {
       std::printf("  edge %d: %s at h %.3f mm, %.3f mm long, %.1f um deep\n", k + 1,
                   d.buildup ? "build-up" : "wear", d.h_mm, d.length_mm, d.max_mm * 1e3);
       const EdgeDefect& truth = worn.edges[static_cast<size_t>(k)].defects.at(0);
@@ -161,15 +137,15 @@ TEST(ToolMeasure, AStoredReferenceShowsOnlyWhatChanged) {
   ExpectEdgesMatch(worn, again, kCleanTolMm);
   for (const FluteMeasurement& f : again.m.flutes) {
     EXPECT_GE(f.edge, 0);
-    EXPECT_TRUE(f.findings.empty()) << "edge " << f.edge + 1 << ": " << f.findings.size();
+    EXPECT_TRUE(f.plus.findings.empty()) << "edge " << f.edge + 1 << ": " << f.plus.findings.size();
   }
   ToolDescription chipped = worn;  // a new 12 um chip on edge 4 at h 1.0 mm
   chipped.edges[3].defects.push_back({1.0, 0.2, 0.012});
   const MeasuredRun later = RenderAndMeasure(chipped, reference, SmallCamera(0), 23);
   int found = 0;
   for (const FluteMeasurement& f : later.m.flutes)
-    for (const Finding& d : f.findings) {
-      const int k = EdgeFacing(chipped, later.turn[static_cast<size_t>(f.frame)], 1.5);
+    for (const Finding& d : f.plus.findings) {
+      const int k = EdgeFacing(chipped, later.turn[static_cast<size_t>(f.plus.frame)], 1.5);
       std::printf("  new since the reference: edge %d %s at h %.3f mm, %.1f um\n", k + 1,
                   d.buildup ? "build-up" : "wear", d.h_mm, d.max_mm * 1e3);
       EXPECT_EQ(k, 3);
@@ -266,8 +242,8 @@ TEST(ToolMeasure, NoFalseFindingsOnACleanToolOver100SeededRuns) {
   for (unsigned seed = 100; seed < 200; ++seed) {
     const MeasuredRun run = RenderAndMeasure(nominal, nominal, c, seed, 14.4);
     for (const FluteMeasurement& f : run.m.flutes) {
-      findings += static_cast<int>(f.findings.size());
-      for (const Finding& d : f.findings)
+      findings += static_cast<int>(f.plus.findings.size());
+      for (const Finding& d : f.plus.findings)
         std::printf("  seed %u: %s at h %.3f mm, %.1f um, %.3f mm long\n", seed,
                     d.buildup ? "build-up" : "wear", d.h_mm, d.max_mm * 1e3, d.length_mm);
       worst_um =

@@ -20,9 +20,18 @@ constexpr double kLengthTolMm = 0.001;    // and its length
 constexpr double kCarriedTolMm = 0.002;   // calibration carried 30 mm down the axis to a tool
 constexpr double kRollTolDeg = 0.002;     // the pin's figures through the command
 constexpr double kPitchTolDeg = 0.005;
-constexpr double kScaleTol = 2e-5;         // 20 ppm: 1 um over the 50 mm pin
-constexpr double kGaugeAlongTolPx = 0.25;  // 1 um
-constexpr double kSameNumber = 1e-12;      // the table holds what was reported
+constexpr double kScaleTol = 2e-5;            // 20 ppm: 1 um over the 50 mm pin
+constexpr double kGaugeAlongTolPx = 0.25;     // 1 um
+constexpr double kSameNumber = 1e-12;         // the table holds what was reported
+constexpr double kFindingDepthTolMm = 0.002;  // the worn tool's deepest finding
+
+// Every view's findings in `mlp tool measure --json`'s result.
+int FindingCount(const nlohmann::json& m) {
+  int n = 0;
+  for (const auto& f : m.at("flutes"))
+    for (const auto& v : f.at("views")) n += static_cast<int>(v.at("findings").size());
+  return n;
+}
 
 TEST(ToolCli, PlansTheStrobe) {
   const auto text = RunProcess(kMlp + " tool strobe --rpm 7200 --fps 45 --resolution-deg 3.6");
@@ -76,9 +85,8 @@ TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
   // Edge 2 cuts the wall (5.006) and the floor (4 um long): the tool table's figures.
   EXPECT_NEAR(m.at("diameter_mm").get<double>(), 10.012, kDiameterTolMm);
   EXPECT_NEAR(m.at("length_mm").get<double>(), 75.004, kLengthTolMm);
-  int findings = 0;
-  for (const auto& f : m.at("flutes")) findings += static_cast<int>(f.at("findings").size());
-  EXPECT_EQ(findings, 2);  // the chip and the build-up
+  EXPECT_FALSE(m.at("both_flanks").get<bool>());  // a D10 tool: the axis out of view
+  EXPECT_EQ(FindingCount(m), 2);                  // the chip and the build-up
   // Stored as the tool's reference, the same images show nothing new.
   const auto save = RunProcess(kMlp + " tool measure --images " + dir + " --tool " + tools +
                                "endmill_d10_z4_new.json --save-reference " + dir + "/ref.json");
@@ -86,13 +94,10 @@ TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
   const auto again =
       RunProcess(kMlp + " tool measure --images " + dir + " --tool " + dir + "/ref.json --json");
   ASSERT_EQ(again.exit_code, 0) << again.err;
-  int later = 0;
   // Parsed into a named object: a range-for over a member of a temporary reads freed memory
   // (the temporary dies before the loop; ASan found it).
   const nlohmann::json measured_again = nlohmann::json::parse(again.out);
-  for (const auto& f : measured_again.at("flutes"))
-    later += static_cast<int>(f.at("findings").size());
-  EXPECT_EQ(later, 0);
+  EXPECT_EQ(FindingCount(measured_again), 0);
   std::ifstream png(dir + "/overlay.png", std::ios::binary);
   char magic[4] = {};
   png.read(magic, 4);
@@ -197,8 +202,23 @@ TEST(ToolCli, CalibratesTheCameraThenMeasuresIntoTheToolTable) {
                                   "endmill_d10_z4_new.json --camera " + dir +
                                   "/camera.json --tool-table " + table + " --tool-number 3");
   EXPECT_EQ(refused.exit_code, 4) << refused.err;
-  EXPECT_NE(refused.err.find("finding"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("beyond the tool's wear limit of 0.0 um"), std::string::npos)
+      << refused.err;
   EXPECT_EQ(read_table(), after);
+  // The same tool allowed 25 um of wear (its description's wear_limit_mm): the 20.5 um chip
+  // and the 15 um build-up are reported and the table written.
+  nlohmann::json lenient = nlohmann::json::parse(std::ifstream(tools + "endmill_d10_z4_new.json"));
+  lenient["wear_limit_mm"] = 0.025;
+  std::ofstream(dir + "/lenient.json") << lenient.dump();
+  const auto within = RunProcess(kMlp + " tool measure --images " + dir + "/worn --tool " + dir +
+                                 "/lenient.json --camera " + dir + "/camera.json --tool-table " +
+                                 table + " --tool-number 3 --json");
+  ASSERT_EQ(within.exit_code, 0) << within.err;
+  const auto w = nlohmann::json::parse(within.out);
+  EXPECT_EQ(FindingCount(w), 2);
+  EXPECT_NEAR(w.at("worst_finding_mm").get<double>(), 0.020, kFindingDepthTolMm);
+  EXPECT_NEAR(w.at("tool_table").at("length_after_mm").get<double>(), 75.004, kCarriedTolMm);
+  EXPECT_NE(read_table(), after);
 }
 
 }  // namespace

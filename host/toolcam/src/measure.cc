@@ -23,18 +23,45 @@ using geometry::Vec2;
 // Pixel -> tool frame, undoing the lens' radial distortion (the camera's calibration).
 Vec2 ToTool(const Vec2& px, const ToolCameraModel& c) { return c.ToolFromPixel(Undistort(px, c)); }
 
-double Median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
+// The flank's extreme across at the reference height: the flank over the band round it
+// smoothed by a quadratic in h, what sticks out beyond the contamination limit left out and
+// the fit repeated (seed 000 example 3: drops and build-up there must not move the indexing;
+// the median of a narrow band followed a drop as wide as half of it). NaN: too few points.
+double ReferenceY(const std::vector<Vec2>& flank, const MeasureOptions& opt) {
+  std::vector<Vec2> band;
+  for (const Vec2& p : flank)
+    if (std::abs(p.y() - opt.h_ref_mm) < opt.band_mm) band.push_back(p);
+  std::vector<bool> keep(band.size(), true);
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int round = 0; round < 8; ++round) {
+    Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    int used = 0;
+    for (size_t i = 0; i < band.size(); ++i) {
+      if (!keep[i]) continue;
+      const double t = (band[i].y() - opt.h_ref_mm) / opt.band_mm;
+      const Eigen::Vector3d row(1, t, t * t);
+      a += row * row.transpose(), b += row * band[i].x(), ++used;
+    }
+    if (used < 8) return std::nan("");
+    c = a.ldlt().solve(b);
+    bool changed = false;
+    for (size_t i = 0; i < band.size(); ++i) {
+      const double t = (band[i].y() - opt.h_ref_mm) / opt.band_mm;
+      const bool out = band[i].x() - (c(0) + c(1) * t + c(2) * t * t) > opt.contamination_mm;
+      if (keep[i] && out) keep[i] = false, changed = true;
+    }
+    if (!changed) break;
+  }
+  return std::isfinite(c(0)) ? c(0) : std::nan("");
 }
 
-double ReferenceY(const Outline& o, const MeasureOptions& opt) {
-  std::vector<double> y;
-  for (const Vec2& p : o.side)
-    if (std::abs(p.y() - opt.h_ref_mm) < opt.band_mm) y.push_back(p.x());
-  return Median(y);
+// y -> -y: the -y flank as a +y flank (the model then reads the shadow's -y extent).
+Outline Mirrored(const Outline& o) {
+  Outline m;
+  for (const Vec2& p : o.side_neg) m.side.emplace_back(-p.x(), p.y());
+  for (const Vec2& p : o.bottom) m.bottom.emplace_back(-p.x(), p.y());
+  return m;
 }
 
 // The outline points a flute's fit uses, each with the way "outside the model" points: the
@@ -44,7 +71,7 @@ struct FitPoint {
   bool side = true;
   bool active = true;
   double residual = 0;  ///< outward from the model [mm]
-  FluteMeasurement::PointKind kind = FluteMeasurement::kUsed;
+  FluteView::PointKind kind = FluteView::kUsed;
 };
 
 // The nominal tool (its edges true) shifted by (dy, dh) and turned: the reference model.
@@ -55,10 +82,12 @@ struct Model {
 
   double blur = 0;
   double tan_pitch = 0;  ///< the camera's (tool_camera.h): an edge's end seen at its depth
+  int side = 1;          ///< -1: the -y flank, read mirrored
 
   double Reach(double h, double turn) const {
     const ShadowSpans s = tool.Shadow(h, turn, tan_pitch);
-    return s.count > 0 ? s.hi[s.count - 1] : 0.0;
+    if (s.count == 0) return 0.0;
+    return side > 0 ? s.hi[s.count - 1] : -s.lo[0];
   }
 
   // The outline's flank at height h: the shadow's +y extent; with a pulse's blur, where half
@@ -92,7 +121,7 @@ struct Model {
     Underside u;
     constexpr double kStepMm = 0.00025;
     double running = 0;
-    for (double h = -0.05; h <= tool.corner_radius_mm + 0.05; h += kStepMm) {
+    for (double h = -0.05; h <= tool.EndHeight() + 0.05; h += kStepMm) {
       running = std::max(running, Flank(h, turn));  // the underside sees the widest so far
       u.h.push_back(h), u.y.push_back(running);
     }
@@ -187,7 +216,7 @@ double Along(const FitPoint& f) { return f.side ? f.p.y() : f.p.x(); }
 // at least finding_length_mm long; outside runs shorter than contamination_length_mm are
 // contamination, not build-up).
 std::vector<Finding> Classify(std::vector<FitPoint>* pts, const MeasureOptions& o) {
-  for (FitPoint& f : *pts) f.active = true, f.kind = FluteMeasurement::kUsed;
+  for (FitPoint& f : *pts) f.active = true, f.kind = FluteView::kUsed;
   std::vector<Finding> findings;
   const Ordered ord = Order(*pts);
   for (const auto* line : {&ord.side, &ord.bottom}) {
@@ -208,13 +237,16 @@ std::vector<Finding> Classify(std::vector<FitPoint>* pts, const MeasureOptions& 
         const bool finding =
             !contamination && length >= o.finding_length_mm && worst >= o.finding_mm;
         for (size_t k = a; k < b; ++k)
-          (*pts)[(*line)[k]].kind = !finding  ? FluteMeasurement::kContamination
-                                    : outside ? FluteMeasurement::kBuildup
-                                              : FluteMeasurement::kWear;
+          (*pts)[(*line)[k]].kind = !finding  ? FluteView::kContamination
+                                    : outside ? FluteView::kBuildup
+                                              : FluteView::kWear;
         if (!finding) return;
         Finding fd;
         fd.buildup = outside;
-        fd.h_mm = (*line == ord.side) ? (from + to) / 2 : 0.0;
+        fd.on_end = *line == ord.bottom;
+        const FitPoint& mid = (*pts)[(*line)[(a + b) / 2]];
+        fd.h_mm = fd.on_end ? mid.p.y() : (from + to) / 2;
+        fd.y_mm = fd.on_end ? (from + to) / 2 : 0.0;
         fd.length_mm = length, fd.max_mm = worst, fd.area_mm2 = area;
         findings.push_back(fd);
       });
@@ -238,7 +270,7 @@ std::vector<std::pair<double, double>> Profile(const std::vector<FitPoint>& pts,
   constexpr double kBinMm = 0.01;
   std::map<long, std::pair<double, int>> bins;
   for (const FitPoint& f : pts) {
-    if (!f.side || f.kind == FluteMeasurement::kContamination) continue;
+    if (!f.side || f.kind == FluteView::kContamination) continue;
     auto& b = bins[std::lround(f.p.y() / kBinMm)];
     b.first += f.residual, ++b.second;
   }
@@ -253,57 +285,69 @@ std::vector<std::pair<double, double>> Profile(const std::vector<FitPoint>& pts,
   return profile;
 }
 
-// One flute in its principal image against `model`'s edge `edge` (facing the camera at the
-// reference height when the tool has turned turn0).
-FluteMeasurement MeasureFlute(const Outline& o,
-                              const ToolDescription& model,
-                              int edge,
-                              double turn0,
-                              const MeasureOptions& opt,
-                              double pitch_deg) {
-  const ToolDescription& nominal = model;
+// One edge in one principal image against `model`'s edge `edge` (facing the view's side at
+// the reference height when the tool has turned turn0); `o` mirrored for the -y side.
+FluteView MeasureView(const Outline& o,
+                      const ToolDescription& model,
+                      int edge,
+                      double turn0,
+                      int side,
+                      const MeasureOptions& opt,
+                      double pitch_deg) {
   Model m;
   m.tool = model;
   m.turn0 = turn0;
+  m.side = side;
   m.blur = opt.blur_rad;
   m.tan_pitch = std::tan(pitch_deg / base::kDegPerRad);
-  m.fit_turn = nominal.helix_deg >= 5.0;  // a straight flute's turn trades with its radius
-  const double r = nominal.Radius(), rc = nominal.corner_radius_mm;
+  m.fit_turn = model.helix_deg >= 5.0;  // a straight flute's turn trades with its radius
+  const double r = model.Radius();
+  // Where the end is rounded or pointed the outline is neither upright nor level: the flank
+  // above it, the underside below it.
+  const double rc = model.EndHeight();
   std::vector<FitPoint> pts;
   for (const Vec2& p : o.side)  // the flank, above the corner's flat part
-    if (p.y() > 0.6 * rc && p.y() < nominal.flute_length_mm) pts.push_back({p, true});
-  for (const Vec2& p : o.bottom)  // the end and the corner, where the outline is not upright
-    if (p.x() < r - 0.1 * rc && p.y() < 0.7 * rc) pts.push_back({p, false});
+    if (p.y() > 0.6 * rc && p.y() < model.flute_length_mm) pts.push_back({p, true});
+  // The end and the corner, where the outline is not upright; outside the web, whose end is
+  // the longest edge's (a small tool's end shows it, seed 000 example 1): there the facing
+  // edge alone makes the underside.
+  for (const Vec2& p : o.bottom)
+    if (p.x() > model.core_ratio * r && p.x() < r - 0.1 * rc && p.y() < 0.7 * rc)
+      pts.push_back({p, false});
   if (pts.size() < 20) Fail("too few outline points on a flute's principal image");
   Eigen::Vector3d x = Eigen::Vector3d::Zero();
-  FluteMeasurement fm;
+  FluteView v;
+  v.side = side;
   for (int round = 0; round < opt.rounds; ++round) {
     x = Fit(m, &pts, x);
-    fm.findings = Classify(&pts, opt);
+    v.findings = Classify(&pts, opt);
   }
   const CuttingEdge& e = model.edges[static_cast<size_t>(edge)];
-  fm.radius_mm = r + e.radial_offset_mm + x(0);
-  fm.tip_h_mm = model.TipH(edge) + x(1);
+  v.radius_mm = r + e.radial_offset_mm + x(0);
+  v.tip_h_mm = model.TipH(edge) + x(1);
   double ss = 0;
   for (const FitPoint& f : pts) {
     if (!f.active) {
-      ++fm.removed;
+      ++v.removed;
       continue;
     }
     ss += f.residual * f.residual;
-    ++fm.points;
+    ++v.points;
   }
-  fm.rms_mm = fm.points > 0 ? std::sqrt(ss / fm.points) : 0.0;
-  for (const FitPoint& f : pts) fm.points_yh.push_back(f.p), fm.point_kind.push_back(f.kind);
-  fm.profile = Profile(pts, model, edge);
+  v.rms_mm = v.points > 0 ? std::sqrt(ss / v.points) : 0.0;
+  // Back in the tool frame: the -y side's points and model were read mirrored.
+  for (const FitPoint& f : pts)
+    v.points_yh.emplace_back(side * f.p.x(), f.p.y()), v.point_kind.push_back(f.kind);
+  for (Finding& fd : v.findings) fd.y_mm *= side;
+  v.profile = Profile(pts, model, edge);
   // The fitted model's outline: the flank down to the corner, then the underside inwards.
   const double turn = m.turn0 + x(2);
-  for (double h = 2.5; h >= 0.3 * rc; h -= 0.01)
-    fm.model_yh.emplace_back(m.Flank(h, turn) + x(0), h + x(1));
+  for (double h = opt.h_ref_mm + 1.0; h >= 0.3 * rc; h -= 0.01)
+    v.model_yh.emplace_back(side * (m.Flank(h, turn) + x(0)), h + x(1));
   const auto under = m.Tabulate(turn);
   for (size_t i = under.h.size(); i-- > 0;)
-    if (under.y[i] > 0) fm.model_yh.emplace_back(under.y[i] + x(0), under.h[i] + x(1));
-  return fm;
+    if (under.y[i] > 0) v.model_yh.emplace_back(side * (under.y[i] + x(0)), under.h[i] + x(1));
+  return v;
 }
 
 // The eccentricity of the edges' radii round the tool: r_k = r0 + a cos(phi_k) + b sin(phi_k).
@@ -322,15 +366,16 @@ void Eccentricity(ToolMeasurement* t) {
   t->eccentricity_deg = std::atan2(c(2), c(1)) * base::kDegPerRad;
 }
 
-// The frames' outlines and reference heights, in angular order; `top` the image whose outline
-// reaches farthest at the reference height (a flute's edge nearest the +y extreme).
+// The frames' outlines and reference extremes (per side: +y, and -y read mirrored), in
+// angular order; `top` the image whose +y outline reaches farthest at the reference height.
 struct IndexedImages {
-  std::vector<Outline> outlines;
-  std::vector<double> ref;
+  std::vector<Outline> outlines[2];  ///< [0] as found, [1] mirrored (its side the -y flank)
+  std::vector<double> ref[2];
   std::vector<size_t> order;
   std::vector<double> angle_deg;
   size_t top = 0;
   double step_deg = 0;
+  bool both = false;  ///< the -y flank shows at the reference height in enough images
 };
 
 IndexedImages IndexImages(const std::vector<std::vector<std::uint8_t>>& frames,
@@ -339,78 +384,175 @@ IndexedImages IndexImages(const std::vector<std::vector<std::uint8_t>>& frames,
                           const ToolCameraModel& camera,
                           const MeasureOptions& opt) {
   IndexedImages x;
+  int neg = 0;
   for (const auto& f : frames) {
-    x.outlines.push_back(ExtractOutline(f, camera));
-    x.ref.push_back(ReferenceY(x.outlines.back(), opt));
+    x.outlines[0].push_back(ExtractOutline(f, camera));
+    x.outlines[1].push_back(Mirrored(x.outlines[0].back()));
+    x.ref[0].push_back(ReferenceY(x.outlines[0].back().side, opt));
+    x.ref[1].push_back(ReferenceY(x.outlines[1].back().side, opt));
+    if (std::isfinite(x.ref[1].back())) ++neg;
   }
+  x.both = 2 * neg > static_cast<int>(frames.size());
   x.order.resize(frames.size());
   for (size_t i = 0; i < x.order.size(); ++i) x.order[i] = i;
   std::sort(x.order.begin(), x.order.end(),
             [&](size_t a, size_t b) { return positions[a] < positions[b]; });
   x.step_deg = 360.0 / position_count;
   for (int p : positions) x.angle_deg.push_back(p * x.step_deg);
-  for (size_t i = 0; i < x.ref.size(); ++i)
-    if (std::isfinite(x.ref[i]) && (!std::isfinite(x.ref[x.top]) || x.ref[i] > x.ref[x.top]))
-      x.top = i;
-  if (!std::isfinite(x.ref[x.top])) Fail("no image shows the outline at the reference height");
+  const std::vector<double>& ref = x.ref[0];
+  for (size_t i = 0; i < ref.size(); ++i)
+    if (std::isfinite(ref[i]) && (!std::isfinite(ref[x.top]) || ref[i] > ref[x.top])) x.top = i;
+  if (!std::isfinite(ref[x.top])) Fail("no image shows the outline at the reference height");
   return x;
 }
 
-// Flute f's principal image: the highest reference height within half a pitch of where the
-// flute should be (in order, k); order.size() when there is none.
-size_t PrincipalImage(const IndexedImages& x, int f, int n) {
-  const double want = x.angle_deg[x.top] + f * 360.0 / n;
+double Wrap180(double deg) { return deg - 360.0 * std::round(deg / 360.0); }
+
+// Edge e's angle past edge j's, turning the tool on: the images after the one where j faces a
+// side show e there after this many degrees (the turn brings smaller flute angles round).
+double PeakAfterDeg(const ToolDescription& t, int j, int e) {
+  const double d = (t.FluteAngle(j) - t.FluteAngle(e)) * base::kDegPerRad;
+  return d - 360.0 * std::floor(d / 360.0);
+}
+
+// Half the smaller pitch either side of edge e [deg]: how far its peak may be looked for.
+double HalfPitchDeg(const ToolDescription& t, int e) {
+  const int n = t.flutes;
+  return 0.5 * std::min(PeakAfterDeg(t, (e + 1) % n, e), PeakAfterDeg(t, e, (e + n - 1) % n));
+}
+
+// The image (position k in angular order) with the highest reference extreme of `side` within
+// `half_deg` of `want_deg`; order.size() when there is none.
+size_t PeakImage(const IndexedImages& x, int side, double want_deg, double half_deg) {
+  const std::vector<double>& ref = x.ref[side > 0 ? 0 : 1];
   size_t k_best = x.order.size();
   for (size_t k = 0; k < x.order.size(); ++k) {
-    double off = std::fmod(x.angle_deg[x.order[k]] - want, 360.0);
-    off -= 360.0 * std::round(off / 360.0);
-    if (std::abs(off) > 180.0 / n || !std::isfinite(x.ref[x.order[k]])) continue;
-    if (k_best == x.order.size() || x.ref[x.order[k]] > x.ref[x.order[k_best]]) k_best = k;
+    const size_t i = x.order[k];
+    if (std::abs(Wrap180(x.angle_deg[i] - want_deg)) > half_deg || !std::isfinite(ref[i])) continue;
+    if (k_best == x.order.size() || ref[i] > ref[x.order[k_best]]) k_best = k;
   }
   return k_best;
 }
 
-// Each flute measured in its principal image against the ground (unworn) tool; the flutes'
-// angular offsets from their principal images [deg] in `offsets_deg`.
-std::vector<FluteMeasurement> MeasureFlutes(const IndexedImages& x,
-                                            const ToolDescription& nominal,
-                                            const MeasureOptions& opt,
-                                            double pitch_deg,
-                                            std::vector<double>* offsets_deg) {
-  const int n = nominal.flutes;
-  const ToolDescription ground = Ground(nominal);
-  std::vector<FluteMeasurement> flutes;
-  for (int f = 0; f < n; ++f) {
-    const size_t k_best = PrincipalImage(x, f, n);
-    if (k_best == x.order.size()) Fail("no image near flute " + std::to_string(f + 1));
-    // The maximum between images: a parabola through the principal image and its neighbours.
-    const size_t i0 = x.order[k_best];
-    const double ym = x.ref[x.order[(k_best + x.order.size() - 1) % x.order.size()]];
-    const double yp = x.ref[x.order[(k_best + 1) % x.order.size()]];
-    const double curve = ym - 2 * x.ref[i0] + yp;
-    const double offset_deg = curve < 0 ? x.step_deg * (ym - yp) / (2 * curve) : 0.0;
-    // The principal image's turn: its flute at +y at the reference height, less the offset.
-    const double turn0 =
-        M_PI / 2 - ground.EdgeAngle(0, opt.h_ref_mm, 0.0) - offset_deg / base::kDegPerRad;
-    FluteMeasurement fm = MeasureFlute(x.outlines[i0], ground, 0, turn0, opt, pitch_deg);
-    fm.frame = static_cast<int>(i0);
-    fm.angle_deg = x.angle_deg[i0] + offset_deg;
-    offsets_deg->push_back(offset_deg);
-    flutes.push_back(fm);
-  }
-  return flutes;
+// The extreme's offset from image k (in angular order) on `side` [deg]: a parabola through
+// it and its neighbours places the peak between images.
+double PeakOffsetDeg(const IndexedImages& x, int side, size_t k) {
+  const std::vector<double>& ref = x.ref[side > 0 ? 0 : 1];
+  const size_t n = x.order.size();
+  const double ym = ref[x.order[(k + n - 1) % n]], yp = ref[x.order[(k + 1) % n]];
+  const double curve = ym - 2 * ref[x.order[k]] + yp;
+  return std::isfinite(curve) && curve < 0 ? x.step_deg * (ym - yp) / (2 * curve) : 0.0;
 }
 
-// Flute f (one pitch further round from the highest peak) faces the camera one edge earlier:
-// edge (j0 - f) mod n; j0 the turn of the order that fits radii and tips best.
-int FirstEdge(const std::vector<FluteMeasurement>& flutes, const ToolDescription& nominal) {
-  const int n = nominal.flutes;
-  int j0 = 0;
+// Which edge faces +y at the highest peak: with unequal pitch the one whose pitches, laid out
+// from there, put every flute's predicted peak nearest the peak found near it (seed 000
+// example 3's seven flutes); equal pitch: edge 0.
+int TopEdge(const IndexedImages& x, const ToolDescription& t) {
+  if (t.EqualPitch()) return 0;
+  const int n = t.flutes;
+  size_t k_top = 0;
+  while (x.order[k_top] != x.top) ++k_top;
+  const double top_deg = x.angle_deg[x.top] + PeakOffsetDeg(x, 1, k_top);
+  int best_j = 0;
   double best = 1e300;
   for (int j = 0; j < n; ++j) {
     double cost = 0;
     for (int f = 0; f < n; ++f) {
       const int e = ((j - f) % n + n) % n;
+      const double want = top_deg + PeakAfterDeg(t, j, e);
+      const size_t k = PeakImage(x, 1, want, HalfPitchDeg(t, e));
+      const double found = k < x.order.size()
+                               ? x.angle_deg[x.order[k]] + PeakOffsetDeg(x, 1, k)
+                               : want + HalfPitchDeg(t, e);  // none: as far as it may be
+      cost += std::pow(Wrap180(found - want), 2);
+    }
+    if (cost < best) best = cost, best_j = j;
+  }
+  return best_j;
+}
+
+// Edge e on `side`, its extreme near `want_deg`: the principal image, the peak's offset
+// between images and the view measured.
+FluteView PrincipalView(const IndexedImages& x,
+                        const ToolDescription& model,
+                        int e,
+                        int side,
+                        double want_deg,
+                        const MeasureOptions& opt,
+                        double pitch_deg) {
+  const size_t k = PeakImage(x, side, want_deg, HalfPitchDeg(model, e));
+  if (k == x.order.size())
+    Fail("no image near edge " + std::to_string(e + 1) + " on the " + (side > 0 ? "+y" : "-y") +
+         " flank");
+  const size_t i0 = x.order[k];
+  const double offset_deg = PeakOffsetDeg(x, side, k);
+  // The image's turn: the edge at the side (+y: 90 deg, -y: -90 deg) at the reference height.
+  const double turn0 =
+      side * M_PI / 2 - model.EdgeAngle(e, opt.h_ref_mm, 0.0) - offset_deg / base::kDegPerRad;
+  FluteView v =
+      MeasureView(x.outlines[side > 0 ? 0 : 1][i0], model, e, turn0, side, opt, pitch_deg);
+  v.frame = static_cast<int>(i0);
+  v.angle_deg = x.angle_deg[i0] + offset_deg;
+  return v;
+}
+
+// Flute f: edge e against `model`, on +y and (with the axis in view) on -y half a turn on.
+FluteMeasurement MeasureFlute(const IndexedImages& x,
+                              const ToolDescription& model,
+                              int e,
+                              double want_deg,
+                              const MeasureOptions& opt,
+                              double pitch_deg) {
+  FluteMeasurement fm;
+  fm.edge = e;
+  fm.plus = PrincipalView(x, model, e, 1, want_deg, opt, pitch_deg);
+  fm.radius_mm = fm.plus.radius_mm, fm.tip_h_mm = fm.plus.tip_h_mm;
+  fm.angle_deg = fm.plus.angle_deg;
+  if (x.both) {
+    fm.minus = PrincipalView(x, model, e, -1, fm.plus.angle_deg + 180.0, opt, pitch_deg);
+    fm.radius_mm = (fm.plus.radius_mm + fm.minus->radius_mm) / 2;
+    fm.tip_h_mm = (fm.plus.tip_h_mm + fm.minus->tip_h_mm) / 2;
+  }
+  return fm;
+}
+
+// Flute f (further round from the highest peak) faces +y after edge j0: edge (j0 - f) mod n.
+int EdgeOfFlute(int j0, int f, int n) { return ((j0 - f) % n + n) % n; }
+
+// Each flute against `model`'s edges, edge j0 at the highest peak.
+std::vector<FluteMeasurement> MeasureFlutes(const IndexedImages& x,
+                                            const ToolDescription& model,
+                                            int j0,
+                                            const MeasureOptions& opt,
+                                            double pitch_deg) {
+  const int n = model.flutes;
+  std::vector<FluteMeasurement> flutes;
+  for (int f = 0; f < n; ++f) {
+    const int e = EdgeOfFlute(j0, f, n);
+    const double want = x.angle_deg[x.top] + PeakAfterDeg(model, j0, e);
+    flutes.push_back(MeasureFlute(x, model, e, want, opt, pitch_deg));
+  }
+  return flutes;
+}
+
+// Which of the reference's edges is at the highest peak: the turn of the edges' order that
+// fits radii and tips best, among those the pitches allow (equal pitch: all).
+int FirstEdge(const std::vector<FluteMeasurement>& flutes,
+              const ToolDescription& nominal,
+              int j_pitch) {
+  const int n = nominal.flutes;
+  int j0 = j_pitch;
+  double best = 1e300;
+  for (int j = 0; j < n; ++j) {
+    bool same_pitches = true;  // the pitches from j as from j_pitch (a symmetric pattern)
+    for (int f = 0; f < n; ++f)
+      same_pitches = same_pitches &&
+                     std::abs(PeakAfterDeg(nominal, j, EdgeOfFlute(j, f, n)) -
+                              PeakAfterDeg(nominal, j_pitch, EdgeOfFlute(j_pitch, f, n))) < 0.5;
+    if (!same_pitches) continue;
+    double cost = 0;
+    for (int f = 0; f < n; ++f) {
+      const int e = EdgeOfFlute(j, f, n);
       const double dr = flutes[static_cast<size_t>(f)].radius_mm -
                         (nominal.Radius() + nominal.edges[static_cast<size_t>(e)].radial_offset_mm);
       const double dt = flutes[static_cast<size_t>(f)].tip_h_mm - nominal.TipH(e);
@@ -421,38 +563,23 @@ int FirstEdge(const std::vector<FluteMeasurement>& flutes, const ToolDescription
   return j0;
 }
 
-// With a measured reference tool: each flute measured again against its own edge's reference.
-void MeasureAgainstReference(const IndexedImages& x,
-                             const ToolDescription& nominal,
-                             const MeasureOptions& opt,
-                             double pitch_deg,
-                             const std::vector<double>& offsets_deg,
-                             std::vector<FluteMeasurement>* flutes) {
-  const int n = nominal.flutes;
-  const int j0 = FirstEdge(*flutes, nominal);
-  for (int f = 0; f < n; ++f) {
-    FluteMeasurement& fm = (*flutes)[static_cast<size_t>(f)];
-    const int e = ((j0 - f) % n + n) % n;
-    const double turn0 = M_PI / 2 - nominal.EdgeAngle(e, opt.h_ref_mm, 0.0) -
-                         offsets_deg[static_cast<size_t>(f)] / base::kDegPerRad;
-    FluteMeasurement again =
-        MeasureFlute(x.outlines[static_cast<size_t>(fm.frame)], nominal, e, turn0, opt, pitch_deg);
-    again.frame = fm.frame, again.angle_deg = fm.angle_deg, again.edge = e;
-    fm = again;
-  }
-}
-
-// The tool from its flutes: the largest radius, the lowest tip, runout and eccentricity.
+// The tool from its flutes: the largest radius, the lowest tip, runout, eccentricity, the
+// axis' offset (both flanks) and the worst finding.
 void Summarise(ToolMeasurement* t) {
   t->radius_mm = 0;
-  double smallest = 1e300;
+  double smallest = 1e300, axis = 0;
   t->tip_h_mm = 1e300;
   for (const auto& f : t->flutes) {
     t->radius_mm = std::max(t->radius_mm, f.radius_mm);
     smallest = std::min(smallest, f.radius_mm);
     t->tip_h_mm = std::min(t->tip_h_mm, f.tip_h_mm);
+    if (f.minus) axis += (f.plus.radius_mm - f.minus->radius_mm) / 2;
+    for (const Finding* d : f.Findings())
+      t->worst_finding_mm = std::max(t->worst_finding_mm, d->max_mm);
   }
   t->runout_mm = t->radius_mm - smallest;
+  t->both_flanks = !t->flutes.empty() && t->flutes.front().minus.has_value();
+  if (t->both_flanks) t->axis_offset_mm = axis / static_cast<double>(t->flutes.size());
   Eccentricity(t);
 }
 
@@ -470,16 +597,47 @@ double ShadowLevel(const std::vector<std::uint8_t>& pixels) {
   return geometry::HalfLevel({pixels.data(), static_cast<int>(pixels.size()), 1});
 }
 
+namespace {
+
+// Each row's first rise through `level` going away from the spindle axis (column
+// `axis_u(v)`) on one side, only where the row starts in the tool's shadow at the axis: a drop
+// in the light makes a crossing too, and a row below the tool starts in the light. The -y
+// side's rows are read mirrored (a copy, right to left), so both flanks use one detector.
+template <class AxisColumn>
+std::vector<Vec2> FlankFromAxis(const geometry::GreyView& g,
+                                double level,
+                                int side,
+                                AxisColumn axis_u) {
+  std::vector<Vec2> flank;
+  std::vector<std::uint8_t> row;
+  for (int v = 0; v < g.height; ++v) {
+    const int u0 = std::clamp(static_cast<int>(std::lround(axis_u(v))), 0, g.width - 1);
+    const int n = side > 0 ? g.width - u0 : u0 + 1;
+    if (n < 8 || g.At(u0, v) >= level) continue;
+    row.resize(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i)
+      row[static_cast<size_t>(i)] = static_cast<std::uint8_t>(g.At(side > 0 ? u0 + i : u0 - i, v));
+    const geometry::Points2 c = geometry::RowCrossings({row.data(), n, 1}, level);
+    if (c.cols() == 1) flank.emplace_back(side > 0 ? u0 + c(0, 0) : u0 - c(0, 0), v);
+  }
+  return flank;
+}
+
+}  // namespace
+
 Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCameraModel& c) {
   if (pixels.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
     Bad("a frame's size is not the camera's");
   const geometry::GreyView g{pixels.data(), c.width_px, c.height_px};
   const double level = ShadowLevel(pixels);
+  // The spindle axis in the image (the roll leans it): its column at each row.
+  const Vec2 a0 = c.PixelFromTool({0, 0}), a1 = c.PixelFromTool({0, 1});
+  const double du_dv = (a1.x() - a0.x()) / (a1.y() - a0.y());
+  const auto axis_u = [&](int v) { return a0.x() + (v - a0.y()) * du_dv; };
   Outline o;
-  // Only scan lines that start in the tool's shadow: a drop in the light makes a crossing too.
-  const geometry::Points2 rows = geometry::RowCrossings(g, level);
-  for (Eigen::Index i = 0; i < rows.cols(); ++i)
-    if (g.At(0, static_cast<int>(rows(1, i))) < level) o.side.push_back(ToTool(rows.col(i), c));
+  for (const Vec2& p : FlankFromAxis(g, level, 1, axis_u)) o.side.push_back(ToTool(p, c));
+  if (axis_u(0) >= 0 || axis_u(c.height_px - 1) >= 0)  // the axis in view: the -y flank too
+    for (const Vec2& p : FlankFromAxis(g, level, -1, axis_u)) o.side_neg.push_back(ToTool(p, c));
   const geometry::Points2 cols = geometry::ColumnCrossings(g, level);
   for (Eigen::Index i = 0; i < cols.cols(); ++i)
     if (g.At(static_cast<int>(cols(0, i)), 0) < level) o.bottom.push_back(ToTool(cols.col(i), c));
@@ -498,26 +656,36 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
     Bad("at least 3 images per flute, each with its angular position, are needed");
   // The images in angular order; the flutes are the maxima of the reference height's extreme.
   const IndexedImages x = IndexImages(frames, positions, position_count, camera, opt);
+  const int j_pitch = TopEdge(x, nominal);
   ToolMeasurement t;
-  std::vector<double> offsets_deg;
-  t.flutes = MeasureFlutes(x, nominal, opt, camera.pitch_deg, &offsets_deg);
+  // First against the ground (unworn) tool; against a stored reference each flute again,
+  // against its own edge once the order is known.
+  t.flutes = MeasureFlutes(x, Ground(nominal), j_pitch, opt, camera.pitch_deg);
   const bool reference = std::any_of(nominal.edges.begin(), nominal.edges.end(),
                                      [](const CuttingEdge& e) { return e.Measured(); });
-  if (reference) MeasureAgainstReference(x, nominal, opt, camera.pitch_deg, offsets_deg, &t.flutes);
+  if (reference)
+    t.flutes =
+        MeasureFlutes(x, nominal, FirstEdge(t.flutes, nominal, j_pitch), opt, camera.pitch_deg);
   Summarise(&t);
   return t;
 }
 
+std::vector<const Finding*> FluteMeasurement::Findings() const {
+  std::vector<const Finding*> all;
+  for (const Finding& f : plus.findings) all.push_back(&f);
+  if (minus)
+    for (const Finding& f : minus->findings) all.push_back(&f);
+  return all;
+}
+
 ToolDescription ReferenceFrom(const ToolDescription& nominal, const ToolMeasurement& m) {
   ToolDescription ref = Ground(nominal);
-  const int n = nominal.flutes;
-  for (int f = 0; f < static_cast<int>(m.flutes.size()) && f < n; ++f) {
-    const FluteMeasurement& fm = m.flutes[static_cast<size_t>(f)];
-    const int e = fm.edge >= 0 ? fm.edge : (n - f) % n;
-    CuttingEdge& edge = ref.edges[static_cast<size_t>(e)];
+  for (const FluteMeasurement& fm : m.flutes) {
+    if (fm.edge < 0 || fm.edge >= nominal.flutes) continue;
+    CuttingEdge& edge = ref.edges[static_cast<size_t>(fm.edge)];
     edge.radial_offset_mm = fm.radius_mm - nominal.Radius();
     edge.axial_offset_mm = -fm.tip_h_mm;
-    edge.profile = fm.profile;
+    edge.profile = fm.plus.profile;
   }
   return ref;
 }

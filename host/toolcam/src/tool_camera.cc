@@ -63,8 +63,10 @@ std::vector<Drop> PlaceDrops(const ToolDescription& t,
     const geometry::Vec2 at = c.ToolFromPixel({u, v});
     d.h_mm = at.y();
     double lo = 0, hi = 0;
-    if (unit(rng) < 0.5 && t.ShadowSpan(d.h_mm, turn, &lo, &hi))  // stuck to the edge
-      d.y_mm = hi + d.radius_mm * (0.2 + 0.7 * unit(rng));
+    // Stuck to the edge: on the flank of the side it fell on (a large tool shows only +y).
+    if (unit(rng) < 0.5 && t.ShadowSpan(d.h_mm, turn, &lo, &hi))
+      d.y_mm = at.x() >= 0 ? hi + d.radius_mm * (0.2 + 0.7 * unit(rng))
+                           : lo - d.radius_mm * (0.2 + 0.7 * unit(rng));
     else
       d.y_mm = at.x();
     drops.push_back(d);

@@ -63,6 +63,11 @@ double ToolDescription::EdgeRadius(int k, double h) const {
     const double d = corner_radius_mm - above_tip;
     r = r_edge - corner_radius_mm + std::sqrt(corner_radius_mm * corner_radius_mm - d * d);
   }
+  if (thread_pitch_mm > 0)
+    r -= ThreadDepth(above_tip - thread_pitch_mm * FluteAngle(k) / (2 * M_PI));
+  if (point_angle_deg > 0)  // the point's cone, moved with the edge: its radius grows with the
+    r = std::min(r, tip_diameter_mm / 2 + e.radial_offset_mm +  // height above the apex
+                        above_tip * std::tan(point_angle_deg / 2 / base::kDegPerRad));
   for (const EdgeDefect& d : e.defects) r -= d.depth_mm * Bell((h - d.h_mm) / d.length_mm);
   if (e.profile.size() >= 2 && h >= e.profile.front().first && h <= e.profile.back().first) {
     const auto hi = std::lower_bound(e.profile.begin(), e.profile.end(), std::make_pair(h, -1e300));
@@ -77,8 +82,26 @@ double ToolDescription::EdgeRadius(int k, double h) const {
   return std::max(r, 0.0);
 }
 
+double ToolDescription::FluteAngle(int k) const {
+  return EqualPitch() ? 2 * M_PI * k / flutes
+                      : flute_angles_deg[static_cast<size_t>(k)] / base::kDegPerRad;
+}
+
+double ToolDescription::EndHeight() const {
+  if (point_angle_deg == 0) return corner_radius_mm;
+  return (Radius() - tip_diameter_mm / 2) / std::tan(point_angle_deg / 2 / base::kDegPerRad);
+}
+
 double ToolDescription::EdgeAngle(int k, double h, double turn_rad) const {
-  return turn_rad + 2 * M_PI * k / flutes + h * std::tan(helix_deg / base::kDegPerRad) / Radius();
+  return turn_rad + FluteAngle(k) + h * std::tan(helix_deg / base::kDegPerRad) / Radius();
+}
+
+double ToolDescription::ThreadDepth(double h) const {
+  // ISO 68-1's basic profile in pitches from a crest's middle: the crest flat to 1/16, the
+  // 60-degree flank to 3/8, the root flat to the half pitch; 5H/8 = 0.5413 P deep.
+  const double t = h / thread_pitch_mm, a = std::abs(t - std::round(t));
+  constexpr double kCrest = 1.0 / 16, kRoot = 3.0 / 8, kDepth = 0.54127;
+  return thread_pitch_mm * kDepth * std::clamp((a - kCrest) / (kRoot - kCrest), 0.0, 1.0);
 }
 
 bool ToolDescription::ShadowSpan(double h, double turn, double* lo, double* hi) const {
@@ -90,16 +113,20 @@ bool ToolDescription::ShadowSpan(double h, double turn, double* lo, double* hi) 
 ShadowSpans ToolDescription::Shadow(double h, double turn, double tan_pitch) const {
   if (pin) return PinShadow(h, turn, tan_pitch);
   ShadowSpans out;
-  double lo = 0, hi = 0;
+  double lo = 0, hi = 0, widest = 0;
   bool any = false;
   // sin of each edge's angle (EdgeAngle) by turning one sine/cosine pair a flute at a time:
-  // two sincos a call instead of one sin and one tan an edge (the renderer's hot loop).
+  // two sincos a call instead of one sin and one tan an edge (the renderer's hot loop); an
+  // unequal pitch takes each edge's own.
   const double base = EdgeAngle(0, h, turn), step = 2 * M_PI / flutes;
   double s = std::sin(base), c = std::cos(base);
   const double ss = std::sin(step), cs = std::cos(step), depth_rise = Radius() * tan_pitch;
   for (int k = 0; k < flutes; ++k) {
+    if (!EqualPitch() && k > 0)
+      s = std::sin(base + FluteAngle(k)), c = std::cos(base + FluteAngle(k));
     const double r = EdgeRadius(k, h + c * depth_rise);  // the outer point is at depth R cos
     if (r > 0) {
+      widest = std::max(widest, r);
       const double y = r * s;
       lo = std::min(lo, y), hi = std::max(hi, y);
       any = true;
@@ -108,7 +135,8 @@ ShadowSpans ToolDescription::Shadow(double h, double turn, double tan_pitch) con
     c = c * cs - s * ss, s = s_next;
   }
   if (!any) return out;
-  const double core = core_ratio * Radius();
+  // The web, within what the edges reach at this height (a point or a ball nose's end).
+  const double core = std::min(core_ratio * Radius(), widest);
   out.count = 1, out.lo[0] = std::min(lo, -core), out.hi[0] = std::max(hi, core);
   return out;
 }
@@ -168,6 +196,23 @@ void ToolDescription::Validate() const {
   if (!(flute_length_mm > 0 && flute_length_mm <= length_mm))
     Fail("flute_length_mm must be in (0, length_mm]");
   if (!(core_ratio > 0 && core_ratio < 1)) Fail("core_ratio must be in (0, 1)");
+  if (!(point_angle_deg == 0 || (point_angle_deg >= 10 && point_angle_deg < 180)))
+    Fail("point_angle_deg must be 0 (a flat end) or in [10, 180)");
+  if (point_angle_deg > 0 && corner_radius_mm > 0) Fail("a pointed tool has no corner_radius_mm");
+  if (!(tip_diameter_mm >= 0 && tip_diameter_mm < diameter_mm) ||
+      (tip_diameter_mm > 0 && point_angle_deg == 0))
+    Fail("tip_diameter_mm must be in [0, diameter_mm), with a point_angle_deg");
+  if (!(thread_pitch_mm >= 0 && thread_pitch_mm <= 0.5 * diameter_mm))
+    Fail("thread_pitch_mm must be in [0, diameter / 2]");
+  if (!(wear_limit_mm >= 0 && wear_limit_mm <= 0.1 * Radius()))
+    Fail("wear_limit_mm must be in [0, 10 % of the radius]");
+  if (!flute_angles_deg.empty()) {
+    if (static_cast<int>(flute_angles_deg.size()) != flutes || flute_angles_deg[0] != 0)
+      Fail("flute_angles_deg must list one angle per flute, the first 0");
+    for (size_t k = 1; k < flute_angles_deg.size(); ++k)
+      if (!(flute_angles_deg[k] > flute_angles_deg[k - 1] + 5 && flute_angles_deg[k] < 355))
+        Fail("flute_angles_deg must rise by over 5 deg a flute and stay under 355");
+  }
   if (static_cast<int>(edges.size()) != flutes) Fail("edges must list one edge per flute");
   if (!blades.empty() && (!pin || blades.size() != 2)) Fail("blades: a pin has none or two");
   for (const PinBlade& b : blades)
@@ -197,6 +242,17 @@ ToolDescription ParseTool(const std::string& text) {
   t.helix_deg = jf::NumberOr<ToolInputError>(j, "helix_deg", 30.0, "tool");
   t.flute_length_mm = jf::Number<ToolInputError>(j, "flute_length_mm", "tool");
   t.core_ratio = jf::NumberOr<ToolInputError>(j, "core_ratio", t.core_ratio, "tool");
+  t.point_angle_deg = jf::NumberOr<ToolInputError>(j, "point_angle_deg", 0.0, "tool");
+  t.tip_diameter_mm = jf::NumberOr<ToolInputError>(j, "tip_diameter_mm", 0.0, "tool");
+  t.thread_pitch_mm = jf::NumberOr<ToolInputError>(j, "thread_pitch_mm", 0.0, "tool");
+  t.wear_limit_mm = jf::NumberOr<ToolInputError>(j, "wear_limit_mm", 0.0, "tool");
+  if (j.contains("flute_angles_deg")) {
+    if (!j.at("flute_angles_deg").is_array()) Fail("flute_angles_deg must be an array");
+    for (const json& a : j.at("flute_angles_deg")) {
+      if (!a.is_number()) Fail("flute_angles_deg must hold numbers");
+      t.flute_angles_deg.push_back(a.get<double>());
+    }
+  }
   if (j.contains("kind")) {
     const std::string kind = jf::Text<ToolInputError>(j, "kind", "tool");
     if (kind != "pin" && kind != "cutter") Fail("kind must be cutter or pin");
@@ -248,16 +304,20 @@ std::string ToJson(const ToolDescription& t) {
                                     {"core_ratio", t.core_ratio},
                                     {"kind", t.pin ? "pin" : "cutter"},
                                     {"edges", edges}};
+  nlohmann::ordered_json with = j;
+  if (t.point_angle_deg > 0) with["point_angle_deg"] = t.point_angle_deg;
+  if (t.tip_diameter_mm > 0) with["tip_diameter_mm"] = t.tip_diameter_mm;
+  if (t.thread_pitch_mm > 0) with["thread_pitch_mm"] = t.thread_pitch_mm;
+  if (t.wear_limit_mm > 0) with["wear_limit_mm"] = t.wear_limit_mm;
+  if (!t.flute_angles_deg.empty()) with["flute_angles_deg"] = t.flute_angles_deg;
   if (!t.blades.empty()) {
     nlohmann::ordered_json blades = nlohmann::ordered_json::array();
     for (const PinBlade& b : t.blades)
       blades.push_back(
           {{"offset_mm", b.offset_mm}, {"width_mm", b.width_mm}, {"extends_mm", b.extends_mm}});
-    nlohmann::ordered_json with = j;
     with["blades"] = blades;
-    return with.dump(1) + "\n";
   }
-  return j.dump(1) + "\n";
+  return with.dump(1) + "\n";
 }
 
 ToolDescription LoadTool(const std::string& path) {

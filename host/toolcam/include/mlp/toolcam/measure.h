@@ -12,15 +12,18 @@
 #include "mlp/toolcam/tool_model.h"
 
 #include <cstdint>
+#include <optional>
 #include <utility>
 #include <vector>
 
 namespace mlp::toolcam {
 
 /// A frame's silhouette outline in the tool frame (y across, h up from the nominal tip) [mm]:
-/// `side` from the rows (the +y flank), `bottom` from the columns (the end).
+/// `side` from the rows (the +y flank), `side_neg` the -y flank where the image shows the
+/// spindle axis' other side (a small tool wholly in view, seed 000 example 1), `bottom` from
+/// the columns (the end).
 struct Outline {
-  std::vector<geometry::Vec2> side, bottom;
+  std::vector<geometry::Vec2> side, side_neg, bottom;
 };
 
 /// Sub-pixel outline of one frame, undistorted and mapped with the camera's calibration.
@@ -33,7 +36,10 @@ geometry::Vec2 Undistort(const geometry::Vec2& pixel, const ToolCameraModel& cam
 
 struct MeasureOptions {
   double h_ref_mm = 1.5;  ///< the height that indexes the flutes (above the corner)
-  double band_mm = 0.04;  ///< half the band round it
+  /// Half the band round it: the flank over it is smoothed (a quadratic in h) with what sticks
+  /// out by more than `contamination_mm` left out, so a drop or a build-up there does not move
+  /// the indexing (seed 000 example 3).
+  double band_mm = 0.2;
   /// Outside the model by more than this and shorter than `contamination_length_mm`: coolant,
   /// a chip, oil (removed, the fit repeated).
   double contamination_mm = 0.003;
@@ -52,17 +58,21 @@ struct MeasureOptions {
 /// A stretch of an edge off its model.
 struct Finding {
   bool buildup = false;  ///< outside the model; else wear (inside)
-  double h_mm = 0.0;     ///< its middle, above the nominal tip
+  /// On the end (the underside's outline: the end face and the corner, found along y), else
+  /// on the flank (along h).
+  bool on_end = false;
+  double h_mm = 0.0;  ///< its middle's height above the nominal tip
+  double y_mm = 0.0;  ///< an end finding's middle across the axis (tool frame), else 0
   double length_mm = 0.0, max_mm = 0.0, area_mm2 = 0.0;
 };
 
-struct FluteMeasurement {
-  int frame = 0;  ///< its principal image (index into the frames given)
-  /// The reference's edge it was measured against (a stored reference), -1 against the
-  /// nominal's ground edge.
-  int edge = -1;
-  double angle_deg = 0.0;       ///< where its maximum lies in the images' angular order
-  double radius_mm = 0.0;       ///< the edge's radius (the model shifted in y)
+/// One edge seen in one image: its principal image on the +y flank (`side` +1) or, with the
+/// spindle axis in view, on the -y flank (-1; measured mirrored, figures as the edge's own).
+struct FluteView {
+  int side = 1;
+  int frame = 0;                ///< the image (index into the frames given)
+  double angle_deg = 0.0;       ///< where its extreme lies in the images' angular order
+  double radius_mm = 0.0;       ///< the edge's distance from the calibrated axis
   double tip_h_mm = 0.0;        ///< its tip above the nominal tip (negative: longer)
   double rms_mm = 0.0;          ///< of the outline about the shifted model
   int points = 0, removed = 0;  ///< used; left out as contamination or findings
@@ -74,8 +84,23 @@ struct FluteMeasurement {
   std::vector<geometry::Vec2> points_yh;
   std::vector<PointKind> point_kind;
   /// The edge's shape off its ground edge along h, every 0.01 mm (h, dr) [mm]: the reference's
-  /// own shape plus what this measurement found (a stored reference keeps it).
+  /// own shape plus what this view found (a stored reference keeps it).
   std::vector<std::pair<double, double>> profile;
+};
+
+struct FluteMeasurement {
+  /// The reference's edge it was measured against: the nominal's (unequal pitch: the one the
+  /// pitches say) or a stored reference's (matched by radii and tips).
+  int edge = 0;
+  FluteView plus;                  ///< its +y principal image
+  std::optional<FluteView> minus;  ///< its -y principal image, with the axis in view
+  /// The edge's radius about the spindle axis: with both flanks the views' mean, where the
+  /// axis' error in the camera's calibration cancels (+ on one side, - on the other).
+  double radius_mm = 0.0;
+  double tip_h_mm = 0.0;   ///< the views' mean
+  double angle_deg = 0.0;  ///< the +y view's
+  /// Both views' findings.
+  std::vector<const Finding*> Findings() const;
 };
 
 struct ToolMeasurement {
@@ -85,6 +110,16 @@ struct ToolMeasurement {
   double runout_mm = 0.0;                ///< largest minus smallest edge radius
   /// The edges' radii as a centre off the spindle axis: r_k = r0 + e cos(angle_k - phase).
   double eccentricity_mm = 0.0, eccentricity_deg = 0.0;
+  /// Both flanks seen (the axis in view): the spindle axis' offset across the image from where
+  /// the camera's calibration puts it [mm] (half the +y and -y radii's mean difference).
+  bool both_flanks = false;
+  double axis_offset_mm = 0.0;
+  /// The worst finding's distance from the model [mm] (0: none) and whether it exceeds the
+  /// tool's wear limit (the tool table is then not written).
+  double worst_finding_mm = 0.0;
+  bool OverWearLimit(const ToolDescription& tool) const {
+    return worst_finding_mm > tool.wear_limit_mm;
+  }
 };
 
 /// `frames[i]` was taken at angular position `positions[i]` of `position_count` (the strobe

@@ -71,6 +71,16 @@ struct ToolDescription {
   double length_mm = 0.0;  ///< gauge point to the nominal tip (the tool table's length)
   int flutes = 0;
   double corner_radius_mm = 0.0;  ///< 0 sharp corner; diameter / 2 a ball nose
+  /// A drill's point (or a tap's chamfer): the end a cone of this included angle [deg], its apex
+  /// the tip; 0 a flat end (with the corner radius).
+  double point_angle_deg = 0.0;
+  /// The flat a point is cut off at (a tap's chamfer starts near its minor diameter) [mm]; 0:
+  /// a sharp point.
+  double tip_diameter_mm = 0.0;
+  /// A tap: a 60-degree thread of this pitch [mm] (ISO 68-1's basic profile, depth 5H/8 =
+  /// 0.5413 P below the crest, crest flat P/8, root flat P/4), right-hand: edge k's thread is
+  /// its flute angle / 360 of a pitch higher than edge 0's. 0: no thread.
+  double thread_pitch_mm = 0.0;
   double helix_deg = 0.0;
   double flute_length_mm = 0.0;
   /// The web between the flutes: a cylinder of this share of the radius.
@@ -80,11 +90,25 @@ struct ToolDescription {
   bool pin = false;
   std::vector<PinBlade> blades;
   std::vector<CuttingEdge> edges;  ///< one per flute
+  /// Each flute's angle about z from flute 0 [deg], rising in [0, 360) (unequal pitch, seed 000
+  /// example 3's seven flutes); empty: equal pitch.
+  std::vector<double> flute_angles_deg;
+  /// The deepest wear or the highest build-up this tool may carry and still be set [mm]: a
+  /// finding within it is reported and the tool table written; beyond it, refused. 0: every
+  /// finding refuses.
+  double wear_limit_mm = 0.0;
 
   double Radius() const { return diameter_mm / 2; }
+  /// Flute k's angle about z from flute 0 [rad].
+  double FluteAngle(int k) const;
+  bool EqualPitch() const { return flute_angles_deg.empty(); }
+  /// How far above the tip the end's shape reaches the full radius: the corner radius, or the
+  /// point's (chamfer's) length.
+  double EndHeight() const;
   /// Height of edge k's tip above the nominal tip (negative when the edge is longer).
   double TipH(int k) const;
-  /// Edge k's outer radius at height h (<= 0 below its tip): corner radius, runout, defects.
+  /// Edge k's outer radius at height h (<= 0 below its tip): corner radius or point, thread,
+  /// runout, defects.
   double EdgeRadius(int k, double h_mm) const;
   /// Edge k's angle about z at height h when the tool has turned `turn_rad` (the helix winds
   /// the edge round as it rises).
@@ -101,6 +125,7 @@ struct ToolDescription {
   void Validate() const;
 
  private:
+  double ThreadDepth(double h_mm) const;  ///< below the crest, h from edge 0's crest
   double PinHalfWidth(double h_mm, double tan_pitch) const;
   ShadowSpans PinShadow(double h_mm, double turn_rad, double tan_pitch) const;
 };

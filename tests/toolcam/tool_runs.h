@@ -1,0 +1,69 @@
+#pragma once
+// What the tool camera's tests share: a strobe plan's frames of a tool rendered by the virtual
+// camera (its truth known) and measured against a nominal, and which edge faced a side in a
+// frame.
+
+#include "mlp/toolcam/measure.h"
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+namespace mlp::toolcam::test {
+
+struct MeasuredRun {
+  ToolMeasurement m;
+  std::vector<double> turn;  ///< each frame's true turn [rad]
+  double start_turn = 0;     ///< the turn at angular position 0 [rad]
+  /// Where edge e faces +y at height h, as the measurement counts angles (position x step).
+  double PeakDeg(const ToolDescription& t, int e, double h) const {
+    const double d = (M_PI / 2 - t.EdgeAngle(e, h, 0.0) - start_turn) * 180 / M_PI;
+    return d - 360.0 * std::floor(d / 360.0);
+  }
+};
+
+struct RunSetup {
+  double resolution_deg = 7.2;  ///< 50 images at 5000 rpm, 50 images/s
+  MeasureOptions options;
+  /// The camera the measurement is given (its calibration), when not the one that rendered.
+  const ToolCameraModel* measured_with = nullptr;
+};
+
+// Renders a plan's frames of `tool` (5000 rpm, pulses a tenth of a step) and measures them
+// against the nominal.
+inline MeasuredRun RenderAndMeasure(const ToolDescription& tool,
+                                    const ToolDescription& nominal,
+                                    const ToolCameraModel& c,
+                                    unsigned seed,
+                                    const RunSetup& setup = {}) {
+  StrobeRequest r;
+  r.rpm = 5000, r.frame_rate_hz = 50, r.resolution_deg = setup.resolution_deg;
+  r.pulse_share = 0.1;
+  const StrobePlan plan = PlanStrobe(r);
+  std::mt19937 rng(seed);
+  const double start = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng);
+  const double blur = plan.pulse_width_us * 1e-6 * plan.rpm / 60 * 2 * M_PI;
+  MeasuredRun run;
+  run.start_turn = start;
+  std::vector<std::vector<std::uint8_t>> frames;
+  for (int pos : plan.position) {
+    run.turn.push_back(start + 2 * M_PI * pos / plan.positions);
+    frames.push_back(RenderToolFrame(tool, c, run.turn.back(), blur, rng).pixels);
+  }
+  run.m = MeasureTool(frames, plan.position, plan.positions, nominal,
+                      setup.measured_with ? *setup.measured_with : c, setup.options);
+  return run;
+}
+
+// The edge nearest the `side` (+1: +y, -1: -y) at height h in the frame turned `turn`.
+inline int EdgeFacing(const ToolDescription& t, double turn, double h, int side = 1) {
+  int best = 0;
+  double best_y = -1e300;
+  for (int k = 0; k < t.flutes; ++k) {
+    const double y = side * std::sin(t.EdgeAngle(k, h, turn));
+    if (y > best_y) best_y = y, best = k;
+  }
+  return best;
+}
+
+}  // namespace mlp::toolcam::test
