@@ -127,17 +127,24 @@ cv::Mat ViewTile(const std::vector<std::vector<std::uint8_t>>& images,
   return tile;
 }
 
-// The principal images of every flute (both flanks' with the axis in view), in rows of two.
+// A series of images and the camera they were taken with.
+struct Shown {
+  const std::vector<std::vector<std::uint8_t>>& images;
+  const toolcam::ToolCameraModel& camera;
+};
+
+// The principal images of every flute (both flanks' with the axis in view, or from the other
+// side's series), in rows of two.
 void WriteOverlay(const std::string& path,
-                  const std::vector<std::vector<std::uint8_t>>& images,
-                  const toolcam::ToolCameraModel& camera,
+                  const Shown& plus,
+                  const Shown& minus,
                   const toolcam::ToolMeasurement& m) {
   std::vector<cv::Mat> tiles;
   for (size_t k = 0; k < m.flutes.size(); ++k) {
     const auto& f = m.flutes[k];
     const std::string name = "flute " + std::to_string(k + 1);
-    tiles.push_back(ViewTile(images, camera, f.plus, f.minus ? name + " +y" : name));
-    if (f.minus) tiles.push_back(ViewTile(images, camera, *f.minus, name + " -y"));
+    tiles.push_back(ViewTile(plus.images, plus.camera, f.plus, f.minus ? name + " +y" : name));
+    if (f.minus) tiles.push_back(ViewTile(minus.images, minus.camera, *f.minus, name + " -y"));
   }
   if (tiles.size() % 2)
     tiles.push_back(cv::Mat(tiles[0].size(), tiles[0].type(), cv::Scalar(255, 255, 255)));
@@ -318,7 +325,7 @@ void PrintToolTableChange(const nlohmann::json& t, std::ostream& out) {
 }  // namespace
 
 int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args f(args, {{"--images", "--frames", "--tool", "--camera", "--overlay",
+  const Args f(args, {{"--images", "--frames", "--other-side", "--tool", "--camera", "--overlay",
                        "--save-reference", "--tool-table", "--tool-number", "--max-change-mm"},
                       {"--json", "--accept-findings"}});
   const std::string images =
@@ -332,19 +339,35 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   std::vector<std::string> warnings;
   const toolcam::ToolCameraModel camera =
       CameraFor(im, f.Text("--camera", ""), tool.length_mm, &warnings);
+  // A tool wider than the field: its -y side's series, the spindle moved across (its shift in
+  // that manifest).
+  const std::string other = f.Text("--other-side", "");
+  const Images im_other = other.empty() ? Images{} : ReadImages(other);
+  const toolcam::ToolCameraModel camera_other =
+      other.empty() ? camera
+                    : CameraFor(im_other, f.Text("--camera", ""), tool.length_mm, &warnings);
   for (const auto& w : warnings) err << "mlp tool: warning: " << w << "\n";
   toolcam::MeasureOptions options;
   options.blur_rad = im.blur_rad;
   const toolcam::ToolMeasurement m =
-      toolcam::MeasureTool(im.pixels, im.position, im.positions, tool, camera, options);
-  if (!f.Text("--overlay", "").empty()) WriteOverlay(f.Text("--overlay", ""), im.pixels, camera, m);
+      other.empty()
+          ? toolcam::MeasureTool(im.pixels, im.position, im.positions, tool, camera, options)
+          : toolcam::MeasureToolBothSides(
+                {im.pixels, im.position, im.positions, camera},
+                {im_other.pixels, im_other.position, im_other.positions, camera_other}, tool,
+                options);
+  if (!f.Text("--overlay", "").empty())
+    WriteOverlay(f.Text("--overlay", ""), {im.pixels, camera},
+                 other.empty() ? Shown{im.pixels, camera} : Shown{im_other.pixels, camera_other},
+                 m);
   if (!f.Text("--save-reference", "").empty())
     SaveReference(f.Text("--save-reference", ""), tool, m);
   nlohmann::json result = MeasurementJson(tool, m);
   result["warnings"] = warnings;
+  const std::string source = other.empty() ? images : images + " and " + other;
   const int code = f.Text("--tool-table", "").empty()
                        ? kExitOk
-                       : WriteToolTable(f, tool, m, images, &result, err);
+                       : WriteToolTable(f, tool, m, source, &result, err);
   if (f.Has("--json")) {
     out << result.dump() << "\n";
     return code;

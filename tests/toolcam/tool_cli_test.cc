@@ -24,6 +24,7 @@ constexpr double kScaleTol = 2e-5;            // 20 ppm: 1 um over the 50 mm pin
 constexpr double kGaugeAlongTolPx = 0.25;     // 1 um
 constexpr double kSameNumber = 1e-12;         // the table holds what was reported
 constexpr double kFindingDepthTolMm = 0.002;  // the worn tool's deepest finding
+constexpr double kAxisTolMm = 0.0005;         // the axis from both sides
 
 // Every view's findings in `mlp tool measure --json`'s result.
 int FindingCount(const nlohmann::json& m) {
@@ -112,6 +113,39 @@ TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
 // The camera calibrated with the bladed pin through the command line, then a tool measured
 // with that calibration (the manifest without one, as a real camera's) and written to a
 // LinuxCNC tool table: refused with findings or beyond the change limit, nothing changed then.
+// A D10 tool wider than the field, on both sides: the +y series, then the spindle moved 10 mm
+// across and the -y series (seed 000 examples 2 and 3); `--other-side` pairs them.
+TEST(ToolCli, MeasuresAWideToolOnBothSides) {
+  const std::string dir = "/tmp/mlp_tool_cli_sides";
+  std::filesystem::remove_all(dir);
+  const std::string tools = mlp::test::SourceDir() + "/samples/tools/";
+  const std::string render = kMlp + " tool render --tool " + tools +
+                             "endmill_d10_z4_worn.json --rpm 5000 --fps 50 --resolution-deg 7.2 "
+                             "--pulse-share 0.1 --drops 0";
+  ASSERT_EQ(RunProcess(render + " --out " + dir + "/plus --seed 8").exit_code, 0);
+  const auto minus =
+      RunProcess(render + " --out " + dir +
+                 "/minus --seed 9 --start-deg 123 --axis-u-px 1762 --spindle-y-mm 10");
+  ASSERT_EQ(minus.exit_code, 0) << minus.err;
+  const auto run = RunProcess(kMlp + " tool measure --images " + dir + "/plus --other-side " + dir +
+                              "/minus --tool " + tools + "endmill_d10_z4_new.json --overlay " +
+                              dir + "/overlay.png --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto m = nlohmann::json::parse(run.out);
+  EXPECT_TRUE(m.at("both_flanks").get<bool>());
+  EXPECT_NEAR(m.at("axis_offset_mm").get<double>(), 0.0, kAxisTolMm);
+  EXPECT_NEAR(m.at("diameter_mm").get<double>(), 10.012, kDiameterTolMm);
+  EXPECT_NEAR(m.at("length_mm").get<double>(), 75.004, kLengthTolMm);
+  for (const auto& f : m.at("flutes")) EXPECT_EQ(f.at("views").size(), 2u);
+  EXPECT_EQ(FindingCount(m), 4);  // the chip and the build-up, each seen from both sides
+  EXPECT_TRUE(std::filesystem::exists(dir + "/overlay.png"));
+  // The series swapped: the first does not show the +y flank.
+  const auto swapped = RunProcess(kMlp + " tool measure --images " + dir + "/minus --other-side " +
+                                  dir + "/plus --tool " + tools + "endmill_d10_z4_new.json");
+  EXPECT_EQ(swapped.exit_code, 2) << swapped.err;
+  EXPECT_NE(swapped.err.find("+y flank"), std::string::npos) << swapped.err;
+}
+
 TEST(ToolCli, CalibratesTheCameraThenMeasuresIntoTheToolTable) {
   const std::string dir = "/tmp/mlp_tool_cli_calibrate";
   std::filesystem::remove_all(dir);

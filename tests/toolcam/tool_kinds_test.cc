@@ -112,6 +112,46 @@ TEST(ToolKinds, ASmallToolIsMeasuredOnBothFlanksAndFindsTheAxis) {
   }
 }
 
+// Seed 000 examples 2 and 3: a D10 tool, wider than the field: a series on its +y side, then
+// the spindle moved 10 mm across and a series on its -y side, each from an unknown start. The
+// camera's calibration puts the axis 3 um off in both: each side alone reads every edge 3 um
+// off, the pair does not and says where the axis is. The used tool's runout and lengths pair
+// the sides' flutes; the reference height's build-up and chip are found on both sides.
+TEST(ToolKinds, ALargeToolOnBothSidesFromTwoSeries) {
+  const ToolDescription worn = LoadTool(kTools + "endmill_d10_z4_worn.json");
+  const ToolDescription nominal = LoadTool(kTools + "endmill_d10_z4_new.json");
+  const ToolCameraModel plus_camera = FlankCamera(5.0);
+  ToolCameraModel minus_camera = plus_camera;
+  minus_camera.axis_u_px = 200 + 5.0 / minus_camera.mm_per_px;  // the -y flank in the middle
+  ToolCameraModel plus_cal = plus_camera, minus_cal = minus_camera;
+  plus_cal.axis_u_px += 0.75, minus_cal.axis_u_px += 0.75;  // the axis believed 3 um right
+  const test::RenderedSeries p = test::RenderSeries(worn, plus_camera, 46);
+  const test::RenderedSeries m = test::RenderSeries(worn, minus_camera, 47);
+  const ToolMeasurement t =
+      MeasureToolBothSides({p.frames, p.positions, p.position_count, plus_cal},
+                           {m.frames, m.positions, m.position_count, minus_cal}, nominal);
+  ASSERT_TRUE(t.both_flanks);
+  int found = 0;
+  for (const FluteMeasurement& f : t.flutes) {
+    const int k = EdgeFacing(worn, p.turn[static_cast<size_t>(f.plus.frame)], 1.5);
+    ASSERT_TRUE(f.minus.has_value());
+    std::printf(
+        "  edge %d: radius %.4f mm (%+.2f um; +y %+.2f, -y %+.2f), tip %+.2f um (true %+.2f)\n",
+        k + 1, f.radius_mm, (f.radius_mm - TrueRadius(worn, k)) * 1e3,
+        (f.plus.radius_mm - TrueRadius(worn, k)) * 1e3,
+        (f.minus->radius_mm - TrueRadius(worn, k)) * 1e3, f.tip_h_mm * 1e3, worn.TipH(k) * 1e3);
+    EXPECT_EQ(EdgeFacing(worn, m.turn[static_cast<size_t>(f.minus->frame)], 1.5, -1), k)
+        << "the sides paired wrongly";
+    EXPECT_NEAR(f.radius_mm, TrueRadius(worn, k), kEdgeTolMm) << "edge " << k + 1;
+    EXPECT_NEAR(f.tip_h_mm, worn.TipH(k), kEdgeTolMm) << "edge " << k + 1;
+    EXPECT_NEAR(f.plus.radius_mm - TrueRadius(worn, k), -0.003, kAxisTolMm);
+    found += static_cast<int>(f.Findings().size());
+  }
+  std::printf("  axis %+.2f um (true -3.00)\n", t.axis_offset_mm * 1e3);
+  EXPECT_NEAR(t.axis_offset_mm, -0.003, kAxisTolMm);
+  EXPECT_EQ(found, 4);  // the chip and the build-up, each on both sides
+}
+
 // A twist drill (two flutes, 118 deg point), a ball-nose and a torus cutter, each wholly in
 // view: the point's, the ball's and the torus' silhouettes are in the model.
 TEST(ToolKinds, DrillBallNoseAndTorusCutters) {

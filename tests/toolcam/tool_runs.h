@@ -29,28 +29,46 @@ struct RunSetup {
   const ToolCameraModel* measured_with = nullptr;
 };
 
-// Renders a plan's frames of `tool` (5000 rpm, pulses a tenth of a step) and measures them
-// against the nominal.
+// A strobe plan's frames of a tool (5000 rpm, pulses a tenth of a step), starting at a seeded
+// random turn.
+struct RenderedSeries {
+  std::vector<std::vector<std::uint8_t>> frames;
+  std::vector<int> positions;
+  int position_count = 0;
+  std::vector<double> turn;  ///< each frame's true turn [rad]
+  double start_turn = 0;
+};
+
+inline RenderedSeries RenderSeries(const ToolDescription& tool,
+                                   const ToolCameraModel& c,
+                                   unsigned seed,
+                                   double resolution_deg = 7.2) {
+  StrobeRequest r;
+  r.rpm = 5000, r.frame_rate_hz = 50, r.resolution_deg = resolution_deg;
+  r.pulse_share = 0.1;
+  const StrobePlan plan = PlanStrobe(r);
+  std::mt19937 rng(seed);
+  RenderedSeries s;
+  s.start_turn = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng);
+  const double blur = plan.pulse_width_us * 1e-6 * plan.rpm / 60 * 2 * M_PI;
+  s.positions = plan.position, s.position_count = plan.positions;
+  for (int pos : plan.position) {
+    s.turn.push_back(s.start_turn + 2 * M_PI * pos / plan.positions);
+    s.frames.push_back(RenderToolFrame(tool, c, s.turn.back(), blur, rng).pixels);
+  }
+  return s;
+}
+
+// Renders a plan's frames of `tool` and measures them against the nominal.
 inline MeasuredRun RenderAndMeasure(const ToolDescription& tool,
                                     const ToolDescription& nominal,
                                     const ToolCameraModel& c,
                                     unsigned seed,
                                     const RunSetup& setup = {}) {
-  StrobeRequest r;
-  r.rpm = 5000, r.frame_rate_hz = 50, r.resolution_deg = setup.resolution_deg;
-  r.pulse_share = 0.1;
-  const StrobePlan plan = PlanStrobe(r);
-  std::mt19937 rng(seed);
-  const double start = std::uniform_real_distribution<double>(0, 2 * M_PI)(rng);
-  const double blur = plan.pulse_width_us * 1e-6 * plan.rpm / 60 * 2 * M_PI;
+  const RenderedSeries s = RenderSeries(tool, c, seed, setup.resolution_deg);
   MeasuredRun run;
-  run.start_turn = start;
-  std::vector<std::vector<std::uint8_t>> frames;
-  for (int pos : plan.position) {
-    run.turn.push_back(start + 2 * M_PI * pos / plan.positions);
-    frames.push_back(RenderToolFrame(tool, c, run.turn.back(), blur, rng).pixels);
-  }
-  run.m = MeasureTool(frames, plan.position, plan.positions, nominal,
+  run.start_turn = s.start_turn, run.turn = s.turn;
+  run.m = MeasureTool(s.frames, s.positions, s.position_count, nominal,
                       setup.measured_with ? *setup.measured_with : c, setup.options);
   return run;
 }

@@ -367,42 +367,43 @@ void Eccentricity(ToolMeasurement* t) {
 }
 
 // The frames' outlines and reference extremes (per side: +y, and -y read mirrored), in
-// angular order; `top` the image whose +y outline reaches farthest at the reference height.
+// angular order; `top[s]` the image whose outline on side s reaches farthest at the reference
+// height (`order.size()`: that side not in view).
 struct IndexedImages {
   std::vector<Outline> outlines[2];  ///< [0] as found, [1] mirrored (its side the -y flank)
   std::vector<double> ref[2];
   std::vector<size_t> order;
   std::vector<double> angle_deg;
-  size_t top = 0;
+  size_t top[2] = {0, 0};
   double step_deg = 0;
   bool both = false;  ///< the -y flank shows at the reference height in enough images
 };
 
-IndexedImages IndexImages(const std::vector<std::vector<std::uint8_t>>& frames,
-                          const std::vector<int>& positions,
-                          int position_count,
-                          const ToolCameraModel& camera,
-                          const MeasureOptions& opt) {
+int SideIndex(int side) { return side > 0 ? 0 : 1; }
+
+IndexedImages IndexImages(const ToolSeries& series, const MeasureOptions& opt) {
   IndexedImages x;
   int neg = 0;
-  for (const auto& f : frames) {
-    x.outlines[0].push_back(ExtractOutline(f, camera));
+  for (const auto& f : series.frames) {
+    x.outlines[0].push_back(ExtractOutline(f, series.camera));
     x.outlines[1].push_back(Mirrored(x.outlines[0].back()));
     x.ref[0].push_back(ReferenceY(x.outlines[0].back().side, opt));
     x.ref[1].push_back(ReferenceY(x.outlines[1].back().side, opt));
     if (std::isfinite(x.ref[1].back())) ++neg;
   }
-  x.both = 2 * neg > static_cast<int>(frames.size());
-  x.order.resize(frames.size());
+  x.both = 2 * neg > static_cast<int>(series.frames.size());
+  x.order.resize(series.frames.size());
   for (size_t i = 0; i < x.order.size(); ++i) x.order[i] = i;
   std::sort(x.order.begin(), x.order.end(),
-            [&](size_t a, size_t b) { return positions[a] < positions[b]; });
-  x.step_deg = 360.0 / position_count;
-  for (int p : positions) x.angle_deg.push_back(p * x.step_deg);
-  const std::vector<double>& ref = x.ref[0];
-  for (size_t i = 0; i < ref.size(); ++i)
-    if (std::isfinite(ref[i]) && (!std::isfinite(ref[x.top]) || ref[i] > ref[x.top])) x.top = i;
-  if (!std::isfinite(ref[x.top])) Fail("no image shows the outline at the reference height");
+            [&](size_t a, size_t b) { return series.positions[a] < series.positions[b]; });
+  x.step_deg = 360.0 / series.position_count;
+  for (int p : series.positions) x.angle_deg.push_back(p * x.step_deg);
+  for (int s = 0; s < 2; ++s) {
+    const std::vector<double>& ref = x.ref[s];
+    x.top[s] = ref.size();
+    for (size_t i = 0; i < ref.size(); ++i)
+      if (std::isfinite(ref[i]) && (x.top[s] == ref.size() || ref[i] > ref[x.top[s]])) x.top[s] = i;
+  }
   return x;
 }
 
@@ -424,7 +425,7 @@ double HalfPitchDeg(const ToolDescription& t, int e) {
 // The image (position k in angular order) with the highest reference extreme of `side` within
 // `half_deg` of `want_deg`; order.size() when there is none.
 size_t PeakImage(const IndexedImages& x, int side, double want_deg, double half_deg) {
-  const std::vector<double>& ref = x.ref[side > 0 ? 0 : 1];
+  const std::vector<double>& ref = x.ref[SideIndex(side)];
   size_t k_best = x.order.size();
   for (size_t k = 0; k < x.order.size(); ++k) {
     const size_t i = x.order[k];
@@ -437,22 +438,23 @@ size_t PeakImage(const IndexedImages& x, int side, double want_deg, double half_
 // The extreme's offset from image k (in angular order) on `side` [deg]: a parabola through
 // it and its neighbours places the peak between images.
 double PeakOffsetDeg(const IndexedImages& x, int side, size_t k) {
-  const std::vector<double>& ref = x.ref[side > 0 ? 0 : 1];
+  const std::vector<double>& ref = x.ref[SideIndex(side)];
   const size_t n = x.order.size();
   const double ym = ref[x.order[(k + n - 1) % n]], yp = ref[x.order[(k + 1) % n]];
   const double curve = ym - 2 * ref[x.order[k]] + yp;
   return std::isfinite(curve) && curve < 0 ? x.step_deg * (ym - yp) / (2 * curve) : 0.0;
 }
 
-// Which edge faces +y at the highest peak: with unequal pitch the one whose pitches, laid out
-// from there, put every flute's predicted peak nearest the peak found near it (seed 000
+// Which edge faces `side` at its highest peak: with unequal pitch the one whose pitches, laid
+// out from there, put every flute's predicted peak nearest the peak found near it (seed 000
 // example 3's seven flutes); equal pitch: edge 0.
-int TopEdge(const IndexedImages& x, const ToolDescription& t) {
+int TopEdge(const IndexedImages& x, const ToolDescription& t, int side) {
   if (t.EqualPitch()) return 0;
   const int n = t.flutes;
+  const size_t top = x.top[SideIndex(side)];
   size_t k_top = 0;
-  while (x.order[k_top] != x.top) ++k_top;
-  const double top_deg = x.angle_deg[x.top] + PeakOffsetDeg(x, 1, k_top);
+  while (x.order[k_top] != top) ++k_top;
+  const double top_deg = x.angle_deg[top] + PeakOffsetDeg(x, side, k_top);
   int best_j = 0;
   double best = 1e300;
   for (int j = 0; j < n; ++j) {
@@ -460,9 +462,9 @@ int TopEdge(const IndexedImages& x, const ToolDescription& t) {
     for (int f = 0; f < n; ++f) {
       const int e = ((j - f) % n + n) % n;
       const double want = top_deg + PeakAfterDeg(t, j, e);
-      const size_t k = PeakImage(x, 1, want, HalfPitchDeg(t, e));
+      const size_t k = PeakImage(x, side, want, HalfPitchDeg(t, e));
       const double found = k < x.order.size()
-                               ? x.angle_deg[x.order[k]] + PeakOffsetDeg(x, 1, k)
+                               ? x.angle_deg[x.order[k]] + PeakOffsetDeg(x, side, k)
                                : want + HalfPitchDeg(t, e);  // none: as far as it may be
       cost += std::pow(Wrap180(found - want), 2);
     }
@@ -489,50 +491,68 @@ FluteView PrincipalView(const IndexedImages& x,
   // The image's turn: the edge at the side (+y: 90 deg, -y: -90 deg) at the reference height.
   const double turn0 =
       side * M_PI / 2 - model.EdgeAngle(e, opt.h_ref_mm, 0.0) - offset_deg / base::kDegPerRad;
-  FluteView v =
-      MeasureView(x.outlines[side > 0 ? 0 : 1][i0], model, e, turn0, side, opt, pitch_deg);
+  FluteView v = MeasureView(x.outlines[SideIndex(side)][i0], model, e, turn0, side, opt, pitch_deg);
   v.frame = static_cast<int>(i0);
   v.angle_deg = x.angle_deg[i0] + offset_deg;
   return v;
 }
 
-// Flute f: edge e against `model`, on +y and (with the axis in view) on -y half a turn on.
-FluteMeasurement MeasureFlute(const IndexedImages& x,
-                              const ToolDescription& model,
-                              int e,
-                              double want_deg,
-                              const MeasureOptions& opt,
-                              double pitch_deg) {
+// Flute f (further round from the highest peak) faces a side after edge j0: (j0 - f) mod n.
+int EdgeOfFlute(int j0, int f, int n) { return ((j0 - f) % n + n) % n; }
+
+// The flute's figures from its views: with both, their means.
+FluteMeasurement FromViews(FluteView plus, std::optional<FluteView> minus, int edge) {
   FluteMeasurement fm;
-  fm.edge = e;
-  fm.plus = PrincipalView(x, model, e, 1, want_deg, opt, pitch_deg);
+  fm.edge = edge;
+  fm.plus = std::move(plus);
+  fm.minus = std::move(minus);
   fm.radius_mm = fm.plus.radius_mm, fm.tip_h_mm = fm.plus.tip_h_mm;
   fm.angle_deg = fm.plus.angle_deg;
-  if (x.both) {
-    fm.minus = PrincipalView(x, model, e, -1, fm.plus.angle_deg + 180.0, opt, pitch_deg);
+  if (fm.minus) {
     fm.radius_mm = (fm.plus.radius_mm + fm.minus->radius_mm) / 2;
     fm.tip_h_mm = (fm.plus.tip_h_mm + fm.minus->tip_h_mm) / 2;
   }
   return fm;
 }
 
-// Flute f (further round from the highest peak) faces +y after edge j0: edge (j0 - f) mod n.
-int EdgeOfFlute(int j0, int f, int n) { return ((j0 - f) % n + n) % n; }
-
-// Each flute against `model`'s edges, edge j0 at the highest peak.
+// One series: each flute's edge (edges[f], flute f round from the +y side's highest peak)
+// against `model`, on +y and, with the axis in view, on -y half a turn on.
 std::vector<FluteMeasurement> MeasureFlutes(const IndexedImages& x,
                                             const ToolDescription& model,
-                                            int j0,
+                                            const std::vector<int>& edges,
                                             const MeasureOptions& opt,
                                             double pitch_deg) {
-  const int n = model.flutes;
   std::vector<FluteMeasurement> flutes;
-  for (int f = 0; f < n; ++f) {
-    const int e = EdgeOfFlute(j0, f, n);
-    const double want = x.angle_deg[x.top] + PeakAfterDeg(model, j0, e);
-    flutes.push_back(MeasureFlute(x, model, e, want, opt, pitch_deg));
+  for (const int e : edges) {
+    const double want = x.angle_deg[x.top[0]] + PeakAfterDeg(model, edges[0], e);
+    FluteView plus = PrincipalView(x, model, e, 1, want, opt, pitch_deg);
+    std::optional<FluteView> minus;
+    if (x.both) minus = PrincipalView(x, model, e, -1, plus.angle_deg + 180.0, opt, pitch_deg);
+    flutes.push_back(FromViews(std::move(plus), std::move(minus), e));
   }
   return flutes;
+}
+
+// The views on `side` of edges[f], flute f round from that side's highest peak.
+std::vector<FluteView> SideViews(const IndexedImages& x,
+                                 const ToolDescription& model,
+                                 int side,
+                                 const std::vector<int>& edges,
+                                 const MeasureOptions& opt,
+                                 double pitch_deg) {
+  std::vector<FluteView> views;
+  views.reserve(edges.size());
+  const double top_deg = x.angle_deg[x.top[SideIndex(side)]];
+  for (const int e : edges)
+    views.push_back(PrincipalView(x, model, e, side, top_deg + PeakAfterDeg(model, edges[0], e),
+                                  opt, pitch_deg));
+  return views;
+}
+
+std::vector<int> EdgesFrom(int j0, int n) {
+  std::vector<int> edges(static_cast<size_t>(n));
+  for (int f = 0; f < n; ++f) edges[static_cast<size_t>(f)] = EdgeOfFlute(j0, f, n);
+  return edges;
 }
 
 // Which of the reference's edges is at the highest peak: the turn of the edges' order that
@@ -644,28 +664,106 @@ Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCamera
   return o;
 }
 
+namespace {
+
+void CheckSeries(const ToolSeries& s, int flutes) {
+  if (s.frames.size() != s.positions.size() || s.position_count < 3 * flutes ||
+      s.frames.size() < 3 * static_cast<size_t>(flutes))
+    Bad("at least 3 images per flute, each with its angular position, are needed");
+}
+
+bool IsReference(const ToolDescription& t) {
+  return std::any_of(t.edges.begin(), t.edges.end(),
+                     [](const CuttingEdge& e) { return e.Measured(); });
+}
+
+// Which -y flute pairs with +y flute 0 (equal pitch; the series' starts are unknown): the
+// turn of the order whose tips, and radii about each side's mean, agree best.
+int MatchOtherSide(const std::vector<FluteView>& plus, const std::vector<FluteView>& minus) {
+  const size_t n = plus.size();
+  double mean_p = 0, mean_m = 0;
+  for (size_t f = 0; f < n; ++f) mean_p += plus[f].radius_mm, mean_m += minus[f].radius_mm;
+  mean_p /= static_cast<double>(n), mean_m /= static_cast<double>(n);
+  size_t best_s = 0;
+  double best = 1e300;
+  for (size_t s = 0; s < n; ++s) {
+    double cost = 0;
+    for (size_t f = 0; f < n; ++f) {
+      const FluteView& m = minus[(f + s) % n];
+      cost += std::pow(plus[f].tip_h_mm - m.tip_h_mm, 2) +
+              std::pow((plus[f].radius_mm - mean_p) - (m.radius_mm - mean_m), 2);
+    }
+    if (cost < best) best = cost, best_s = s;
+  }
+  return static_cast<int>(best_s);
+}
+
+}  // namespace
+
 ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames,
                             const std::vector<int>& positions,
                             int position_count,
                             const ToolDescription& nominal,
                             const ToolCameraModel& camera,
                             const MeasureOptions& opt) {
-  const int n = nominal.flutes;
-  if (frames.size() != positions.size() || position_count < 3 * n ||
-      frames.size() < 3 * static_cast<size_t>(n))
-    Bad("at least 3 images per flute, each with its angular position, are needed");
+  const ToolSeries series{frames, positions, position_count, camera};
+  CheckSeries(series, nominal.flutes);
   // The images in angular order; the flutes are the maxima of the reference height's extreme.
-  const IndexedImages x = IndexImages(frames, positions, position_count, camera, opt);
-  const int j_pitch = TopEdge(x, nominal);
+  const IndexedImages x = IndexImages(series, opt);
+  if (x.top[0] == frames.size()) Fail("no image shows the outline at the reference height");
+  const int j_pitch = TopEdge(x, nominal, 1);
   ToolMeasurement t;
   // First against the ground (unworn) tool; against a stored reference each flute again,
   // against its own edge once the order is known.
-  t.flutes = MeasureFlutes(x, Ground(nominal), j_pitch, opt, camera.pitch_deg);
-  const bool reference = std::any_of(nominal.edges.begin(), nominal.edges.end(),
-                                     [](const CuttingEdge& e) { return e.Measured(); });
-  if (reference)
+  t.flutes =
+      MeasureFlutes(x, Ground(nominal), EdgesFrom(j_pitch, nominal.flutes), opt, camera.pitch_deg);
+  if (IsReference(nominal))
     t.flutes =
-        MeasureFlutes(x, nominal, FirstEdge(t.flutes, nominal, j_pitch), opt, camera.pitch_deg);
+        MeasureFlutes(x, nominal, EdgesFrom(FirstEdge(t.flutes, nominal, j_pitch), nominal.flutes),
+                      opt, camera.pitch_deg);
+  Summarise(&t);
+  return t;
+}
+
+ToolMeasurement MeasureToolBothSides(const ToolSeries& plus,
+                                     const ToolSeries& minus,
+                                     const ToolDescription& nominal,
+                                     const MeasureOptions& opt) {
+  const int n = nominal.flutes;
+  const auto count = static_cast<size_t>(n);
+  CheckSeries(plus, n), CheckSeries(minus, n);
+  const IndexedImages xp = IndexImages(plus, opt), xm = IndexImages(minus, opt);
+  if (xp.top[0] == plus.frames.size()) Bad("the +y series does not show the tool's +y flank");
+  if (xm.top[1] == minus.frames.size()) Bad("the -y series does not show the tool's -y flank");
+  const ToolDescription ground = Ground(nominal);
+  const int jp = TopEdge(xp, nominal, 1);
+  std::vector<int> edges_p = EdgesFrom(jp, n), edges_m = EdgesFrom(TopEdge(xm, nominal, -1), n);
+  const double pitch_p = plus.camera.pitch_deg, pitch_m = minus.camera.pitch_deg;
+  std::vector<FluteView> vp = SideViews(xp, ground, 1, edges_p, opt, pitch_p);
+  std::vector<FluteView> vm = SideViews(xm, ground, -1, edges_m, opt, pitch_m);
+  // +y flute f's -y flute: the one the pitches name as the same edge, or (equal pitch) the
+  // turn of the order that pairs tips and radii best.
+  std::vector<size_t> pair(count);
+  const int shift = nominal.EqualPitch() ? MatchOtherSide(vp, vm) : 0;
+  for (size_t f = 0; f < count; ++f)
+    pair[f] = nominal.EqualPitch()
+                  ? (f + static_cast<size_t>(shift)) % count
+                  : static_cast<size_t>(std::find(edges_m.begin(), edges_m.end(), edges_p[f]) -
+                                        edges_m.begin());
+  const auto combine = [&] {
+    std::vector<FluteMeasurement> flutes;
+    for (size_t f = 0; f < count; ++f) flutes.push_back(FromViews(vp[f], vm[pair[f]], edges_p[f]));
+    return flutes;
+  };
+  ToolMeasurement t;
+  t.flutes = combine();
+  if (IsReference(nominal)) {  // each side again against its own edge of the reference
+    edges_p = EdgesFrom(FirstEdge(t.flutes, nominal, jp), n);
+    for (size_t f = 0; f < count; ++f) edges_m[pair[f]] = edges_p[f];
+    vp = SideViews(xp, nominal, 1, edges_p, opt, pitch_p);
+    vm = SideViews(xm, nominal, -1, edges_m, opt, pitch_m);
+    t.flutes = combine();
+  }
   Summarise(&t);
   return t;
 }

@@ -135,6 +135,28 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
                             const ToolCameraModel& camera,
                             const MeasureOptions& options = {});
 
+/// One series of a tool's images: each frame with its angular position of `position_count`,
+/// and the camera as it stood for them (its calibration with the spindle's shift).
+struct ToolSeries {
+  const std::vector<std::vector<std::uint8_t>>& frames;
+  const std::vector<int>& positions;
+  int position_count = 0;
+  const ToolCameraModel& camera;
+};
+
+/// A tool wider than the field on both its sides (seed 000 examples 2 and 3): `plus` shows its
+/// +y flank; then the NC moved the spindle across by about its diameter and `minus` shows its
+/// -y flank, each series starting at an unknown angle. Each edge is named on both sides (by
+/// the pitches; equal pitch: by the turn of the order that fits the edges' tips and radii'
+/// pattern best, all alike when the tool runs true) and its radius is the two sides' mean:
+/// the axis' error (the camera's calibration and the move across) cancels and is
+/// `axis_offset_mm`. Throws as MeasureTool, and ToolInputError when a series shows the wrong
+/// side.
+ToolMeasurement MeasureToolBothSides(const ToolSeries& plus,
+                                     const ToolSeries& minus,
+                                     const ToolDescription& nominal,
+                                     const MeasureOptions& options = {});
+
 /// The measured tool as its new reference: the nominal's description with each edge's measured
 /// runout, length and shape (profile), edge 0 the flute of the highest peak (or the edges
 /// matched against a reference, kept).
