@@ -62,6 +62,40 @@ TEST(Strobe, Example1_27000RpmHundredImagesNeedPulsesUnder22us) {
   ExpectPlanKeepsItsPromises(Request(27000, 50, 3.6), p);
 }
 
+// Example 1 as the seed sets it up: the camera free-running at 60 images/s, its timer and the
+// strobe's not synchronised, 100 images in "1.66 s" at a pulse rate of "450 (100/101) = 445.5
+// pulses/s". That train steps 3.6 deg a pulse (each pulse 1.01 turns after the last), but it
+// cannot give one position an image: a frame lasts 7.4 of its pulses, so a whole frame's
+// exposure shows 7 or 8 positions at once; and a short exposure catching one pulse a frame
+// lands 7 or 8 positions on each time, which in 100 frames (1.66 s) shows only 65 of the 100
+// positions. The plan: one pulse a frame at the frame rate and a speed (26964 rpm, 0.13 %
+// slower) at which each image advances 49 of 100 positions (coprime): 100 positions in 1.67 s.
+TEST(Strobe, Example1_FreeRunningAt60FramesAndTheSeedsPulseTrainNamed) {
+  const double seed_rate_hz = 450.0 * 100 / 101, frame_s = 1.0 / 60;
+  EXPECT_NEAR(seed_rate_hz, 445.5, 0.05);
+  EXPECT_NEAR(450.0 / seed_rate_hz - 1, 0.01, kExact);  // 3.6 deg a pulse
+  std::set<int> pulses_in_a_frame, caught;
+  for (int k = 0; k < 100; ++k) {
+    const auto first = static_cast<long>(std::ceil(k * frame_s * seed_rate_hz - 1e-9));
+    const auto next = static_cast<long>(std::ceil((k + 1) * frame_s * seed_rate_hz - 1e-9));
+    pulses_in_a_frame.insert(static_cast<int>(next - first));
+    caught.insert(static_cast<int>(first % 100));  // the one pulse a short exposure catches
+  }
+  EXPECT_EQ(pulses_in_a_frame, (std::set<int>{7, 8}));  // 7 or 8 positions in one image
+  EXPECT_EQ(caught.size(), 65u);                        // or 65 of the 100 positions
+  StrobeRequest r = Request(27000, 60, 3.6);
+  r.synchronised = false;
+  const StrobePlan p = PlanStrobe(r);
+  EXPECT_EQ(p.pulses_per_image, 1);
+  EXPECT_NEAR(p.pulse_rate_hz, 60.0, kExact);
+  EXPECT_NEAR(p.duration_s, 1.66, kSeedRoundingS + 0.002);  // 100 / 60 = 1.667: the seed cuts
+  EXPECT_TRUE(p.rpm_changed);
+  EXPECT_NEAR(p.rpm, 26964, 0.5);
+  EXPECT_EQ(p.skip, 49);
+  EXPECT_NEAR(p.step_time_us, 22.2, kSeedRoundingUs + 0.01);
+  ExpectPlanKeepsItsPromises(r, p);
+}
+
 TEST(Strobe, Example2_7200RpmAt45FramesTwoPulsesARevolutionApart) {
   // 7200 rpm = 120 rev/s, camera free at 45 images/s with the strobe locked to it (0.1 us
   // timer): two pulses per image 1/120 s apart, 100 images in 2.22 s, pulses under 83 us.
@@ -88,6 +122,9 @@ TEST(Strobe, Example3_5000RpmAt50FramesOnePulsePerImage) {
   EXPECT_NEAR(p.step_time_us, 60.0, kSeedRoundingUs);
   EXPECT_NEAR((1e6 / 88.33) * (1.8 / 360), 56.6, kSeedRoundingUs);  // the seed's figure
   EXPECT_NEAR(p.pulse_width_us, 59.2, kExact);                      // 37 steps of the 1.6 us timer
+  // One pulse an image at 50 images/s is 50 pulses/s; the seed's "close to 83.33 pulses/s" is
+  // the tool's revolutions per second.
+  EXPECT_NEAR(p.pulse_rate_hz, 50.0, kExact);
   ExpectPlanKeepsItsPromises(r, p);
 }
 
@@ -114,6 +151,11 @@ TEST(Strobe, Example5_70RpmElectrodeStepsByAPrime) {
   EXPECT_NEAR(p.duration_s, 6.0, kExact);
   EXPECT_NEAR(p.step_time_us, 1e6 / (70.0 / 60) / 360, kExactUs);
   EXPECT_NEAR(p.step_time_us, 2381, kSeedWholeUs);
+  // Two more slips: the seed's "60 rpm equals 1.1667 rev/s" is 70 rpm's rate (60 rpm is 1), and
+  // the prime it asks for is the fraction's numerator (7 of 7/360), not its denominator.
+  EXPECT_NEAR(p.rpm / 60, 1.1667, 5e-5);
+  EXPECT_NE(p.rpm, 60.0);
+  EXPECT_NE(360 % p.skip, 0);
   ExpectPlanKeepsItsPromises(r, p);
 }
 
