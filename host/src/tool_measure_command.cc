@@ -398,6 +398,14 @@ int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostr
         "realign the camera about y (tools are measured through the pitch, but the "
         "far side of a large tool leaves the depth of field)");
   if (!p.pitch_measured) advice.push_back("the pin has no blades: the pitch was not measured");
+  if (!p.distortion_measured) {
+    std::ostringstream why;
+    why << "the lens' distortion was not measured (the flanks give k1 to +-" << std::scientific
+        << std::setprecision(1) << p.distortion_sigma
+        << "): the images.json value is used; show the pin over most of the image's height "
+           "in a few dozen images";
+    advice.push_back(why.str());
+  }
   if (f.Has("--json")) {
     nlohmann::json j = nlohmann::json::parse(toolcam::CameraCalibrationJson(p, im.camera, pin.id));
     j["file"] = f.Text("--out", "");
@@ -411,7 +419,9 @@ int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostr
       << (p.pitch_measured ? std::to_string(p.pitch_deg) + " deg" : std::string("not measured"))
       << "\n  spindle axis at the pin's end: column " << std::setprecision(3) << p.end_u_px
       << ", row " << p.end_v_px << "; gauge point row " << p.gauge_v_px << "\n  flanks over "
-      << p.rows << " rows, width rms " << p.width_rms_px << " px";
+      << p.rows << " rows, width rms " << p.width_rms_px << " px\n  lens distortion k1 "
+      << std::setprecision(6) << p.distortion_k1
+      << (p.distortion_measured ? " (measured)" : " (from images.json)");
   if (p.pitch_measured)
     out << "; blades in " << p.blade_images << " images, ends rms " << std::setprecision(2)
         << p.blade_rms_um << " um";

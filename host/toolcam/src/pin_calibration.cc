@@ -23,6 +23,9 @@ using geometry::Vec2;
 constexpr double kBladeMarginMm = 0.08;  // blade rows keep this far from both ends' blur
 constexpr double kTipShare = 0.3;        // a blade's end: the columns this share of its width
 constexpr int kMinBladeImages = 8;       // from its middle, either way
+// k1's standard error to count as measured: 0.006 px at the corner of a 1024 x 768 image, a
+// 750 px wide pin's width to 4 ppm.
+constexpr double kDistortionSigmaMax = 1e-5;
 
 // An image's flanks, paired by row (undistorted pixels), and the row of the pin's end.
 struct Flanks {
@@ -210,6 +213,78 @@ void CheckPinInput(const std::vector<std::vector<std::uint8_t>>& frames,
     Bad("the blades must differ in length by 0.05 mm or more (which is which)");
 }
 
+// The flank rows above the pin's end, paired (as FindFlankRows keeps them).
+template <class Visit>
+void FlankRowsAboveEnd(const Flanks& f,
+                       const ToolCameraModel& c,
+                       const ToolDescription& pin,
+                       Visit visit) {
+  // Flank rows stop above the end's edge round and its blur, allowing for a roll of 1 deg
+  // across the pin (its corner a flank's width x 0.02 higher on one side): rows in the
+  // round's blur on one flank only bent the axis (2 millidegrees over 200 rows).
+  const double margin_px =
+      pin.corner_radius_mm / c.mm_per_px + 20 + 0.01 * (f.right.front().x() - f.left.front().x());
+  for (size_t k = 0; k < f.left.size(); ++k)
+    if (f.left[k].y() <= f.end_v - margin_px) visit(f.left[k], f.right[k]);
+}
+
+// The lens' radial distortion from the flanks' straightness. In distorted pixels a straight
+// flank u = a + b v (ideal) reads u = a + b v + k1 rho^2 (u - cx) to first order (Undistort's
+// model; the b k1 rho^2 (v - cy) term dropped: b is the roll, under 0.02): linear in both
+// flanks' (a, b) and k1. Then once more with the exact model about the first estimate. The
+// flanks must span a quarter of the image's height and determine k1 to kDistortionSigmaMax,
+// else `c`'s value stands (false): the curvature k1 puts in a flank grows with the square of
+// its rows' distance from the centre, so a pin shown over most of the height, in a few dozen
+// images, measures it; three images of a pin ending mid-image do not (1e-4).
+bool DistortionFromFlanks(const std::vector<std::vector<std::uint8_t>>& frames,
+                          const ToolCameraModel& c,
+                          const ToolDescription& pin,
+                          double* k1,
+                          double* sigma) {
+  *sigma = std::nan("");
+  ToolCameraModel raw = c;
+  raw.distortion_k1 = 0;
+  std::vector<Vec2> left, right;
+  for (const auto& px : frames) {
+    const geometry::GreyView g{px.data(), c.width_px, c.height_px};
+    const Flanks f = FindFlanks(g, ShadowLevel(px), raw);
+    FlankRowsAboveEnd(f, raw, pin,
+                      [&](const Vec2& l, const Vec2& r) { left.push_back(l), right.push_back(r); });
+  }
+  double v_lo = 1e300, v_hi = -1e300;
+  for (const Vec2& p : left) v_lo = std::min(v_lo, p.y()), v_hi = std::max(v_hi, p.y());
+  if (left.size() < 100 || v_hi - v_lo < c.height_px / 4.0) return false;
+  const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
+  const double corner2 = cx * cx + cy * cy;
+  double k = 0;
+  for (int round = 0; round < 2; ++round) {
+    const auto n = static_cast<Eigen::Index>(left.size());
+    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(2 * n, 5);
+    Eigen::VectorXd obs(2 * n);
+    for (Eigen::Index side = 0; side < 2; ++side)
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const Vec2& p = (side == 0 ? left : right)[static_cast<size_t>(i)];
+        const Vec2 d(p.x() - cx, p.y() - cy);
+        const double rho2 = d.squaredNorm() / corner2;
+        // About the estimate so far: the ideal point with k, and its change with k.
+        const Vec2 ideal = Vec2(cx, cy) + d / (1 + k * rho2);
+        const Eigen::Index row = side * n + i;
+        a(row, 2 * side) = 1, a(row, 2 * side + 1) = ideal.y();
+        a(row, 4) = rho2 * (p.x() - cx);
+        obs(row) = ideal.x() + k * rho2 * (p.x() - cx);
+      }
+    const Eigen::VectorXd x = a.colPivHouseholderQr().solve(obs);
+    k = x(4);
+    // Its standard error from the residuals' scatter (each row's own noise: a lower bound, as
+    // the sub-pixel detector's error repeats along an edge).
+    const double var = (obs - a * x).squaredNorm() / static_cast<double>(2 * n - 5);
+    *sigma = std::sqrt(var * (a.transpose() * a).inverse()(4, 4));
+  }
+  if (!std::isfinite(k) || !(*sigma <= kDistortionSigmaMax)) return false;
+  *k1 = k;
+  return true;
+}
+
 // Pass 1's findings over every image: the flank rows above the pin's end (width, middle), the
 // end's row per image, and each image's view and shadow level for pass 2.
 struct FlankRows {
@@ -229,16 +304,10 @@ FlankRows FindFlankRows(const std::vector<std::vector<std::uint8_t>>& frames,
     r.levels.push_back(ShadowLevel(px));
     const Flanks f = FindFlanks(r.views.back(), r.levels.back(), c);
     r.ends.push_back(f.end_v);
-    // Flank rows stop above the end's edge round and its blur, allowing for a roll of 1 deg
-    // across the pin (its corner a flank's width x 0.02 higher on one side): rows in the
-    // round's blur on one flank only bent the axis (2 millidegrees over 200 rows).
-    const double margin_px =
-        pin.corner_radius_mm / c.mm_per_px + 20 + 0.01 * (f.right.front().x() - f.left.front().x());
-    for (size_t k = 0; k < f.left.size(); ++k) {
-      if (f.left[k].y() > f.end_v - margin_px) continue;
-      r.width.push_back(f.right[k].x() - f.left[k].x());
-      r.mid_u.push_back((f.left[k].x() + f.right[k].x()) / 2), r.mid_v.push_back(f.left[k].y());
-    }
+    FlankRowsAboveEnd(f, c, pin, [&](const Vec2& l, const Vec2& rt) {
+      r.width.push_back(rt.x() - l.x());
+      r.mid_u.push_back((l.x() + rt.x()) / 2), r.mid_v.push_back(l.y());
+    });
   }
   if (r.width.size() < 50) Fail("too few flank rows above the pin's end");
   return r;
@@ -344,7 +413,8 @@ std::string CameraCalibrationJson(const PinCalibration& p,
                                     {"pin", pin_id},
                                     {"width_px", base.width_px},
                                     {"height_px", base.height_px},
-                                    {"distortion_k1", base.distortion_k1},
+                                    {"distortion_k1", p.distortion_k1},
+                                    {"distortion_measured", p.distortion_measured},
                                     {"mm_per_px", p.mm_per_px},
                                     {"roll_deg", p.roll_deg},
                                     {"pitch_deg", p.pitch_deg},
@@ -378,6 +448,8 @@ PinCalibration ParseCameraCalibration(const std::string& text,
   p.gauge_v_px = jf::Number<ToolInputError>(j, "gauge_v_px", w);
   p.end_u_px = jf::NumberOr<ToolInputError>(j, "end_u_px", 0.0, w);
   p.end_v_px = jf::NumberOr<ToolInputError>(j, "end_v_px", 0.0, w);
+  p.distortion_k1 = base->distortion_k1;
+  p.distortion_measured = jf::FlagOr<ToolInputError>(j, "distortion_measured", false, w);
   ToolCameraModel check = p.CameraFor(*base, 0.0);
   check.Validate();  // the scale, the tilts and the size in range
   return p;
@@ -389,9 +461,13 @@ PinCalibration CalibrateWithPin(const std::vector<std::vector<std::uint8_t>>& fr
                                 const ToolCameraModel& c,
                                 const ToolDescription& pin) {
   CheckPinInput(frames, positions, position_count, pin);
-  const FlankRows rows = FindFlankRows(frames, c, pin);
   PinCalibration p;
-  const ToolCameraModel first = ScaleAndRoll(rows, c, pin, &p);
+  ToolCameraModel lens = c;  // the lens' distortion measured first: everything else uses it
+  p.distortion_measured =
+      DistortionFromFlanks(frames, c, pin, &lens.distortion_k1, &p.distortion_sigma);
+  p.distortion_k1 = lens.distortion_k1;
+  const FlankRows rows = FindFlankRows(frames, lens, pin);
+  const ToolCameraModel first = ScaleAndRoll(rows, lens, pin, &p);
   const double end_h = pin.blades.size() == 2
                            ? PitchFromBlades(rows, positions, position_count, first, pin, &p)
                            : 0.0;  // the pin's end in the first pass' frame

@@ -14,6 +14,10 @@
 ///   the depths, least squares over every image where the blades stand apart, give tan(pitch)
 ///   and the end's height free of it (the optical axis' z offset). The seed compares the two
 ///   principal images 180 deg apart; the fit over all images is the same idea with more data.
+/// - The lens' radial distortion (seed 000 example 3 measures "on an accurate distortion
+///   calibration"): a ground flank is straight, the lens bends it by k1 rho^2 (p - centre); its
+///   rows over the field's height, both flanks, every image, give k1 by linear least squares
+///   before anything else is measured (the manifest's value is the lens' nominal only).
 /// - Without blades, the end's row gives the height and the pitch is not measured (a pitched
 ///   view lowers a flat end by up to its radius times tan(pitch): 2.6 um for 0.1 deg on D3).
 ///
@@ -36,10 +40,15 @@ struct PinCalibration {
   bool pitch_measured = false;  ///< the pin has blades and enough images showed them apart
   double end_u_px = 0.0, end_v_px = 0.0;      ///< the pin's end on the spindle axis (h = 0)
   double gauge_u_px = 0.0, gauge_v_px = 0.0;  ///< the gauge point, the pin's length up the axis
-  double width_rms_px = 0.0;  ///< of the flanks' distance over the rows: the pin's roundness
-  double blade_rms_um = 0.0;  ///< of the blades' end heights about the fit
-  int rows = 0;               ///< flank rows used
-  int blade_images = 0;       ///< images where both blades were measured
+  /// The lens' radial distortion (ToolCameraModel::distortion_k1) from the flanks'
+  /// straightness, and whether it was measured (the flanks must span enough of the field).
+  double distortion_k1 = 0.0;
+  bool distortion_measured = false;
+  double distortion_sigma = 0.0;  ///< k1's standard error from the flanks (NaN: not fitted)
+  double width_rms_px = 0.0;      ///< of the flanks' distance over the rows: the pin's roundness
+  double blade_rms_um = 0.0;      ///< of the blades' end heights about the fit
+  int rows = 0;                   ///< flank rows used
+  int blade_images = 0;           ///< images where both blades were measured
 
   /// The camera for a tool of `length_mm` (gauge point to its nominal tip) with the spindle
   /// moved by (`shift_y_mm`, `shift_z_mm`) from where it stood for the calibration (as the
@@ -65,7 +74,8 @@ PinCalibration ParseCameraCalibration(const std::string& json_text,
 
 /// `frames[i]` shows the pin turned to position `positions[i]` of `position_count` (the blades'
 /// depths need at least 8 images spread round the turn; a pin without blades needs one).
-/// `camera` gives the image size and the lens' distortion. Throws ToolError when the images do
+/// `camera` gives the image size (its distortion is measured, `camera`'s only a fallback when
+/// the flanks span under a quarter of the image's height). Throws ToolError when the images do
 /// not show both flanks and the end, or the blades are not seen apart in enough images.
 PinCalibration CalibrateWithPin(const std::vector<std::vector<std::uint8_t>>& frames,
                                 const std::vector<int>& positions,
