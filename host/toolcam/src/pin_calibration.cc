@@ -393,17 +393,28 @@ double PitchFromBlades(const FlankRows& rows,
 
 }  // namespace
 
+FrameLoop PinCalibration::Loop(double length_mm, double shift_y_mm, double shift_z_mm) const {
+  // The detector sees the gauge point (the chuck's origin, the structure's with the encoders at
+  // the calibration's place) at its pixel, the spindle axis turned by the roll.
+  geometry::Pose3 detector_from_structure = geometry::Pose3::Identity();
+  detector_from_structure.linear() =
+      Eigen::AngleAxisd(roll_deg / base::kDegPerRad, geometry::Vec3::UnitX()).toRotationMatrix();
+  detector_from_structure.translation() =
+      geometry::Vec3(0, gauge_u_px * mm_per_px, -gauge_v_px * mm_per_px);
+  FrameLoop loop;
+  loop.structure_from_detector = detector_from_structure.inverse();
+  loop.tool_length_mm = length_mm;
+  loop.encoder_y_mm = shift_y_mm, loop.encoder_z_mm = shift_z_mm;
+  return loop;
+}
+
 ToolCameraModel PinCalibration::CameraFor(const ToolCameraModel& base,
                                           double length_mm,
                                           double shift_y_mm,
                                           double shift_z_mm) const {
   ToolCameraModel c = base;
-  c.mm_per_px = mm_per_px, c.roll_deg = roll_deg, c.pitch_deg = pitch_deg;
-  // The tip is (shift_y, shift_z - length) from the gauge point, turned by the roll.
-  const double a = roll_deg / base::kDegPerRad, dz = shift_z_mm - length_mm;
-  c.axis_u_px = gauge_u_px + (std::cos(a) * shift_y_mm - std::sin(a) * dz) / mm_per_px;
-  c.tip_v_px = gauge_v_px - (std::sin(a) * shift_y_mm + std::cos(a) * dz) / mm_per_px;
-  return c;
+  c.mm_per_px = mm_per_px, c.pitch_deg = pitch_deg;
+  return CameraThroughLoop(Loop(length_mm, shift_y_mm, shift_z_mm), c);
 }
 
 std::string CameraCalibrationJson(const PinCalibration& p,

@@ -24,6 +24,7 @@
 /// Positions count the tool's turn about +z of the tool frame (z up into the spindle); counted
 /// the other way, the pitch comes out with the wrong sign.
 
+#include "mlp/toolcam/frame_loop.h"
 #include "mlp/toolcam/tool_camera.h"
 #include "mlp/toolcam/tool_model.h"
 
@@ -59,6 +60,11 @@ struct PinCalibration {
                             double length_mm,
                             double shift_y_mm = 0.0,
                             double shift_z_mm = 0.0) const;
+  /// The frame loop (frame_loop.h) this calibration closes: the detector's mount from the
+  /// gauge point's pixel and the roll, the machine's structure, support and carriage square
+  /// to the spindle at the calibration's place, the encoders at the spindle's shift, the tool
+  /// `length_mm` long. CameraFor is the camera through it.
+  FrameLoop Loop(double length_mm, double shift_y_mm = 0.0, double shift_z_mm = 0.0) const;
 };
 
 /// The calibration as a file (`mlprobe-tool-camera/1`, docs/TOOLCAM.md): the figures above,
