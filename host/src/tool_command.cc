@@ -46,20 +46,15 @@ constexpr const char* kUsage =
     "       mlp tool measure --images DIR --tool NOMINAL.json [--camera CAMERA.json]\n"
     "                        [--other-side DIR2] [--overlay FILE.png] [--json]\n"
     "                        [--save-reference TOOL.json]\n"
-    "                        [--tool-table FILE.tbl --tool-number N [--max-change-mm X]\n"
-    "                        [--accept-findings]]\n"
     "  each edge's radius and length, wear and build-up from DIR/images.json (the images and\n"
     "  their angular positions; --frames is the same as --images) against the tool's\n"
     "  description (a stored reference: what changed since), with the calibration CAMERA.json\n"
     "  (else the manifest's own); a tool wholly in view is measured on both flanks; a wider\n"
     "  one on its other side too with --other-side (its -y flank's series, the spindle moved\n"
-    "  across); --save-reference stores this measurement as the tool's new\n"
-    "  reference; --tool-table writes its length (Z) and diameter (D) to tool N of a LinuxCNC\n"
-    "  tool table, atomically, logged to mlp-tool-changes.csv beside it, refused beyond\n"
-    "  X mm (0.5) from the table's values or with wear / build-up beyond the tool's\n"
-    "  wear_limit_mm\n"
+    "  across); --save-reference stores this measurement as the tool's new reference. The\n"
+    "  tool table is written by the host service's tool job (mlp request, docs/HOSTD.md)\n"
     "exit codes: 0 done, 2 bad arguments, tool file or images, 3 cannot be planned or\n"
-    "measured (the reason is printed), 4 measured but the tool table not changed (why), 1 bug\n";
+    "measured (the reason is printed), 1 bug\n";
 
 struct RenderOptions {
   std::string tool, out;

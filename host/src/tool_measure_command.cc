@@ -1,13 +1,12 @@
 // `mlp tool measure` and `mlp tool calibrate`: images (DIR/images.json and the images it
 // lists) measured against a tool description or a calibration pin; the camera's calibration
-// written and read; the measured tool into a LinuxCNC tool table (atomically, bounded, logged).
+// written and read. The tool table is the host service's to write (its tool job, through the
+// machine's one adapter), not this command's.
 
 #include "mlp/host/cli.h"
-#include "mlp/nc/tool_table.h"
-#include "mlp/nc/tool_table_update.h"
 #include "mlp/toolcam/measure.h"
 #include "mlp/toolcam/pin_calibration.h"
-#include "mlp/toolcam/tool_images.h"
+#include "mlp/toolcam/tool_images_io.h"
 
 #include <chrono>
 #include <cmath>
@@ -29,66 +28,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr int kExitRefused = 4;  // measured, but the tool table was not changed (the reason)
 // A pitch beyond this is corrected in the model but a person is told to realign the camera:
 // the far side of a D20 tool then leaves a 0.2 mm depth of field's middle by over 0.1 mm.
 constexpr double kPitchWarnDeg = 0.5;
-
-// The measurement stands; a change it would make was refused (the reason).
-class RefusedError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-struct Images : toolcam::ToolImages {
-  std::vector<std::vector<std::uint8_t>> pixels;
-};
-
-// DIR/images.json (`mlprobe-tool-images/1`, read by toolcam) and the images it lists (any
-// format OpenCV reads).
-Images ReadImages(const std::string& dir) {
-  const std::string manifest = (fs::path(dir) / "images.json").string();
-  Images im;
-  static_cast<toolcam::ToolImages&>(im) =
-      toolcam::ParseToolImages(ReadInputFile(manifest), manifest);
-  for (const std::string& name : im.files) {
-    const std::string file = (fs::path(dir) / name).string();
-    const cv::Mat g = cv::imread(file, cv::IMREAD_GRAYSCALE);
-    if (g.empty() || g.cols != im.camera.width_px || g.rows != im.camera.height_px)
-      throw UsageError("cannot read " + file + " as a " + std::to_string(im.camera.width_px) +
-                       " x " + std::to_string(im.camera.height_px) + " grey image");
-    im.pixels.emplace_back(g.begin<std::uint8_t>(), g.end<std::uint8_t>());
-  }
-  return im;
-}
-
-// The camera for the tool in these images: the calibration file's (with the spindle's shift
-// from the manifest) or else the manifest's own.
-toolcam::ToolCameraModel CameraFor(const Images& im,
-                                   const std::string& calibration_file,
-                                   double tool_length_mm,
-                                   std::vector<std::string>* warnings) {
-  if (calibration_file.empty()) {
-    if (!im.calibrated)
-      throw UsageError(
-          "images.json holds no camera calibration: give --camera (mlp tool calibrate)");
-    return im.camera;
-  }
-  toolcam::ToolCameraModel base = im.camera;
-  const toolcam::PinCalibration cal =
-      toolcam::ParseCameraCalibration(ReadInputFile(calibration_file), &base, calibration_file);
-  if (base.width_px != im.camera.width_px || base.height_px != im.camera.height_px)
-    throw UsageError(calibration_file + " is for " + std::to_string(base.width_px) + " x " +
-                     std::to_string(base.height_px) + " images, not these");
-  if (std::abs(cal.pitch_deg) > kPitchWarnDeg) {
-    std::ostringstream w;
-    w << std::fixed << std::setprecision(3) << "the camera is pitched " << cal.pitch_deg
-      << " deg about y: measured through it, but realign the camera (under " << kPitchWarnDeg
-      << " deg)";
-    warnings->push_back(w.str());
-  }
-  return cal.CameraFor(base, tool_length_mm, im.shift.y_mm, im.shift.z_mm);
-}
 
 // Tool frame -> pixel, through the lens' distortion (the inverse of the measurement's mapping
 // to first order: enough to draw).
@@ -159,88 +101,6 @@ void WriteOverlay(const std::string& path,
   if (!cv::imwrite(path, all)) throw UsageError("cannot write " + path);
 }
 
-nlohmann::json ViewJson(const toolcam::FluteView& v) {
-  nlohmann::json findings = nlohmann::json::array();
-  for (const auto& d : v.findings) {
-    nlohmann::json j = {{"kind", d.buildup ? "build-up" : "wear"},
-                        {"on", d.on_end ? "end" : "flank"},
-                        {"h_mm", d.h_mm},
-                        {"length_mm", d.length_mm},
-                        {"max_mm", d.max_mm},
-                        {"area_mm2", d.area_mm2}};
-    if (d.on_end) j["y_mm"] = d.y_mm;
-    findings.push_back(j);
-  }
-  return {{"side", v.side > 0 ? "+y" : "-y"},
-          {"image", v.frame},
-          {"angle_deg", v.angle_deg},
-          {"radius_mm", v.radius_mm},
-          {"tip_h_mm", v.tip_h_mm},
-          {"rms_mm", v.rms_mm},
-          {"points", v.points},
-          {"removed", v.removed},
-          {"findings", findings}};
-}
-
-nlohmann::json MeasurementJson(const toolcam::ToolDescription& tool,
-                               const toolcam::ToolMeasurement& m) {
-  nlohmann::json flutes = nlohmann::json::array();
-  double mean_radius = 0;
-  for (const auto& f : m.flutes) mean_radius += f.radius_mm / static_cast<double>(m.flutes.size());
-  for (const auto& f : m.flutes) {
-    nlohmann::json views = nlohmann::json::array({ViewJson(f.plus)});
-    if (f.minus) views.push_back(ViewJson(*f.minus));
-    flutes.push_back({{"edge", f.edge + 1},
-                      {"angle_deg", f.angle_deg},
-                      {"radius_mm", f.radius_mm},
-                      {"runout_mm", f.radius_mm - mean_radius},
-                      {"tip_h_mm", f.tip_h_mm},
-                      {"views", views}});
-  }
-  nlohmann::json j = {{"tool", tool.id},
-                      {"radius_mm", m.radius_mm},
-                      {"diameter_mm", 2 * m.radius_mm},
-                      {"length_mm", tool.length_mm - m.tip_h_mm},
-                      {"runout_mm", m.runout_mm},
-                      {"eccentricity_mm", m.eccentricity_mm},
-                      {"both_flanks", m.both_flanks},
-                      {"worst_finding_mm", m.worst_finding_mm},
-                      {"wear_limit_mm", tool.wear_limit_mm},
-                      {"flutes", flutes}};
-  if (m.both_flanks) j["axis_offset_mm"] = m.axis_offset_mm;
-  return j;
-}
-
-// The measured length (Z) and diameter (D) into tool `number` of a LinuxCNC tool table,
-// through nc's one writer (checked, whole or not at all, logged beside the table). Wear or
-// build-up beyond the tool's wear limit refuses unless accepted: a tool to look at is not a
-// tool to set; within it the tool is set and the findings reported.
-nc::ToolTableUpdateResult UpdateToolTable(const std::string& file,
-                                          int number,
-                                          double max_change_mm,
-                                          bool accept_findings,
-                                          const toolcam::ToolDescription& tool,
-                                          const toolcam::ToolMeasurement& m,
-                                          const std::string& images) {
-  if (m.OverWearLimit(tool) && !accept_findings) {
-    std::ostringstream why;
-    why << std::fixed << std::setprecision(1) << "tool table not changed: wear or build-up of "
-        << m.worst_finding_mm * 1e3 << " um beyond the tool's wear limit of "
-        << tool.wear_limit_mm * 1e3 << " um: look at the tool (--accept-findings writes it anyway)";
-    throw RefusedError(why.str());
-  }
-  nc::ToolUpdate update;
-  update.tool = number;
-  update.tool_id = tool.id;
-  update.length_mm = tool.length_mm - m.tip_h_mm;
-  update.diameter_mm = 2 * m.radius_mm;
-  try {
-    return nc::UpdateToolTable(file, {update}, {max_change_mm, max_change_mm}, images);
-  } catch (const nc::ToolChangeRefused& e) {  // a refusal, said with the option that sets it
-    throw RefusedError(std::string(e.what()) + " (--max-change-mm)");
-  }
-}
-
 void PrintView(const toolcam::FluteView& v, const std::string& indent, std::ostream& out) {
   for (const auto& d : v.findings) {
     out << std::setprecision(3) << indent << (d.buildup ? "build-up" : "wear");
@@ -281,71 +141,32 @@ void SaveReference(const std::string& path,
   WriteOutputFile(path, toolcam::ToJson(toolcam::ReferenceFrom(tool, m)));
 }
 
-// --tool-table / --tool-number: the measurement into the table, the change (or the refusal)
-// into result["tool_table"]. Returns the exit code: refused or ok.
-int WriteToolTable(const Args& f,
-                   const toolcam::ToolDescription& tool,
-                   const toolcam::ToolMeasurement& m,
-                   const std::string& images,
-                   nlohmann::json* result,
-                   std::ostream& err) {
-  const std::string table = f.Text("--tool-table", "");
-  const int number = static_cast<int>(f.Number("--tool-number"));
-  const double max_change = f.Number("--max-change-mm", 0.5);
-  try {
-    const nc::ToolTableUpdateResult u =
-        UpdateToolTable(table, number, max_change, f.Has("--accept-findings"), tool, m, images);
-    const nc::ToolTableChange& c = u.changes.front();
-    (*result)["tool_table"] = {{"file", table},
-                               {"tool", c.tool},
-                               {"length_before_mm", c.length_before_mm},
-                               {"length_after_mm", c.length_after_mm},
-                               {"diameter_before_mm", c.diameter_before_mm},
-                               {"diameter_after_mm", c.diameter_after_mm},
-                               {"log", u.log_file}};
-    if (!u.log_error.empty()) {
-      (*result)["tool_table"]["log_error"] = u.log_error;
-      err << "mlp tool: warning: " << u.log_error << "\n";
-    }
-    return kExitOk;
-  } catch (const RefusedError& e) {
-    (*result)["tool_table"] = {{"file", table}, {"refused", e.what()}};
-    err << "mlp tool: " << e.what() << "\n";
-    return kExitRefused;
-  }
-}
-
-void PrintToolTableChange(const nlohmann::json& t, std::ostream& out) {
-  out << std::fixed << std::setprecision(4) << "  tool table " << t["file"].get<std::string>()
-      << ": T" << t["tool"].get<int>() << " Z " << t["length_before_mm"].get<double>() << " -> "
-      << t["length_after_mm"].get<double>() << " mm, D " << t["diameter_before_mm"].get<double>()
-      << " -> " << t["diameter_after_mm"].get<double>() << " mm\n";
-}
-
 }  // namespace
 
 int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const Args f(args, {{"--images", "--frames", "--other-side", "--tool", "--camera", "--overlay",
-                       "--save-reference", "--tool-table", "--tool-number", "--max-change-mm"},
-                      {"--json", "--accept-findings"}});
+                       "--save-reference"},
+                      {"--json"}});
   const std::string images =
       f.Text("--images", "").empty() ? f.Text("--frames", "") : f.Text("--images", "");
   if (images.empty() || f.Text("--tool", "").empty())
     throw UsageError("mlp tool measure needs --images (or --frames) and --tool");
-  if (f.Text("--tool-table", "").empty() != f.Text("--tool-number", "").empty())
-    throw UsageError("--tool-table and --tool-number go together");
   const toolcam::ToolDescription tool = toolcam::LoadTool(f.Text("--tool", ""));
-  const Images im = ReadImages(images);
+  const std::string camera_file = f.Text("--camera", "");
+  const std::string camera_text = camera_file.empty() ? "" : ReadInputFile(camera_file);
   std::vector<std::string> warnings;
-  const toolcam::ToolCameraModel camera =
-      CameraFor(im, f.Text("--camera", ""), tool.length_mm, &warnings);
+  const toolcam::ToolImageSeries im = toolcam::ReadToolImageSeries(images);
+  const toolcam::ToolCameraModel camera = toolcam::ToolCameraFor(
+      im, camera_text, camera_file, tool.length_mm, kPitchWarnDeg, &warnings);
   // A tool wider than the field: its -y side's series, the spindle moved across (its shift in
   // that manifest).
   const std::string other = f.Text("--other-side", "");
-  const Images im_other = other.empty() ? Images{} : ReadImages(other);
+  const toolcam::ToolImageSeries im_other =
+      other.empty() ? toolcam::ToolImageSeries{} : toolcam::ReadToolImageSeries(other);
   const toolcam::ToolCameraModel camera_other =
       other.empty() ? camera
-                    : CameraFor(im_other, f.Text("--camera", ""), tool.length_mm, &warnings);
+                    : toolcam::ToolCameraFor(im_other, camera_text, camera_file, tool.length_mm,
+                                             kPitchWarnDeg, &warnings);
   for (const auto& w : warnings) err << "mlp tool: warning: " << w << "\n";
   toolcam::MeasureOptions options;
   options.blur_rad = im.blur_rad;
@@ -362,21 +183,15 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
                  m);
   if (!f.Text("--save-reference", "").empty())
     SaveReference(f.Text("--save-reference", ""), tool, m);
-  nlohmann::json result = MeasurementJson(tool, m);
-  result["warnings"] = warnings;
-  const std::string source = other.empty() ? images : images + " and " + other;
-  const int code = f.Text("--tool-table", "").empty()
-                       ? kExitOk
-                       : WriteToolTable(f, tool, m, source, &result, err);
   if (f.Has("--json")) {
+    nlohmann::json result = toolcam::ToolMeasurementJson(tool, m);
+    result["warnings"] = warnings;
     out << result.dump() << "\n";
-    return code;
+    return kExitOk;
   }
   PrintMeasurement(tool, m, out);
-  if (result.contains("tool_table") && !result["tool_table"].contains("refused"))
-    PrintToolTableChange(result["tool_table"], out);
   if (!f.Text("--overlay", "").empty()) out << "  overlay: " << f.Text("--overlay", "") << "\n";
-  return code;
+  return kExitOk;
 }
 
 int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -387,7 +202,7 @@ int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostr
     throw UsageError("mlp tool calibrate needs --images (or --frames), --pin and --out");
   const toolcam::ToolDescription pin = toolcam::LoadTool(f.Text("--pin", ""));
   if (!pin.pin) throw UsageError(f.Text("--pin", "") + " is not a pin (\"kind\": \"pin\")");
-  const Images im = ReadImages(images);  // its mm_per_px: the lens' nominal scale
+  const toolcam::ToolImageSeries im = toolcam::ReadToolImageSeries(images);  // the nominal scale
   err << "mlp tool: calibrating from " << im.pixels.size() << " images of " << pin.id << "\n";
   const toolcam::PinCalibration p =
       toolcam::CalibrateWithPin(im.pixels, im.position, im.positions, im.camera, pin);

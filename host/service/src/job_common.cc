@@ -111,6 +111,35 @@ void CheckSafeName(const std::string& name, const std::string& field) {
                         " must be 1 to 64 letters, digits, '.', '_' or '-', not starting with '.'");
 }
 
+std::string DataFolder(const std::string& data_dir,
+                       const std::string& name,
+                       const std::string& field) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path root = fs::weakly_canonical(data_dir, ec);
+  const fs::path real = fs::weakly_canonical(fs::path(data_dir) / name, ec);
+  const auto [in_root, in_real] = std::mismatch(root.begin(), root.end(), real.begin(), real.end());
+  if (ec || in_root != root.end() || in_real == real.end() || !fs::is_directory(real, ec))
+    throw JobInputError(field + ": " + name + " is not a folder inside the data folder " +
+                        data_dir);
+  return real.string();
+}
+
+std::vector<history::OffsetWriteRow> OffsetWriteRows(const nc::NcResult& out) {
+  std::vector<history::OffsetWriteRow> rows;
+  for (const auto& t : out.tools)
+    rows.push_back(
+        {"", "offset " + std::to_string(t.tool) + " " + nc::ToString(t.reg),
+         t.incremental ? json() : json(t.before_mm),
+         t.incremental ? json{{"change_mm", t.after_mm - t.before_mm}} : json(t.after_mm)});
+  for (const auto& w : out.work)
+    rows.push_back({"",
+                    "work offset " + std::to_string(w.index),
+                    json(),
+                    {{"shift_mm", {w.after_mm[0], w.after_mm[1], w.after_mm[2]}}}});
+  return rows;
+}
+
 std::string ReadDataFile(const std::string& data_dir,
                          const std::string& name,
                          const std::string& field,

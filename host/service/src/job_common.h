@@ -123,6 +123,16 @@ std::string ReadDataFile(const std::string& data_dir,
                          const std::string& field,
                          std::size_t max_bytes);
 
+/// The folder a request names (relative to `data_dir`, and inside it after symbolic links are
+/// resolved), its real path. Throws JobInputError naming `field`.
+std::string DataFolder(const std::string& data_dir,
+                       const std::string& name,
+                       const std::string& field);
+
+/// The history's record of each change a job's controller result makes, announced before it is
+/// written (WriteToController fills in the adapter).
+std::vector<history::OffsetWriteRow> OffsetWriteRows(const nc::NcResult& out);
+
 /// `{"op": "measure", ...}` and `{"op": "align", ...}` (docs/HOSTD.md). Always answer; the
 /// status says how the job ended. Nothing reaches the controller unless every check passed.
 nlohmann::json RunMeasureJob(JobContext& ctx, const nlohmann::json& request);
@@ -131,5 +141,8 @@ nlohmann::json RunAlignJob(JobContext& ctx, const nlohmann::json& request);
 /// `{"op": "calibrate", ...}` (sphere hand-eye) and `{"op": "recheck", ...}` (seed 002).
 nlohmann::json RunCalibrateJob(JobContext& ctx, const nlohmann::json& request);
 nlohmann::json RunRecheckJob(JobContext& ctx, const nlohmann::json& request);
+/// `{"op": "tool", ...}`: a tool measured from the tool camera's images (seed 000) and its
+/// length and diameter written to the tool table through the machine's adapter.
+nlohmann::json RunToolJob(JobContext& ctx, const nlohmann::json& request);
 
 }  // namespace mlp::service

@@ -312,22 +312,6 @@ nc::NcResult ControllerResult(const MachineConfig& m,
   return out;
 }
 
-// The history's record of each change, announced before it is written.
-std::vector<history::OffsetWriteRow> WriteRows(const nc::NcResult& out) {
-  std::vector<history::OffsetWriteRow> rows;
-  for (const auto& t : out.tools)
-    rows.push_back(
-        {"", "offset " + std::to_string(t.tool) + " " + nc::ToString(t.reg),
-         t.incremental ? json() : json(t.before_mm),
-         t.incremental ? json{{"change_mm", t.after_mm - t.before_mm}} : json(t.after_mm)});
-  for (const auto& w : out.work)
-    rows.push_back({"",
-                    "work offset " + std::to_string(w.index),
-                    json(),
-                    {{"shift_mm", {w.after_mm[0], w.after_mm[1], w.after_mm[2]}}}});
-  return rows;
-}
-
 }  // namespace
 
 // The pipeline: request -> evidence -> measure -> decide -> record -> gate -> write -> record.
@@ -361,7 +345,7 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
     if (request.report) reply["report"] = WriteReport(ctx, run.job, ms, d, reply);
     if (d.verdict == jobs::Verdict::kUpperLimitExceeded) reply["alarm"] = d.reason;
     reply["status"] = o.in_tolerance ? "in_tolerance" : "out_of_tolerance";  // if a stop comes
-    reply["files"] = WriteToController(ctx, run.job, out, reply, WriteRows(out));
+    reply["files"] = WriteToController(ctx, run.job, out, reply, OffsetWriteRows(out));
     return run.Finish(
         o.in_tolerance ? history::JobStatus::kInTolerance : history::JobStatus::kOutOfTolerance,
         true);

@@ -1,0 +1,195 @@
+// `{"op": "tool", ...}`: a tool measured from the tool camera's images (seed 000, toolcam) and
+// its length (Z) and diameter (D) written to the tool table through the machine's one adapter,
+// as every job's changes are: announced in the history, bounded by the machine's limit, the
+// table replaced whole, logged with the values before and after. A tool worn or built up beyond
+// its description's wear limit is refused with nothing written (unless accepted).
+
+#include "mlp/base/json_fields.h"
+#include "mlp/service/adapters.h"
+#include "mlp/toolcam/measure.h"
+#include "mlp/toolcam/tool_images_io.h"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "job_common.h"
+
+namespace mlp::service {
+namespace {
+
+namespace jf = base::json_fields;
+using json = nlohmann::json;
+
+constexpr std::size_t kMaxDescriptionBytes = 1u << 20;  // a tool or a camera file
+// A pitch beyond this is measured through but said: realign the camera (mlp tool's figure).
+constexpr double kPitchWarnDeg = 0.5;
+
+struct ToolRequest {
+  std::string images, other_side, tool_file, camera_file;
+  int tool_number = 0;
+  bool accept_findings = false;
+};
+
+ToolRequest ParseToolRequest(const json& r) {
+  jf::OnlyKnownFields<JobInputError>(r,
+                                     {"op", "machine", "request_id", "images", "other_side", "tool",
+                                      "camera", "tool_number", "accept_findings"},
+                                     "request");
+  ToolRequest t;
+  t.images = jf::Text<JobInputError>(r, "images", "request");
+  if (r.contains("other_side")) t.other_side = jf::Text<JobInputError>(r, "other_side", "request");
+  t.tool_file = jf::Text<JobInputError>(r, "tool", "request");
+  if (r.contains("camera")) t.camera_file = jf::Text<JobInputError>(r, "camera", "request");
+  t.tool_number = jf::Integer<JobInputError>(r, "tool_number", "request");
+  if (t.tool_number < 1) throw JobInputError("request.tool_number must be 1 or more");
+  t.accept_findings = jf::FlagOr<JobInputError>(r, "accept_findings", false, "request");
+  return t;
+}
+
+// One series of images a request names, read from the data folder, and its camera.
+struct Series {
+  toolcam::ToolImageSeries images;
+  toolcam::ToolCameraModel camera;
+};
+
+Series ReadSeries(const JobContext& ctx,
+                  const std::string& folder,
+                  const std::string& field,
+                  const std::string& camera_json,
+                  double length_mm,
+                  std::vector<std::string>* warnings) {
+  Series s;
+  try {
+    s.images = toolcam::ReadToolImageSeries(DataFolder(ctx.config.data_dir, folder, field));
+    s.camera = toolcam::ToolCameraFor(s.images, camera_json, "request.camera", length_mm,
+                                      kPitchWarnDeg, warnings);
+  } catch (const toolcam::ToolInputError& e) {
+    throw JobInputError(field + ": " + e.what());
+  }
+  return s;
+}
+
+// The tool table's two values for tool `number` before (the controller's) and after (measured).
+nc::NcResult ControllerResult(const MachineConfig& m,
+                              std::int64_t job,
+                              int number,
+                              const toolcam::ToolDescription& tool,
+                              const toolcam::ToolMeasurement& t,
+                              json* reply) {
+  nc::NcResult out;
+  out.header = "mlprobe job " + std::to_string(job) + ": tool " + tool.id;
+  const double length = tool.length_mm - t.tip_h_mm;
+  for (const auto& [reg, value] : {std::pair{nc::ToolRegister::kLengthGeometry, length},
+                                   {nc::ToolRegister::kRadiusGeometry, t.radius_mm}}) {
+    std::string note;
+    nc::ToolOffsetChange c = ResolveToolChange(m.controller, number, reg, 0.0, &note);
+    if (c.incremental) c.before_mm = 0.0;  // a control without its table here: absolute
+    c.incremental = false;
+    c.after_mm = value;
+    out.tools.push_back(c);
+  }
+  if (m.controller.kind == ControllerConfig::Kind::kLinuxCnc)
+    out.named = {{"status", 0.0}, {"length", length}, {"diameter", 2 * t.radius_mm}};
+  const auto& l = out.tools[0];
+  const auto& r = out.tools[1];
+  (*reply)["update"] = {{"tool", number},
+                        {"length_before_mm", l.before_mm},
+                        {"length_after_mm", l.after_mm},
+                        {"diameter_before_mm", 2 * r.before_mm},
+                        {"diameter_after_mm", 2 * r.after_mm}};
+  return out;
+}
+
+// What must stop the write: wear beyond the tool's limit (unless accepted), a change beyond
+// the machine's limit (a wrong tool or number).
+std::vector<std::string> Problems(const ToolRequest& q,
+                                  const toolcam::ToolDescription& tool,
+                                  const toolcam::ToolMeasurement& t,
+                                  const nc::NcResult& out,
+                                  const MachineConfig& m) {
+  std::vector<std::string> problems;
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(1);
+  if (t.OverWearLimit(tool) && !q.accept_findings) {
+    s << "wear or build-up of " << t.worst_finding_mm * 1e3
+      << " um beyond the tool's wear limit of " << tool.wear_limit_mm * 1e3
+      << " um: look at the tool (accept_findings writes it anyway)";
+    problems.push_back(s.str());
+  }
+  for (const nc::ToolOffsetChange& c : out.tools) {
+    const bool length = c.reg == nc::ToolRegister::kLengthGeometry;
+    const double change = (c.after_mm - c.before_mm) * (length ? 1 : 2);
+    if (m.controller.kind == ControllerConfig::Kind::kLinuxCnc &&
+        !(std::abs(change) <= m.limits.max_offset_change_mm * (length ? 1 : 2))) {
+      std::ostringstream p;
+      p << std::fixed << std::setprecision(4) << "the " << (length ? "length" : "diameter")
+        << " would change by " << change << " mm, beyond the machine's limit ("
+        << m.limits.max_offset_change_mm << " mm): a wrong tool or tool number?";
+      problems.push_back(p.str());
+    }
+  }
+  return problems;
+}
+
+}  // namespace
+
+json RunToolJob(JobContext& ctx, const json& r) {
+  JobRun run(ctx, "tool", r);
+  json& reply = run.reply;
+  try {
+    const ToolRequest q = ParseToolRequest(r);
+    const toolcam::ToolDescription tool = [&] {
+      try {
+        return toolcam::ParseTool(
+            ReadDataFile(ctx.config.data_dir, q.tool_file, "request.tool", kMaxDescriptionBytes));
+      } catch (const toolcam::ToolInputError& e) {
+        throw JobInputError(std::string("request.tool: ") + e.what());
+      }
+    }();
+    const std::string camera_json = q.camera_file.empty()
+                                        ? ""
+                                        : ReadDataFile(ctx.config.data_dir, q.camera_file,
+                                                       "request.camera", kMaxDescriptionBytes);
+    std::vector<std::string> warnings;
+    const Series plus =
+        ReadSeries(ctx, q.images, "request.images", camera_json, tool.length_mm, &warnings);
+    toolcam::MeasureOptions options;
+    options.blur_rad = plus.images.blur_rad;
+    const toolcam::ToolSeries plus_series{plus.images.pixels, plus.images.position,
+                                          plus.images.positions, plus.camera};
+    toolcam::ToolMeasurement t;
+    if (q.other_side.empty()) {
+      t = toolcam::MeasureTool(plus.images.pixels, plus.images.position, plus.images.positions,
+                               tool, plus.camera, options);
+    } else {
+      const Series minus = ReadSeries(ctx, q.other_side, "request.other_side", camera_json,
+                                      tool.length_mm, &warnings);
+      t = toolcam::MeasureToolBothSides(
+          plus_series,
+          {minus.images.pixels, minus.images.position, minus.images.positions, minus.camera}, tool,
+          options);
+    }
+    reply.update(toolcam::ToolMeasurementJson(tool, t));
+    reply["warnings"] = warnings;
+    ctx.history.AddResult(run.job, {"tool " + tool.id,
+                                    reply,
+                                    {{"diameter_mm", 2 * t.radius_mm},
+                                     {"length_mm", tool.length_mm - t.tip_h_mm},
+                                     {"worst_finding_mm", t.worst_finding_mm}}});
+    const nc::NcResult out = ControllerResult(ctx.machine, run.job, q.tool_number, tool, t, &reply);
+    const auto problems = Problems(q, tool, t, out, ctx.machine);
+    if (!problems.empty()) {
+      reply["problems"] = problems;
+      reply["error"] = "nothing written: " + problems.front();
+      return run.Finish(history::JobStatus::kRefused, false);
+    }
+    reply["status"] = "done";  // if a stop comes during the write
+    reply["files"] = WriteToController(ctx, run.job, out, reply, OffsetWriteRows(out));
+    return run.Finish(history::JobStatus::kDone, true);
+  } catch (const std::exception& e) {  // bad input named, or the images not showing the flutes
+    return run.Fail(e);
+  }
+}
+
+}  // namespace mlp::service

@@ -1,0 +1,137 @@
+#include "mlp/toolcam/tool_images_io.h"
+
+#include "mlp/base/files.h"
+#include "mlp/toolcam/pin_calibration.h"
+
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+namespace mlp::toolcam {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+[[noreturn]] void Refuse(std::string what, const std::string& why) {
+  what += why;
+  throw ToolInputError(what);
+}
+
+}  // namespace
+
+ToolImageSeries ReadToolImageSeries(const std::string& dir) {
+  const std::string manifest = (fs::path(dir) / "images.json").string();
+  std::error_code ec;
+  // Regular files only: a FIFO or a device named so would block the reader or never end.
+  if (!fs::is_regular_file(manifest, ec)) throw ToolInputError(manifest + " is not a regular file");
+  const fs::path folder = fs::canonical(dir, ec);
+  ToolImageSeries s;
+  static_cast<ToolImages&>(s) =
+      ParseToolImages(base::ReadFileAs<ToolInputError>(manifest, "tool images: "), manifest);
+  const std::int64_t per_image = std::int64_t{s.camera.width_px} * std::int64_t{s.camera.height_px};
+  if (per_image * static_cast<std::int64_t>(s.files.size()) > kMaxSeriesPixels)
+    throw ToolInputError(manifest + ": more than " + std::to_string(kMaxSeriesPixels) +
+                         " pixels of images");
+  for (const std::string& name : s.files) {
+    if (name.empty() || name.front() == '.' || name.find('/') != std::string::npos ||
+        name.find('\\') != std::string::npos)
+      Refuse(manifest, ": \"" + name + "\" is not a plain file name in the manifest's folder");
+    const std::string file = (fs::path(dir) / name).string();
+    if (!fs::is_regular_file(file, ec) || fs::canonical(file, ec).parent_path() != folder)
+      Refuse(file, " is not a regular file in " + dir);
+    const cv::Mat g = cv::imread(file, cv::IMREAD_GRAYSCALE);
+    if (g.empty() || g.cols != s.camera.width_px || g.rows != s.camera.height_px)
+      throw ToolInputError("cannot read " + file + " as a " + std::to_string(s.camera.width_px) +
+                           " x " + std::to_string(s.camera.height_px) + " grey image");
+    s.pixels.emplace_back(g.begin<std::uint8_t>(), g.end<std::uint8_t>());
+  }
+  return s;
+}
+
+ToolCameraModel ToolCameraFor(const ToolImageSeries& series,
+                              const std::string& calibration_json,
+                              const std::string& where,
+                              double length_mm,
+                              double pitch_warn_deg,
+                              std::vector<std::string>* warnings) {
+  if (calibration_json.empty()) {
+    if (!series.calibrated)
+      throw ToolInputError(
+          "images.json holds no camera calibration: give the camera's (mlp tool calibrate)");
+    return series.camera;
+  }
+  ToolCameraModel base = series.camera;
+  const PinCalibration cal = ParseCameraCalibration(calibration_json, &base, where);
+  if (base.width_px != series.camera.width_px || base.height_px != series.camera.height_px)
+    throw ToolInputError(where + " is for " + std::to_string(base.width_px) + " x " +
+                         std::to_string(base.height_px) + " images, not these");
+  if (std::abs(cal.pitch_deg) > pitch_warn_deg) {
+    std::ostringstream w;
+    w << std::fixed << std::setprecision(3) << "the camera is pitched " << cal.pitch_deg
+      << " deg about y: measured through it, but realign the camera (under " << pitch_warn_deg
+      << " deg)";
+    warnings->push_back(w.str());
+  }
+  return cal.CameraFor(base, length_mm, series.shift.y_mm, series.shift.z_mm);
+}
+
+namespace {
+
+nlohmann::json ViewJson(const FluteView& v) {
+  nlohmann::json findings = nlohmann::json::array();
+  for (const auto& d : v.findings) {
+    nlohmann::json j = {{"kind", d.buildup ? "build-up" : "wear"},
+                        {"on", d.on_end ? "end" : "flank"},
+                        {"h_mm", d.h_mm},
+                        {"length_mm", d.length_mm},
+                        {"max_mm", d.max_mm},
+                        {"area_mm2", d.area_mm2}};
+    if (d.on_end) j["y_mm"] = d.y_mm;
+    findings.push_back(j);
+  }
+  return {{"side", v.side > 0 ? "+y" : "-y"},
+          {"image", v.frame},
+          {"angle_deg", v.angle_deg},
+          {"radius_mm", v.radius_mm},
+          {"tip_h_mm", v.tip_h_mm},
+          {"rms_mm", v.rms_mm},
+          {"points", v.points},
+          {"removed", v.removed},
+          {"findings", findings}};
+}
+
+}  // namespace
+
+nlohmann::json ToolMeasurementJson(const ToolDescription& tool, const ToolMeasurement& m) {
+  nlohmann::json flutes = nlohmann::json::array();
+  double mean_radius = 0;
+  for (const auto& f : m.flutes) mean_radius += f.radius_mm / static_cast<double>(m.flutes.size());
+  for (const auto& f : m.flutes) {
+    nlohmann::json views = nlohmann::json::array({ViewJson(f.plus)});
+    if (f.minus) views.push_back(ViewJson(*f.minus));
+    flutes.push_back({{"edge", f.edge + 1},
+                      {"angle_deg", f.angle_deg},
+                      {"radius_mm", f.radius_mm},
+                      {"runout_mm", f.radius_mm - mean_radius},
+                      {"tip_h_mm", f.tip_h_mm},
+                      {"views", views}});
+  }
+  nlohmann::json j = {{"tool", tool.id},
+                      {"radius_mm", m.radius_mm},
+                      {"diameter_mm", 2 * m.radius_mm},
+                      {"length_mm", tool.length_mm - m.tip_h_mm},
+                      {"runout_mm", m.runout_mm},
+                      {"eccentricity_mm", m.eccentricity_mm},
+                      {"both_flanks", m.both_flanks},
+                      {"worst_finding_mm", m.worst_finding_mm},
+                      {"wear_limit_mm", tool.wear_limit_mm},
+                      {"flutes", flutes}};
+  if (m.both_flanks) j["axis_offset_mm"] = m.axis_offset_mm;
+  return j;
+}
+
+}  // namespace mlp::toolcam

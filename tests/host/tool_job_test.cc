@@ -1,0 +1,130 @@
+// The tool camera's results reach the LinuxCNC tool table through the host's one adapter (issue
+// 20): mlp-hostd's tool job reads the images a client names in its data folder, measures the
+// tool (toolcam), and writes its length and diameter as every job does: announced in the
+// history, within the machine's limit, the table replaced whole, logged before and after. A
+// worn tool beyond its wear limit, a folder outside the data folder, a manifest naming files
+// elsewhere: refused, nothing written. Real processes: mlp tool render, mlp-hostd, mlp request.
+
+#include <filesystem>
+#include <fstream>
+
+#include "hostd_site.h"
+
+namespace mlp::test {
+namespace {
+
+constexpr int kToolJobPort = 17461;     // the probe link's port, unused: no probe here
+constexpr double kLengthTolMm = 0.001;  // the virtual camera's tool through the job
+constexpr double kDiameterTolMm = 0.002;
+const std::string kTools = mlp::test::SourceDir() + "/samples/tools/";
+const std::string kTable =
+    "T3 P3 Z+75.100000 D+10.050000 ;D10 Z4 roughing\n"
+    "T12 P12 Z101.2 D9.998 ;finishing end mill\n";
+
+// The virtual tool camera's images of `tool` into the site's data folder (the manifest holds
+// the virtual camera's own calibration).
+void RenderInto(const Site& site, const std::string& tool, const std::string& folder) {
+  const auto r = RunProcess(kMlp + " tool render --tool " + kTools + tool + " --out " +
+                            (site.dir / "data" / folder).string() +
+                            " --rpm 5000 --fps 50 --resolution-deg 7.2 --pulse-share 0.1 "
+                            "--drops 0 --seed 3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+}
+
+json ToolJob(const std::string& images) {
+  return {{"op", "tool"},
+          {"machine", "lcnc-1"},
+          {"images", images},
+          {"tool", "tools/endmill_d10_z4_new.json"},
+          {"tool_number", 3}};
+}
+
+TEST(ToolJob, TheToolCamerasResultGoesThroughTheAdapterOrIsRefused) {
+  Site site("tool_job", kToolJobPort);
+  json config = json::parse(ReadText(site.dir / "hostd.json"));
+  config["machines"][1]["controller"]["write_tool_table"] = true;
+  std::ofstream(site.dir / "hostd.json") << config.dump(1);
+  std::ofstream(site.dir / "tool.tbl") << kTable;
+  fs::create_directories(site.dir / "data" / "tools");
+  fs::copy_file(kTools + "endmill_d10_z4_new.json",
+                site.dir / "data" / "tools" / "endmill_d10_z4_new.json");
+  RenderInto(site, "endmill_d10_z4_new.json", "tools/new");
+  RenderInto(site, "endmill_d10_z4_worn.json", "tools/worn");
+  Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+  ASSERT_TRUE(site.WaitFor([&] { return site.Mlp("status").exit_code == 0; }))
+      << ReadText(site.dir / "hostd.log");
+
+  // The new tool: measured and written, T3's Z and D, the rest of the table kept.
+  const auto run =
+      site.Mlp("request " + site.Request("tool-new", ToolJob("tools/new")) + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+  const json reply = json::parse(run.out);
+  std::printf("tool job: length %.5f mm, diameter %.5f mm\n",
+              reply.at("update").at("length_after_mm").get<double>(),
+              reply.at("update").at("diameter_after_mm").get<double>());
+  EXPECT_NEAR(reply.at("update").at("length_before_mm").get<double>(), 75.1, 1e-9);
+  EXPECT_NEAR(reply.at("update").at("length_after_mm").get<double>(), 75.0, kLengthTolMm);
+  EXPECT_NEAR(reply.at("update").at("diameter_after_mm").get<double>(), 10.0, kDiameterTolMm);
+  EXPECT_EQ(reply.at("flutes").size(), 4u);
+  const std::string table = ReadText(site.dir / "tool.tbl");
+  EXPECT_EQ(table.find("Z+75.100000"), std::string::npos) << table;
+  EXPECT_NE(table.find(";D10 Z4 roughing"), std::string::npos) << table;
+  EXPECT_NE(table.find("T12 P12 Z101.2"), std::string::npos) << table;
+  const std::string log = ReadText(site.dir / "mlp-tool-changes.csv");
+  EXPECT_NE(log.find(",3,"), std::string::npos) << log;
+  EXPECT_NE(log.find("on lcnc-1"), std::string::npos) << log;
+
+  // The worn tool (a 20 um chip) against the new tool's description (wear limit 0): refused,
+  // the table as it was; accepted, written.
+  const auto worn = site.Mlp("request " + site.Request("tool-worn", ToolJob("tools/worn")));
+  EXPECT_EQ(worn.exit_code, 6) << worn.err;
+  EXPECT_NE(worn.err.find("beyond the tool's wear limit"), std::string::npos) << worn.err;
+  EXPECT_EQ(ReadText(site.dir / "tool.tbl"), table);
+  json accepted = ToolJob("tools/worn");
+  accepted["accept_findings"] = true;
+  EXPECT_EQ(site.Mlp("request " + site.Request("tool-accepted", accepted)).exit_code, 0);
+  EXPECT_NE(ReadText(site.dir / "tool.tbl"), table);
+  // The same tool allowed 25 um of wear by its description: the chip and the build-up
+  // reported, the table written without being told.
+  json lenient = json::parse(ReadText(kTools + "endmill_d10_z4_new.json"));
+  lenient["wear_limit_mm"] = 0.025;
+  std::ofstream(site.dir / "data" / "tools" / "lenient.json") << lenient.dump();
+  json within = ToolJob("tools/worn");
+  within["tool"] = "tools/lenient.json";
+  const auto kept = site.Mlp("request " + site.Request("tool-within", within) + " --json");
+  ASSERT_EQ(kept.exit_code, 0) << kept.err;
+  const json w = json::parse(kept.out);
+  EXPECT_NEAR(w.at("worst_finding_mm").get<double>(), 0.020, kDiameterTolMm);
+  EXPECT_NEAR(w.at("update").at("length_after_mm").get<double>(), 75.004, kLengthTolMm);
+  const std::string after_worn = ReadText(site.dir / "tool.tbl");
+  // Tool 12's length is 26 mm from this tool's: a wrong number, beyond the machine's limit.
+  json wrong = ToolJob("tools/new");
+  wrong["tool_number"] = 12;
+  const auto twelve = site.Mlp("request " + site.Request("tool-twelve", wrong));
+  EXPECT_EQ(twelve.exit_code, 6);
+  EXPECT_NE(twelve.err.find("beyond the machine's limit"), std::string::npos) << twelve.err;
+
+  // Folders and files outside the data folder, a manifest naming files elsewhere, a tool not in
+  // the table: the input named, nothing written.
+  json outside = ToolJob("../..");
+  const auto up = site.Mlp("request " + site.Request("tool-up", outside));
+  EXPECT_EQ(up.exit_code, 7);
+  EXPECT_NE(up.err.find("not a folder inside the data folder"), std::string::npos) << up.err;
+  json manifest = json::parse(ReadText(site.dir / "data" / "tools" / "new" / "images.json"));
+  manifest["images"][0]["file"] = "../../../hostd.json";
+  fs::create_directories(site.dir / "data" / "tools" / "sly");
+  std::ofstream(site.dir / "data" / "tools" / "sly" / "images.json") << manifest.dump();
+  const auto sly = site.Mlp("request " + site.Request("tool-sly", ToolJob("tools/sly")));
+  EXPECT_EQ(sly.exit_code, 7);
+  EXPECT_NE(sly.err.find("not a plain file name"), std::string::npos) << sly.err;
+  json missing = ToolJob("tools/new");
+  missing["tool_number"] = 9;
+  const auto nine = site.Mlp("request " + site.Request("tool-nine", missing));
+  EXPECT_EQ(nine.exit_code, 7);
+  EXPECT_NE(nine.err.find("tool 9 is not in"), std::string::npos) << nine.err;
+  EXPECT_EQ(ReadText(site.dir / "tool.tbl"), after_worn);
+  EXPECT_EQ(hostd.Stop(), 0);
+}
+
+}  // namespace
+}  // namespace mlp::test
