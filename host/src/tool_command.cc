@@ -36,7 +36,7 @@ constexpr const char* kUsage =
     "       mlp tool render --tool TOOL.json --out DIR --rpm R --fps F --resolution-deg D\n"
     "                       [--seed N] [--start-deg A] [--axis-u-px U] [--tip-v-px V]\n"
     "                       [--roll-deg A] [--pitch-deg A] [--drops N] [--spindle-y-mm Y]\n"
-    "                       [--spindle-z-mm Z] [strobe options]\n"
+    "                       [--spindle-z-mm Z] [--glass-face-h-mm H] [strobe options]\n"
     "  the virtual tool camera: the plan's shadow frames (DIR/frame_NNNN.pgm), the manifest a\n"
     "  camera writes (DIR/images.json) and the truth (DIR/truth.json); the tool description\n"
     "  format: docs/TOOLCAM.md\n"
@@ -66,9 +66,9 @@ struct RenderOptions {
 };
 
 // The render options that set the virtual camera or the spindle.
-const std::set<std::string> kCameraOptions = {"--axis-u-px",   "--tip-v-px", "--roll-deg",
-                                              "--pitch-deg",   "--drops",    "--spindle-y-mm",
-                                              "--spindle-z-mm"};
+const std::set<std::string> kCameraOptions = {
+    "--axis-u-px", "--tip-v-px",     "--roll-deg",     "--pitch-deg",
+    "--drops",     "--spindle-y-mm", "--spindle-z-mm", "--glass-face-h-mm"};
 
 void SetRenderCamera(const std::string& k, double v, RenderOptions* r) {
   toolcam::ToolCameraModel& c = r->camera;
@@ -87,6 +87,8 @@ void SetRenderCamera(const std::string& k, double v, RenderOptions* r) {
     r->shift.y_mm = v;
   else if (k == "--spindle-z-mm")
     r->shift.z_mm = v;
+  else if (k == "--glass-face-h-mm")
+    c.glass_face_h_mm = v;
 }
 
 ArgSpec StrobeSpec(bool rendering) {

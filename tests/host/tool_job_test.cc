@@ -16,10 +16,12 @@ namespace {
 constexpr int kToolJobPort = 17461;     // the probe link's port, unused: no probe here
 constexpr double kLengthTolMm = 0.001;  // the virtual camera's tool through the job
 constexpr double kDiameterTolMm = 0.002;
+constexpr double kPretravelTolMm = 0.001;  // the touch probe's trigger through the job
 const std::string kTools = mlp::test::SourceDir() + "/samples/tools/";
 const std::string kTable =
     "T3 P3 Z+75.100000 D+10.050000 ;D10 Z4 roughing\n"
-    "T12 P12 Z101.2 D9.998 ;finishing end mill\n";
+    "T12 P12 Z101.2 D9.998 ;finishing end mill\n"
+    "T98 P98 Z60.005 D2.0 ;touch probe\n";
 
 // The virtual tool camera's images of `tool` into the site's data folder (the manifest holds
 // the virtual camera's own calibration).
@@ -123,6 +125,47 @@ TEST(ToolJob, TheToolCamerasResultGoesThroughTheAdapterOrIsRefused) {
   EXPECT_EQ(nine.exit_code, 7);
   EXPECT_NE(nine.err.find("tool 9 is not in"), std::string::npos) << nine.err;
   EXPECT_EQ(ReadText(site.dir / "tool.tbl"), after_worn);
+
+  // A touch probe (seed 000 Fig. 6/7): its idle stylus, then stopped at its trigger on the
+  // glass block, 8 um after touching: T98's length becomes the gauge point's distance to the
+  // face at the trigger, its diameter the ball's.
+  const std::string stylus = kTools + "stylus_d2.json";
+  const std::string still =
+      " --rpm 600 --fps 6 --resolution-deg 90 --pulse-share 0.1 --drops 0 "
+      "--axis-u-px 511.5 --tip-v-px 600 --seed 5 --out ";
+  ASSERT_EQ(RunProcess(kMlp + " tool render --tool " + stylus + still +
+                       (site.dir / "data" / "tools" / "idle").string())
+                .exit_code,
+            0);
+  json deflected = json::parse(ReadText(stylus));
+  deflected["edges"] = {{{"axial_offset_mm", -0.008}}};
+  std::ofstream(site.dir / "deflected.json") << deflected.dump();
+  ASSERT_EQ(RunProcess(kMlp + " tool render --tool " + (site.dir / "deflected.json").string() +
+                       " --glass-face-h-mm 0.008" + still +
+                       (site.dir / "data" / "tools" / "trigger").string())
+                .exit_code,
+            0);
+  fs::copy_file(stylus, site.dir / "data" / "tools" / "stylus_d2.json");
+  json touch = {{"op", "tool"},
+                {"machine", "lcnc-1"},
+                {"images", "tools/idle"},
+                {"trigger", "tools/trigger"},
+                {"tool", "tools/stylus_d2.json"},
+                {"tool_number", 98}};
+  const auto probe = site.Mlp("request " + site.Request("touch", touch) + " --json");
+  ASSERT_EQ(probe.exit_code, 0) << probe.err << probe.out;
+  const json p = json::parse(probe.out);
+  std::printf("touch probe: pretravel %.2f um, trigger length %.5f mm, ball D %.5f mm\n",
+              p.at("stylus").at("pretravel_mm").get<double>() * 1e3,
+              p.at("update").at("length_after_mm").get<double>(),
+              p.at("update").at("diameter_after_mm").get<double>());
+  EXPECT_NEAR(p.at("stylus").at("pretravel_mm").get<double>(), 0.008, kPretravelTolMm);
+  EXPECT_NEAR(p.at("update").at("length_after_mm").get<double>(), 59.992, kPretravelTolMm);
+  EXPECT_NEAR(p.at("update").at("diameter_after_mm").get<double>(), 2.0, kDiameterTolMm);
+  EXPECT_NE(ReadText(site.dir / "tool.tbl").find("T98 P98 Z59.992"), std::string::npos)
+      << ReadText(site.dir / "tool.tbl");
+  touch.erase("trigger");  // a stylus without its trigger frames: bad input
+  EXPECT_EQ(site.Mlp("request " + site.Request("touch-bad", touch)).exit_code, 7);
   EXPECT_EQ(hostd.Stop(), 0);
 }
 

@@ -1,5 +1,6 @@
-// `{"op": "tool", ...}`: a tool measured from the tool camera's images (seed 000, toolcam) and
-// its length (Z) and diameter (D) written to the tool table through the machine's one adapter,
+// `{"op": "tool", ...}`: a tool measured from the tool camera's images (seed 000, toolcam), or
+// a touch probe's trigger from its idle and triggered frames, and its length (Z) and diameter
+// (D) written to the tool table through the machine's one adapter,
 // as every job's changes are: announced in the history, bounded by the machine's limit, the
 // table replaced whole, logged with the values before and after. A tool worn or built up beyond
 // its description's wear limit is refused with nothing written (unless accepted).
@@ -8,6 +9,7 @@
 #include "mlp/service/adapters.h"
 #include "mlp/toolcam/measure.h"
 #include "mlp/toolcam/tool_images_io.h"
+#include "mlp/toolcam/touch_probe.h"
 
 #include <cmath>
 #include <iomanip>
@@ -26,19 +28,21 @@ constexpr std::size_t kMaxDescriptionBytes = 1u << 20;  // a tool or a camera fi
 constexpr double kPitchWarnDeg = 0.5;
 
 struct ToolRequest {
-  std::string images, other_side, tool_file, camera_file;
+  std::string images, other_side, trigger, tool_file, camera_file;
   int tool_number = 0;
   bool accept_findings = false;
 };
 
 ToolRequest ParseToolRequest(const json& r) {
-  jf::OnlyKnownFields<JobInputError>(r,
-                                     {"op", "machine", "request_id", "images", "other_side", "tool",
-                                      "camera", "tool_number", "accept_findings"},
-                                     "request");
+  jf::OnlyKnownFields<JobInputError>(
+      r,
+      {"op", "machine", "request_id", "images", "other_side", "trigger", "tool", "camera",
+       "tool_number", "accept_findings"},
+      "request");
   ToolRequest t;
   t.images = jf::Text<JobInputError>(r, "images", "request");
   if (r.contains("other_side")) t.other_side = jf::Text<JobInputError>(r, "other_side", "request");
+  if (r.contains("trigger")) t.trigger = jf::Text<JobInputError>(r, "trigger", "request");
   t.tool_file = jf::Text<JobInputError>(r, "tool", "request");
   if (r.contains("camera")) t.camera_file = jf::Text<JobInputError>(r, "camera", "request");
   t.tool_number = jf::Integer<JobInputError>(r, "tool_number", "request");
@@ -70,18 +74,24 @@ Series ReadSeries(const JobContext& ctx,
   return s;
 }
 
+// What the job found for the tool table: its length and radius, and how worn it is.
+struct ToolValues {
+  double length_mm = 0.0, radius_mm = 0.0;
+  double worst_finding_mm = 0.0;
+  bool over_wear_limit = false;
+};
+
 // The tool table's two values for tool `number` before (the controller's) and after (measured).
 nc::NcResult ControllerResult(const MachineConfig& m,
                               std::int64_t job,
                               int number,
                               const toolcam::ToolDescription& tool,
-                              const toolcam::ToolMeasurement& t,
+                              const ToolValues& v,
                               json* reply) {
   nc::NcResult out;
   out.header = "mlprobe job " + std::to_string(job) + ": tool " + tool.id;
-  const double length = tool.length_mm - t.tip_h_mm;
-  for (const auto& [reg, value] : {std::pair{nc::ToolRegister::kLengthGeometry, length},
-                                   {nc::ToolRegister::kRadiusGeometry, t.radius_mm}}) {
+  for (const auto& [reg, value] : {std::pair{nc::ToolRegister::kLengthGeometry, v.length_mm},
+                                   {nc::ToolRegister::kRadiusGeometry, v.radius_mm}}) {
     std::string note;
     nc::ToolOffsetChange c = ResolveToolChange(m.controller, number, reg, 0.0, &note);
     if (c.incremental) c.before_mm = 0.0;  // a control without its table here: absolute
@@ -90,7 +100,7 @@ nc::NcResult ControllerResult(const MachineConfig& m,
     out.tools.push_back(c);
   }
   if (m.controller.kind == ControllerConfig::Kind::kLinuxCnc)
-    out.named = {{"status", 0.0}, {"length", length}, {"diameter", 2 * t.radius_mm}};
+    out.named = {{"status", 0.0}, {"length", v.length_mm}, {"diameter", 2 * v.radius_mm}};
   const auto& l = out.tools[0];
   const auto& r = out.tools[1];
   (*reply)["update"] = {{"tool", number},
@@ -105,14 +115,14 @@ nc::NcResult ControllerResult(const MachineConfig& m,
 // the machine's limit (a wrong tool or number).
 std::vector<std::string> Problems(const ToolRequest& q,
                                   const toolcam::ToolDescription& tool,
-                                  const toolcam::ToolMeasurement& t,
+                                  const ToolValues& v,
                                   const nc::NcResult& out,
                                   const MachineConfig& m) {
   std::vector<std::string> problems;
   std::ostringstream s;
   s << std::fixed << std::setprecision(1);
-  if (t.OverWearLimit(tool) && !q.accept_findings) {
-    s << "wear or build-up of " << t.worst_finding_mm * 1e3
+  if (v.over_wear_limit && !q.accept_findings) {
+    s << "wear or build-up of " << v.worst_finding_mm * 1e3
       << " um beyond the tool's wear limit of " << tool.wear_limit_mm * 1e3
       << " um: look at the tool (accept_findings writes it anyway)";
     problems.push_back(s.str());
@@ -130,6 +140,60 @@ std::vector<std::string> Problems(const ToolRequest& q,
     }
   }
   return problems;
+}
+
+// A cutter (or a pin): its edges from the images, on one side or both.
+ToolValues MeasureCutter(const JobContext& ctx,
+                         const ToolRequest& q,
+                         const toolcam::ToolDescription& tool,
+                         const std::string& camera_json,
+                         std::vector<std::string>* warnings,
+                         json* reply) {
+  const Series plus =
+      ReadSeries(ctx, q.images, "request.images", camera_json, tool.length_mm, warnings);
+  toolcam::MeasureOptions options;
+  options.blur_rad = plus.images.blur_rad;
+  toolcam::ToolMeasurement t;
+  if (q.other_side.empty()) {
+    t = toolcam::MeasureTool(plus.images.pixels, plus.images.position, plus.images.positions, tool,
+                             plus.camera, options);
+  } else {
+    const Series minus =
+        ReadSeries(ctx, q.other_side, "request.other_side", camera_json, tool.length_mm, warnings);
+    t = toolcam::MeasureToolBothSides(
+        {plus.images.pixels, plus.images.position, plus.images.positions, plus.camera},
+        {minus.images.pixels, minus.images.position, minus.images.positions, minus.camera}, tool,
+        options);
+  }
+  reply->update(toolcam::ToolMeasurementJson(tool, t));
+  return {tool.length_mm - t.tip_h_mm, t.radius_mm, t.worst_finding_mm, t.OverWearLimit(tool)};
+}
+
+// A touch probe's stylus: the idle ball from `images`, the glass block's face at the trigger
+// from `trigger` (seed 000 Fig. 6/7): the length a probing cycle uses, the ball's radius.
+ToolValues MeasureTouchProbe(const JobContext& ctx,
+                             const ToolRequest& q,
+                             const toolcam::ToolDescription& stylus,
+                             const std::string& camera_json,
+                             std::vector<std::string>* warnings,
+                             json* reply) {
+  if (q.trigger.empty())
+    throw JobInputError("request.trigger: a stylus needs the frames taken at its trigger");
+  const Series idle =
+      ReadSeries(ctx, q.images, "request.images", camera_json, stylus.length_mm, warnings);
+  const Series trigger =
+      ReadSeries(ctx, q.trigger, "request.trigger", camera_json, stylus.length_mm, warnings);
+  const toolcam::TriggerCalibration t = toolcam::CalibrateTrigger(
+      idle.images.pixels, idle.camera, trigger.images.pixels, trigger.camera, stylus);
+  (*reply)["tool"] = stylus.id;
+  (*reply)["stylus"] = {{"ball_diameter_mm", t.ball_diameter_mm},
+                        {"ball_rms_mm", t.idle.rms_mm},
+                        {"pretravel_mm", t.pretravel_mm},
+                        {"idle_length_mm", t.idle_length_mm},
+                        {"trigger_length_mm", t.trigger_length_mm}};
+  (*reply)["length_mm"] = t.trigger_length_mm;
+  (*reply)["diameter_mm"] = t.ball_diameter_mm;
+  return {t.trigger_length_mm, t.ball_diameter_mm / 2, 0.0, false};
 }
 
 }  // namespace
@@ -152,33 +216,17 @@ json RunToolJob(JobContext& ctx, const json& r) {
                                         : ReadDataFile(ctx.config.data_dir, q.camera_file,
                                                        "request.camera", kMaxDescriptionBytes);
     std::vector<std::string> warnings;
-    const Series plus =
-        ReadSeries(ctx, q.images, "request.images", camera_json, tool.length_mm, &warnings);
-    toolcam::MeasureOptions options;
-    options.blur_rad = plus.images.blur_rad;
-    const toolcam::ToolSeries plus_series{plus.images.pixels, plus.images.position,
-                                          plus.images.positions, plus.camera};
-    toolcam::ToolMeasurement t;
-    if (q.other_side.empty()) {
-      t = toolcam::MeasureTool(plus.images.pixels, plus.images.position, plus.images.positions,
-                               tool, plus.camera, options);
-    } else {
-      const Series minus = ReadSeries(ctx, q.other_side, "request.other_side", camera_json,
-                                      tool.length_mm, &warnings);
-      t = toolcam::MeasureToolBothSides(
-          plus_series,
-          {minus.images.pixels, minus.images.position, minus.images.positions, minus.camera}, tool,
-          options);
-    }
-    reply.update(toolcam::ToolMeasurementJson(tool, t));
+    const ToolValues v = tool.stylus
+                             ? MeasureTouchProbe(ctx, q, tool, camera_json, &warnings, &reply)
+                             : MeasureCutter(ctx, q, tool, camera_json, &warnings, &reply);
     reply["warnings"] = warnings;
     ctx.history.AddResult(run.job, {"tool " + tool.id,
                                     reply,
-                                    {{"diameter_mm", 2 * t.radius_mm},
-                                     {"length_mm", tool.length_mm - t.tip_h_mm},
-                                     {"worst_finding_mm", t.worst_finding_mm}}});
-    const nc::NcResult out = ControllerResult(ctx.machine, run.job, q.tool_number, tool, t, &reply);
-    const auto problems = Problems(q, tool, t, out, ctx.machine);
+                                    {{"diameter_mm", 2 * v.radius_mm},
+                                     {"length_mm", v.length_mm},
+                                     {"worst_finding_mm", v.worst_finding_mm}}});
+    const nc::NcResult out = ControllerResult(ctx.machine, run.job, q.tool_number, tool, v, &reply);
+    const auto problems = Problems(q, tool, v, out, ctx.machine);
     if (!problems.empty()) {
       reply["problems"] = problems;
       reply["error"] = "nothing written: " + problems.front();

@@ -101,6 +101,8 @@ std::vector<double> Coverage(const ToolDescription& t,
           AddSpan(spans.lo[k] / c.mm_per_px + c.axis_u_px, spans.hi[k] / c.mm_per_px + c.axis_u_px,
                   weight, &tool, &tool_diff);
       }
+      if (c.glass_face_h_mm && h < *c.glass_face_h_mm)  // the glass block, across the image
+        AddSpan(-0.5, static_cast<double>(w) - 0.5, 1.0 / kSubRows, &drop, &drop_diff);
       for (const Drop& d : drops) {
         const double dh = h - d.h_mm;
         if (std::abs(dh) >= d.radius_mm) continue;

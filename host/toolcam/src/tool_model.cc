@@ -112,6 +112,11 @@ bool ToolDescription::ShadowSpan(double h, double turn, double* lo, double* hi) 
 
 ShadowSpans ToolDescription::Shadow(double h, double turn, double tan_pitch) const {
   if (pin) return PinShadow(h, turn, tan_pitch);
+  if (stylus) {  // round: the turn and the pitch do not change its outline
+    ShadowSpans out;
+    if (const double w = StylusHalfWidth(h); w > 0) out.count = 1, out.lo[0] = -w, out.hi[0] = w;
+    return out;
+  }
   ShadowSpans out;
   double lo = 0, hi = 0, widest = 0;
   bool any = false;
@@ -139,6 +144,14 @@ ShadowSpans ToolDescription::Shadow(double h, double turn, double tan_pitch) con
   const double core = std::min(core_ratio * Radius(), widest);
   out.count = 1, out.lo[0] = std::min(lo, -core), out.hi[0] = std::max(hi, core);
   return out;
+}
+
+// The ball (its bottom at the edge's tip) and the stem from its middle up.
+double ToolDescription::StylusHalfWidth(double h) const {
+  const double r = Radius() + edges[0].radial_offset_mm, a = h - TipH(0);
+  if (a < 0) return 0.0;
+  const double ball = a < 2 * r ? std::sqrt(std::max(0.0, r * r - (a - r) * (a - r))) : 0.0;
+  return std::max(ball, a >= r ? stem_diameter_mm / 2 : 0.0);
 }
 
 // Half the pin's shadow at image height h: the widest |y| of its round section over the
@@ -215,6 +228,8 @@ void ToolDescription::Validate() const {
   }
   if (static_cast<int>(edges.size()) != flutes) Fail("edges must list one edge per flute");
   if (!blades.empty() && (!pin || blades.size() != 2)) Fail("blades: a pin has none or two");
+  if (stylus && !(flutes == 1 && stem_diameter_mm > 0 && stem_diameter_mm < diameter_mm))
+    Fail("a stylus has flutes 1 and a stem_diameter_mm in (0, diameter_mm)");
   for (const PinBlade& b : blades)
     if (!(b.width_mm > 0) || !(b.extends_mm > 0 && b.extends_mm <= 50) ||
         !(std::abs(b.offset_mm) + b.width_mm / 2 <= Radius()))
@@ -255,8 +270,11 @@ ToolDescription ParseTool(const std::string& text) {
   }
   if (j.contains("kind")) {
     const std::string kind = jf::Text<ToolInputError>(j, "kind", "tool");
-    if (kind != "pin" && kind != "cutter") Fail("kind must be cutter or pin");
+    if (kind != "pin" && kind != "cutter" && kind != "stylus")
+      Fail("kind must be cutter, pin or stylus");
     t.pin = kind == "pin";
+    t.stylus = kind == "stylus";
+    if (t.stylus) t.stem_diameter_mm = jf::Number<ToolInputError>(j, "stem_diameter_mm", "tool");
   }
   if (j.contains("blades")) {
     if (!j.at("blades").is_array()) Fail("blades must be an array");
@@ -302,10 +320,13 @@ std::string ToJson(const ToolDescription& t) {
                                     {"helix_deg", t.helix_deg},
                                     {"flute_length_mm", t.flute_length_mm},
                                     {"core_ratio", t.core_ratio},
-                                    {"kind", t.pin ? "pin" : "cutter"},
+                                    {"kind", t.pin      ? "pin"
+                                             : t.stylus ? "stylus"
+                                                        : "cutter"},
                                     {"edges", edges}};
   nlohmann::ordered_json with = j;
   if (t.point_angle_deg > 0) with["point_angle_deg"] = t.point_angle_deg;
+  if (t.stylus) with["stem_diameter_mm"] = t.stem_diameter_mm;
   if (t.tip_diameter_mm > 0) with["tip_diameter_mm"] = t.tip_diameter_mm;
   if (t.thread_pitch_mm > 0) with["thread_pitch_mm"] = t.thread_pitch_mm;
   if (t.wear_limit_mm > 0) with["wear_limit_mm"] = t.wear_limit_mm;

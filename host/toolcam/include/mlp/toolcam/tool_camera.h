@@ -22,6 +22,7 @@
 #include "mlp/toolcam/tool_model.h"
 
 #include <cstdint>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -41,6 +42,10 @@ struct ToolCameraModel {
   double noise_sigma = 2.0;                ///< grey levels, Gaussian
   double drops_per_frame = 1.5;            ///< coolant drops and chips (mean, Poisson)
   double roll_deg = 0.0, pitch_deg = 0.0;  ///< up to 5 deg each
+  /// Rendering only: the glass block of seed 000 Fig. 7 brought into view, its ground-glass
+  /// face this high in the tool frame [mm] (dark below it: the plate scatters the back-light);
+  /// absent: no block.
+  std::optional<double> glass_face_h_mm;
   /// Tool frame (y, h) [mm] of an ideal (undistorted) pixel position, and back.
   geometry::Vec2 ToolFromPixel(const geometry::Vec2& px) const;
   geometry::Vec2 PixelFromTool(const geometry::Vec2& yh) const;

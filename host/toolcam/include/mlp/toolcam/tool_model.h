@@ -89,6 +89,11 @@ struct ToolDescription {
   /// (h = 0), and either no blades or two below it.
   bool pin = false;
   std::vector<PinBlade> blades;
+  /// A touch probe's stylus (`"kind": "stylus"`, seed 000 Fig. 6/7): a ball of the diameter, its
+  /// bottom the tip (h = 0), on a stem of `stem_diameter_mm`; one "flute" (edges[0]: its
+  /// axial offset moves the ball, as a trigger's deflection does).
+  bool stylus = false;
+  double stem_diameter_mm = 0.0;
   std::vector<CuttingEdge> edges;  ///< one per flute
   /// Each flute's angle about z from flute 0 [deg], rising in [0, 360) (unequal pitch, seed 000
   /// example 3's seven flutes); empty: equal pitch.
@@ -127,6 +132,7 @@ struct ToolDescription {
  private:
   double ThreadDepth(double h_mm) const;  ///< below the crest, h from edge 0's crest
   double PinHalfWidth(double h_mm, double tan_pitch) const;
+  double StylusHalfWidth(double h_mm) const;
   ShadowSpans PinShadow(double h_mm, double turn_rad, double tan_pitch) const;
 };
 

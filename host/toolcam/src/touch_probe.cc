@@ -1,0 +1,109 @@
+#include "mlp/toolcam/touch_probe.h"
+
+#include "mlp/geometry/contour.h"
+#include "mlp/geometry/fit.h"
+#include "mlp/toolcam/measure.h"
+
+#include <cmath>
+
+namespace mlp::toolcam {
+namespace {
+
+using geometry::Vec2;
+
+[[noreturn]] void Fail(const std::string& what) { throw ToolError("touch probe: " + what); }
+
+void CheckStylus(const ToolDescription& s) {
+  if (!s.stylus) throw ToolInputError("touch probe: the description is not a stylus");
+}
+
+void CheckFrames(const std::vector<std::vector<std::uint8_t>>& frames, const ToolCameraModel& c) {
+  if (frames.empty()) throw ToolInputError("touch probe: no frames");
+  for (const auto& f : frames)
+    if (f.size() != static_cast<size_t>(c.width_px) * static_cast<size_t>(c.height_px))
+      throw ToolInputError("touch probe: a frame's size is not the camera's");
+}
+
+Vec2 ToTool(const Vec2& px, const ToolCameraModel& c) { return c.ToolFromPixel(Undistort(px, c)); }
+
+}  // namespace
+
+StylusSeen MeasureStylus(const std::vector<std::vector<std::uint8_t>>& frames,
+                         const ToolCameraModel& c,
+                         const ToolDescription& stylus) {
+  CheckStylus(stylus);
+  CheckFrames(frames, c);
+  // The ball below where the stem joins it (its outline is the ball's alone there), with room
+  // for the ball standing 0.2 mm off its nominal place.
+  const double r = stylus.Radius(), rs = stylus.stem_diameter_mm / 2;
+  const double top_h = r + 0.5 * std::sqrt(r * r - rs * rs);
+  std::vector<Vec2> kept;
+  for (const auto& f : frames) {
+    const geometry::GreyView g{f.data(), c.width_px, c.height_px};
+    const geometry::Points2 iso = geometry::AllCrossings(g, ShadowLevel(f));
+    for (Eigen::Index i = 0; i < iso.cols(); ++i) {
+      const Vec2 p = ToTool(iso.col(i), c);
+      if (p.y() < top_h && p.y() > -0.2 && std::abs(p.x()) < r + 0.2) kept.push_back(p);
+    }
+  }
+  if (kept.size() < 50) Fail("the frames do not show the stylus' ball");
+  geometry::Points2 pts(2, static_cast<Eigen::Index>(kept.size()));
+  for (size_t i = 0; i < kept.size(); ++i) pts.col(static_cast<Eigen::Index>(i)) = kept[i];
+  const auto fit = geometry::FitCircle2(pts);
+  StylusSeen s;
+  s.centre_y_mm = fit.shape.center.x(), s.centre_h_mm = fit.shape.center.y();
+  s.radius_mm = fit.shape.radius, s.rms_mm = fit.stats.rms,
+  s.points = static_cast<int>(kept.size());
+  return s;
+}
+
+double MeasureGlassFace(const std::vector<std::vector<std::uint8_t>>& frames,
+                        const ToolCameraModel& c,
+                        const ToolDescription& stylus,
+                        double clear_mm) {
+  CheckStylus(stylus);
+  CheckFrames(frames, c);
+  std::vector<Vec2> kept;
+  std::vector<std::uint8_t> inverted;
+  for (const auto& f : frames) {
+    // The face is each column's first fall from the light: the first rise of the negative.
+    inverted.resize(f.size());
+    for (size_t i = 0; i < f.size(); ++i) inverted[i] = static_cast<std::uint8_t>(255 - f[i]);
+    const geometry::GreyView g{inverted.data(), c.width_px, c.height_px};
+    const double level = ShadowLevel(inverted);
+    const geometry::Points2 cols = geometry::ColumnCrossings(g, level);
+    for (Eigen::Index i = 0; i < cols.cols(); ++i) {
+      if (g.At(static_cast<int>(cols(0, i)), 0) >= level) continue;  // starts in the shadow
+      const Vec2 p = ToTool(cols.col(i), c);
+      if (std::abs(p.x()) > stylus.Radius() + clear_mm) kept.push_back(p);
+    }
+  }
+  if (kept.size() < 20) Fail("the frames do not show the glass block's face beside the stylus");
+  geometry::Points2 pts(2, static_cast<Eigen::Index>(kept.size()));
+  for (size_t i = 0; i < kept.size(); ++i) pts.col(static_cast<Eigen::Index>(i)) = kept[i];
+  const auto line = geometry::FitLine2(pts).shape;
+  // The line through `point` along `direction`, met with y = 0.
+  if (std::abs(line.direction.x()) < 0.5) Fail("the glass block's face is not across the view");
+  return line.point.y() - line.point.x() * line.direction.y() / line.direction.x();
+}
+
+TriggerCalibration CalibrateTrigger(const std::vector<std::vector<std::uint8_t>>& idle,
+                                    const ToolCameraModel& idle_camera,
+                                    const std::vector<std::vector<std::uint8_t>>& trigger,
+                                    const ToolCameraModel& trigger_camera,
+                                    const ToolDescription& stylus) {
+  TriggerCalibration t;
+  t.idle = MeasureStylus(idle, idle_camera, stylus);
+  t.face_h_mm = MeasureGlassFace(trigger, trigger_camera, stylus);
+  const double bottom_h = t.idle.centre_h_mm - t.idle.radius_mm;
+  t.pretravel_mm = t.face_h_mm - bottom_h;
+  if (!(t.pretravel_mm >= 0 && t.pretravel_mm <= 1.0))
+    Fail("a pretravel of " + std::to_string(t.pretravel_mm) +
+         " mm: the frames are not of one probe, or the face is not the one it touched");
+  t.idle_length_mm = stylus.length_mm - bottom_h;
+  t.trigger_length_mm = stylus.length_mm - t.face_h_mm;
+  t.ball_diameter_mm = 2 * t.idle.radius_mm;
+  return t;
+}
+
+}  // namespace mlp::toolcam
