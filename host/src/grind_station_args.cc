@@ -8,11 +8,15 @@ namespace mlp::host {
 const char* GrindStationUsage() {
   return "usage: mlp-grind-hal [--name NAME] [--job JOB.json] [--work-top-mm Z0] [--clear-mm ZC]\n"
          "                     [--min-stroke-mm S] [--hysteresis-mm H] [--max-comp-mm M]\n"
-         "                     [--sim-error-mm X,Y] [--sim-wear-mm W] [--seed N] [--cycle-us U]\n"
+         "                     [--sim-error-mm X,Y] [--sim-wear-mm W] [--seed N]\n"
+         "                     [--sampler CH] [--servo-period-ns P] [--cycle-us U]\n"
          "  a LinuxCNC HAL user-space component NAME (default mlp-grind; loadusr -Wn NAME\n"
-         "  mlp-grind-hal --name NAME ...): pins NAME.x-mm, .y-mm, .z-mm (the slide) and\n"
-         "  .c-x-mm, .c-y-mm (the NC's theoretical C), .sim-error-x-mm, .sim-error-y-mm in;\n"
-         "  .tops, .captures, .measured, .cuts,\n"
+         "  mlp-grind-hal --name NAME ...). The slide comes through the realtime sampler's\n"
+         "  FIFO CH (default 0; loadrt sampler cfg=fffff, its pins on x, y, z in machine\n"
+         "  coordinates and the NC's theoretical C x, y; addf it to the thread of period P ns,\n"
+         "  default 1000000); the FIFO is read again U us after it was found empty (default\n"
+         "  1000). Pins NAME.sim-error-x-mm, .sim-error-y-mm in; .tops, .captures, .measured,\n"
+         "  .cuts,\n"
          "  .ready, .refused, .feed (0 good, 1 under-feed, 2 over-feed), .d-mm, .error-mm,\n"
          "  .comp-x-mm, .comp-y-mm, .top-mm out. The camera, the nominal profile, the wheel and\n"
          "  the limit e come from JOB (an mlprobe-grind/1 job; its points are not used; default\n"
@@ -25,7 +29,7 @@ const char* GrindStationUsage() {
 GrindStationArgs ParseGrindStationArgs(const std::vector<std::string>& args) {
   const base::Args a(args, {{"--name", "--job", "--work-top-mm", "--clear-mm", "--min-stroke-mm",
                              "--hysteresis-mm", "--max-comp-mm", "--sim-error-mm", "--sim-wear-mm",
-                             "--seed", "--cycle-us"}});
+                             "--seed", "--sampler", "--servo-period-ns", "--cycle-us"}});
   GrindStationArgs out;
   out.name = HalComponentName(a.Text("--name", out.name));
   grind::GrindStationConfig& c = out.config;
@@ -47,6 +51,11 @@ GrindStationArgs ParseGrindStationArgs(const std::vector<std::string>& args) {
   }
   c.wear_mm = a.Number("--sim-wear-mm", c.wear_mm);
   out.seed = static_cast<unsigned>(a.Integer("--seed", out.seed));
+  out.sampler_channel = static_cast<int>(a.Integer("--sampler", out.sampler_channel, 0));
+  if (out.sampler_channel > 7) throw UsageError("--sampler: 0..7 (the sampler's channels)");
+  out.servo_period_ns =
+      static_cast<long>(a.Integer("--servo-period-ns", out.servo_period_ns, 1000));
+  if (out.servo_period_ns > 100'000'000) throw UsageError("--servo-period-ns: 1000..100000000");
   out.cycle_us = static_cast<int>(a.Integer("--cycle-us", out.cycle_us, 50));
   if (out.cycle_us > 100000) throw UsageError("--cycle-us: 50..100000");
   c.Validate();

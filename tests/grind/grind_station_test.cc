@@ -145,8 +145,12 @@ TEST(GrindStation, ACompensationOverTheLimitIsRefused) {
 // mlp-grind-hal's arguments, parsed without LinuxCNC.
 TEST(GrindStationArgs, ReadTheCellAndRefuseWhatIsWrong) {
   const host::GrindStationArgs a = host::ParseGrindStationArgs(
-      {"--name", "grind-2", "--sim-error-mm", "0.01,-0.02", "--max-comp-mm", "0.05"});
+      {"--name", "grind-2", "--sim-error-mm", "0.01,-0.02", "--max-comp-mm", "0.05", "--sampler",
+       "3", "--servo-period-ns", "500000"});
   EXPECT_EQ(a.name, "grind-2");
+  EXPECT_EQ(a.sampler_channel, 3);
+  EXPECT_EQ(a.servo_period_ns, 500000);
+  EXPECT_EQ(host::ParseGrindStationArgs({}).sampler_channel, 0);
   EXPECT_EQ(a.config.machine_error_mm, Vec2(0.01, -0.02));
   EXPECT_EQ(a.config.max_compensation_mm, 0.05);
   EXPECT_EQ(a.config.trigger.clear_mm, 2.0);
@@ -155,6 +159,9 @@ TEST(GrindStationArgs, ReadTheCellAndRefuseWhatIsWrong) {
   EXPECT_THROW(host::ParseGrindStationArgs({"--sim-error-mm", "0.01"}), base::UsageError);
   EXPECT_THROW(host::ParseGrindStationArgs({"--sim-error-mm", "0.01,x"}), base::UsageError);
   EXPECT_THROW(host::ParseGrindStationArgs({"--clear-mm", "-1"}), GrindInputError);
+  EXPECT_THROW(host::ParseGrindStationArgs({"--sampler", "8"}), base::UsageError);
+  EXPECT_THROW(host::ParseGrindStationArgs({"--sampler", "-1"}), base::UsageError);
+  EXPECT_THROW(host::ParseGrindStationArgs({"--servo-period-ns", "0"}), base::UsageError);
   EXPECT_THROW(host::ParseGrindStationArgs({"--job", "/nonexistent/job.json"}), base::UsageError);
 }
 

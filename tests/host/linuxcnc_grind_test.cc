@@ -71,7 +71,8 @@ TEST(LinuxCncGrind, TheCompensationReachesG54AndAnOversizedOneStops) {
   EXPECT_LT((g54 + error).norm(), kErrorTolMm);
   // Each point: a top before its first stroke, between its strokes and at the turn.
   const auto tops = cnc.Hal("getp mlp-grind.captures");
-  EXPECT_EQ(std::stoi(tops.out), 9) << tops.out;
+  EXPECT_EQ(std::stoi(tops.out), 9)
+      << tops.out << " tops declared: " << cnc.Hal("getp mlp-grind.tops").out;
 
   // The wheel 150 um off, 120 um beyond what G54 takes back: refused, the program stops, G54
   // stays.
