@@ -129,7 +129,18 @@ void PrintMeasurement(const toolcam::ToolDescription& tool,
         << " um\n";
     PrintView(f.plus, f.minus ? "    +y: " : "    ", out);
     if (f.minus) PrintView(*f.minus, "    -y: ", out);
+    if (tool.electrode)
+      out << std::setprecision(1) << "    corner " << f.edge + 1 << " worn "
+          << f.radial_wear_mm * 1e3 << " um in, " << f.axial_wear_mm * 1e3 << " um up\n";
   }
+  if (tool.electrode)
+    out << std::setprecision(1) << "  worst corner wear " << m.worst_wear_mm * 1e3
+        << " um, the electrode's wear limit " << tool.wear_limit_mm * 1e3
+        << " um: " << (m.OverWearLimit(tool) ? "REJECT" : "accept")
+        << (m.half_turn_ambiguous
+                ? "\n  corners named only up to a half turn: give --start-turn-deg (the chuck's "
+                  "angle) or measure against a stored reference\n"
+                : "\n");
   if (m.worst_finding_mm > 0)
     out << std::setprecision(1) << "  worst finding " << m.worst_finding_mm * 1e3
         << " um, the tool's wear limit " << tool.wear_limit_mm * 1e3 << " um\n";
@@ -145,7 +156,7 @@ void SaveReference(const std::string& path,
 
 int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const Args f(args, {{"--images", "--frames", "--other-side", "--tool", "--camera", "--overlay",
-                       "--save-reference"},
+                       "--save-reference", "--start-turn-deg"},
                       {"--json"}});
   const std::string images =
       f.Text("--images", "").empty() ? f.Text("--frames", "") : f.Text("--images", "");
@@ -170,6 +181,11 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   for (const auto& w : warnings) err << "mlp tool: warning: " << w << "\n";
   toolcam::MeasureOptions options;
   options.blur_rad = im.blur_rad;
+  if (f.Has("--start-turn-deg")) {
+    options.start_turn_deg = f.Number("--start-turn-deg");
+    if (!(std::abs(*options.start_turn_deg) <= 360))
+      throw UsageError("--start-turn-deg must be in [-360, 360]");
+  }
   const toolcam::ToolMeasurement m =
       other.empty()
           ? toolcam::MeasureTool(im.pixels, im.position, im.positions, tool, camera, options)

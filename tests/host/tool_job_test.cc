@@ -21,7 +21,8 @@ const std::string kTools = mlp::test::SourceDir() + "/samples/tools/";
 const std::string kTable =
     "T3 P3 Z+75.100000 D+10.050000 ;D10 Z4 roughing\n"
     "T12 P12 Z101.2 D9.998 ;finishing end mill\n"
-    "T98 P98 Z60.005 D2.0 ;touch probe\n";
+    "T98 P98 Z60.005 D2.0 ;touch probe\n"
+    "T30 P30 Z60.0 D11.662 ;EDM electrode 10x6\n";
 
 // The virtual tool camera's images of `tool` into the site's data folder (the manifest holds
 // the virtual camera's own calibration).
@@ -125,6 +126,47 @@ TEST(ToolJob, TheToolCamerasResultGoesThroughTheAdapterOrIsRefused) {
   EXPECT_EQ(nine.exit_code, 7);
   EXPECT_NE(nine.err.find("tool 9 is not in"), std::string::npos) << nine.err;
   EXPECT_EQ(ReadText(site.dir / "tool.tbl"), after_worn);
+
+  // An EDM electrode (seed 000 example 5) worn corner by corner, turned in a chuck that says
+  // its angle (to 2 deg): one corner 30 um shorter against its 25 um limit refuses the write;
+  // accepted, each corner's wear in the reply and the shortest corner's length in the table.
+  fs::copy_file(kTools + "electrode_10x6.json",
+                site.dir / "data" / "tools" / "electrode_10x6.json");
+  ASSERT_EQ(RunProcess(kMlp + " tool render --tool " + kTools + "electrode_10x6_worn.json --out " +
+                       (site.dir / "data" / "tools" / "electrode").string() +
+                       " --rpm 5000 --fps 50 --resolution-deg 3.6 --pulse-share 0.1 --drops 0 "
+                       "--seed 7 --start-deg 40")
+                .exit_code,
+            0);
+  json edm = {{"op", "tool"},
+              {"machine", "lcnc-1"},
+              {"images", "tools/electrode"},
+              {"tool", "tools/electrode_10x6.json"},
+              {"tool_number", 30},
+              {"start_turn_deg", 42.0}};
+  const std::string before_edm = ReadText(site.dir / "tool.tbl");
+  const auto edm_worn = site.Mlp("request " + site.Request("edm-worn", edm));
+  EXPECT_EQ(edm_worn.exit_code, 6) << edm_worn.err;
+  EXPECT_NE(edm_worn.err.find("beyond the tool's wear limit"), std::string::npos) << edm_worn.err;
+  EXPECT_EQ(ReadText(site.dir / "tool.tbl"), before_edm);
+  edm["accept_findings"] = true;
+  const auto edm_set = site.Mlp("request " + site.Request("edm-set", edm) + " --json");
+  ASSERT_EQ(edm_set.exit_code, 0) << edm_set.err << edm_set.out;
+  const json e = json::parse(edm_set.out);
+  EXPECT_FALSE(e.at("half_turn_ambiguous").get<bool>());
+  EXPECT_NEAR(e.at("worst_wear_mm").get<double>(), 0.030, kLengthTolMm);
+  const double in_um[] = {8, 3, 16, 1}, up_um[] = {12, 4, 20, 30};  // the worn sample's truth
+  for (const json& f : e.at("flutes")) {
+    const int k = f.at("edge").get<int>() - 1;
+    std::printf("electrode corner %d: in %.2f um (true %.0f), up %.2f um (true %.0f)\n", k + 1,
+                f.at("radial_wear_mm").get<double>() * 1e3, in_um[k],
+                f.at("axial_wear_mm").get<double>() * 1e3, up_um[k]);
+    EXPECT_NEAR(f.at("radial_wear_mm").get<double>(), in_um[k] * 1e-3, kLengthTolMm);
+    EXPECT_NEAR(f.at("axial_wear_mm").get<double>(), up_um[k] * 1e-3, kLengthTolMm);
+  }
+  EXPECT_NEAR(e.at("update").at("length_after_mm").get<double>(), 59.996, kLengthTolMm);
+  edm["start_turn_deg"] = 1000;
+  EXPECT_EQ(site.Mlp("request " + site.Request("edm-bad", edm)).exit_code, 7);
 
   // A touch probe (seed 000 Fig. 6/7): its idle stylus, then stopped at its trigger on the
   // glass block, 8 um after touching: T98's length becomes the gauge point's distance to the

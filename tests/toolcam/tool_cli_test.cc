@@ -113,6 +113,42 @@ TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
 // LinuxCNC tool table: refused with findings or beyond the change limit, nothing changed then.
 // A D10 tool wider than the field, on both sides: the +y series, then the spindle moved 10 mm
 // across and the -y series (seed 000 examples 2 and 3); `--other-side` pairs them.
+// An EDM electrode through the command: each corner's wear and the verdict, the corners named
+// by the chuck's angle (the render's start) or said to be named only up to a half turn.
+TEST(ToolCli, MeasuresAnElectrodesCornersAndSaysTheVerdict) {
+  const std::string tools = mlp::test::SourceDir() + "/samples/tools/";
+  const std::string dir = "/tmp/mlp_tool_cli_electrode";
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(RunProcess(kMlp + " tool render --tool " + tools + "electrode_10x6_worn.json --out " +
+                       dir + " --rpm 5000 --fps 50 --resolution-deg 3.6 --drops 0 --start-deg 40")
+                .exit_code,
+            0);
+  const std::string measure =
+      kMlp + " tool measure --images " + dir + " --tool " + tools + "electrode_10x6.json";
+  const auto named = RunProcess(measure + " --start-turn-deg 38");
+  ASSERT_EQ(named.exit_code, 0) << named.err;
+  std::printf("%s", named.out.c_str());
+  EXPECT_NE(named.out.find("corner 4 worn 1."), std::string::npos) << named.out;
+  EXPECT_NE(named.out.find("the electrode's wear limit 25.0 um: REJECT"), std::string::npos)
+      << named.out;
+  const auto j = RunProcess(measure + " --start-turn-deg 38 --json");
+  ASSERT_EQ(j.exit_code, 0) << j.err;
+  const nlohmann::json m = nlohmann::json::parse(j.out);
+  EXPECT_NEAR(m.at("worst_wear_mm").get<double>(), 0.030, kLengthTolMm);
+  EXPECT_FALSE(m.at("half_turn_ambiguous").get<bool>());
+  for (const auto& f : m.at("flutes")) {
+    if (f.at("edge") != 4) continue;
+    EXPECT_NEAR(f.at("axial_wear_mm").get<double>(), 0.030, kLengthTolMm);
+  }
+  EXPECT_EQ(named.out.find("half turn"), std::string::npos) << named.out;
+  const auto unnamed = RunProcess(measure);
+  ASSERT_EQ(unnamed.exit_code, 0) << unnamed.err;
+  EXPECT_NE(unnamed.out.find("corners named only up to a half turn"), std::string::npos)
+      << unnamed.out;
+  EXPECT_EQ(RunProcess(measure + " --start-turn-deg 400").exit_code, 2);
+  EXPECT_EQ(RunProcess(measure + " --start-turn-deg x").exit_code, 2);
+}
+
 TEST(ToolCli, MeasuresAWideToolOnBothSides) {
   const std::string dir = "/tmp/mlp_tool_cli_sides";
   std::filesystem::remove_all(dir);

@@ -17,6 +17,7 @@ namespace mlp::toolcam {
 namespace {
 
 using test::EdgeFacing;
+using test::FlankCamera;
 using test::MeasuredRun;
 using test::RenderAndMeasure;
 using test::RunSetup;
@@ -44,17 +45,7 @@ ToolCameraModel WholeToolCamera() {
   return c;
 }
 
-// The large tools' camera (the axis out of view, the edge in the middle): measure_test's.
-ToolCameraModel FlankCamera(double radius_mm) {
-  ToolCameraModel c;
-  c.width_px = 400, c.height_px = 600;
-  c.axis_u_px = 200 - radius_mm / c.mm_per_px;
-  c.tip_v_px = 520;
-  c.drops_per_frame = 0;
-  return c;
-}
-
-double Wrap(double deg) { return deg - 360.0 * std::round(deg / 360.0); }
+double Wrap(double deg) { return test::WrapDeg(deg); }
 
 double TrueRadius(const ToolDescription& t, int k) {
   return t.Radius() + t.edges[static_cast<size_t>(k)].radial_offset_mm;

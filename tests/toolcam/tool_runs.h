@@ -39,6 +39,13 @@ struct RenderedSeries {
   double start_turn = 0;
 };
 
+// The turn a series drawn with `seed` starts at (RenderSeries' first draw) [deg]: what a chuck
+// that defines the tool's angle would say.
+inline double StartTurnDeg(unsigned seed) {
+  std::mt19937 rng(seed);
+  return std::uniform_real_distribution<double>(0, 2 * M_PI)(rng) * 180 / M_PI;
+}
+
 inline RenderedSeries RenderSeries(const ToolDescription& tool,
                                    const ToolCameraModel& c,
                                    unsigned seed,
@@ -72,6 +79,19 @@ inline MeasuredRun RenderAndMeasure(const ToolDescription& tool,
                       setup.measured_with ? *setup.measured_with : c, setup.options);
   return run;
 }
+
+// The large tools' camera (measure_test's): 400 x 600 px at 4 um, the edge at `radius_mm` in
+// the middle, the axis out of view.
+inline ToolCameraModel FlankCamera(double radius_mm) {
+  ToolCameraModel c;
+  c.width_px = 400, c.height_px = 600;
+  c.axis_u_px = 200 - radius_mm / c.mm_per_px;
+  c.tip_v_px = 520;
+  c.drops_per_frame = 0;
+  return c;
+}
+
+inline double WrapDeg(double deg) { return deg - 360.0 * std::round(deg / 360.0); }
 
 // The edge nearest the `side` (+1: +y, -1: -y) at height h in the frame turned `turn`.
 inline int EdgeFacing(const ToolDescription& t, double turn, double h, int side = 1) {

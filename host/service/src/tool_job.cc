@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include "job_common.h"
@@ -31,13 +32,14 @@ struct ToolRequest {
   std::string images, other_side, trigger, tool_file, camera_file;
   int tool_number = 0;
   bool accept_findings = false;
+  std::optional<double> start_turn_deg;  ///< the chuck's turn at position 0 (an electrode's)
 };
 
 ToolRequest ParseToolRequest(const json& r) {
   jf::OnlyKnownFields<JobInputError>(
       r,
       {"op", "machine", "request_id", "images", "other_side", "trigger", "tool", "camera",
-       "tool_number", "accept_findings"},
+       "tool_number", "accept_findings", "start_turn_deg"},
       "request");
   ToolRequest t;
   t.images = jf::Text<JobInputError>(r, "images", "request");
@@ -48,6 +50,12 @@ ToolRequest ParseToolRequest(const json& r) {
   t.tool_number = jf::Integer<JobInputError>(r, "tool_number", "request");
   if (t.tool_number < 1) throw JobInputError("request.tool_number must be 1 or more");
   t.accept_findings = jf::FlagOr<JobInputError>(r, "accept_findings", false, "request");
+  if (r.contains("start_turn_deg")) {
+    const double a = jf::Number<JobInputError>(r, "start_turn_deg", "request");
+    if (!(a >= -360 && a <= 360))
+      throw JobInputError("request.start_turn_deg must be in [-360, 360]");
+    t.start_turn_deg = a;
+  }
   return t;
 }
 
@@ -77,7 +85,7 @@ Series ReadSeries(const JobContext& ctx,
 // What the job found for the tool table: its length and radius, and how worn it is.
 struct ToolValues {
   double length_mm = 0.0, radius_mm = 0.0;
-  double worst_finding_mm = 0.0;
+  double worst_finding_mm = 0.0;  ///< or an electrode's worst corner wear, if more
   bool over_wear_limit = false;
 };
 
@@ -153,6 +161,7 @@ ToolValues MeasureCutter(const JobContext& ctx,
       ReadSeries(ctx, q.images, "request.images", camera_json, tool.length_mm, warnings);
   toolcam::MeasureOptions options;
   options.blur_rad = plus.images.blur_rad;
+  options.start_turn_deg = q.start_turn_deg;
   toolcam::ToolMeasurement t;
   if (q.other_side.empty()) {
     t = toolcam::MeasureTool(plus.images.pixels, plus.images.position, plus.images.positions, tool,
@@ -166,7 +175,8 @@ ToolValues MeasureCutter(const JobContext& ctx,
         options);
   }
   reply->update(toolcam::ToolMeasurementJson(tool, t));
-  return {tool.length_mm - t.tip_h_mm, t.radius_mm, t.worst_finding_mm, t.OverWearLimit(tool)};
+  return {tool.length_mm - t.tip_h_mm, t.radius_mm, std::max(t.worst_finding_mm, t.worst_wear_mm),
+          t.OverWearLimit(tool)};
 }
 
 // A touch probe's stylus: the idle ball from `images`, the glass block's face at the trigger

@@ -474,6 +474,70 @@ int TopEdge(const IndexedImages& x, const ToolDescription& t, int side) {
   return best_j;
 }
 
+// An electrode's indexing (seed 000 example 5): the model's extreme +y at the reference height
+// as a function of the turn, truncated below half way between its least and greatest value
+// (the faces' middles, where the neighbouring corners take over), shifted against the images'
+// extremes truncated alike; the best overlap is the turn at angular position 0 [deg], and so
+// says which corner peaks where. Why not the peaks alone: an electrode's peaks are broad (its
+// corners are a rectangle's, a sine's top) and its pitches repeat after half a turn; the
+// whole function fixes the shift to a fraction of an image step. The section looks the same
+// after half a turn: with `start_turn_deg` the overlap is taken within a quarter turn of it.
+double ShadowFunctionShiftDeg(const IndexedImages& x,
+                              const ToolDescription& t,
+                              const MeasureOptions& opt) {
+  constexpr int kPerDeg = 10;
+  constexpr int kSteps = 360 * kPerDeg;
+  std::vector<double> model(kSteps);
+  for (int i = 0; i < kSteps; ++i) {
+    double lo = 0, hi = 0;
+    t.ShadowSpan(opt.h_ref_mm, i / (kPerDeg * base::kDegPerRad), &lo, &hi);
+    model[static_cast<size_t>(i)] = hi;
+  }
+  // The level: half way, or the least extreme an image shows if higher (a large electrode's
+  // flank leaves the field between its corners: those images count as at the level).
+  const auto [least, most] = std::minmax_element(model.begin(), model.end());
+  double level = (*least + *most) / 2, least_seen = 1e300;
+  for (const double y : x.ref[0])
+    if (std::isfinite(y)) least_seen = std::min(least_seen, y);
+  if (least_seen < 1e300) level = std::max(level, least_seen);
+  for (double& v : model) v = std::max(v, level);
+  std::vector<std::pair<int, double>> seen;  // (angle in steps, truncated extreme)
+  for (size_t i = 0; i < x.ref[0].size(); ++i)
+    seen.emplace_back(static_cast<int>(std::lround(x.angle_deg[i] * kPerDeg)) % kSteps,
+                      std::isfinite(x.ref[0][i]) ? std::max(x.ref[0][i], level) : level);
+  std::vector<double> cost(kSteps, 0.0);
+  for (int s = 0; s < kSteps; ++s)
+    for (const auto& [a, y] : seen)
+      cost[static_cast<size_t>(s)] += std::pow(y - model[static_cast<size_t>((a + s) % kSteps)], 2);
+  int best = -1;
+  for (int s = 0; s < kSteps; ++s) {
+    if (opt.start_turn_deg && std::abs(Wrap180(s / double(kPerDeg) - *opt.start_turn_deg)) > 90)
+      continue;
+    if (best < 0 || cost[static_cast<size_t>(s)] < cost[static_cast<size_t>(best)]) best = s;
+  }
+  // A parabola through the least cost and its neighbours.
+  const double cm = cost[static_cast<size_t>((best + kSteps - 1) % kSteps)],
+               c0 = cost[static_cast<size_t>(best)],
+               cp = cost[static_cast<size_t>((best + 1) % kSteps)];
+  const double curve = cm - 2 * c0 + cp;
+  const double frac = curve > 0 ? 0.5 * (cm - cp) / curve : 0.0;
+  return (best + frac) / kPerDeg;
+}
+
+// The edge at the +y side's highest peak when the turn at position 0 is `shift_deg`: the one
+// whose own peak (edge e faces +y at 90 - angle_e - shift) lies nearest it.
+int EdgeAtTopPeak(const IndexedImages& x, const ToolDescription& t, double shift_deg) {
+  const double top_deg = x.angle_deg[x.top[0]];
+  int best = 0;
+  double nearest = 1e300;
+  for (int e = 0; e < t.flutes; ++e) {
+    const double d =
+        std::abs(Wrap180(top_deg - (90.0 - t.FluteAngle(e) * base::kDegPerRad - shift_deg)));
+    if (d < nearest) nearest = d, best = e;
+  }
+  return best;
+}
+
 // Edge e on `side`, its extreme near `want_deg`: the principal image, the peak's offset
 // between images and the view measured.
 FluteView PrincipalView(const IndexedImages& x,
@@ -713,6 +777,16 @@ int MatchOtherSide(const std::vector<FluteView>& plus, const std::vector<FluteVi
 
 }  // namespace
 
+// An electrode's corners' wear against the nominal (or the stored reference) and the worst.
+void CornerWear(const ToolDescription& nominal, ToolMeasurement* t) {
+  for (FluteMeasurement& f : t->flutes) {
+    const auto e = static_cast<size_t>(f.edge);
+    f.radial_wear_mm = nominal.Radius() + nominal.edges[e].radial_offset_mm - f.radius_mm;
+    f.axial_wear_mm = f.tip_h_mm - nominal.TipH(f.edge);
+    t->worst_wear_mm = std::max({t->worst_wear_mm, f.radial_wear_mm, f.axial_wear_mm});
+  }
+}
+
 ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames,
                             const std::vector<int>& positions,
                             int position_count,
@@ -724,17 +798,27 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
   // The images in angular order; the flutes are the maxima of the reference height's extreme.
   const IndexedImages x = IndexImages(series, opt);
   if (x.top[0] == frames.size()) Fail("no image shows the outline at the reference height");
-  const int j_pitch = TopEdge(x, nominal, 1);
+  const int j_pitch = nominal.electrode
+                          ? EdgeAtTopPeak(x, nominal, ShadowFunctionShiftDeg(x, nominal, opt))
+                          : TopEdge(x, nominal, 1);
   ToolMeasurement t;
   // First against the ground (unworn) tool; against a stored reference each flute again,
   // against its own edge once the order is known.
   t.flutes =
       MeasureFlutes(x, Ground(nominal), EdgesFrom(j_pitch, nominal.flutes), opt, camera.pitch_deg);
+  // Against a stored reference each flute again, named by its radii and tips unless the
+  // chuck named an electrode's corners.
+  const bool chuck_named = nominal.electrode && opt.start_turn_deg.has_value();
   if (IsReference(nominal))
-    t.flutes =
-        MeasureFlutes(x, nominal, EdgesFrom(FirstEdge(t.flutes, nominal, j_pitch), nominal.flutes),
-                      opt, camera.pitch_deg);
+    t.flutes = MeasureFlutes(
+        x, nominal,
+        EdgesFrom(chuck_named ? j_pitch : FirstEdge(t.flutes, nominal, j_pitch), nominal.flutes),
+        opt, camera.pitch_deg);
   Summarise(&t);
+  if (nominal.electrode) {
+    CornerWear(nominal, &t);
+    t.half_turn_ambiguous = !chuck_named && !IsReference(nominal);
+  }
   return t;
 }
 

@@ -119,6 +119,9 @@ nlohmann::json ToolMeasurementJson(const ToolDescription& tool, const ToolMeasur
                       {"runout_mm", f.radius_mm - mean_radius},
                       {"tip_h_mm", f.tip_h_mm},
                       {"views", views}});
+    if (tool.electrode)
+      flutes.back().update(
+          {{"radial_wear_mm", f.radial_wear_mm}, {"axial_wear_mm", f.axial_wear_mm}});
   }
   nlohmann::json j = {{"tool", tool.id},
                       {"radius_mm", m.radius_mm},
@@ -131,6 +134,8 @@ nlohmann::json ToolMeasurementJson(const ToolDescription& tool, const ToolMeasur
                       {"wear_limit_mm", tool.wear_limit_mm},
                       {"flutes", flutes}};
   if (m.both_flanks) j["axis_offset_mm"] = m.axis_offset_mm;
+  if (tool.electrode)
+    j.update({{"worst_wear_mm", m.worst_wear_mm}, {"half_turn_ambiguous", m.half_turn_ambiguous}});
   return j;
 }
 

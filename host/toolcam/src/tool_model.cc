@@ -49,6 +49,29 @@ CuttingEdge ParseEdge(const json& e, const std::string& w) {
   return edge;
 }
 
+// An electrode's corners from its section (ToolDescription::electrode). A diameter, corner count
+// or angles the file gives as well (ToJson writes them) must be the section's.
+void ElectrodeFromSection(const json& j, ToolDescription* t) {
+  const json* s = j.contains("section_mm") ? &j.at("section_mm") : nullptr;
+  if (s == nullptr || !s->is_array() || s->size() != 2 || !(*s)[0].is_number() ||
+      !(*s)[1].is_number())
+    Fail("an electrode needs section_mm: [width, thickness]");
+  t->section_mm[0] = (*s)[0].get<double>(), t->section_mm[1] = (*s)[1].get<double>();
+  if (!(t->section_mm[0] > 0 && t->section_mm[1] > 0)) Fail("section_mm's sizes must be > 0");
+  t->diameter_mm = std::hypot(t->section_mm[0], t->section_mm[1]);
+  const double a_deg = std::atan2(t->section_mm[1], t->section_mm[0]) * base::kDegPerRad;
+  if (!(a_deg > 3 && a_deg < 87))  // the corners 6 deg apart at least (flute_angles_deg)
+    Fail("section_mm: an electrode's thickness must be 0.053 to 19 times its width");
+  t->flute_angles_deg = {0.0, 180.0 - 2 * a_deg, 180.0, 360.0 - 2 * a_deg};
+  // The web: the inscribed circle (what the section covers at every turn).
+  t->core_ratio = std::min(t->section_mm[0], t->section_mm[1]) / t->diameter_mm;
+  if (j.contains("diameter_mm") &&
+      std::abs(jf::Number<ToolInputError>(j, "diameter_mm", "tool") - t->diameter_mm) > 1e-9)
+    Fail("an electrode's diameter_mm must be its section's diagonal");
+  if (j.contains("flutes") && jf::Integer<ToolInputError>(j, "flutes", "tool") != 4)
+    Fail("an electrode has 4 corners (flutes)");
+}
+
 }  // namespace
 
 double ToolDescription::TipH(int k) const { return -edges[static_cast<size_t>(k)].axial_offset_mm; }
@@ -228,6 +251,9 @@ void ToolDescription::Validate() const {
   }
   if (static_cast<int>(edges.size()) != flutes) Fail("edges must list one edge per flute");
   if (!blades.empty() && (!pin || blades.size() != 2)) Fail("blades: a pin has none or two");
+  if (electrode && !(flutes == 4 && helix_deg == 0 && point_angle_deg == 0 &&
+                     thread_pitch_mm == 0 && section_mm[0] > 0 && section_mm[1] > 0))
+    Fail("an electrode has a section_mm of two sizes > 0, four corners, no helix, point or thread");
   if (stylus && !(flutes == 1 && stem_diameter_mm > 0 && stem_diameter_mm < diameter_mm))
     Fail("a stylus has flutes 1 and a stem_diameter_mm in (0, diameter_mm)");
   for (const PinBlade& b : blades)
@@ -250,18 +276,19 @@ ToolDescription ParseTool(const std::string& text) {
   const json j = jf::ParseDocument<ToolInputError>(text, "mlprobe-tool/1", "tool");
   ToolDescription t;
   t.id = jf::Text<ToolInputError>(j, "id", "tool");
-  t.diameter_mm = jf::Number<ToolInputError>(j, "diameter_mm", "tool");
+  const bool electrode = j.contains("kind") && j.at("kind") == "electrode";  // sized by section
+  t.diameter_mm = electrode ? 0.0 : jf::Number<ToolInputError>(j, "diameter_mm", "tool");
   t.length_mm = jf::Number<ToolInputError>(j, "length_mm", "tool");
-  t.flutes = jf::Integer<ToolInputError>(j, "flutes", "tool");
+  t.flutes = electrode ? 4 : jf::Integer<ToolInputError>(j, "flutes", "tool");
   t.corner_radius_mm = jf::NumberOr<ToolInputError>(j, "corner_radius_mm", 0.0, "tool");
-  t.helix_deg = jf::NumberOr<ToolInputError>(j, "helix_deg", 30.0, "tool");
+  t.helix_deg = jf::NumberOr<ToolInputError>(j, "helix_deg", electrode ? 0.0 : 30.0, "tool");
   t.flute_length_mm = jf::Number<ToolInputError>(j, "flute_length_mm", "tool");
   t.core_ratio = jf::NumberOr<ToolInputError>(j, "core_ratio", t.core_ratio, "tool");
   t.point_angle_deg = jf::NumberOr<ToolInputError>(j, "point_angle_deg", 0.0, "tool");
   t.tip_diameter_mm = jf::NumberOr<ToolInputError>(j, "tip_diameter_mm", 0.0, "tool");
   t.thread_pitch_mm = jf::NumberOr<ToolInputError>(j, "thread_pitch_mm", 0.0, "tool");
   t.wear_limit_mm = jf::NumberOr<ToolInputError>(j, "wear_limit_mm", 0.0, "tool");
-  if (j.contains("flute_angles_deg")) {
+  if (j.contains("flute_angles_deg") && !electrode) {
     if (!j.at("flute_angles_deg").is_array()) Fail("flute_angles_deg must be an array");
     for (const json& a : j.at("flute_angles_deg")) {
       if (!a.is_number()) Fail("flute_angles_deg must hold numbers");
@@ -270,11 +297,13 @@ ToolDescription ParseTool(const std::string& text) {
   }
   if (j.contains("kind")) {
     const std::string kind = jf::Text<ToolInputError>(j, "kind", "tool");
-    if (kind != "pin" && kind != "cutter" && kind != "stylus")
-      Fail("kind must be cutter, pin or stylus");
+    if (kind != "pin" && kind != "cutter" && kind != "stylus" && kind != "electrode")
+      Fail("kind must be cutter, pin, stylus or electrode");
     t.pin = kind == "pin";
     t.stylus = kind == "stylus";
+    t.electrode = kind == "electrode";
     if (t.stylus) t.stem_diameter_mm = jf::Number<ToolInputError>(j, "stem_diameter_mm", "tool");
+    if (t.electrode) ElectrodeFromSection(j, &t);
   }
   if (j.contains("blades")) {
     if (!j.at("blades").is_array()) Fail("blades must be an array");
@@ -320,9 +349,10 @@ std::string ToJson(const ToolDescription& t) {
                                     {"helix_deg", t.helix_deg},
                                     {"flute_length_mm", t.flute_length_mm},
                                     {"core_ratio", t.core_ratio},
-                                    {"kind", t.pin      ? "pin"
-                                             : t.stylus ? "stylus"
-                                                        : "cutter"},
+                                    {"kind", t.pin         ? "pin"
+                                             : t.stylus    ? "stylus"
+                                             : t.electrode ? "electrode"
+                                                           : "cutter"},
                                     {"edges", edges}};
   nlohmann::ordered_json with = j;
   if (t.point_angle_deg > 0) with["point_angle_deg"] = t.point_angle_deg;
@@ -330,7 +360,8 @@ std::string ToJson(const ToolDescription& t) {
   if (t.tip_diameter_mm > 0) with["tip_diameter_mm"] = t.tip_diameter_mm;
   if (t.thread_pitch_mm > 0) with["thread_pitch_mm"] = t.thread_pitch_mm;
   if (t.wear_limit_mm > 0) with["wear_limit_mm"] = t.wear_limit_mm;
-  if (!t.flute_angles_deg.empty()) with["flute_angles_deg"] = t.flute_angles_deg;
+  if (!t.flute_angles_deg.empty() && !t.electrode) with["flute_angles_deg"] = t.flute_angles_deg;
+  if (t.electrode) with["section_mm"] = {t.section_mm[0], t.section_mm[1]};
   if (!t.blades.empty()) {
     nlohmann::ordered_json blades = nlohmann::ordered_json::array();
     for (const PinBlade& b : t.blades)

@@ -2,7 +2,8 @@
 /// @file A tool measured from its strobed shadow images (seed 000): the silhouette's sub-pixel
 /// outline in each image (geometry/contour.h), angular indexing without an encoder (the
 /// outline's extreme +y at a reference height against the images' angular order: its maxima
-/// are the flutes, the nearest images their principal images), then per flute the reference
+/// are the flutes, the nearest images their principal images; an EDM electrode's by that
+/// function shifted against its model's), then per flute the reference
 /// edge model (the tool description's nominal silhouette) shifted in y (radius) and z (length)
 /// by least squares, contamination (coolant, chips) removed, and what stays off the model
 /// reported as wear (inside) and build-up (outside).
@@ -11,6 +12,7 @@
 #include "mlp/toolcam/tool_camera.h"
 #include "mlp/toolcam/tool_model.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <utility>
@@ -53,6 +55,12 @@ struct MeasureOptions {
   /// plan): the image is the average over it, and so is the model (5 angles, as the virtual
   /// camera); a long pulse otherwise shrinks every edge by r (1 - cos(blur / 4)).
   double blur_rad = 0.0;
+  /// The turn at the series' angular position 0 [deg], when the chuck defines it (an EDM's C
+  /// axis, a spindle's oriented stop); else unset. An electrode's section looks the same after
+  /// half a turn, so its corners are named by this (the shadow function's overlap is taken
+  /// within a quarter turn of it), by a stored reference's wear, or not at all
+  /// (ToolMeasurement::half_turn_ambiguous).
+  std::optional<double> start_turn_deg;
 };
 
 /// A stretch of an edge off its model.
@@ -99,6 +107,9 @@ struct FluteMeasurement {
   double radius_mm = 0.0;
   double tip_h_mm = 0.0;   ///< the views' mean
   double angle_deg = 0.0;  ///< the +y view's
+  /// An electrode's corner: how far it moved in since the nominal (or the stored reference),
+  /// across the axis and up from the end [mm] (negative: it grew).
+  double radial_wear_mm = 0.0, axial_wear_mm = 0.0;
   /// Both views' findings.
   std::vector<const Finding*> Findings() const;
 };
@@ -117,8 +128,15 @@ struct ToolMeasurement {
   /// The worst finding's distance from the model [mm] (0: none) and whether it exceeds the
   /// tool's wear limit (the tool table is then not written).
   double worst_finding_mm = 0.0;
+  /// An electrode: its most worn corner's wear, radial or axial [mm] (seed 000 example 5: the
+  /// controller decides from it whether the electrode may go on); 0 for a cutter, whose size
+  /// goes to the tool table.
+  double worst_wear_mm = 0.0;
+  /// An electrode whose corners are named only up to a half turn: no chuck angle
+  /// (MeasureOptions::start_turn_deg) and no stored reference; corner k may be corner k + 2.
+  bool half_turn_ambiguous = false;
   bool OverWearLimit(const ToolDescription& tool) const {
-    return worst_finding_mm > tool.wear_limit_mm;
+    return std::max(worst_finding_mm, worst_wear_mm) > tool.wear_limit_mm;
   }
 };
 

@@ -94,6 +94,15 @@ struct ToolDescription {
   /// axial offset moves the ball, as a trigger's deflection does).
   bool stylus = false;
   double stem_diameter_mm = 0.0;
+  /// A sinking EDM electrode (`"kind": "electrode"`, seed 000 example 5): a prism of
+  /// rectangular section `section_mm` (its width along x, its thickness along y at turn 0),
+  /// flat end, turned slowly in the spindle or the C axis. Its four corners are its "flutes":
+  /// each a vertical edge at the section's half-diagonal (the diameter is the diagonal), at
+  /// angles 0, 180 - 2a, 180, 360 - 2a from corner 0 (a = atan(thickness / width)); each
+  /// corner's radial and axial offsets are its own wear (the seed's "each corner may move
+  /// independently"). The end's corner radius rounds each corner's bottom.
+  bool electrode = false;
+  double section_mm[2] = {0.0, 0.0};
   std::vector<CuttingEdge> edges;  ///< one per flute
   /// Each flute's angle about z from flute 0 [deg], rising in [0, 360) (unequal pitch, seed 000
   /// example 3's seven flutes); empty: equal pitch.
