@@ -1,6 +1,7 @@
 #include "mlp/calib/board_hand_eye.h"
 
 #include "mlp/base/units.h"
+#include "mlp/geometry/columns.h"
 #include "mlp/geometry/robust.h"
 #include "mlp/probe_fw/probe_model.h"
 
@@ -188,9 +189,7 @@ std::vector<Vec3> LaserPointsInBase(const ImageFindings& f,
 Spread SpreadAboutCommonPlane(const std::vector<Vec3>& points) {
   Spread s;
   if (points.size() < 3) return s;
-  Eigen::Matrix3Xd m(3, static_cast<Eigen::Index>(points.size()));
-  for (size_t i = 0; i < points.size(); ++i) m.col(static_cast<Eigen::Index>(i)) = points[i];
-  const auto fit = geometry::FitPlaneRobust(m);
+  const auto fit = geometry::FitPlaneRobust(geometry::AsColumns(points));
   double s2 = 0.0;
   for (int i : fit.inliers) {
     const Vec3& p = points[static_cast<size_t>(i)];

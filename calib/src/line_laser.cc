@@ -1,6 +1,7 @@
 #include "mlp/calib/line_laser.h"
 
 #include "mlp/calib/capture_io.h"
+#include "mlp/geometry/columns.h"
 #include "mlp/geometry/fit.h"
 #include "mlp/geometry/robust.h"
 #include "mlp/probe_fw/stripe.h"
@@ -109,14 +110,6 @@ void FindStripe(const GrayImage& image, const StripeSettings& s, ImageFindings* 
                                           counts.too_narrow + counts.cut);
 }
 
-template <int N>
-Eigen::Matrix<double, N, Eigen::Dynamic> Columns(
-    const std::vector<Eigen::Matrix<double, N, 1>>& v) {
-  Eigen::Matrix<double, N, Eigen::Dynamic> m(N, static_cast<Eigen::Index>(v.size()));
-  for (size_t i = 0; i < v.size(); ++i) m.col(static_cast<Eigen::Index>(i)) = v[i];
-  return m;
-}
-
 }  // namespace
 
 std::vector<ImageFindings> FindInImages(const RobotViews& views,
@@ -155,7 +148,7 @@ StripeScatter ScatterAboutLine(const std::vector<Vec2>& stripe_px, const Intrins
   std::vector<Vec2> kept = all;
   double rms = 0.0;
   for (int round = 0; round < 4; ++round) {
-    const auto fit = geometry::FitLine2(Columns(kept));
+    const auto fit = geometry::FitLine2(geometry::AsColumns(kept));
     const Vec2 n(-fit.shape.direction.y(), fit.shape.direction.x());
     double sum = 0.0;
     for (const auto& p : kept) sum += std::pow(n.dot(p - fit.shape.point), 2);
@@ -288,7 +281,7 @@ LineLaserCalibration CalibrateLineLaser(const std::vector<ImageFindings>& images
   if (kept.size() != boards.corners.size())
     r.camera = CalibrateCameraFromCorners(kept_corners, board, width_px, height_px);
   const std::vector<Vec3> points = LaserOnBoards(images, &r);
-  const auto plane = geometry::FitPlaneRobust(Columns(points));
+  const auto plane = geometry::FitPlaneRobust(geometry::AsColumns(points));
   r.plane = plane.fit.shape;
   PlaneStats(points, plane.inliers, &r);
   return r;

@@ -1,5 +1,7 @@
 #include "mlp/geometry/contour.h"
 
+#include "mlp/geometry/columns.h"
+
 #include <algorithm>
 #include <array>
 #include <vector>
@@ -51,12 +53,6 @@ void LineCrossings(
   }
 }
 
-Points2 ToPoints(const std::vector<Vec2>& v) {
-  Points2 p(2, static_cast<Eigen::Index>(v.size()));
-  for (size_t i = 0; i < v.size(); ++i) p.col(static_cast<Eigen::Index>(i)) = v[i];
-  return p;
-}
-
 }  // namespace
 
 double HalfLevel(const GreyView& im) {
@@ -86,14 +82,14 @@ Points2 RowCrossings(const GreyView& im, double level, bool falling) {
     const double u = FirstCrossing(im, level, im.width, v, true, falling);
     if (u >= 0) out.emplace_back(u, v);
   }
-  return ToPoints(out);
+  return AsColumns(out);
 }
 
 Points2 AllCrossings(const GreyView& im, double level) {
   std::vector<Vec2> out;
   for (int v = 0; v < im.height; ++v) LineCrossings(im, level, im.width, v, true, &out);
   for (int u = 0; u < im.width; ++u) LineCrossings(im, level, im.height, u, false, &out);
-  return ToPoints(out);
+  return AsColumns(out);
 }
 
 Points2 ColumnCrossings(const GreyView& im, double level) {
@@ -102,7 +98,7 @@ Points2 ColumnCrossings(const GreyView& im, double level) {
     const double v = FirstCrossing(im, level, im.height, u, false);
     if (v >= 0) out.emplace_back(u, v);
   }
-  return ToPoints(out);
+  return AsColumns(out);
 }
 
 }  // namespace mlp::geometry

@@ -21,7 +21,6 @@ using geometry::Vec2;
 }
 
 // Pixel -> tool frame, undoing the lens' radial distortion (the camera's calibration).
-Vec2 ToTool(const Vec2& px, const ToolCameraModel& c) { return c.ToolFromPixel(Undistort(px, c)); }
 
 // The flank's extreme across at the reference height: the flank over the band round it
 // smoothed by a quadratic in h, what sticks out beyond the contamination limit left out and
@@ -507,8 +506,10 @@ double ShadowFunctionShiftDeg(const IndexedImages& x,
                       std::isfinite(x.ref[0][i]) ? std::max(x.ref[0][i], level) : level);
   std::vector<double> cost(kSteps, 0.0);
   for (int s = 0; s < kSteps; ++s)
-    for (const auto& [a, y] : seen)
-      cost[static_cast<size_t>(s)] += std::pow(y - model[static_cast<size_t>((a + s) % kSteps)], 2);
+    for (const auto& [a, y] : seen) {
+      const double d = y - model[static_cast<size_t>((a + s) % kSteps)];
+      cost[static_cast<size_t>(s)] += d * d;
+    }
   int best = -1;
   for (int s = 0; s < kSteps; ++s) {
     if (opt.start_turn_deg && std::abs(Wrap180(s / double(kPerDeg) - *opt.start_turn_deg)) > 90)
@@ -670,6 +671,10 @@ void Summarise(ToolMeasurement* t) {
 
 }  // namespace
 
+Vec2 ToolFromImage(const Vec2& px, const ToolCameraModel& c) {
+  return c.ToolFromPixel(Undistort(px, c));
+}
+
 Vec2 Undistort(const Vec2& px, const ToolCameraModel& c) {
   const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
   const double corner2 = cx * cx + cy * cy;
@@ -732,12 +737,14 @@ Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCamera
   const double du_dv = (a1.x() - a0.x()) / (a1.y() - a0.y());
   const auto axis_u = [&](int v) { return a0.x() + (v - a0.y()) * du_dv; };
   Outline o;
-  for (const Vec2& p : FlankFromAxis(g, level, 1, axis_u)) o.side.push_back(ToTool(p, c));
+  for (const Vec2& p : FlankFromAxis(g, level, 1, axis_u)) o.side.push_back(ToolFromImage(p, c));
   if (axis_u(0) >= 0 || axis_u(c.height_px - 1) >= 0)  // the axis in view: the -y flank too
-    for (const Vec2& p : FlankFromAxis(g, level, -1, axis_u)) o.side_neg.push_back(ToTool(p, c));
+    for (const Vec2& p : FlankFromAxis(g, level, -1, axis_u))
+      o.side_neg.push_back(ToolFromImage(p, c));
   const geometry::Points2 cols = geometry::ColumnCrossings(g, level);
   for (Eigen::Index i = 0; i < cols.cols(); ++i)
-    if (g.At(static_cast<int>(cols(0, i)), 0) < level) o.bottom.push_back(ToTool(cols.col(i), c));
+    if (g.At(static_cast<int>(cols(0, i)), 0) < level)
+      o.bottom.push_back(ToolFromImage(cols.col(i), c));
   return o;
 }
 
@@ -775,8 +782,6 @@ int MatchOtherSide(const std::vector<FluteView>& plus, const std::vector<FluteVi
   return static_cast<int>(best_s);
 }
 
-}  // namespace
-
 // An electrode's corners' wear against the nominal (or the stored reference) and the worst.
 void CornerWear(const ToolDescription& nominal, ToolMeasurement* t) {
   for (FluteMeasurement& f : t->flutes) {
@@ -786,6 +791,8 @@ void CornerWear(const ToolDescription& nominal, ToolMeasurement* t) {
     t->worst_wear_mm = std::max({t->worst_wear_mm, f.radial_wear_mm, f.axial_wear_mm});
   }
 }
+
+}  // namespace
 
 ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames,
                             const std::vector<int>& positions,
@@ -803,11 +810,10 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
                           : TopEdge(x, nominal, 1);
   ToolMeasurement t;
   // First against the ground (unworn) tool; against a stored reference each flute again,
-  // against its own edge once the order is known.
+  // against its own edge once the order is known (by its radii and tips, unless the chuck
+  // named an electrode's corners).
   t.flutes =
       MeasureFlutes(x, Ground(nominal), EdgesFrom(j_pitch, nominal.flutes), opt, camera.pitch_deg);
-  // Against a stored reference each flute again, named by its radii and tips unless the
-  // chuck named an electrode's corners.
   const bool chuck_named = nominal.electrode && opt.start_turn_deg.has_value();
   if (IsReference(nominal))
     t.flutes = MeasureFlutes(

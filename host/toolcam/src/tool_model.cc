@@ -276,7 +276,12 @@ ToolDescription ParseTool(const std::string& text) {
   const json j = jf::ParseDocument<ToolInputError>(text, "mlprobe-tool/1", "tool");
   ToolDescription t;
   t.id = jf::Text<ToolInputError>(j, "id", "tool");
-  const bool electrode = j.contains("kind") && j.at("kind") == "electrode";  // sized by section
+  const std::string kind =
+      j.contains("kind") ? jf::Text<ToolInputError>(j, "kind", "tool") : std::string("cutter");
+  if (kind != "pin" && kind != "cutter" && kind != "stylus" && kind != "electrode")
+    Fail("kind must be cutter, pin, stylus or electrode");
+  t.pin = kind == "pin", t.stylus = kind == "stylus", t.electrode = kind == "electrode";
+  const bool electrode = t.electrode;  // sized by its section (ElectrodeFromSection)
   t.diameter_mm = electrode ? 0.0 : jf::Number<ToolInputError>(j, "diameter_mm", "tool");
   t.length_mm = jf::Number<ToolInputError>(j, "length_mm", "tool");
   t.flutes = electrode ? 4 : jf::Integer<ToolInputError>(j, "flutes", "tool");
@@ -295,16 +300,8 @@ ToolDescription ParseTool(const std::string& text) {
       t.flute_angles_deg.push_back(a.get<double>());
     }
   }
-  if (j.contains("kind")) {
-    const std::string kind = jf::Text<ToolInputError>(j, "kind", "tool");
-    if (kind != "pin" && kind != "cutter" && kind != "stylus" && kind != "electrode")
-      Fail("kind must be cutter, pin, stylus or electrode");
-    t.pin = kind == "pin";
-    t.stylus = kind == "stylus";
-    t.electrode = kind == "electrode";
-    if (t.stylus) t.stem_diameter_mm = jf::Number<ToolInputError>(j, "stem_diameter_mm", "tool");
-    if (t.electrode) ElectrodeFromSection(j, &t);
-  }
+  if (t.stylus) t.stem_diameter_mm = jf::Number<ToolInputError>(j, "stem_diameter_mm", "tool");
+  if (t.electrode) ElectrodeFromSection(j, &t);
   if (j.contains("blades")) {
     if (!j.at("blades").is_array()) Fail("blades must be an array");
     for (size_t k = 0; k < j.at("blades").size(); ++k) {

@@ -1,5 +1,6 @@
 #include "mlp/toolcam/touch_probe.h"
 
+#include "mlp/geometry/columns.h"
 #include "mlp/geometry/contour.h"
 #include "mlp/geometry/fit.h"
 #include "mlp/toolcam/measure.h"
@@ -24,8 +25,6 @@ void CheckFrames(const std::vector<std::vector<std::uint8_t>>& frames, const Too
       throw ToolInputError("touch probe: a frame's size is not the camera's");
 }
 
-Vec2 ToTool(const Vec2& px, const ToolCameraModel& c) { return c.ToolFromPixel(Undistort(px, c)); }
-
 }  // namespace
 
 StylusSeen MeasureStylus(const std::vector<std::vector<std::uint8_t>>& frames,
@@ -42,14 +41,12 @@ StylusSeen MeasureStylus(const std::vector<std::vector<std::uint8_t>>& frames,
     const geometry::GreyView g{f.data(), c.width_px, c.height_px};
     const geometry::Points2 iso = geometry::AllCrossings(g, ShadowLevel(f));
     for (Eigen::Index i = 0; i < iso.cols(); ++i) {
-      const Vec2 p = ToTool(iso.col(i), c);
+      const Vec2 p = ToolFromImage(iso.col(i), c);
       if (p.y() < top_h && p.y() > -0.2 && std::abs(p.x()) < r + 0.2) kept.push_back(p);
     }
   }
   if (kept.size() < 50) Fail("the frames do not show the stylus' ball");
-  geometry::Points2 pts(2, static_cast<Eigen::Index>(kept.size()));
-  for (size_t i = 0; i < kept.size(); ++i) pts.col(static_cast<Eigen::Index>(i)) = kept[i];
-  const auto fit = geometry::FitCircle2(pts);
+  const auto fit = geometry::FitCircle2(geometry::AsColumns(kept));
   StylusSeen s;
   s.centre_y_mm = fit.shape.center.x(), s.centre_h_mm = fit.shape.center.y();
   s.radius_mm = fit.shape.radius, s.rms_mm = fit.stats.rms,
@@ -74,14 +71,12 @@ double MeasureGlassFace(const std::vector<std::vector<std::uint8_t>>& frames,
     const geometry::Points2 cols = geometry::ColumnCrossings(g, level);
     for (Eigen::Index i = 0; i < cols.cols(); ++i) {
       if (g.At(static_cast<int>(cols(0, i)), 0) >= level) continue;  // starts in the shadow
-      const Vec2 p = ToTool(cols.col(i), c);
+      const Vec2 p = ToolFromImage(cols.col(i), c);
       if (std::abs(p.x()) > stylus.Radius() + clear_mm) kept.push_back(p);
     }
   }
   if (kept.size() < 20) Fail("the frames do not show the glass block's face beside the stylus");
-  geometry::Points2 pts(2, static_cast<Eigen::Index>(kept.size()));
-  for (size_t i = 0; i < kept.size(); ++i) pts.col(static_cast<Eigen::Index>(i)) = kept[i];
-  const auto line = geometry::FitLine2(pts).shape;
+  const auto line = geometry::FitLine2(geometry::AsColumns(kept)).shape;
   // The line through `point` along `direction`, met with y = 0.
   if (std::abs(line.direction.x()) < 0.5) Fail("the glass block's face is not across the view");
   return line.point.y() - line.point.x() * line.direction.y() / line.direction.x();

@@ -35,6 +35,8 @@ Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCamera
 double ShadowLevel(const std::vector<std::uint8_t>& pixels);
 /// A pixel position with the lens' radial distortion undone (the camera's calibration).
 geometry::Vec2 Undistort(const geometry::Vec2& pixel, const ToolCameraModel& camera);
+/// A pixel position in the tool frame (y, h) [mm]: undistorted, then the camera's calibration.
+geometry::Vec2 ToolFromImage(const geometry::Vec2& pixel, const ToolCameraModel& camera);
 
 struct MeasureOptions {
   double h_ref_mm = 1.5;  ///< the height that indexes the flutes (above the corner)
