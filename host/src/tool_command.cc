@@ -36,16 +36,21 @@ constexpr const char* kUsage =
     "       mlp tool render --tool TOOL.json --out DIR --rpm R --fps F --resolution-deg D\n"
     "                       [--seed N] [--start-deg A] [--axis-u-px U] [--tip-v-px V]\n"
     "                       [--roll-deg A] [--pitch-deg A] [--drops N] [--spindle-y-mm Y]\n"
-    "                       [--spindle-z-mm Z] [--glass-face-h-mm H] [strobe options]\n"
+    "                       [--spindle-z-mm Z] [--glass-face-h-mm H] [--view-deg V]\n"
+    "                       [--drift-x-mm X] [--drift-y-mm Y] [strobe options]\n"
     "  the virtual tool camera: the plan's shadow frames (DIR/frame_NNNN.pgm), the manifest a\n"
     "  camera writes (DIR/images.json) and the truth (DIR/truth.json); the tool description\n"
-    "  format: docs/TOOLCAM.md\n"
+    "  format: docs/TOOLCAM.md. A second camera: its view turned V deg from the first's about\n"
+    "  the spindle; X, Y: the spindle off where the calibrations have it (the first camera's\n"
+    "  frame: x along its view, y across), drawn but not in the manifest\n"
     "       mlp tool calibrate --images DIR --pin PIN.json --out CAMERA.json [--json]\n"
     "  the camera against the machine from images of the calibration pin: scale, spindle axis,\n"
     "  gauge point, tilt about x (roll) and, with the pin's blades, about y (pitch)\n"
     "       mlp tool measure --images DIR --tool NOMINAL.json [--camera CAMERA.json]\n"
     "                        [--other-side DIR2] [--overlay FILE.png] [--json]\n"
     "                        [--save-reference TOOL.json] [--start-turn-deg A]\n"
+    "                        [--second-view DIR2 --view-deg V [--second-camera CAMERA2.json]\n"
+    "                         [--view-tolerance-deg T]]\n"
     "  each edge's radius and length, wear and build-up from DIR/images.json (the images and\n"
     "  their angular positions; --frames is the same as --images) against the tool's\n"
     "  description (a stored reference: what changed since), with the calibration CAMERA.json\n"
@@ -53,7 +58,10 @@ constexpr const char* kUsage =
     "  one on its other side too with --other-side (its -y flank's series, the spindle moved\n"
     "  across); --save-reference stores this measurement as the tool's new reference. An EDM\n"
     "  electrode: each corner's wear and the verdict against its wear limit; A is the turn\n"
-    "  at the first angular position when the chuck defines it (names the corners). The\n"
+    "  at the first angular position when the chuck defines it (names the corners).\n"
+    "  With --second-view, a second camera's series of the same pulses, its view turned about\n"
+    "  V deg (within T, 10) from the first's round the spindle: the spindle axis in depth and\n"
+    "  each edge in space (seed 000 example 7; the tool wholly in view of both). The\n"
     "  tool table is written by the host service's tool job (mlp request, docs/HOSTD.md)\n"
     "exit codes: 0 done, 2 bad arguments, tool file or images, 3 cannot be planned or\n"
     "measured (the reason is printed), 1 bug\n";
@@ -65,12 +73,17 @@ struct RenderOptions {
   toolcam::ToolCameraModel camera;
   bool placed = false;  // --axis-u-px or --tip-v-px given
   toolcam::SpindleShift shift;
+  // A second camera (seed 000 example 7): its view turned this far from the first's about the
+  // spindle; and the spindle off where the calibrations have it, in the first camera's frame
+  // (x along its view, y across its image): unknown to a measurement.
+  double view_deg = 0.0, drift_x_mm = 0.0, drift_y_mm = 0.0;
 };
 
 // The render options that set the virtual camera or the spindle.
 const std::set<std::string> kCameraOptions = {
     "--axis-u-px", "--tip-v-px",     "--roll-deg",     "--pitch-deg",
-    "--drops",     "--spindle-y-mm", "--spindle-z-mm", "--glass-face-h-mm"};
+    "--drops",     "--spindle-y-mm", "--spindle-z-mm", "--glass-face-h-mm",
+    "--view-deg",  "--drift-x-mm",   "--drift-y-mm"};
 
 void SetRenderCamera(const std::string& k, double v, RenderOptions* r) {
   toolcam::ToolCameraModel& c = r->camera;
@@ -91,6 +104,12 @@ void SetRenderCamera(const std::string& k, double v, RenderOptions* r) {
     r->shift.z_mm = v;
   else if (k == "--glass-face-h-mm")
     c.glass_face_h_mm = v;
+  else if (k == "--view-deg")
+    r->view_deg = v;
+  else if (k == "--drift-x-mm")
+    r->drift_x_mm = v;
+  else if (k == "--drift-y-mm")
+    r->drift_y_mm = v;
 }
 
 ArgSpec StrobeSpec(bool rendering) {
@@ -154,8 +173,14 @@ int Render(const RenderOptions& o,
     camera.axis_u_px = camera.width_px / 2.0 - 6.3, camera.tip_v_px = 0.52 * camera.height_px;
   camera.Validate();
   err << "mlp tool: rendering " << plan.positions << " frames of " << tool.id << "\n";
-  const int n = toolcam::RenderToolSequence(tool, camera, plan, o.start_deg / base::kDegPerRad,
-                                            o.seed, o.out, o.shift);
+  if (!(std::abs(o.view_deg) <= 360)) throw UsageError("--view-deg must be in [-360, 360]");
+  // This camera sees the tool as the first does `view_deg` of its turn later, and the drift
+  // across its own image (two_views.h).
+  const double view_rad = o.view_deg / base::kDegPerRad;
+  const double across_mm = -std::sin(view_rad) * o.drift_x_mm + std::cos(view_rad) * o.drift_y_mm;
+  const int n =
+      toolcam::RenderToolSequence(tool, camera, plan, (o.start_deg - o.view_deg) / base::kDegPerRad,
+                                  o.seed, o.out, o.shift, across_mm);
   out << n << " frames and truth.json in " << o.out << "\n";
   return kExitOk;
 }

@@ -152,11 +152,73 @@ void SaveReference(const std::string& path,
   WriteOutputFile(path, toolcam::ToJson(toolcam::ReferenceFrom(tool, m)));
 }
 
+void PrintTwoViews(const toolcam::ToolDescription& tool,
+                   const toolcam::ToolIn3d& t,
+                   const toolcam::SecondView& mount,
+                   std::ostream& out) {
+  out << std::fixed << std::setprecision(3) << "two views " << t.view_deg
+      << " deg apart as the flutes show it (mount " << mount.view_deg << ", rms " << t.view_rms_deg
+      << "): depth gain " << t.depth_gain << "\n"
+      << std::setprecision(2) << std::showpos << "  spindle axis off the calibrations: x "
+      << t.axis_offset_mm.x() * 1e3 << " um (along A's view), y " << t.axis_offset_mm.y() * 1e3
+      << " um" << std::noshowpos << "\n  length " << std::setprecision(4)
+      << tool.length_mm - t.tip_h_mm << " mm, the cameras' tips " << std::showpos
+      << std::setprecision(2) << t.tip_disagreement_mm * 1e3 << std::noshowpos << " um apart\n";
+  for (size_t k = 0; k < t.edge_mm.size(); ++k)
+    out << std::setprecision(4) << "  flute " << k + 1 << ": radius " << t.radius_mm[k]
+        << " mm (A - B " << std::showpos << std::setprecision(2)
+        << t.radius_disagreement_mm[k] * 1e3 << std::noshowpos << " um), at position 0 ("
+        << std::setprecision(4) << t.edge_mm[k].x() << ", " << t.edge_mm[k].y() << ", "
+        << t.edge_mm[k].z() << ") mm\n";
+}
+
+// Seed 000 example 7: the same pulses' series from a second camera, its view turned
+// --view-deg from the first's (two_views.h).
+int MeasureTwoViews(const Args& f,
+                    const toolcam::ToolDescription& tool,
+                    const toolcam::ToolSeries& a,
+                    const toolcam::MeasureOptions& options,
+                    std::vector<std::string>* warnings,
+                    std::ostream& out,
+                    std::ostream& err) {
+  if (f.Has("--other-side") || f.Has("--save-reference"))
+    throw UsageError("--second-view does not go with --other-side or --save-reference");
+  if (!f.Has("--view-deg")) throw UsageError("--second-view needs --view-deg (the mount's angle)");
+  const toolcam::SecondView mount{
+      f.Number("--view-deg"),
+      f.Number("--view-tolerance-deg", toolcam::SecondView{}.tolerance_deg)};
+  const toolcam::ToolImageSeries im = toolcam::ReadToolImageSeries(f.Text("--second-view", ""));
+  const std::string camera_file = f.Text("--second-camera", "");
+  const size_t before = warnings->size();  // the first camera's are printed
+  const toolcam::ToolCameraModel camera =
+      toolcam::ToolCameraFor(im, camera_file.empty() ? "" : ReadInputFile(camera_file), camera_file,
+                             tool.length_mm, kPitchWarnDeg, warnings);
+  for (size_t k = before; k < warnings->size(); ++k)
+    err << "mlp tool: warning: " << (*warnings)[k] << "\n";
+  const toolcam::ToolIn3d t = toolcam::MeasureToolFromTwoViews(
+      a, {im.pixels, im.position, im.positions, camera}, tool, mount, options);
+  if (!f.Text("--overlay", "").empty())
+    WriteOverlay(f.Text("--overlay", ""), {a.frames, a.camera}, {a.frames, a.camera}, t.a);
+  if (f.Has("--json")) {
+    nlohmann::json result = toolcam::ToolIn3dJson(tool, t);
+    result["warnings"] = *warnings;
+    out << result.dump() << "\n";
+    return kExitOk;
+  }
+  out << "camera A:\n";
+  PrintMeasurement(tool, t.a, out);
+  out << "camera B:\n";
+  PrintMeasurement(tool, t.b, out);
+  PrintTwoViews(tool, t, mount, out);
+  return kExitOk;
+}
+
 }  // namespace
 
 int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const Args f(args, {{"--images", "--frames", "--other-side", "--tool", "--camera", "--overlay",
-                       "--save-reference", "--start-turn-deg"},
+                       "--save-reference", "--start-turn-deg", "--second-view", "--second-camera",
+                       "--view-deg", "--view-tolerance-deg"},
                       {"--json"}});
   const std::string images =
       f.Text("--images", "").empty() ? f.Text("--frames", "") : f.Text("--images", "");
@@ -186,6 +248,9 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (!(std::abs(*options.start_turn_deg) <= 360))
       throw UsageError("--start-turn-deg must be in [-360, 360]");
   }
+  if (f.Has("--second-view"))
+    return MeasureTwoViews(f, tool, {im.pixels, im.position, im.positions, camera}, options,
+                           &warnings, out, err);
   const toolcam::ToolMeasurement m =
       other.empty()
           ? toolcam::MeasureTool(im.pixels, im.position, im.positions, tool, camera, options)

@@ -23,6 +23,8 @@ constexpr double kPitchTolDeg = 0.005;
 constexpr double kScaleTol = 2e-5;         // 20 ppm: 1 um over the 50 mm pin
 constexpr double kGaugeAlongTolPx = 0.25;  // 1 um
 constexpr double kAxisTolMm = 0.0005;      // the axis from both sides
+constexpr double kDepthTolMm = 0.001;      // along a view, from two cameras (two_views_test's)
+constexpr double kViewTolDeg = 0.3;        // the two cameras' angle from the flutes
 
 // Every view's findings in `mlp tool measure --json`'s result.
 int FindingCount(const nlohmann::json& m) {
@@ -178,6 +180,45 @@ TEST(ToolCli, MeasuresAWideToolOnBothSides) {
                                   dir + "/plus --tool " + tools + "endmill_d10_z4_new.json");
   EXPECT_EQ(swapped.exit_code, 2) << swapped.err;
   EXPECT_NE(swapped.err.find("+y flank"), std::string::npos) << swapped.err;
+}
+
+// Seed 000 example 7: a second camera, its view turned 74 deg from the first's (the mount's
+// drawing says 72), the spindle 6 um along the first camera's view and -4 um across it from
+// where the calibrations have it (drawn, not in the manifests).
+TEST(ToolCli, MeasuresTheSpindleAxisInDepthFromTwoCameras) {
+  const std::string dir = "/tmp/mlp_tool_cli_two_views";
+  std::filesystem::remove_all(dir);
+  const std::string tool = mlp::test::SourceDir() + "/samples/tools/endmill_d2_z4_runout.json";
+  const std::string render = kMlp + " tool render --tool " + tool +
+                             " --rpm 5000 --fps 50 --resolution-deg 7.2 --pulse-share 0.1 "
+                             "--drops 0 --axis-u-px 511.5 --tip-v-px 700 --drift-x-mm 0.006 "
+                             "--drift-y-mm -0.004";
+  ASSERT_EQ(RunProcess(render + " --out " + dir + "/a --seed 3").exit_code, 0);
+  ASSERT_EQ(RunProcess(render + " --out " + dir + "/b --seed 4 --view-deg 74").exit_code, 0);
+  const std::string measure =
+      kMlp + " tool measure --images " + dir + "/a --tool " + tool + " --second-view " + dir + "/b";
+  const auto run = RunProcess(measure + " --view-deg 72 --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto j = nlohmann::json::parse(run.out);
+  const auto& t = j.at("two_views");
+  EXPECT_NEAR(t.at("view_deg").get<double>(), 74.0, kViewTolDeg);
+  EXPECT_NEAR(t.at("axis_offset_mm")[0].get<double>(), 0.006, kDepthTolMm);
+  EXPECT_NEAR(t.at("axis_offset_mm")[1].get<double>(), -0.004, kAxisTolMm);
+  EXPECT_NEAR(j.at("a").at("axis_offset_mm").get<double>(), -0.004, kAxisTolMm);  // A alone
+  EXPECT_NEAR(t.at("length_mm").get<double>(), 45.002, kLengthTolMm);
+  EXPECT_EQ(t.at("edges").size(), 4u);
+  // The text names the depth; a missing or near-parallel angle is refused.
+  const auto text = RunProcess(measure + " --view-deg 72");
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("along A's view"), std::string::npos) << text.out;
+  EXPECT_EQ(RunProcess(measure).exit_code, 2);
+  const auto parallel = RunProcess(measure + " --view-deg 5");
+  EXPECT_EQ(parallel.exit_code, 2);
+  EXPECT_NE(parallel.err.find("too near parallel"), std::string::npos) << parallel.err;
+  // The mount 40 deg off what the tool shows: cannot be measured.
+  const auto off = RunProcess(measure + " --view-deg 114");
+  EXPECT_EQ(off.exit_code, 3);
+  EXPECT_NE(off.err.find("second view's angle"), std::string::npos) << off.err;
 }
 
 TEST(ToolCli, CalibratesTheCameraThenMeasuresTheToolThroughIt) {

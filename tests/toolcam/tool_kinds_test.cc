@@ -21,6 +21,7 @@ using test::FlankCamera;
 using test::MeasuredRun;
 using test::RenderAndMeasure;
 using test::RunSetup;
+using test::WholeToolCamera;
 
 const std::string kTools = mlp::test::SourceDir() + "/samples/tools/";
 constexpr double kEdgeTolMm = 0.001;        // issue 7's figure: each edge within 1 um
@@ -34,16 +35,6 @@ constexpr double kFindingLengthTol = 0.15;  // its length and area, as a share o
 // seen through its slope and the helix' turn: as a share of the dent over the slope.
 constexpr double kEndFindingTol = 0.2;
 constexpr double kEndFindingAcrossTolMm = 0.02;  // where across the axis
-
-// 640 x 560 px at 4 um: 2.56 x 2.24 mm, the spindle axis in the middle, the tip 60 px above
-// the bottom (h up to 2.0 mm): a tool up to D2.3 wholly in view.
-ToolCameraModel WholeToolCamera() {
-  ToolCameraModel c;
-  c.width_px = 640, c.height_px = 560;
-  c.axis_u_px = 319.5, c.tip_v_px = 500;
-  c.drops_per_frame = 0;
-  return c;
-}
 
 double Wrap(double deg) { return test::WrapDeg(deg); }
 

@@ -91,6 +91,16 @@ inline ToolCameraModel FlankCamera(double radius_mm) {
   return c;
 }
 
+// 640 x 560 px at 4 um: 2.56 x 2.24 mm, the spindle axis in the middle, the tip 60 px above
+// the bottom (h up to 2.0 mm): a tool up to D2.3 wholly in view.
+inline ToolCameraModel WholeToolCamera() {
+  ToolCameraModel c;
+  c.width_px = 640, c.height_px = 560;
+  c.axis_u_px = 319.5, c.tip_v_px = 500;
+  c.drops_per_frame = 0;
+  return c;
+}
+
 inline double WrapDeg(double deg) { return deg - 360.0 * std::round(deg / 360.0); }
 
 // The edge nearest the `side` (+1: +y, -1: -y) at height h in the frame turned `turn`.

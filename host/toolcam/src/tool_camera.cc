@@ -234,15 +234,18 @@ int RenderToolSequence(const ToolDescription& tool,
                        double start_turn_rad,
                        unsigned seed,
                        const std::string& dir,
-                       const SpindleShift& shift) {
+                       const SpindleShift& shift,
+                       double drift_across_mm) {
   std::filesystem::create_directories(dir);
+  ToolCameraModel drawn = c;  // where the spindle really stands
+  drawn.axis_u_px += drift_across_mm / c.mm_per_px;
   std::mt19937 rng(seed);
   const double blur = plan.pulse_width_us * 1e-6 * plan.rpm / 60 * 2 * M_PI;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();
   std::vector<std::string> files;
   for (size_t i = 0; i < plan.position.size(); ++i) {
     const double turn = start_turn_rad + 2 * M_PI * plan.position[i] / plan.positions;
-    const ToolFrame f = RenderToolFrame(tool, c, turn, blur, rng);
+    const ToolFrame f = RenderToolFrame(tool, drawn, turn, blur, rng);
     char name[32];
     std::snprintf(name, sizeof name, "frame_%04zu.pgm", i);
     WritePgm((std::filesystem::path(dir) / name).string(), c.width_px, c.height_px, f.pixels);
@@ -267,7 +270,8 @@ int RenderToolSequence(const ToolDescription& tool,
   const nlohmann::ordered_json truth = {
       {"format", "mlprobe-tool-frames/1"},
       {"tool", tool.id},
-      {"camera", CameraJson(c)},
+      {"camera", CameraJson(drawn)},
+      {"drift_across_mm", drift_across_mm},
       {"strobe",
        {{"rpm", plan.rpm}, {"positions", plan.positions}, {"pulse_width_us", plan.pulse_width_us}}},
       {"start_turn_deg", start_turn_rad * base::kDegPerRad},

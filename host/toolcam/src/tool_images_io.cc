@@ -139,4 +139,25 @@ nlohmann::json ToolMeasurementJson(const ToolDescription& tool, const ToolMeasur
   return j;
 }
 
+nlohmann::json ToolIn3dJson(const ToolDescription& tool, const ToolIn3d& t) {
+  nlohmann::json edges = nlohmann::json::array();
+  for (size_t k = 0; k < t.edge_mm.size(); ++k)
+    edges.push_back({{"flute", k + 1},
+                     {"b_flute", t.b_flute[k] + 1},
+                     {"radius_mm", t.radius_mm[k]},
+                     {"radius_a_less_b_mm", t.radius_disagreement_mm[k]},
+                     {"at_position_0_mm", {t.edge_mm[k].x(), t.edge_mm[k].y(), t.edge_mm[k].z()}}});
+  return {{"a", ToolMeasurementJson(tool, t.a)},
+          {"b", ToolMeasurementJson(tool, t.b)},
+          {"two_views",
+           {{"view_deg", t.view_deg},
+            {"view_rms_deg", t.view_rms_deg},
+            {"depth_gain", t.depth_gain},
+            {"axis_offset_mm", {t.axis_offset_mm.x(), t.axis_offset_mm.y()}},
+            {"tip_h_mm", t.tip_h_mm},
+            {"length_mm", tool.length_mm - t.tip_h_mm},
+            {"tip_a_less_b_mm", t.tip_disagreement_mm},
+            {"edges", edges}}}};
+}
+
 }  // namespace mlp::toolcam

@@ -82,14 +82,18 @@ struct SpindleShift {
 /// the image size and lens, the spindle's shift, and the camera's calibration as the virtual
 /// camera knows it) and DIR/truth.json (`mlprobe-tool-frames/1`: the camera, the tool's truth
 /// per edge, each frame's angle and drops). The tool's angle at the first image is
-/// `start_turn_rad` (unknown to the measurement). Returns the number of frames.
+/// `start_turn_rad` (unknown to the measurement). `drift_across_mm` puts the spindle axis that
+/// far across the image from where the camera's calibration has it (a spindle grown warm, seed
+/// 000 example 7): drawn there, the manifest recording the calibration, the truth both.
+/// Returns the number of frames.
 int RenderToolSequence(const ToolDescription& tool,
                        const ToolCameraModel& camera,
                        const StrobePlan& plan,
                        double start_turn_rad,
                        unsigned seed,
                        const std::string& dir,
-                       const SpindleShift& shift = {});
+                       const SpindleShift& shift = {},
+                       double drift_across_mm = 0.0);
 
 /// Writes an 8-bit binary PGM (P5) atomically; throws ToolError.
 void WritePgm(const std::string& path, int width, int height, const std::vector<std::uint8_t>& px);

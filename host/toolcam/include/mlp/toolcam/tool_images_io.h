@@ -8,6 +8,7 @@
 #include "mlp/toolcam/measure.h"
 #include "mlp/toolcam/tool_camera.h"
 #include "mlp/toolcam/tool_images.h"
+#include "mlp/toolcam/two_views.h"
 
 #include <cstdint>
 #include <string>
@@ -45,5 +46,10 @@ ToolCameraModel ToolCameraFor(const ToolImageSeries& series,
 /// the tool's diameter, length, runout, both flanks and the axis, the worst finding against the
 /// wear limit, and per flute its edge, radius, runout, tip and views with their findings.
 nlohmann::json ToolMeasurementJson(const ToolDescription& tool, const ToolMeasurement& m);
+
+/// Two cameras' measurement (seed 000 example 7): each camera's as above ("a", "b") and what
+/// the pair triangulates ("two_views": the pair's angle, the spindle axis in space, the tips,
+/// each edge as a point) [mm, deg].
+nlohmann::json ToolIn3dJson(const ToolDescription& tool, const ToolIn3d& t);
 
 }  // namespace mlp::toolcam
