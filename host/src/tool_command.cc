@@ -36,13 +36,14 @@ constexpr const char* kUsage =
     "       mlp tool render --tool TOOL.json --out DIR --rpm R --fps F --resolution-deg D\n"
     "                       [--seed N] [--start-deg A] [--axis-u-px U] [--tip-v-px V]\n"
     "                       [--roll-deg A] [--pitch-deg A] [--drops N] [--spindle-y-mm Y]\n"
-    "                       [--spindle-z-mm Z] [--glass-face-h-mm H] [--view-deg V]\n"
-    "                       [--drift-x-mm X] [--drift-y-mm Y] [strobe options]\n"
+    "                       [--spindle-z-mm Z] [--glass-face-h-mm H] [--glass-side-y-mm F]\n"
+    "                       [--view-deg V] [--drift-x-mm X] [--drift-y-mm Y] [strobe options]\n"
     "  the virtual tool camera: the plan's shadow frames (DIR/frame_NNNN.pgm), the manifest a\n"
     "  camera writes (DIR/images.json) and the truth (DIR/truth.json); the tool description\n"
     "  format: docs/TOOLCAM.md. A second camera: its view turned V deg from the first's about\n"
     "  the spindle; X, Y: the spindle off where the calibrations have it (the first camera's\n"
-    "  frame: x along its view, y across), drawn but not in the manifest\n"
+    "  frame: x along its view, y across), drawn but not in the manifest; H, F: the glass\n"
+    "  block's face across the view at height H, or its side face along it at F (a stylus)\n"
     "       mlp tool calibrate --images DIR --pin PIN.json --out CAMERA.json [--json]\n"
     "  the camera against the machine from images of the calibration pin: scale, spindle axis,\n"
     "  gauge point, tilt about x (roll) and, with the pin's blades, about y (pitch)\n"
@@ -83,7 +84,7 @@ struct RenderOptions {
 const std::set<std::string> kCameraOptions = {
     "--axis-u-px", "--tip-v-px",     "--roll-deg",     "--pitch-deg",
     "--drops",     "--spindle-y-mm", "--spindle-z-mm", "--glass-face-h-mm",
-    "--view-deg",  "--drift-x-mm",   "--drift-y-mm"};
+    "--view-deg",  "--drift-x-mm",   "--drift-y-mm",   "--glass-side-y-mm"};
 
 void SetRenderCamera(const std::string& k, double v, RenderOptions* r) {
   toolcam::ToolCameraModel& c = r->camera;
@@ -104,6 +105,8 @@ void SetRenderCamera(const std::string& k, double v, RenderOptions* r) {
     r->shift.z_mm = v;
   else if (k == "--glass-face-h-mm")
     c.glass_face_h_mm = v;
+  else if (k == "--glass-side-y-mm")
+    c.glass_side_y_mm = v;
   else if (k == "--view-deg")
     r->view_deg = v;
   else if (k == "--drift-x-mm")

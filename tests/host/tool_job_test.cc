@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <tuple>
 
 #include "hostd_site.h"
 
@@ -206,6 +207,33 @@ TEST(ToolJob, TheToolCamerasResultGoesThroughTheAdapterOrIsRefused) {
   EXPECT_NEAR(p.at("update").at("diameter_after_mm").get<double>(), 2.0, kDiameterTolMm);
   EXPECT_NE(ReadText(site.dir / "tool.tbl").find("T98 P98 Z59.992"), std::string::npos)
       << ReadText(site.dir / "tool.tbl");
+  // Sideways against the block's side faces: 6 um of pretravel on +y, 4 um on -y (the ball
+  // pushed back by it, the face fixed): T98's diameter becomes the effective 1.990 mm.
+  for (const auto& [side, face_mm, pushed_mm] :
+       {std::tuple{"plus", 0.994, -0.006}, std::tuple{"minus", -0.996, 0.004}}) {
+    const std::string at = " --glass-side-y-mm " + std::to_string(face_mm) + " --drift-y-mm " +
+                           std::to_string(pushed_mm);
+    ASSERT_EQ(RunProcess(kMlp + " tool render --tool " + stylus + at + still +
+                         (site.dir / "data" / "tools" / side).string())
+                  .exit_code,
+              0);
+  }
+  touch["trigger_sides"] = {"tools/plus", "tools/minus"};
+  const auto sides = site.Mlp("request " + site.Request("touch-sides", touch) + " --json");
+  ASSERT_EQ(sides.exit_code, 0) << sides.err << sides.out;
+  const json s = json::parse(sides.out);
+  std::printf("touch probe sideways: pretravel %.2f / %.2f um, effective D %.5f mm\n",
+              s.at("stylus").at("lateral")[0].at("pretravel_mm").get<double>() * 1e3,
+              s.at("stylus").at("lateral")[1].at("pretravel_mm").get<double>() * 1e3,
+              s.at("update").at("diameter_after_mm").get<double>());
+  EXPECT_NEAR(s.at("stylus").at("lateral")[0].at("pretravel_mm").get<double>(), 0.006,
+              kPretravelTolMm);
+  EXPECT_NEAR(s.at("stylus").at("lateral")[1].at("pretravel_mm").get<double>(), 0.004,
+              kPretravelTolMm);
+  EXPECT_NEAR(s.at("update").at("diameter_after_mm").get<double>(), 1.990, kDiameterTolMm);
+  touch["trigger_sides"] = {"tools/plus", "tools/plus"};  // both on one side: bad input
+  EXPECT_EQ(site.Mlp("request " + site.Request("touch-one-side", touch)).exit_code, 7);
+  touch.erase("trigger_sides");
   touch.erase("trigger");  // a stylus without its trigger frames: bad input
   EXPECT_EQ(site.Mlp("request " + site.Request("touch-bad", touch)).exit_code, 7);
   EXPECT_EQ(hostd.Stop(), 0);

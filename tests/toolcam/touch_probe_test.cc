@@ -5,6 +5,7 @@
 #include "mlp/toolcam/touch_probe.h"
 
 #include <cstdio>
+#include <optional>
 #include <random>
 
 #include "test_data.h"
@@ -72,6 +73,56 @@ TEST(TouchProbe, TheTriggerIsThePretravelAboveTheIdleBall) {
       MeasureStylus(Frames(probe, idle_camera, 65), idle_camera,
                     LoadTool(mlp::test::SourceDir() + "/samples/tools/drill_d1.5_118.json")),
       ToolInputError);
+}
+
+// Where the stylus stands in a frame: the camera that draws it `ball_y_mm` across from where the
+// calibration has the spindle, the block's side face (fixed to the machine) at `face_y_mm`.
+ToolCameraModel DrawnAt(double ball_y_mm, std::optional<double> face_y_mm) {
+  ToolCameraModel c = StylusCamera();
+  c.axis_u_px += ball_y_mm / c.mm_per_px;
+  if (face_y_mm) c.glass_side_y_mm = *face_y_mm - ball_y_mm;
+  return c;
+}
+
+// Sideways: the ball 2 um off the spindle axis; moved across against a side face of the block,
+// the probe triggers 6 um after touching on the +y side and 4 um on the -y side (the pivot's
+// lobes). The face's distance from the idle ball's centre is r less the pretravel, and the
+// faces' distance the diameter a probing cycle uses, free of the ball's offset.
+TEST(TouchProbe, TheLateralTriggerIsTheEffectiveRadius) {
+  const ToolDescription probe = LoadTool(kStylus);
+  const double r = probe.Radius(), offset = 0.002, plus = 0.006, minus = 0.004;
+  const ToolCameraModel calibrated = StylusCamera();
+  const StylusSeen idle =
+      MeasureStylus(Frames(probe, DrawnAt(offset, std::nullopt), 66), calibrated, probe);
+  // At the trigger the ball rests on the face, pushed back by the pretravel.
+  const double face_plus = offset + r - plus, face_minus = offset - r + minus;
+  const LateralTrigger p = CalibrateLateralTrigger(
+      idle, Frames(probe, DrawnAt(face_plus - r, face_plus), 67), calibrated, probe);
+  const LateralTrigger m = CalibrateLateralTrigger(
+      idle, Frames(probe, DrawnAt(face_minus + r, face_minus), 68), calibrated, probe);
+  const double diameter = EffectiveDiameter({p, m});
+  std::printf(
+      "lateral trigger: ball centre %+.2f um (true %+.2f); +y face %.5f mm, pretravel %.2f um "
+      "(true 6.00), effective radius %.5f; -y face %.5f mm, pretravel %.2f um (true 4.00); "
+      "effective diameter %.5f mm (true %.5f)\n",
+      idle.centre_y_mm * 1e3, offset * 1e3, p.face_y_mm, p.pretravel_mm * 1e3,
+      p.effective_radius_mm, m.face_y_mm, m.pretravel_mm * 1e3, diameter, 2 * r - plus - minus);
+  EXPECT_NEAR(idle.centre_y_mm, offset, kBallTolMm);
+  EXPECT_EQ(p.side, 1);
+  EXPECT_EQ(m.side, -1);
+  EXPECT_NEAR(p.face_y_mm, face_plus, kPretravelTolMm);
+  EXPECT_NEAR(m.face_y_mm, face_minus, kPretravelTolMm);
+  EXPECT_NEAR(p.pretravel_mm, plus, kPretravelTolMm);
+  EXPECT_NEAR(m.pretravel_mm, minus, kPretravelTolMm);
+  EXPECT_NEAR(p.effective_radius_mm, r - plus, kPretravelTolMm);
+  EXPECT_NEAR(diameter, 2 * r - plus - minus, 2 * kPretravelTolMm);
+  EXPECT_NEAR(EffectiveDiameter({p}), 2 * (r - plus), 2 * kPretravelTolMm);
+  // No side face in the trigger frames; two faces on one side; none.
+  EXPECT_THROW(CalibrateLateralTrigger(idle, Frames(probe, DrawnAt(offset, std::nullopt), 69),
+                                       calibrated, probe),
+               ToolError);
+  EXPECT_THROW(EffectiveDiameter({p, p}), ToolInputError);
+  EXPECT_THROW(EffectiveDiameter({}), ToolInputError);
 }
 
 }  // namespace

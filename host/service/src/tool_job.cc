@@ -33,13 +33,15 @@ struct ToolRequest {
   int tool_number = 0;
   bool accept_findings = false;
   std::optional<double> start_turn_deg;  ///< the chuck's turn at position 0 (an electrode's)
+  /// A stylus' frames at its lateral trigger against the block's side faces (one or two).
+  std::vector<std::string> trigger_sides;
 };
 
 ToolRequest ParseToolRequest(const json& r) {
   jf::OnlyKnownFields<JobInputError>(
       r,
       {"op", "machine", "request_id", "images", "other_side", "trigger", "tool", "camera",
-       "tool_number", "accept_findings", "start_turn_deg"},
+       "tool_number", "accept_findings", "start_turn_deg", "trigger_sides"},
       "request");
   ToolRequest t;
   t.images = jf::Text<JobInputError>(r, "images", "request");
@@ -55,6 +57,15 @@ ToolRequest ParseToolRequest(const json& r) {
     if (!(a >= -360 && a <= 360))
       throw JobInputError("request.start_turn_deg must be in [-360, 360]");
     t.start_turn_deg = a;
+  }
+  if (r.contains("trigger_sides")) {
+    const json& sides = r.at("trigger_sides");
+    if (!sides.is_array() || sides.empty() || sides.size() > 2)
+      throw JobInputError("request.trigger_sides must list one or two folders");
+    for (const json& f : sides) {
+      if (!f.is_string()) throw JobInputError("request.trigger_sides must list folder names");
+      t.trigger_sides.push_back(f.get<std::string>());
+    }
   }
   return t;
 }
@@ -201,9 +212,27 @@ ToolValues MeasureTouchProbe(const JobContext& ctx,
                         {"pretravel_mm", t.pretravel_mm},
                         {"idle_length_mm", t.idle_length_mm},
                         {"trigger_length_mm", t.trigger_length_mm}};
+  // Sideways: the diameter a probing cycle uses is the effective one (touch_probe.h).
+  double diameter_mm = t.ball_diameter_mm;
+  if (!q.trigger_sides.empty()) {
+    std::vector<toolcam::LateralTrigger> sides;
+    json seen = json::array();
+    for (const std::string& folder : q.trigger_sides) {
+      const Series s =
+          ReadSeries(ctx, folder, "request.trigger_sides", camera_json, stylus.length_mm, warnings);
+      sides.push_back(toolcam::CalibrateLateralTrigger(t.idle, s.images.pixels, s.camera, stylus));
+      seen.push_back({{"side", sides.back().side > 0 ? "+y" : "-y"},
+                      {"face_y_mm", sides.back().face_y_mm},
+                      {"pretravel_mm", sides.back().pretravel_mm},
+                      {"effective_radius_mm", sides.back().effective_radius_mm}});
+    }
+    diameter_mm = toolcam::EffectiveDiameter(sides);
+    (*reply)["stylus"]["lateral"] = seen;
+    (*reply)["stylus"]["effective_diameter_mm"] = diameter_mm;
+  }
   (*reply)["length_mm"] = t.trigger_length_mm;
-  (*reply)["diameter_mm"] = t.ball_diameter_mm;
-  return {t.trigger_length_mm, t.ball_diameter_mm / 2, 0.0, false};
+  (*reply)["diameter_mm"] = diameter_mm;
+  return {t.trigger_length_mm, diameter_mm / 2, 0.0, false};
 }
 
 }  // namespace

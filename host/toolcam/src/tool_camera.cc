@@ -103,6 +103,13 @@ std::vector<double> Coverage(const ToolDescription& t,
       }
       if (c.glass_face_h_mm && h < *c.glass_face_h_mm)  // the glass block, across the image
         AddSpan(-0.5, static_cast<double>(w) - 0.5, 1.0 / kSubRows, &drop, &drop_diff);
+      if (c.glass_side_y_mm) {  // the block's side face, along the image
+        const double at = *c.glass_side_y_mm / c.mm_per_px + c.axis_u_px;
+        if (*c.glass_side_y_mm > 0)
+          AddSpan(at, static_cast<double>(w) - 0.5, 1.0 / kSubRows, &drop, &drop_diff);
+        else
+          AddSpan(-0.5, at, 1.0 / kSubRows, &drop, &drop_diff);
+      }
       for (const Drop& d : drops) {
         const double dh = h - d.h_mm;
         if (std::abs(dh) >= d.radius_mm) continue;
@@ -239,6 +246,7 @@ int RenderToolSequence(const ToolDescription& tool,
   std::filesystem::create_directories(dir);
   ToolCameraModel drawn = c;  // where the spindle really stands
   drawn.axis_u_px += drift_across_mm / c.mm_per_px;
+  if (c.glass_side_y_mm) *drawn.glass_side_y_mm -= drift_across_mm;  // the block stays put
   std::mt19937 rng(seed);
   const double blur = plan.pulse_width_us * 1e-6 * plan.rpm / 60 * 2 * M_PI;
   nlohmann::ordered_json frames = nlohmann::ordered_json::array();

@@ -46,6 +46,10 @@ struct ToolCameraModel {
   /// face this high in the tool frame [mm] (dark below it: the plate scatters the back-light);
   /// absent: no block.
   std::optional<double> glass_face_h_mm;
+  /// Rendering only: the block's side face, standing along the spindle axis this far across in
+  /// the tool frame [mm] (dark beyond it, away from the axis): a stylus moved sideways against
+  /// it; absent: none.
+  std::optional<double> glass_side_y_mm;
   /// Tool frame (y, h) [mm] of an ideal (undistorted) pixel position, and back.
   geometry::Vec2 ToolFromPixel(const geometry::Vec2& px) const;
   geometry::Vec2 PixelFromTool(const geometry::Vec2& yh) const;

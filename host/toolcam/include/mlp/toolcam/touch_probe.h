@@ -7,13 +7,17 @@
 /// frame loop), so the tool frame is where the undeflected stylus stands in each: the face's
 /// height above the undeflected ball's bottom is the pretravel, and the gauge point's distance
 /// to the face at the trigger is the length a probing cycle must use (the idle length less the
-/// pretravel). Measured along the spindle axis only: the stylus' lateral trigger (its radius
-/// in a probing cycle) needs a face across the view, which the seed does not describe.
+/// pretravel). Sideways the same (the seed shows only the axial case; the block's side face
+/// is this project's extension): the probe moved across against a side face of the block
+/// standing along the spindle until it triggers; the face's distance from the undeflected
+/// ball's centre is the ball's effective radius in a probing cycle, r less the lateral
+/// pretravel.
 
 #include "mlp/toolcam/tool_camera.h"
 #include "mlp/toolcam/tool_model.h"
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace mlp::toolcam {
@@ -58,5 +62,38 @@ TriggerCalibration CalibrateTrigger(const std::vector<std::vector<std::uint8_t>>
                                     const std::vector<std::vector<std::uint8_t>>& trigger,
                                     const ToolCameraModel& trigger_camera,
                                     const ToolDescription& stylus);
+
+/// The block's side face (standing along the spindle axis) in frames where the probe was moved
+/// across against it until it triggered: a line fitted to the face's edge farther than the
+/// idle ball's radius and `clear_mm` from its centre (the ball, pushed back by a pretravel under
+/// `clear_mm`, stays inside; at its height its shadow meets the face) and beyond the stem; its y
+/// at the idle ball centre's height in the tool frame [mm]. Throws ToolError when it does not
+/// show or does not stand along the axis.
+double MeasureGlassSide(const std::vector<std::vector<std::uint8_t>>& frames,
+                        const ToolCameraModel& camera,
+                        const ToolDescription& stylus,
+                        const StylusSeen& idle,
+                        double clear_mm = 0.05);
+
+struct LateralTrigger {
+  int side = 1;                      ///< +1: the face on the +y side of the ball
+  double face_y_mm = 0.0;            ///< at the idle ball centre's height, trigger frames' frame
+  double pretravel_mm = 0.0;         ///< the undeflected ball's side beyond the face
+  double effective_radius_mm = 0.0;  ///< the idle ball's centre to the face: r less pretravel
+};
+
+/// The lateral trigger against `idle` (the ball measured idle, MeasureStylus), `trigger` frames
+/// through `trigger_camera` (the calibration's camera at that series' spindle position).
+/// Throws as above, and ToolError for a pretravel outside [0, 0.05] mm (MeasureGlassSide's
+/// clearance: a probe that travels farther is not one this measures).
+LateralTrigger CalibrateLateralTrigger(const StylusSeen& idle,
+                                       const std::vector<std::vector<std::uint8_t>>& trigger,
+                                       const ToolCameraModel& trigger_camera,
+                                       const ToolDescription& stylus);
+
+/// The diameter a probing cycle uses sideways: from faces on both sides, their distance (free of
+/// the ball's offset from the spindle axis); from one, twice its effective radius. Throws
+/// ToolInputError for none, more than two, or two on one side.
+double EffectiveDiameter(const std::vector<LateralTrigger>& sides);
 
 }  // namespace mlp::toolcam
