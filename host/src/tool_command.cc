@@ -64,6 +64,16 @@ constexpr const char* kUsage =
     "  V deg (within T, 10) from the first's round the spindle: the spindle axis in depth and\n"
     "  each edge in space (seed 000 example 7; the tool wholly in view of both). The\n"
     "  tool table is written by the host service's tool job (mlp request, docs/HOSTD.md)\n"
+    "       mlp tool render-texture --tool ELECTRODE.json --out DIR [--turns-deg 0,90,180,270]\n"
+    "                       [--rotation-deg X,Y,Z] [--shift-mm X,Y,Z] [--seed N]\n"
+    "                       [--texture-seed N]\n"
+    "  the virtual reflected-light camera: the electrode's surface texture at the C axis'\n"
+    "  turns (whole degrees), the electrode clamped turned and shifted as given\n"
+    "       mlp tool relocate --reference DIR --images DIR2 --tool ELECTRODE.json\n"
+    "                       [--max-tilt-deg T] [--json]\n"
+    "  the electrode put back after re-clamping against its texture recorded before (seed 000\n"
+    "  example 6): its six degrees of freedom; X, Y, Z, C for the machine, the tilt against\n"
+    "  T (0.01 deg: over it, clamp it again)\n"
     "exit codes: 0 done, 2 bad arguments, tool file or images, 3 cannot be planned or\n"
     "measured (the reason is printed), 1 bug\n";
 
@@ -200,8 +210,13 @@ int RunToolCommand(const std::vector<std::string>& args, std::ostream& out, std:
       return tool::Measure({args.begin() + 1, args.end()}, out, err);
     if (!args.empty() && args[0] == "calibrate")
       return tool::Calibrate({args.begin() + 1, args.end()}, out, err);
+    if (!args.empty() && args[0] == "render-texture")
+      return tool::RenderTexture({args.begin() + 1, args.end()}, out, err);
+    if (!args.empty() && args[0] == "relocate")
+      return tool::Relocate({args.begin() + 1, args.end()}, out, err);
     if (args.empty() || (args[0] != "strobe" && args[0] != "render"))
-      throw UsageError("expected: mlp tool strobe, render, calibrate or measure ...");
+      throw UsageError(
+          "expected: mlp tool strobe, render, calibrate, measure, render-texture or relocate ...");
     bool json = false;
     RenderOptions render;
     const bool rendering = args[0] == "render";

@@ -20,11 +20,13 @@ constexpr double kLengthTolMm = 0.001;    // and its length
 constexpr double kCarriedTolMm = 0.002;   // calibration carried 30 mm down the axis to a tool
 constexpr double kRollTolDeg = 0.002;     // the pin's figures through the command
 constexpr double kPitchTolDeg = 0.005;
-constexpr double kScaleTol = 2e-5;         // 20 ppm: 1 um over the 50 mm pin
-constexpr double kGaugeAlongTolPx = 0.25;  // 1 um
-constexpr double kAxisTolMm = 0.0005;      // the axis from both sides
-constexpr double kDepthTolMm = 0.001;      // along a view, from two cameras (two_views_test's)
-constexpr double kViewTolDeg = 0.3;        // the two cameras' angle from the flutes
+constexpr double kScaleTol = 2e-5;              // 20 ppm: 1 um over the 50 mm pin
+constexpr double kGaugeAlongTolPx = 0.25;       // 1 um
+constexpr double kAxisTolMm = 0.0005;           // the axis from both sides
+constexpr double kDepthTolMm = 0.001;           // along a view, from two cameras (two_views_test's)
+constexpr double kViewTolDeg = 0.3;             // the two cameras' angle from the flutes
+constexpr double kRelocateShiftTolMm = 0.0005;  // relocate_test's, through the command
+constexpr double kRelocateTurnTolDeg = 0.002;
 
 // Every view's findings in `mlp tool measure --json`'s result.
 int FindingCount(const nlohmann::json& m) {
@@ -219,6 +221,42 @@ TEST(ToolCli, MeasuresTheSpindleAxisInDepthFromTwoCameras) {
   const auto off = RunProcess(measure + " --view-deg 114");
   EXPECT_EQ(off.exit_code, 3);
   EXPECT_NE(off.err.find("second view's angle"), std::string::npos) << off.err;
+}
+
+// Seed 000 example 6: the electrode's texture recorded, then the electrode re-clamped turned
+// 0.4 deg and shifted (30, -20, 15) um, tilted 0.005 deg; then tilted 0.05 deg (clamp again).
+TEST(ToolCli, RelocatesAnElectrodeFromItsTexture) {
+  const std::string dir = "/tmp/mlp_tool_cli_relocate";
+  std::filesystem::remove_all(dir);
+  const std::string e = mlp::test::SourceDir() + "/samples/tools/electrode_10x6.json";
+  const std::string render = kMlp + " tool render-texture --tool " + e + " --out " + dir;
+  ASSERT_EQ(RunProcess(render + "/ref --seed 1").exit_code, 0);
+  ASSERT_EQ(RunProcess(render + "/now --seed 2 --rotation-deg 0.003,-0.004,0.4 --shift-mm "
+                                "0.03,-0.02,0.015")
+                .exit_code,
+            0);
+  ASSERT_EQ(RunProcess(render + "/tilted --seed 3 --rotation-deg 0.05,0,0").exit_code, 0);
+  const std::string relocate = kMlp + " tool relocate --tool " + e + " --reference " + dir + "/ref";
+  const auto run = RunProcess(relocate + " --images " + dir + "/now --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto j = nlohmann::json::parse(run.out);
+  EXPECT_NEAR(j.at("c_deg").get<double>(), 0.4, kRelocateTurnTolDeg);
+  const double shift[3] = {0.03, -0.02, 0.015};
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(j.at("shift_mm")[static_cast<size_t>(k)].get<double>(), shift[k],
+                kRelocateShiftTolMm);
+  EXPECT_TRUE(j.at("accept").get<bool>());
+  const auto tilted = RunProcess(relocate + " --images " + dir + "/tilted");
+  ASSERT_EQ(tilted.exit_code, 0) << tilted.err;
+  EXPECT_NE(tilted.out.find("REJECT"), std::string::npos) << tilted.out;
+  // Two images half a turn apart cannot see along the view; a series of other turns.
+  ASSERT_EQ(RunProcess(render + "/half --turns-deg 0,180").exit_code, 0);
+  const auto half = RunProcess(kMlp + " tool relocate --tool " + e + " --reference " + dir +
+                               "/half --images " + dir + "/half");
+  EXPECT_EQ(half.exit_code, 3);
+  EXPECT_NE(half.err.find("along the view"), std::string::npos) << half.err;
+  EXPECT_EQ(RunProcess(relocate + " --images " + dir + "/half").exit_code, 2);
+  EXPECT_EQ(RunProcess(render + "/bad --turns-deg 0,90.5").exit_code, 2);
 }
 
 TEST(ToolCli, CalibratesTheCameraThenMeasuresTheToolThroughIt) {
