@@ -28,6 +28,7 @@ constexpr int kPort = 17433;              // this test's probe link
 constexpr int kAlignPort = 17438;         // the alignment test's
 constexpr int kPosePort = 17440;          // the controller-pose test's
 constexpr int kDriftPort = 17459;         // the moved-capture test's
+constexpr int kRelocatePort = 17464;      // the re-clamped electrode's (no probe: unused)
 constexpr double kDisturbanceMm = 0.005;  // 5x the M-code's 1 um pose drift limit
 constexpr double kFaceHeightTolMm = 0.001;
 constexpr double kOriginTolMm = 0.005;           // issue 6: alignment origin within 5 um
@@ -359,6 +360,67 @@ TEST(LinuxCnc, ACaptureTakenWhileTheMachineMovedIsRejected) {
                                                               {"reason", "again"}}));
   EXPECT_EQ(again.exit_code, 7);
   EXPECT_NE(again.err.find("is no finished capture on lcnc-1"), std::string::npos) << again.err;
+}
+
+// An EDM electrode re-clamped (seed 000 example 6): the relocate job through M101 finds it
+// from its texture, its subroutine's G10 L1 sets tool 30's X, Y, Z (this machine has no C axis:
+// the job writes what the machine has, the electrode clamped back within 0.01 deg of its turn),
+// and G43 H30 puts the electrode's end where the program says: the spindle stands off by the
+// offsets.
+TEST(LinuxCnc, ARelocatedElectrodesOffsetsMoveTheNextBurn) {
+  ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0)
+      << "linuxcnc-uspace is not installed: bash scripts/install-deps.sh";
+  Site site("linuxcnc_relocate", kRelocatePort);
+  const fs::path config = LinuxCncSite(site);
+  std::ofstream(config / "tool.tbl", std::ios::app)
+      << "T30 P30 X0.01 Z60.0 D11.662 ;EDM electrode\n";
+  const std::string electrode = mlp::test::SourceDir() + "/samples/tools/electrode_10x6.json";
+  fs::create_directories(site.dir / "data" / "tools");
+  fs::copy_file(electrode, site.dir / "data" / "tools" / "electrode.json");
+  const std::string render = test::kMlp + " tool render-texture --tool " + electrode + " --out " +
+                             (site.dir / "data" / "tools").string();
+  ASSERT_EQ(RunProcess(render + "/before --seed 1").exit_code, 0);
+  ASSERT_EQ(RunProcess(render + "/after --seed 2 --rotation-deg 0.003,-0.004,0.002 --shift-mm "
+                                "0.03,-0.02,0.015")
+                .exit_code,
+            0);
+  std::ofstream(config / "jobs" / "1.json") << json{
+      {"op", "relocate"},
+      {"machine", "lcnc-1"},
+      {"reference", "tools/before"},
+      {"images", "tools/after"},
+      {"tool", "tools/electrode.json"},
+      {"tool_number", 30}}.dump();
+  Child hostd({test::kHostd, "--config", (site.dir / "hostd.json").string()},
+              site.dir / "hostd.log");
+  ASSERT_TRUE(site.WaitFor([&] { return fs::exists(site.socket); }));
+  LinuxCnc cnc(config, site.socket);
+  ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
+  const json after = cnc.Run(
+      "G21 G90 G54 G40 G49\n"
+      "M101 P1 (find the re-clamped electrode)\n"
+      "M66 E0 L0\n"
+      "o<mlp_result> call\n"
+      "T30 M6\n"
+      "G43 H30\n"
+      "G0 X0 Y0 Z10\n"
+      "M2\n");
+  ASSERT_TRUE(after.value("ended", false)) << after.dump();
+  const json& t30 = after.at("tools").at("30");
+  std::printf("LinuxCNC: electrode T30 X %.4f Y %.4f Z %.4f mm; spindle at (%.4f, %.4f, %.4f)\n",
+              t30.at("x").get<double>(), t30.at("y").get<double>(), t30.at("z").get<double>(),
+              after.at("position")[0].get<double>(), after.at("position")[1].get<double>(),
+              after.at("position")[2].get<double>());
+  constexpr double kRelocateTolMm = 0.0005;  // the relocation's own tolerance (relocate_test)
+  EXPECT_NEAR(t30.at("x").get<double>(), 0.01 - 0.03, kRelocateTolMm);
+  EXPECT_NEAR(t30.at("y").get<double>(), 0.02, kRelocateTolMm);
+  EXPECT_NEAR(t30.at("z").get<double>(), 60.0 - 0.015, kRelocateTolMm);
+  for (int a = 0; a < 3; ++a)
+    EXPECT_NEAR(after.at("tool_offset")[static_cast<size_t>(a)].get<double>(),
+                t30.at(std::string(1, "xyz"[a])).get<double>(), kExactMm);
+  EXPECT_NEAR(after.at("position")[0].get<double>(), t30.at("x").get<double>(), kRoundingMm);
+  EXPECT_NEAR(after.at("position")[1].get<double>(), t30.at("y").get<double>(), kRoundingMm);
+  EXPECT_NEAR(after.at("position")[2].get<double>(), 10.0 + t30.at("z").get<double>(), kExactMm);
 }
 
 }  // namespace

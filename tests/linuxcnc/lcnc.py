@@ -31,7 +31,8 @@ def state(stat, errors):
     for i, t in enumerate(stat.tool_table):
         if i == 0 or t.id < 0:  # entry 0 is the spindle slot; id -1 is empty
             continue
-        tools[str(t.id)] = {"z": t.zoffset, "diameter": t.diameter}
+        tools[str(t.id)] = {"x": t.xoffset, "y": t.yoffset, "z": t.zoffset, "c": t.coffset,
+                            "diameter": t.diameter}
     return {
         "errors": errors,
         "tools": tools,

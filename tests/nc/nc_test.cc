@@ -149,6 +149,26 @@ TEST(NcOutput, LinuxCncSubroutine) {
   EXPECT_THROW(WorkOffsetName(Dialect::kLinuxCnc, 10), NcOutputError);
 }
 
+// An EDM electrode's offsets across the spindle and its turn (re-clamped): LinuxCNC's G10 L1
+// sets them; a Fanuc-style control has no such register and is refused.
+TEST(NcOutput, ToolOffsetsAcrossTheSpindleAndTheTurn) {
+  NcResult r;
+  r.header = "mlprobe job 9: tool E3";
+  r.tools.push_back({30, ToolRegister::kOffsetX, 0.0, -0.03});
+  r.tools.push_back({30, ToolRegister::kOffsetC, 0.0, -0.4});
+  EXPECT_EQ(LinuxCncSubroutine("mlp_result", r),
+            "o<mlp_result> sub\n"
+            "(mlprobe job 9: tool E3)\n"
+            "G10 L1 P30 X-0.0300\n"
+            "G10 L1 P30 C-0.4000\n"
+            "o<mlp_result> endsub\n"
+            "M2\n");
+  EXPECT_EQ(ToString(ToolRegister::kOffsetY), "offset Y");
+  EXPECT_EQ(OffsetWord(ToolRegister::kOffsetY), 'Y');
+  EXPECT_EQ(OffsetWord(ToolRegister::kLengthGeometry), 0);
+  EXPECT_THROW(FanucStyleSnippet(FanucMap(), r), NcOutputError);
+}
+
 TEST(NcOutput, FanucG10AndVariables) {
   NcMap fanuc = FanucMap();
   EXPECT_EQ(FanucStyleSnippet(fanuc, BoreResult()),

@@ -102,6 +102,37 @@ TEST_F(ToolTableUpdateTest, ARefusalWritesNothingAtAll) {
   refused({good}, {}, "change log");
 }
 
+// An EDM electrode put back after re-clamping: its X, Y and C offsets with its length, each
+// checked as Z is (C against the rotary limit in degrees), logged after the source.
+TEST_F(ToolTableUpdateTest, OffsetWordsAcrossTheSpindleAndTheTurn) {
+  ToolUpdate e{2, "E3", 95.235, std::nullopt, 95.25, std::nullopt};
+  e.offsets = {{'X', -0.03}, {'Y', 0.02}, {'C', -0.4}};
+  e.offsets_before = {{'X', 0.0}, {'Y', 0.0}, {'C', 0.0}};
+  const auto r = UpdateToolTable(Table(), {e}, {}, "job 9 on edm-1");
+  ASSERT_EQ(r.changes.size(), 1u);
+  EXPECT_NEAR(r.changes[0].offsets.at('C').second, -0.4, kReadBackMm);
+  const ToolTable after = LoadToolTable(Table());
+  EXPECT_NEAR(after.Find(2)->Get('X'), -0.03, kReadBackMm);
+  EXPECT_NEAR(after.Find(2)->Get('Y'), 0.02, kReadBackMm);
+  EXPECT_NEAR(after.Find(2)->Get('C'), -0.4, kReadBackMm);
+  EXPECT_NEAR(after.Find(2)->Get('Z'), 95.235, kReadBackMm);
+  EXPECT_NE(base::ReadFile(Log()).find("job 9 on edm-1; C 0.00000 -> -0.40000; X 0.00000 -> "
+                                       "-0.03000; Y 0.00000 -> 0.02000"),
+            std::string::npos)
+      << base::ReadFile(Log());
+  // Beyond the rotary limit, decided on a stale value, or not an offset word: nothing written.
+  const std::string table = base::ReadFile(Table());
+  ToolUpdate turned{2, "E3", std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+  turned.offsets = {{'C', 1.0}};
+  EXPECT_THROW(UpdateToolTable(Table(), {turned}, {.max_rotation_change_deg = 1.0}, "t"),
+               ToolChangeRefused);
+  turned.offsets = {{'C', 0.0}}, turned.offsets_before = {{'C', 0.0}};
+  EXPECT_THROW(UpdateToolTable(Table(), {turned}, {}, "t"), ToolChangeRefused);
+  turned.offsets = {{'Q', 1.0}}, turned.offsets_before = {};
+  EXPECT_THROW(UpdateToolTable(Table(), {turned}, {}, "t"), ToolTableError);
+  EXPECT_EQ(base::ReadFile(Table()), table);
+}
+
 TEST_F(ToolTableUpdateTest, TheLogKeepsEveryUpdateInOrder) {
   for (int i = 1; i <= 3; ++i)
     UpdateToolTable(Table(),

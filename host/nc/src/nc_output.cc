@@ -48,7 +48,7 @@ bool IsLength(ToolRegister r) {
 void CheckTool(const ToolOffsetChange& t, int max) {
   if (t.tool < 1 || t.tool > max)
     Fail("offset number " + std::to_string(t.tool) + " is outside 1.." + std::to_string(max));
-  if (!IsLength(t.reg) && !IsWear(t.reg) && t.after_mm < 0)
+  if (t.reg == ToolRegister::kRadiusGeometry && t.after_mm < 0)
     Fail("tool " + std::to_string(t.tool) + ": a negative radius geometry");
 }
 
@@ -66,8 +66,21 @@ std::string ToString(ToolRegister r) {
       return "radius geometry";
     case ToolRegister::kRadiusWear:
       return "radius wear";
+    case ToolRegister::kOffsetX:
+      return "offset X";
+    case ToolRegister::kOffsetY:
+      return "offset Y";
+    case ToolRegister::kOffsetC:
+      return "offset C";
   }
   return "?";
+}
+
+char OffsetWord(ToolRegister r) {
+  return r == ToolRegister::kOffsetX   ? 'X'
+         : r == ToolRegister::kOffsetY ? 'Y'
+         : r == ToolRegister::kOffsetC ? 'C'
+                                       : '\0';
 }
 
 NcMap FanucMap() {
@@ -120,7 +133,8 @@ std::string LinuxCncSubroutine(const std::string& name, const NcResult& r) {
     if (IsWear(t.reg))
       Fail("LinuxCNC has no wear registers: tool " + std::to_string(t.tool) + " " +
            ToString(t.reg) + " (apply the change to the geometry)");
-    s << "G10 L1 P" << t.tool << (IsLength(t.reg) ? " Z" : " R") << Num(t.after_mm) << "\n";
+    const char word = OffsetWord(t.reg) != 0 ? OffsetWord(t.reg) : IsLength(t.reg) ? 'Z' : 'R';
+    s << "G10 L1 P" << t.tool << " " << word << Num(t.after_mm) << "\n";
   }
   for (const WorkOffsetChange& w : r.work) {
     WorkOffsetName(Dialect::kLinuxCnc, w.index);  // range check
@@ -154,6 +168,9 @@ namespace {
 // as G10 L10..L13.
 void FanucToolChange(const NcMap& map, const ToolOffsetChange& t, std::ostream& s) {
   CheckTool(t, map.use_variables ? map.max_offset : 9999);
+  if (OffsetWord(t.reg) != 0)
+    Fail("a tool's " + ToString(t.reg) +
+         " has no register on this control (LinuxCNC's table only)");
   const double scale = !IsLength(t.reg) && map.radius_as_diameter ? 2.0 : 1.0;
   const double value = scale * (t.incremental ? t.after_mm - t.before_mm : t.after_mm);
   if (map.use_variables) {

@@ -42,24 +42,49 @@ double Checked(const ToolRecord& record,
                char word,
                const std::optional<double>& after,
                const std::optional<double>& decided_before,
-               double max_change_mm) {
+               double max_change_mm,
+               const char* unit = " mm") {
   const double now = record.Get(word);
   if (!after) return now;
   const std::string name = std::string(1, word) + " of " + ToolName(record.tool);
   if (!std::isfinite(*after)) Refuse(name + ": the new value is not finite");
   if (decided_before && std::abs(now - *decided_before) > kStaleToleranceMm)
-    Refuse(name + " is " + Mm(now) + " mm, not the " + Mm(*decided_before) +
-           " mm the change was decided on: the table changed in between");
+    Refuse(name + " is " + Mm(now) + unit + ", not the " + Mm(*decided_before) + unit +
+           " the change was decided on: the table changed in between");
   if (std::abs(*after - now) > max_change_mm)
-    Refuse(name + ": the change " + Mm(now) + " -> " + Mm(*after) + " mm is beyond " +
-           Mm(max_change_mm) + " mm: a wrong tool or a wrong number?");
+    Refuse(name + ": the change " + Mm(now) + " -> " + Mm(*after) + unit + " is beyond " +
+           Mm(max_change_mm) + unit + ": a wrong tool or a wrong number?");
   return *after;
 }
 
 std::string LogLine(const std::string& time, const ToolTableChange& c, const std::string& source) {
+  std::ostringstream what;  // other words after the source: the log's columns stay as they were
+  what << source;
+  for (const auto& [word, values] : c.offsets)
+    what << "; " << word << " " << Mm(values.first) << " -> " << Mm(values.second);
   return time + "," + std::to_string(c.tool) + "," + base::CsvField(c.tool_id) + "," +
          Mm(c.length_before_mm) + "," + Mm(c.length_after_mm) + "," + Mm(c.diameter_before_mm) +
-         "," + Mm(c.diameter_after_mm) + "," + base::CsvField(source) + "\n";
+         "," + Mm(c.diameter_after_mm) + "," + base::CsvField(what.str()) + "\n";
+}
+
+// The other offset words: each checked as Z is (rotary ones against their own limit in deg).
+void CheckedOffsets(const ToolRecord& record,
+                    const ToolUpdate& u,
+                    const ToolChangeLimits& limits,
+                    ToolTableChange* c) {
+  static const std::string kWords = "XYABCUVW", kRotary = "ABC";
+  for (const auto& [word, after] : u.offsets) {
+    if (kWords.find(word) == std::string::npos)
+      Fail(std::string(1, word) + " is not an offset word X Y A B C U V W of " + ToolName(u.tool));
+    const auto before = u.offsets_before.find(word);
+    const bool rotary = kRotary.find(word) != std::string::npos;
+    const double value = Checked(
+        record, word, after,
+        before == u.offsets_before.end() ? std::nullopt : std::optional<double>(before->second),
+        rotary ? limits.max_rotation_change_deg : limits.max_length_change_mm,
+        rotary ? " deg" : " mm");
+    c->offsets[word] = {record.Get(word), value};
+  }
 }
 
 }  // namespace
@@ -82,13 +107,15 @@ ToolTableUpdateResult UpdateToolTable(const std::string& table_path,
     if (!seen.insert(u.tool).second) Fail(ToolName(u.tool) + " is named twice");
     const auto record = table.Find(u.tool);
     if (!record) Fail(ToolName(u.tool) + " is not in " + table_path);
-    ToolTableChange c{u.tool, u.tool_id, record->Get('Z'), 0, record->Get('D'), 0};
+    ToolTableChange c{u.tool, u.tool_id, record->Get('Z'), 0, record->Get('D'), 0, {}};
     c.length_after_mm =
         Checked(*record, 'Z', u.length_mm, u.length_before_mm, limits.max_length_change_mm);
     c.diameter_after_mm =
         Checked(*record, 'D', u.diameter_mm, u.diameter_before_mm, limits.max_diameter_change_mm);
+    CheckedOffsets(*record, u, limits, &c);
     if (u.length_mm) table.Set(u.tool, 'Z', c.length_after_mm);
     if (u.diameter_mm) table.Set(u.tool, 'D', c.diameter_after_mm);
+    for (const auto& [word, values] : c.offsets) table.Set(u.tool, word, values.second);
     result.changes.push_back(c);
   }
   // The log must take the lines before the table changes: an empty record creates it (with its

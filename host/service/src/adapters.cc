@@ -34,7 +34,7 @@ void AppendCsv(const fs::path& path, const nlohmann::json& r) {
 }
 
 // LinuxCNC's changes (absolute, with the values they were decided on) as the tool table's words:
-// length Z, radius as the diameter D; one update per tool.
+// length Z, radius as the diameter D, the offsets X, Y, C; one update per tool.
 std::vector<nc::ToolUpdate> ToolUpdates(const std::vector<nc::ToolOffsetChange>& changes) {
   std::vector<nc::ToolUpdate> updates;
   for (const nc::ToolOffsetChange& t : changes) {
@@ -45,7 +45,10 @@ std::vector<nc::ToolUpdate> ToolUpdates(const std::vector<nc::ToolOffsetChange>&
       fresh.tool = t.tool;
       u = updates.insert(updates.end(), fresh);
     }
-    if (t.reg == nc::ToolRegister::kLengthGeometry) {
+    if (const char word = nc::OffsetWord(t.reg); word != 0) {
+      u->offsets[word] = t.after_mm;
+      u->offsets_before[word] = t.before_mm;
+    } else if (t.reg == nc::ToolRegister::kLengthGeometry) {
       u->length_mm = t.after_mm;
       u->length_before_mm = t.before_mm;
     } else {
@@ -76,7 +79,9 @@ nc::ToolOffsetChange ResolveToolChange(const ControllerConfig& c,
   }
   t.reg = reg;
   t.incremental = false;
-  t.before_mm = IsLength(reg) ? tool->Get('Z') : tool->Get('D') / 2.0;
+  t.before_mm = nc::OffsetWord(reg) != 0 ? tool->Get(nc::OffsetWord(reg))
+                : IsLength(reg)          ? tool->Get('Z')
+                                         : tool->Get('D') / 2.0;
   t.after_mm = t.before_mm + change_mm;
   return t;
 }

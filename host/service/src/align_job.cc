@@ -313,11 +313,7 @@ json RunAlignJob(JobContext& ctx, const json& r) {
     if (request.expected_origin_mm)
       d.fe.work_shift_mm = (wo.origin_mm - *request.expected_origin_mm).norm();
     const auto problems = jobs::PlausibilityProblems(d.fe, mc.limits);
-    if (!problems.empty()) {
-      reply["problems"] = problems;
-      reply["error"] = "nothing written: " + problems.front();
-      return run.Finish(history::JobStatus::kRefused, false);
-    }
+    if (!problems.empty()) return run.Refuse(problems);
     nc::NcResult out;
     out.header = "mlprobe job " + std::to_string(run.job) + ": " + request.method + " alignment";
     nc::WorkOffsetChange w;

@@ -79,10 +79,16 @@ ControllerConfig ParseController(const Reader& r, const json& m, const std::stri
   ControllerConfig c;
   c.result_dir = r.Path(j, "result_dir", cw);
   if (kind == "linuxcnc") {
-    r.OnlyKnown(j, {"kind", "result_dir", "tool_table", "write_tool_table", "comment"}, cw);
+    r.OnlyKnown(j, {"kind", "result_dir", "tool_table", "write_tool_table", "axes", "comment"}, cw);
     c.kind = ControllerConfig::Kind::kLinuxCnc;
     c.tool_table = r.Path(j, "tool_table", cw);
     c.write_tool_table = r.Flag(j, "write_tool_table", cw);
+    if (j.contains("axes")) c.axes = jf::Text<ConfigError>(j, "axes", r.Where(cw));
+    if (c.axes.empty() || c.axes.size() > 9 ||
+        c.axes.find_first_not_of("XYZABCUVW") != std::string::npos)
+      throw ConfigError(r.Where(cw) +
+                        ".axes must be letters of XYZABCUVW (LinuxCNC's "
+                        "COORDINATES without spaces)");
   } else if (kind == "fanuc" || kind == "haas" || kind == "syntec") {
     r.OnlyKnown(j,
                 {"kind", "result_dir", "use_variables", "length_geometry_var", "length_wear_var",

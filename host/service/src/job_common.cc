@@ -72,6 +72,29 @@ json JobRun::Fail(const std::exception& e) {
   return Finish(history::JobStatus::kFailed, false);
 }
 
+json JobRun::Refuse(const std::vector<std::string>& problems) {
+  reply["problems"] = problems;
+  reply["error"] = "nothing written: " + problems.front();
+  return Finish(history::JobStatus::kRefused, false);
+}
+
+json JobRun::WriteAndFinish(const nc::NcResult& out) {
+  reply["status"] = "done";  // if a stop comes during the write
+  reply["files"] = WriteToController(ctx, job, out, reply, OffsetWriteRows(out));
+  return Finish(history::JobStatus::kDone, true);
+}
+
+toolcam::ToolDescription ReadToolDescription(const JobContext& ctx,
+                                             const std::string& file,
+                                             const std::string& field) {
+  constexpr std::size_t kMaxDescriptionBytes = 1u << 20;
+  try {
+    return toolcam::ParseTool(ReadDataFile(ctx.config.data_dir, file, field, kMaxDescriptionBytes));
+  } catch (const toolcam::ToolInputError& e) {
+    throw JobInputError(field + ": " + e.what());
+  }
+}
+
 std::vector<std::string> WriteToController(JobContext& ctx,
                                            std::int64_t job,
                                            const nc::NcResult& out,

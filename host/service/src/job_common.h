@@ -11,6 +11,7 @@
 #include "mlp/nc/nc_output.h"
 #include "mlp/service/config.h"
 #include "mlp/service/job_server.h"
+#include "mlp/toolcam/tool_model.h"
 
 #include <chrono>
 #include <optional>
@@ -49,6 +50,11 @@ struct JobRun {
   nlohmann::json Finish(history::JobStatus status, bool ok);
   /// Logs the reason and closes the job as failed.
   nlohmann::json Fail(const std::exception& e);
+  /// Closes the job as refused, `problems` in the reply (the first as its error), nothing
+  /// written.
+  nlohmann::json Refuse(const std::vector<std::string>& problems);
+  /// Writes `out` through the machine's adapter (WriteToController) and closes the job as done.
+  nlohmann::json WriteAndFinish(const nc::NcResult& out);
 
   JobContext& ctx;
   std::string kind;
@@ -144,5 +150,12 @@ nlohmann::json RunRecheckJob(JobContext& ctx, const nlohmann::json& request);
 /// `{"op": "tool", ...}`: a tool measured from the tool camera's images (seed 000) and its
 /// length and diameter written to the tool table through the machine's adapter.
 nlohmann::json RunToolJob(JobContext& ctx, const nlohmann::json& request);
+/// A tool's description (`mlprobe-tool/1`) named in a request, from the data folder; throws
+/// JobInputError naming `field`.
+toolcam::ToolDescription ReadToolDescription(const JobContext& ctx,
+                                             const std::string& file,
+                                             const std::string& field);
+/// `{"op": "relocate", ...}` (relocate_job.cc): an EDM electrode re-clamped, its offsets.
+nlohmann::json RunRelocateJob(JobContext& ctx, const nlohmann::json& request);
 
 }  // namespace mlp::service

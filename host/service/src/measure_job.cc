@@ -336,11 +336,7 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
                                      {"reason", o.reason}}});
     const auto problems =
         jobs::PlausibilityProblems(GateEvidence(ms, cal, ev, d, work), ctx.machine.limits);
-    if (!problems.empty()) {
-      reply["problems"] = problems;
-      reply["error"] = "nothing written: " + problems.front();
-      return run.Finish(history::JobStatus::kRefused, false);
-    }
+    if (!problems.empty()) return run.Refuse(problems);
     const nc::NcResult out = ControllerResult(ctx.machine, run.job, ms, d, o, fb, work, &reply);
     if (request.report) reply["report"] = WriteReport(ctx, run.job, ms, d, reply);
     if (d.verdict == jobs::Verdict::kUpperLimitExceeded) reply["alarm"] = d.reason;

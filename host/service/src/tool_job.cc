@@ -242,14 +242,7 @@ json RunToolJob(JobContext& ctx, const json& r) {
   json& reply = run.reply;
   try {
     const ToolRequest q = ParseToolRequest(r);
-    const toolcam::ToolDescription tool = [&] {
-      try {
-        return toolcam::ParseTool(
-            ReadDataFile(ctx.config.data_dir, q.tool_file, "request.tool", kMaxDescriptionBytes));
-      } catch (const toolcam::ToolInputError& e) {
-        throw JobInputError(std::string("request.tool: ") + e.what());
-      }
-    }();
+    const toolcam::ToolDescription tool = ReadToolDescription(ctx, q.tool_file, "request.tool");
     const std::string camera_json = q.camera_file.empty()
                                         ? ""
                                         : ReadDataFile(ctx.config.data_dir, q.camera_file,
@@ -266,14 +259,8 @@ json RunToolJob(JobContext& ctx, const json& r) {
                                      {"worst_finding_mm", v.worst_finding_mm}}});
     const nc::NcResult out = ControllerResult(ctx.machine, run.job, q.tool_number, tool, v, &reply);
     const auto problems = Problems(q, tool, v, out, ctx.machine);
-    if (!problems.empty()) {
-      reply["problems"] = problems;
-      reply["error"] = "nothing written: " + problems.front();
-      return run.Finish(history::JobStatus::kRefused, false);
-    }
-    reply["status"] = "done";  // if a stop comes during the write
-    reply["files"] = WriteToController(ctx, run.job, out, reply, OffsetWriteRows(out));
-    return run.Finish(history::JobStatus::kDone, true);
+    if (!problems.empty()) return run.Refuse(problems);
+    return run.WriteAndFinish(out);
   } catch (const std::exception& e) {  // bad input named, or the images not showing the flutes
     return run.Fail(e);
   }

@@ -8,15 +8,28 @@
 
 namespace mlp::nc {
 
-enum class ToolRegister { kLengthGeometry, kLengthWear, kRadiusGeometry, kRadiusWear };
+/// The last three are a tool's offsets across the spindle and its turn (LinuxCNC's tool table X,
+/// Y, C, applied by G43; an EDM electrode put back after re-clamping): LinuxCNC only.
+enum class ToolRegister {
+  kLengthGeometry,
+  kLengthWear,
+  kRadiusGeometry,
+  kRadiusWear,
+  kOffsetX,
+  kOffsetY,
+  kOffsetC
+};
 
-/// "length geometry", "radius wear", ...
+/// "length geometry", "radius wear", "offset X", ...
 std::string ToString(ToolRegister r);
+/// The tool table's word of an offset register ('X', 'Y', 'C'); 0 for the others.
+char OffsetWord(ToolRegister r);
 
 struct ToolOffsetChange {
   int tool = 0;  ///< offset number (H/D number; LinuxCNC: the tool number)
   ToolRegister reg = ToolRegister::kLengthGeometry;
-  double before_mm = 0.0, after_mm = 0.0;  ///< the register's value; radius registers hold radii
+  /// The register's value; radius registers hold radii, kOffsetC degrees.
+  double before_mm = 0.0, after_mm = 0.0;
   /// The value before is not known here (it lives in the control): the change after - before
   /// is written as an increment (G91 G10, or #var = #var + change).
   bool incremental = false;

@@ -6,6 +6,7 @@
 
 #include "mlp/nc/tool_table.h"
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,7 +21,9 @@ class ToolChangeRefused : public ToolTableError {
   using ToolTableError::ToolTableError;
 };
 
-/// One tool's new length (Z) and/or diameter (D), in the table's units (mm).
+/// One tool's new length (Z) and/or diameter (D), in the table's units (mm), and other offset
+/// words (X, Y, A, B, C, U, V, W: an EDM electrode put back after re-clamping; degrees for the
+/// rotary A, B, C).
 struct ToolUpdate {
   int tool = 0;
   std::string tool_id;  ///< what the caller calls the tool, for the log only (may be empty)
@@ -29,12 +32,15 @@ struct ToolUpdate {
   /// kStaleToleranceMm), or someone changed it in between and the update is refused. Unset: the
   /// decision did not read the table (`mlp tool measure` measures the absolute value).
   std::optional<double> length_before_mm, diameter_before_mm;
+  /// Other words' new values and the values they were decided on (each word in both).
+  std::map<char, double> offsets{}, offsets_before{};
 };
 
 /// Machine safety: no single update moves a value further than this.
 struct ToolChangeLimits {
-  double max_length_change_mm = 0.5;
+  double max_length_change_mm = 0.5;  ///< also the linear offsets X, Y, U, V, W
   double max_diameter_change_mm = 0.5;
+  double max_rotation_change_deg = 1.0;  ///< the rotary offsets A, B, C
 };
 
 /// What was written, per tool: the values before and after (an unchanged word: before = after).
@@ -43,6 +49,7 @@ struct ToolTableChange {
   std::string tool_id;
   double length_before_mm = 0, length_after_mm = 0;
   double diameter_before_mm = 0, diameter_after_mm = 0;
+  std::map<char, std::pair<double, double>> offsets{};  ///< other words: before, after
 };
 
 struct ToolTableUpdateResult {
@@ -56,7 +63,9 @@ struct ToolTableUpdateResult {
 inline constexpr double kStaleToleranceMm = 1e-6;
 
 /// The audit log beside `table_path`: `mlp-tool-changes.csv`, one line per tool changed
-/// (time_utc, tool, tool_id, length and diameter before and after, source).
+/// (time_utc, tool, tool_id, length and diameter before and after, source; other words' before
+/// and after follow the source in its column, "X 0.00000 -> -0.03000": the columns stay those
+/// of logs already on machines).
 std::string ToolChangeLogFor(const std::string& table_path);
 
 /// Applies `updates` to the tool table at `table_path` as one change and logs it, `source`

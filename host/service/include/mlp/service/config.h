@@ -34,6 +34,9 @@ struct ControllerConfig {
   /// that reloads it (G10 L0) or is not running; otherwise only the result subroutine's
   /// G10 L1 lines change it, when the program calls it.
   bool write_tool_table = false;
+  /// LinuxCNC: the machine's axes (its [TRAJ] COORDINATES): a tool offset is written only for
+  /// an axis it has (G10 L1 with a C word stops a machine without C: "Bad character 'c' used").
+  std::string axes = "XYZ";
   std::string result_dir;  ///< where results go: NC subroutine / snippet, JSON and CSV
   nc::NcMap map;           ///< Fanuc-style controls
 };
