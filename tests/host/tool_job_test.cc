@@ -17,13 +17,15 @@ namespace {
 constexpr int kToolJobPort = 17461;     // the probe link's port, unused: no probe here
 constexpr double kLengthTolMm = 0.001;  // the virtual camera's tool through the job
 constexpr double kDiameterTolMm = 0.002;
+constexpr double kAxisTolMm = 0.0005;      // the spindle axis across a camera's view (tool_kinds')
 constexpr double kPretravelTolMm = 0.001;  // the touch probe's trigger through the job
 const std::string kTools = mlp::test::SourceDir() + "/samples/tools/";
 const std::string kTable =
     "T3 P3 Z+75.100000 D+10.050000 ;D10 Z4 roughing\n"
     "T12 P12 Z101.2 D9.998 ;finishing end mill\n"
     "T98 P98 Z60.005 D2.0 ;touch probe\n"
-    "T30 P30 Z60.0 D11.662 ;EDM electrode 10x6\n";
+    "T30 P30 Z60.0 D11.662 ;EDM electrode 10x6\n"
+    "T21 P21 Z45.1 D2.01 ;D2 end mill\n";
 
 // The virtual tool camera's images of `tool` into the site's data folder (the manifest holds
 // the virtual camera's own calibration).
@@ -168,6 +170,45 @@ TEST(ToolJob, TheToolCamerasResultGoesThroughTheAdapterOrIsRefused) {
   EXPECT_NEAR(e.at("update").at("length_after_mm").get<double>(), 59.996, kLengthTolMm);
   edm["start_turn_deg"] = 1000;
   EXPECT_EQ(site.Mlp("request " + site.Request("edm-bad", edm)).exit_code, 7);
+
+  // Two cameras (seed 000 example 7): the D2 end mill wholly in view of both, the second's view
+  // turned 74 deg (the mount says 72), the spindle drifted 6 um along the first's view: T21
+  // gets the two cameras' length and diameter, the reply the axis in depth.
+  const std::string d2 = " --tool " + kTools +
+                         "endmill_d2_z4_runout.json --rpm 5000 --fps 50 --resolution-deg 14.4 "
+                         "--pulse-share 0.1 --drops 0 --axis-u-px 511.5 --tip-v-px 700 "
+                         "--drift-x-mm 0.006 --drift-y-mm -0.004 --out ";
+  ASSERT_EQ(RunProcess(kMlp + " tool render --seed 3" + d2 +
+                       (site.dir / "data" / "tools" / "cam_a").string())
+                .exit_code,
+            0);
+  ASSERT_EQ(RunProcess(kMlp + " tool render --seed 4 --view-deg 74" + d2 +
+                       (site.dir / "data" / "tools" / "cam_b").string())
+                .exit_code,
+            0);
+  fs::copy_file(kTools + "endmill_d2_z4_runout.json",
+                site.dir / "data" / "tools" / "endmill_d2.json");
+  json pair = {{"op", "tool"},
+               {"machine", "lcnc-1"},
+               {"images", "tools/cam_a"},
+               {"second_view", "tools/cam_b"},
+               {"view_deg", 72},
+               {"tool", "tools/endmill_d2.json"},
+               {"tool_number", 21}};
+  const auto two = site.Mlp("request " + site.Request("two-cameras", pair) + " --json");
+  ASSERT_EQ(two.exit_code, 0) << two.err << two.out;
+  const json tv = json::parse(two.out);
+  std::printf("two cameras: axis (%+.2f, %+.2f) um, T21 length %.5f, diameter %.5f mm\n",
+              tv.at("two_views").at("axis_offset_mm")[0].get<double>() * 1e3,
+              tv.at("two_views").at("axis_offset_mm")[1].get<double>() * 1e3,
+              tv.at("update").at("length_after_mm").get<double>(),
+              tv.at("update").at("diameter_after_mm").get<double>());
+  EXPECT_NEAR(tv.at("two_views").at("axis_offset_mm")[0].get<double>(), 0.006, 2 * kAxisTolMm);
+  EXPECT_NEAR(tv.at("two_views").at("axis_offset_mm")[1].get<double>(), -0.004, kAxisTolMm);
+  EXPECT_NEAR(tv.at("update").at("length_after_mm").get<double>(), 45.002, kLengthTolMm);
+  EXPECT_NEAR(tv.at("update").at("diameter_after_mm").get<double>(), 2.006, kDiameterTolMm);
+  pair["view_deg"] = 5;  // too near parallel: bad input, nothing written
+  EXPECT_EQ(site.Mlp("request " + site.Request("two-parallel", pair)).exit_code, 7);
 
   // A touch probe (seed 000 Fig. 6/7): its idle stylus, then stopped at its trigger on the
   // glass block, 8 um after touching: T98's length becomes the gauge point's distance to the

@@ -10,7 +10,9 @@
 #include "mlp/toolcam/measure.h"
 #include "mlp/toolcam/tool_images_io.h"
 #include "mlp/toolcam/touch_probe.h"
+#include "mlp/toolcam/two_views.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <optional>
@@ -35,13 +37,18 @@ struct ToolRequest {
   std::optional<double> start_turn_deg;  ///< the chuck's turn at position 0 (an electrode's)
   /// A stylus' frames at its lateral trigger against the block's side faces (one or two).
   std::vector<std::string> trigger_sides;
+  /// A second camera's series of the same pulses (seed 000 example 7), its calibration and its
+  /// view's angle from the first's (the mount's) with the tolerance.
+  std::string second_view, second_camera_file;
+  toolcam::SecondView mount;
 };
 
 ToolRequest ParseToolRequest(const json& r) {
   jf::OnlyKnownFields<JobInputError>(
       r,
       {"op", "machine", "request_id", "images", "other_side", "trigger", "tool", "camera",
-       "tool_number", "accept_findings", "start_turn_deg", "trigger_sides"},
+       "tool_number", "accept_findings", "start_turn_deg", "trigger_sides", "second_view",
+       "second_camera", "view_deg", "view_tolerance_deg"},
       "request");
   ToolRequest t;
   t.images = jf::Text<JobInputError>(r, "images", "request");
@@ -57,6 +64,16 @@ ToolRequest ParseToolRequest(const json& r) {
     if (!(a >= -360 && a <= 360))
       throw JobInputError("request.start_turn_deg must be in [-360, 360]");
     t.start_turn_deg = a;
+  }
+  if (r.contains("second_view")) {
+    t.second_view = jf::Text<JobInputError>(r, "second_view", "request");
+    if (r.contains("second_camera"))
+      t.second_camera_file = jf::Text<JobInputError>(r, "second_camera", "request");
+    t.mount.view_deg = jf::Number<JobInputError>(r, "view_deg", "request");
+    t.mount.tolerance_deg =
+        jf::NumberOr<JobInputError>(r, "view_tolerance_deg", t.mount.tolerance_deg, "request");
+  } else if (r.contains("view_deg") || r.contains("second_camera")) {
+    throw JobInputError("request.view_deg and second_camera go with second_view");
   }
   if (r.contains("trigger_sides")) {
     const json& sides = r.at("trigger_sides");
@@ -161,6 +178,40 @@ std::vector<std::string> Problems(const ToolRequest& q,
   return problems;
 }
 
+// Seed 000 example 7: the first camera's series and a second camera's of the same pulses; the
+// table gets the two cameras' mean radius and length (two_views.h).
+ToolValues MeasureWithTwoCameras(const JobContext& ctx,
+                                 const ToolRequest& q,
+                                 const toolcam::ToolDescription& tool,
+                                 const Series& a,
+                                 const toolcam::MeasureOptions& options,
+                                 std::vector<std::string>* warnings,
+                                 json* reply) {
+  if (!q.other_side.empty()) throw JobInputError("request.second_view does not go with other_side");
+  const std::string camera_json = q.second_camera_file.empty()
+                                      ? ""
+                                      : ReadDataFile(ctx.config.data_dir, q.second_camera_file,
+                                                     "request.second_camera", kMaxDescriptionBytes);
+  const Series b =
+      ReadSeries(ctx, q.second_view, "request.second_view", camera_json, tool.length_mm, warnings);
+  const toolcam::ToolIn3d t = [&] {
+    try {
+      return toolcam::MeasureToolFromTwoViews(
+          {a.images.pixels, a.images.position, a.images.positions, a.camera},
+          {b.images.pixels, b.images.position, b.images.positions, b.camera}, tool, q.mount,
+          options);
+    } catch (const toolcam::ToolInputError& e) {
+      throw JobInputError(std::string("request.second_view: ") + e.what());
+    }
+  }();
+  reply->update(toolcam::ToolIn3dJson(tool, t));
+  const double radius = *std::max_element(t.radius_mm.begin(), t.radius_mm.end());
+  const double worst =
+      std::max({t.a.worst_finding_mm, t.a.worst_wear_mm, t.b.worst_finding_mm, t.b.worst_wear_mm});
+  return {tool.length_mm - t.tip_h_mm, radius, worst,
+          t.a.OverWearLimit(tool) || t.b.OverWearLimit(tool)};
+}
+
 // A cutter (or a pin): its edges from the images, on one side or both.
 ToolValues MeasureCutter(const JobContext& ctx,
                          const ToolRequest& q,
@@ -173,6 +224,8 @@ ToolValues MeasureCutter(const JobContext& ctx,
   toolcam::MeasureOptions options;
   options.blur_rad = plus.images.blur_rad;
   options.start_turn_deg = q.start_turn_deg;
+  if (!q.second_view.empty())
+    return MeasureWithTwoCameras(ctx, q, tool, plus, options, warnings, reply);
   toolcam::ToolMeasurement t;
   if (q.other_side.empty()) {
     t = toolcam::MeasureTool(plus.images.pixels, plus.images.position, plus.images.positions, tool,
