@@ -1,5 +1,6 @@
 #include "mlp/host/history_command.h"
 
+#include "mlp/base/files.h"
 #include "mlp/history/history.h"
 #include "mlp/host/cli.h"
 
@@ -8,14 +9,22 @@
 #include <iomanip>
 #include <ostream>
 
+#include "history_commands.h"
+
 namespace mlp::host {
 namespace {
 
 constexpr const char* kUsage =
     "usage: mlp history [--db FILE] [--machine M] [--kind K] [--since ISO8601] [--limit N]\n"
     "                   [--format text|csv|json] [--job N]\n"
+    "       mlp history spc --feature F [--machine M] [--last N] [--svg FILE] [--json]\n"
+    "                   [--db FILE]\n"
+    "  the jobs; or a measured feature's process capability over its last N parts (50): mean,\n"
+    "  sigma within (moving range) and overall, Cp, Cpk, Pp, Ppk, control limits, and a run\n"
+    "  chart as SVG, per nominal and limits\n"
     "  the database: --db, else $MLP_HISTORY, else /var/lib/mlprobe/history.sqlite\n"
-    "exit codes: 0 listed, 2 bad arguments or no such database or job, 1 bug\n";
+    "exit codes: 0 listed, 2 bad arguments or no such database or job, 3 no capability (no\n"
+    "results, fewer than two, or no spread), 1 bug\n";
 constexpr const char* kDefaultDb = "/var/lib/mlprobe/history.sqlite";
 
 struct Options {
@@ -37,19 +46,26 @@ Options Parse(const std::vector<std::string>& args) {
   o.format = a.Text("--format", o.format);
   if (o.format != "text" && o.format != "csv" && o.format != "json")
     throw UsageError("--format is text, csv or json");
-  if (o.db.empty()) {
-    const char* env = std::getenv("MLP_HISTORY");
-    o.db = env && *env ? env : kDefaultDb;
-  }
-  // Reading must not create an empty database where the user mistyped a path.
-  if (!std::filesystem::exists(o.db)) throw UsageError("no history database " + o.db);
+  o.db = HistoryDatabase(o.db);
   return o;
 }
 
 }  // namespace
 
+std::string HistoryDatabase(const std::string& given) {
+  std::string db = given;
+  if (db.empty()) {
+    const char* env = std::getenv("MLP_HISTORY");
+    db = env && *env ? env : kDefaultDb;
+  }
+  if (!std::filesystem::exists(db)) throw UsageError("no history database " + db);
+  return db;
+}
+
 int RunHistoryCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   try {
+    if (!args.empty() && args[0] == "spc")
+      return RunHistorySpc({args.begin() + 1, args.end()}, out, err);
     const Options o = Parse(args);
     const history::History h(o.db);
     if (o.job > 0) {
@@ -82,6 +98,8 @@ int RunHistoryCommand(const std::vector<std::string>& args, std::ostream& out, s
   } catch (const UsageError& e) {
     err << "mlp history: " << e.what() << "\n" << kUsage;
   } catch (const history::HistoryError& e) {
+    err << "mlp history: " << e.what() << "\n";
+  } catch (const base::FileError& e) {  // the run chart cannot be written
     err << "mlp history: " << e.what() << "\n";
   } catch (const std::exception& e) {
     err << "mlp history: internal error: " << e.what() << "\n";

@@ -94,6 +94,36 @@ TEST(History, ListsFiltersAndExportsCsv) {
       << csv;
 }
 
+// The SPC view's query: a feature's results of jobs that measured, newest N, oldest first;
+// refused and failed jobs and other machines' left out.
+TEST(History, AFeaturesResultsForSpc) {
+  History h(FreshDb("spc").string());
+  std::vector<std::int64_t> measured;
+  for (int i = 0; i < 6; ++i) {
+    const std::string machine = i == 4 ? "vmc-2" : "vmc-1";
+    const auto id = h.StartJob(Bore(machine));
+    h.AddResult(id, {"bore", json{{"size_mm", 60.0 + 0.001 * i}}, json::object()});
+    const JobStatus st = i == 2   ? JobStatus::kRefused
+                         : i == 3 ? JobStatus::kOutOfTolerance
+                                  : JobStatus::kInTolerance;
+    h.FinishJob(id, st, json::object(), json::object());
+    if (st != JobStatus::kRefused && machine == "vmc-1") measured.push_back(id);
+  }
+  const auto face = h.StartJob(Bore("vmc-1"));
+  h.AddResult(face, {"face", json{{"size_mm", 1.0}}, json::object()});
+  h.FinishJob(face, JobStatus::kInTolerance, json::object(), json::object());
+  const auto all = h.FeatureResults({"bore", std::string("vmc-1"), 50});
+  ASSERT_EQ(all.size(), measured.size());
+  for (size_t k = 0; k < all.size(); ++k) EXPECT_EQ(all[k].job, measured[k]);  // oldest first
+  EXPECT_EQ(all.back().status, JobStatus::kInTolerance);
+  EXPECT_EQ(all.front().request.at("feature"), "bore");
+  const auto last2 = h.FeatureResults({"bore", std::string("vmc-1"), 2});
+  ASSERT_EQ(last2.size(), 2u);
+  EXPECT_EQ(last2[1].job, measured.back());
+  EXPECT_EQ(h.FeatureResults({"bore", std::nullopt, 50}).size(), measured.size() + 1);
+  EXPECT_TRUE(h.FeatureResults({"slot", std::nullopt, 50}).empty());
+}
+
 TEST(History, TheLatestCaptureOfANameWhateverItsStatus) {
   History h(FreshDb("named").string());
   auto capture = [&](const std::string& machine, const std::string& name, JobStatus status) {

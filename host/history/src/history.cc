@@ -3,6 +3,7 @@
 #include "mlp/base/clock.h"
 #include "mlp/base/csv.h"
 
+#include <algorithm>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -460,6 +461,36 @@ std::vector<JobSummary> History::ListJobs(const JobFilter& f) const {
   } catch (const SQLite::Exception& e) {
     Fail("history " + impl_->path + ": " + e.what());
   }
+  return out;
+}
+
+std::vector<FeatureResult> History::FeatureResults(const FeatureQuery& f) const {
+  std::vector<FeatureResult> out;
+  try {
+    SQLite::Statement q(impl_->db,
+                        "SELECT j.id, j.machine, j.started_utc, j.status, r.fit, j.request FROM "
+                        "results r JOIN jobs j ON j.id = r.job_id WHERE r.feature = ?1 AND "
+                        "(?2 IS NULL OR j.machine = ?2) AND j.kind = 'measure' AND j.status IN "
+                        "('in_tolerance', 'out_of_tolerance') ORDER BY j.id DESC LIMIT ?3");
+    q.bind(1, f.feature);
+    if (f.machine) q.bind(2, *f.machine);
+    q.bind(3, f.last);
+    while (q.executeStep()) {
+      FeatureResult r;
+      r.job = q.getColumn(0).getInt64();
+      r.machine = q.getColumn(1).getString();
+      r.started_utc = q.getColumn(2).getString();
+      r.status = JobStatusFrom(q.getColumn(3).getString());
+      r.fit = json::parse(q.getColumn(4).getString());
+      r.request = json::parse(q.getColumn(5).getString());
+      out.push_back(std::move(r));
+    }
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  } catch (const json::exception& e) {
+    Fail("history " + impl_->path + ": a result that is not JSON: " + e.what());
+  }
+  std::reverse(out.begin(), out.end());
   return out;
 }
 

@@ -77,6 +77,24 @@ struct JobSummary {
   JobStatus status = JobStatus::kRunning;
 };
 
+/// One measured feature as the SPC view reads it: its job, where and when, the reply (the fit's
+/// size and error) and the request (the tolerance).
+struct FeatureResult {
+  std::int64_t job = 0;
+  std::string machine, started_utc;
+  JobStatus status = JobStatus::kRunning;
+  nlohmann::json fit, request;
+};
+
+/// The newest `last` results of `feature` (the measure job's feature kind), on `machine` if
+/// given, of jobs that measured (in or out of tolerance: a refused or failed job's figures are
+/// not the part's).
+struct FeatureQuery {
+  std::string feature;
+  std::optional<std::string> machine;
+  int last = 50;
+};
+
 struct JobFilter {
   std::optional<std::string> machine, kind, since_utc;  ///< since: ISO 8601, inclusive
   int limit = 1000;
@@ -135,6 +153,8 @@ class History {
   std::vector<std::int64_t> CloseInterruptedJobs(const std::string& reason);
 
   std::vector<JobSummary> ListJobs(const JobFilter& filter) const;
+  /// The results FeatureQuery selects, oldest first.
+  std::vector<FeatureResult> FeatureResults(const FeatureQuery& query) const;
   /// The newest capture job on `machine` whose request named `capture_id`, whatever its status
   /// (a macro refers to its captures by name; a failed newest one must not let an older one
   /// stand in).

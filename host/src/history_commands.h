@@ -1,0 +1,18 @@
+#pragma once
+// `mlp history`'s sub-commands, shared between its source files (not installed).
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace mlp::host {
+
+/// The history database: `given` (--db), else $MLP_HISTORY, else /var/lib/mlprobe's. Throws
+/// UsageError when it does not exist (reading must not create an empty one where a path was
+/// mistyped).
+std::string HistoryDatabase(const std::string& given);
+
+/// `mlp history spc ...` (history_spc.cc).
+int RunHistorySpc(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+
+}  // namespace mlp::host
