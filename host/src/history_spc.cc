@@ -12,6 +12,7 @@
 #include <iomanip>
 #include <map>
 #include <ostream>
+#include <sstream>
 #include <tuple>
 
 #include "history_commands.h"
@@ -66,6 +67,7 @@ std::vector<Characteristic> Characteristics(const std::vector<history::FeatureRe
     it->second.jobs.push_back(r.job);
   }
   std::vector<Characteristic> out;
+  out.reserve(order.size());
   for (const auto& k : order) out.push_back(by.at(k));
   return out;
 }
@@ -120,6 +122,16 @@ void PrintStudy(const std::string& feature,
     out << "  note: fewer than 25 parts: these figures are not yet a capability statement\n";
 }
 
+// The k-th characteristic's chart: FILE.svg, then FILE-2.svg, ... (a stream, not `+`: GCC 12
+// warns falsely of overlapping copies, -Wrestrict, for the concatenation).
+std::string ChartPath(const std::string& given, size_t k) {
+  if (k == 0) return given;
+  const size_t stem = given.size() - (given.ends_with(".svg") ? 4 : 0);
+  std::ostringstream path;
+  path << given.substr(0, stem) << "-" << k + 1 << given.substr(stem);
+  return path.str();
+}
+
 }  // namespace
 
 int RunHistorySpc(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -146,9 +158,7 @@ int RunHistorySpc(const std::vector<std::string>& args, std::ostream& out, std::
       else
         PrintStudy(q.feature, c, s, out);
       if (a.Has("--svg")) {  // one chart per characteristic: FILE.svg, then FILE-2.svg, ...
-        std::string path = a.Text("--svg");
-        if (k > 0)
-          path.insert(path.size() - (path.ends_with(".svg") ? 4 : 0), "-" + std::to_string(k + 1));
+        const std::string path = ChartPath(a.Text("--svg"), k);
         base::WriteFileAtomically(
             path, jobs::RunChartSvg(c.values, {c.lower, c.upper}, s, q.feature, c.unit));
         if (!a.Has("--json")) out << "  run chart: " << path << "\n";

@@ -88,8 +88,8 @@ TEST(Spc, TheRunChartShowsEveryValueAndTheLimits) {
   size_t circles = 0, red = 0;
   for (size_t at = svg.find("<circle"); at != std::string::npos; at = svg.find("<circle", at + 1))
     ++circles;
-  for (size_t at = svg.find("fill=\"red\""); at != std::string::npos;
-       at = svg.find("fill=\"red\"", at + 1))
+  const std::string red_point = "r=\"3\" fill=\"red\"";  // a value's circle, not a label
+  for (size_t at = svg.find(red_point); at != std::string::npos; at = svg.find(red_point, at + 1))
     ++red;
   EXPECT_EQ(circles, v.size());
   EXPECT_EQ(red, 1u);  // 10.021 is over the upper limit
