@@ -3,6 +3,7 @@
 // camera (its truth known) and measured against a nominal, and which edge faced a side in a
 // frame.
 
+#include "mlp/base/units.h"
 #include "mlp/toolcam/measure.h"
 
 #include <cmath>
@@ -101,7 +102,7 @@ inline ToolCameraModel WholeToolCamera() {
   return c;
 }
 
-inline double WrapDeg(double deg) { return deg - 360.0 * std::round(deg / 360.0); }
+using base::WrapDeg;  // the project's one (mlp/base/units.h)
 
 // The edge nearest the `side` (+1: +y, -1: -y) at height h in the frame turned `turn`.
 inline int EdgeFacing(const ToolDescription& t, double turn, double h, int side = 1) {

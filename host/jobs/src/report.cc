@@ -7,27 +7,14 @@
 #include <cstdio>
 #include <sstream>
 
+#include "svg_text.h"
+
 namespace mlp::jobs {
 namespace {
 
 constexpr double kCentreX = 240, kCentreY = 250, kBaseRadiusPx = 150;
 // The largest deviation (or half the tolerance band) is drawn this many pixels off the circle.
 constexpr double kMagnifiedPx = 60;
-
-std::string Escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '<')
-      out += "&lt;";
-    else if (c == '>')
-      out += "&gt;";
-    else if (c == '&')
-      out += "&amp;";
-    else
-      out += c;
-  }
-  return out;
-}
 
 std::string Num(double v, int digits) {
   char b[48];
@@ -90,7 +77,7 @@ void ReportText(const BoreReport& r, double worst, double k, std::ostringstream&
   int line = 0;
   const auto text = [&](const std::string& t, int size, const std::string& colour) {
     s << "<text x='470' y='" << Num(y0 + dy * line++, 0) << "' font-size='" << size << "' fill='"
-      << colour << "'>" << Escape(t) << "</text>\n";
+      << colour << "'>" << SvgText(t) << "</text>\n";
   };
   text(r.title, 16, "black");
   text(r.verdict, 22, VerdictColour(r.verdict));
@@ -176,7 +163,7 @@ double ColourScale(const std::vector<DeviationPanel>& panels) {
 void Panel(std::ostringstream& s, const DeviationPanel& p, double x0, double y0, double scale) {
   s << "<rect x='" << x0 << "' y='" << y0 << "' width='" << kPanelPx << "' height='" << kPanelPx
     << "' fill='#f4f4f4' stroke='#999'/>\n"
-    << "<text x='" << x0 << "' y='" << y0 - 5 << "' font-size='12'>" << Escape(p.title)
+    << "<text x='" << x0 << "' y='" << y0 - 5 << "' font-size='12'>" << SvgText(p.title)
     << "</text>\n";
   if (p.xy_mm.empty()) return;
   double lo_x = 1e300, hi_x = -1e300, lo_y = 1e300, hi_y = -1e300;
@@ -257,7 +244,7 @@ std::string FeatureReportSvg(const FeatureReport& r) {
   int line = 0;
   const auto text = [&](const std::string& t, int size, const std::string& colour) {
     s << "<text x='480' y='" << Num(y0 + dy * line++, 0) << "' font-size='" << size << "' fill='"
-      << colour << "'>" << Escape(t) << "</text>\n";
+      << colour << "'>" << SvgText(t) << "</text>\n";
   };
   text(r.title, 16, "black");
   text(r.verdict, 22, VerdictColour(r.verdict));

@@ -5,6 +5,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "svg_text.h"
+
 namespace mlp::jobs {
 namespace {
 
@@ -12,24 +14,6 @@ constexpr double kD2 = 1.128;   // d2 for ranges of two values (ASTM E2587, tabl
 constexpr int kFewValues = 25;  // AIAG SPC manual: at least 25 subgroups
 
 [[noreturn]] void Fail(const std::string& why) { throw SpcError("spc: " + why); }
-
-// XML text: the title and unit come from the history (a feature's name).
-std::string Escaped(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    if (c == '<')
-      out += "&lt;";
-    else if (c == '>')
-      out += "&gt;";
-    else if (c == '&')
-      out += "&amp;";
-    else if (c == '"')
-      out += "&quot;";
-    else
-      out += c;
-  }
-  return out;
-}
 
 }  // namespace
 
@@ -87,7 +71,7 @@ std::string RunChartSvg(const std::vector<double>& values,
   o << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << kW << "\" height=\"" << kH
     << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
     << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-    << "<text x=\"" << kLeft << "\" y=\"22\" font-size=\"14\">" << Escaped(title) << ": n " << s.n
+    << "<text x=\"" << kLeft << "\" y=\"22\" font-size=\"14\">" << SvgText(title) << ": n " << s.n
     << ", Cp " << s.cp << ", Cpk " << s.cpk << ", Ppk " << s.ppk
     << (s.few_values ? " (fewer than 25 values)" : "") << "</text>\n";
   const auto line = [&](double v, const char* colour, const char* dash, const std::string& name) {
@@ -110,7 +94,7 @@ std::string RunChartSvg(const std::vector<double>& values,
       << (out ? "red" : "steelblue") << "\"/>\n";
   }
   o << "<text x=\"" << kLeft << "\" y=\"" << kH - 12 << "\">part 1 .. " << s.n
-    << " (oldest first), " << Escaped(unit) << "</text>\n</svg>\n";
+    << " (oldest first), " << SvgText(unit) << "</text>\n</svg>\n";
   return o.str();
 }
 

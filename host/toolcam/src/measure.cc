@@ -407,8 +407,6 @@ IndexedImages IndexImages(const ToolSeries& series, const MeasureOptions& opt) {
   return x;
 }
 
-double Wrap180(double deg) { return deg - 360.0 * std::round(deg / 360.0); }
-
 // Edge e's angle past edge j's, turning the tool on: the images after the one where j faces a
 // side show e there after this many degrees (the turn brings smaller flute angles round).
 double PeakAfterDeg(const ToolDescription& t, int j, int e) {
@@ -429,7 +427,8 @@ size_t PeakImage(const IndexedImages& x, int side, double want_deg, double half_
   size_t k_best = x.order.size();
   for (size_t k = 0; k < x.order.size(); ++k) {
     const size_t i = x.order[k];
-    if (std::abs(Wrap180(x.angle_deg[i] - want_deg)) > half_deg || !std::isfinite(ref[i])) continue;
+    if (std::abs(base::WrapDeg(x.angle_deg[i] - want_deg)) > half_deg || !std::isfinite(ref[i]))
+      continue;
     if (k_best == x.order.size() || ref[i] > ref[x.order[k_best]]) k_best = k;
   }
   return k_best;
@@ -466,7 +465,7 @@ int TopEdge(const IndexedImages& x, const ToolDescription& t, int side) {
       const double found = k < x.order.size()
                                ? x.angle_deg[x.order[k]] + PeakOffsetDeg(x, side, k)
                                : want + HalfPitchDeg(t, e);  // none: as far as it may be
-      cost += std::pow(Wrap180(found - want), 2);
+      cost += std::pow(base::WrapDeg(found - want), 2);
     }
     if (cost < best) best = cost, best_j = j;
   }
@@ -512,7 +511,8 @@ double ShadowFunctionShiftDeg(const IndexedImages& x,
     }
   int best = -1;
   for (int s = 0; s < kSteps; ++s) {
-    if (opt.start_turn_deg && std::abs(Wrap180(s / double(kPerDeg) - *opt.start_turn_deg)) > 90)
+    if (opt.start_turn_deg &&
+        std::abs(base::WrapDeg(s / double(kPerDeg) - *opt.start_turn_deg)) > 90)
       continue;
     if (best < 0 || cost[static_cast<size_t>(s)] < cost[static_cast<size_t>(best)]) best = s;
   }
@@ -533,7 +533,7 @@ int EdgeAtTopPeak(const IndexedImages& x, const ToolDescription& t, double shift
   double nearest = 1e300;
   for (int e = 0; e < t.flutes; ++e) {
     const double d =
-        std::abs(Wrap180(top_deg - (90.0 - t.FluteAngle(e) * base::kDegPerRad - shift_deg)));
+        std::abs(base::WrapDeg(top_deg - (90.0 - t.FluteAngle(e) * base::kDegPerRad - shift_deg)));
     if (d < nearest) nearest = d, best = e;
   }
   return best;

@@ -104,8 +104,6 @@ double Albedo(const TextureCamera& c, const Hit& hit) {
 
 constexpr int kRounds = 3;
 
-double WrapDeg(double deg) { return deg - 360.0 * std::round(deg / 360.0); }
-
 void CheckSeries(const TextureSeries& ref, const TextureSeries& after, const ToolDescription& e) {
   if (!e.electrode) throw ToolInputError("relocate: the description is not an electrode");
   if (ref.frames.size() != ref.turn_deg.size() || after.frames.size() != after.turn_deg.size())
@@ -113,7 +111,7 @@ void CheckSeries(const TextureSeries& ref, const TextureSeries& after, const Too
   if (ref.turn_deg.size() != after.turn_deg.size())
     throw ToolInputError("relocate: the series have different numbers of images");
   for (size_t k = 0; k < ref.turn_deg.size(); ++k)
-    if (std::abs(WrapDeg(ref.turn_deg[k] - after.turn_deg[k])) > 1e-6)
+    if (std::abs(base::WrapDeg(ref.turn_deg[k] - after.turn_deg[k])) > 1e-6)
       throw ToolInputError("relocate: image " + std::to_string(k) +
                            " was taken at another turn in each series");
   const auto size = [](const ToolCameraModel& c) {
@@ -146,12 +144,13 @@ cv::Mat Window(const std::vector<std::uint8_t>& px,
                const ToolCameraModel& c,
                const Vec2& centre,
                int n) {
-  cv::Mat whole(c.height_px, c.width_px, CV_8UC1, const_cast<std::uint8_t*>(px.data()));
-  cv::Mat grey, out;
-  whole.convertTo(grey, CV_32F);
-  cv::getRectSubPix(grey, cv::Size(n, n),
+  // The window straight from the 8-bit image into float (getRectSubPix's 8U -> 32F), not the
+  // whole image converted for every patch.
+  const cv::Mat whole(c.height_px, c.width_px, CV_8UC1, const_cast<std::uint8_t*>(px.data()));
+  cv::Mat out;
+  cv::getRectSubPix(whole, cv::Size(n, n),
                     cv::Point2f(static_cast<float>(centre.x()), static_cast<float>(centre.y())),
-                    out);
+                    out, CV_32F);
   out.convertTo(out, CV_64F);
   return out;
 }

@@ -11,8 +11,6 @@ namespace {
 
 using geometry::Vec3;
 
-double WrapDeg(double deg) { return deg - 360.0 * std::round(deg / 360.0); }
-
 void CheckViewAngle(double view_deg) {
   if (!std::isfinite(view_deg))
     throw ToolInputError("two views: the second view's angle is not a number");
@@ -44,7 +42,7 @@ std::vector<double> PairFlutes(const ToolMeasurement& a,
     int best = -1;
     double best_d = mount.tolerance_deg;
     for (size_t j = 0; j < b.flutes.size(); ++j) {
-      const double d = WrapDeg(b.flutes[j].angle_deg - fa.angle_deg - mount.view_deg);
+      const double d = base::WrapDeg(b.flutes[j].angle_deg - fa.angle_deg - mount.view_deg);
       if (std::abs(d) <= std::abs(best_d) && !taken[j]) best = static_cast<int>(j), best_d = d;
     }
     if (best < 0)
@@ -99,7 +97,8 @@ ToolIn3d MeasureToolFromTwoViews(const ToolSeries& a,
     const double r = (fa.radius_mm + fb.radius_mm) / 2;
     // A sees the edge at its +y (90 deg round from x) `angle_deg` after position 0, B the
     // view's angle later: the two views' mean.
-    const double seen_deg = fa.angle_deg + WrapDeg(fb.angle_deg - t.view_deg - fa.angle_deg) / 2;
+    const double seen_deg =
+        fa.angle_deg + base::WrapDeg(fb.angle_deg - t.view_deg - fa.angle_deg) / 2;
     const double at_0 = (90.0 - seen_deg) / base::kDegPerRad;
     t.edge_mm.push_back(t.axis_offset_mm +
                         Vec3(r * std::cos(at_0), r * std::sin(at_0), options.h_ref_mm));
