@@ -13,6 +13,7 @@ packages=(
   libeigen3-dev libceres-dev libpcl-dev libflann-dev liblz4-dev libopencv-dev libpng-dev
   libboost-dev libboost-system-dev nlohmann-json3-dev
   libssl-dev libsqlite3-dev libsqlitecpp-dev
+  libmosquitto-dev mosquitto openssl  # the plant feed (MQTT); its tests start a real broker with TLS
   libgtest-dev libgmock-dev libbenchmark-dev
   g++-aarch64-linux-gnu qemu-user  # the firmware for the probe's board (scripts/build-arm64.sh)
   systemd valgrind  # systemd-analyze checks the board's unit; scripts/count-fw-instructions.sh

@@ -59,6 +59,13 @@ void PrintStatus(const json& s, std::ostream& out) {
     out << "  machine " << m.value("name", "?") << " (probe " << m.value("probe", "?")
         << "): " << (running.empty() ? "idle" : "running " + running) << "\n";
   }
+  if (const json& q = s.value("mqtt", json()); q.is_object()) {
+    out << "  plant feed (MQTT): " << (q.value("connected", false) ? "connected" : "NOT connected")
+        << ", " << q.value("published", 0) << " sent, " << q.value("queued", 0) << " held, "
+        << q.value("dropped", 0) << " dropped";
+    if (!q.value("last_error", "").empty()) out << ", last error: " << q.value("last_error", "");
+    out << "\n";
+  }
 }
 
 // The request file's text, or stdin's; refused unread beyond what the host would take (a file of

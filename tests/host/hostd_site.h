@@ -18,6 +18,7 @@
 #include <functional>
 #include <thread>
 
+#include "child_process.h"
 #include "process_run.h"
 #include "test_data.h"
 #include <gtest/gtest.h>
@@ -43,43 +44,6 @@ inline const std::string kCalibratedModel =
     mlp::test::SourceDir() + "/samples/probes/as_built/MLP-AB-0001.calibrated.json";
 inline const std::string kDemoPlate = mlp::test::SourceDir() + "/samples/scenes/demo_plate.json";
 constexpr int kLinkPort = 17431;  // each test that runs a probe link has its own port
-
-// A child process with its stderr in a file; SIGTERM and wait on destruction.
-class Child {
- public:
-  /// `in_child`: run in the child before exec (e.g. to lower its resource limits).
-  Child(const std::vector<std::string>& argv,
-        const fs::path& log,
-        const std::function<void()>& in_child = {}) {
-    pid_ = fork();
-    if (pid_ == 0) {
-      std::freopen(log.c_str(), "w", stderr);
-      if (in_child) in_child();
-      std::vector<char*> a;
-      for (const auto& s : argv) a.push_back(const_cast<char*>(s.c_str()));
-      a.push_back(nullptr);
-      execv(a[0], a.data());
-      _exit(127);
-    }
-  }
-  ~Child() { Stop(); }
-  /// True while the process runs (not exited, not killed).
-  bool Alive() const { return pid_ > 0 && waitpid(pid_, nullptr, WNOHANG) == 0; }
-  /// SIGTERM (graceful) by default; SIGKILL is a crash.
-  int Stop(int signal = SIGTERM) {
-    if (pid_ <= 0) return exit_code_;
-    kill(pid_, signal);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    pid_ = -1;
-    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    return exit_code_;
-  }
-
- private:
-  pid_t pid_ = -1;
-  int exit_code_ = -1;
-};
 
 // One folder per test: ctest may run the tests of this file at once.
 struct Site {

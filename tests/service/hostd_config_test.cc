@@ -81,6 +81,40 @@ TEST(HostdConfig, ErrorsNameTheField) {
   ExpectError(R"({"format": "mlprobe-hostd/2"})", "format");
 }
 
+// The plant's MQTT feed: optional, paths relative to the file, and names that go into topics
+// must be valid topic levels.
+TEST(HostdConfig, TheMqttFeedIsOptionalAndItsNamesMustBeTopicLevels) {
+  const std::string machine =
+      R"({"name": "m", "probe": "P", "controller": {"kind": "files", "result_dir": "/o"}})";
+  EXPECT_FALSE(ParseHostdConfig(kHead + R"("machines": [)" + machine + "]}", "/etc/h.json").mqtt);
+  const HostdConfig c = ParseHostdConfig(
+      kHead + R"("machines": [)" + machine + R"(], "mqtt": {"host": "broker.plant", "port": 8883,
+      "host_id": "cell3", "username": "cell3", "password_file": "mqtt.pass",
+      "tls": {"ca_file": "plant-ca.crt"}, "status_period_s": 5}})",
+      "/etc/mlprobe/hostd.json");
+  ASSERT_TRUE(c.mqtt);
+  EXPECT_EQ(c.mqtt->host, "broker.plant");
+  EXPECT_EQ(c.mqtt->port, 8883);
+  EXPECT_EQ(c.mqtt->topic_prefix, "mlprobe");
+  EXPECT_EQ(c.mqtt->password_file, "/etc/mlprobe/mqtt.pass");
+  EXPECT_EQ(c.mqtt->ca_file, "/etc/mlprobe/plant-ca.crt");
+  EXPECT_EQ(c.mqtt->status_period_s, 5);
+  const std::string with = kHead + R"("machines": [)" + machine + R"(], "mqtt": )";
+  ExpectError(with + R"({"host": "b", "host_id": "a/b"}})", "mqtt.host_id");
+  ExpectError(with + R"({"host": "b", "host_id": "c", "topic_prefix": "plant/#"}})",
+              "mqtt.topic_prefix");
+  ExpectError(with + R"({"host": "b", "host_id": "c", "port": 0}})", "mqtt.port");
+  ExpectError(with + R"({"host": "b", "host_id": "c", "username": "u"}})", "password_file");
+  ExpectError(with + R"({"host": "b", "host_id": "c", "qos": 2}})", "mqtt");
+  ExpectError(kHead + R"("machines": [{"name": "bay+3", "probe": "P", "controller": {"kind":
+              "files", "result_dir": "/o"}}], "mqtt": {"host": "b", "host_id": "c"}})",
+              "machines[].name");
+  // Without the feed a machine's name is free.
+  EXPECT_NO_THROW(ParseHostdConfig(kHead + R"("machines": [{"name": "bay+3", "probe": "P",
+      "controller": {"kind": "files", "result_dir": "/o"}}]})",
+                                   "/etc/h.json"));
+}
+
 // A misspelled field used to be ignored, leaving its default in force without a word.
 TEST(HostdConfig, UnknownFieldsAreRefusedWithTheNearestName) {
   ExpectError(kHead +

@@ -2,6 +2,7 @@
 
 #include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
+#include "mlp/plant/mqtt.h"
 
 #include <filesystem>
 #include <fstream>
@@ -120,6 +121,64 @@ ControllerConfig ParseController(const Reader& r, const json& m, const std::stri
   return c;
 }
 
+// Names that go into topic levels must be valid ones: checked here, where the file can be named.
+void CheckTopicNames(const Reader& r, const HostdConfig& c) {
+  const auto level = [&](const std::string& name, const std::string& field) {
+    try {
+      plant::CheckTopicLevel(name, field);
+    } catch (const plant::MqttError& e) {
+      throw ConfigError(r.Where(field) + ": " + e.what() + " (the MQTT feed puts it in topics)");
+    }
+  };
+  level(c.mqtt->host_id, "mqtt.host_id");
+  std::string prefix = c.mqtt->topic_prefix;  // levels joined by '/'
+  for (std::size_t at = 0; at != std::string::npos;) {
+    const std::size_t slash = prefix.find('/', at);
+    level(prefix.substr(at, slash == std::string::npos ? slash : slash - at), "mqtt.topic_prefix");
+    at = slash == std::string::npos ? slash : slash + 1;
+  }
+  for (const ProbeEntry& p : c.probes) level(p.serial, "probes[].serial");
+  for (const MachineConfig& m : c.machines) level(m.name, "machines[].name");
+}
+
+MqttConfig ParseMqtt(const Reader& r, const json& j) {
+  const std::string w = "mqtt";
+  r.OnlyKnown(j,
+              {"host", "port", "host_id", "topic_prefix", "username", "password_file", "tls",
+               "status_period_s", "keepalive_s", "max_queued", "comment"},
+              w);
+  const auto integer = [&](const char* key, int fallback) {
+    return j.contains(key) ? jf::Integer<ConfigError>(j, key, r.Where(w)) : fallback;
+  };
+  MqttConfig c;
+  c.host = jf::Text<ConfigError>(j, "host", r.Where(w));
+  if (c.host.empty()) r.Fail("mqtt.host", "must not be empty");
+  c.port = integer("port", c.port);
+  if (c.port < 1 || c.port > 65535) r.Fail("mqtt.port", "must be 1..65535");
+  c.host_id = jf::Text<ConfigError>(j, "host_id", r.Where(w));
+  if (j.contains("topic_prefix"))
+    c.topic_prefix = jf::Text<ConfigError>(j, "topic_prefix", r.Where(w));
+  if (j.contains("username")) c.username = jf::Text<ConfigError>(j, "username", r.Where(w));
+  if (j.contains("password_file")) c.password_file = r.Path(j, "password_file", w);
+  if (c.username.empty() != c.password_file.empty())
+    r.Fail("mqtt", "needs both username and password_file, or neither");
+  if (j.contains("tls")) {
+    const json& t = jf::Object<ConfigError>(j, "tls", r.Where(w));
+    r.OnlyKnown(t, {"ca_file", "cert_file", "key_file", "comment"}, "mqtt.tls");
+    c.ca_file = r.Path(t, "ca_file", "mqtt.tls");
+    if (t.contains("cert_file") || t.contains("key_file")) {
+      c.cert_file = r.Path(t, "cert_file", "mqtt.tls");
+      c.key_file = r.Path(t, "key_file", "mqtt.tls");
+    }
+  }
+  c.status_period_s = r.Seconds(j, "status_period_s", c.status_period_s, w);
+  c.keepalive_s = integer("keepalive_s", c.keepalive_s);
+  if (c.keepalive_s < 5 || c.keepalive_s > 3600) r.Fail("mqtt.keepalive_s", "must be 5..3600");
+  c.max_queued = integer("max_queued", c.max_queued);
+  if (c.max_queued < 1 || c.max_queued > 1000000) r.Fail("mqtt.max_queued", "must be 1..1000000");
+  return c;
+}
+
 }  // namespace
 
 const MachineConfig* HostdConfig::Machine(const std::string& name) const {
@@ -133,7 +192,7 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
   const json j = jf::ParseDocument<ConfigError>(text, kFormat, path);
   r.OnlyKnown(j,
               {"format", "comment", "data_dir", "job_socket", "capture_timeout_s", "probe_link",
-               "probes", "machines"},
+               "probes", "machines", "mqtt"},
               "config");
   HostdConfig c;
   c.path = path;
@@ -176,6 +235,10 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
     mc.limits = ParseLimits(r, m, w);
     mc.job_timeout_s = r.Seconds(m, "job_timeout_s", mc.job_timeout_s, w);
     c.machines.push_back(mc);
+  }
+  if (j.contains("mqtt")) {
+    c.mqtt = ParseMqtt(r, jf::Object<ConfigError>(j, "mqtt", r.Where("config")));
+    CheckTopicNames(r, c);
   }
   return c;
 }

@@ -13,12 +13,15 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <filesystem>
 #include <functional>
 #include <map>
 #include <mutex>
+#include <thread>
 
 #include "job_common.h"
+#include "plant_feed.h"
 
 namespace mlp::service {
 namespace {
@@ -101,12 +104,19 @@ struct Hostd::Impl {
   std::mutex busy_m;
   std::map<std::string, std::string> busy;  // machine -> what it runs
   std::atomic<bool> history_lost{false};
+  PlantFeed feed;
+  // The retained status on the plant's broker, refreshed every mqtt.status_period_s.
+  std::thread status_thread;
+  std::mutex status_m;
+  std::condition_variable status_wake;
+  bool status_stop = false;
 
   Impl(HostdConfig c, Log l)
       : config(std::move(c)),
         log(std::move(l)),
         history((fs::create_directories(config.data_dir), config.HistoryFile())),
-        server(config.job_socket, log) {
+        server(config.job_socket, log),
+        feed(config, log) {
     link::HostLinkConfig link_config;
     link_config.bind_address = config.link_address;
     link_config.port = config.link_port;
@@ -143,7 +153,7 @@ struct Hostd::Impl {
     for (const auto& [op, run] : jobs) {
       server.HandleInLane(op, [this, run = run](const json& r) {
         return RunOnMachine(r, [&](const MachineConfig& m, const json& req) {
-          JobContext ctx{config, m, history, log};
+          JobContext ctx{config, m, history, log, feed};
           return run(ctx, req);
         });
       });
@@ -247,7 +257,30 @@ struct Hostd::Impl {
             {"probes", probes},
             {"machines", machines},
             {"history", config.HistoryFile()},
-            {"history_ok", HistoryOk()}};
+            {"history_ok", HistoryOk()},
+            {"mqtt", feed.Counters()}};
+  }
+
+  void StartStatusFeed() {
+    if (!feed.On()) return;
+    status_thread = std::thread([this] {
+      const auto period = std::chrono::duration<double>(config.mqtt->status_period_s);
+      std::unique_lock lock(status_m);
+      do {
+        lock.unlock();
+        feed.Status(Status());
+        lock.lock();
+      } while (!status_wake.wait_for(lock, period, [this] { return status_stop; }));
+    });
+  }
+
+  void StopStatusFeed() {
+    {
+      std::lock_guard lock(status_m);
+      status_stop = true;
+    }
+    status_wake.notify_all();
+    if (status_thread.joinable()) status_thread.join();
   }
 
   // False (and logged once) when the history file was removed or replaced under the host.
@@ -263,11 +296,28 @@ struct Hostd::Impl {
 
   using Job = std::function<json(const MachineConfig&, const json&)>;
 
-  // One job per machine: wait for the machine up to its job timeout, then refuse as busy.
+  // Every answer on a machine also goes to the plant's feed (a repeat's, which ran nothing,
+  // does not).
   json RunOnMachine(const json& request, const Job& job) {
     const std::string name = jf::Text<RequestError>(request, "machine", "request");
     const MachineConfig* m = config.Machine(name);
     if (m == nullptr) throw RequestError("no machine \"" + name + "\" in " + config.path);
+    const std::string op = request.value("op", "");
+    json reply;
+    try {
+      reply = RunLocked(*m, request, job);
+    } catch (const std::exception& e) {
+      feed.Answered(name, op, {{"ok", false}, {"status", "failed"}, {"error", e.what()}});
+      throw;
+    }
+    if (!reply.value("repeated", false)) feed.Answered(name, op, reply);
+    return reply;
+  }
+
+  // One job per machine: wait for the machine up to its job timeout, then refuse as busy.
+  json RunLocked(const MachineConfig& machine, const json& request, const Job& job) {
+    const MachineConfig* m = &machine;
+    const std::string& name = machine.name;
     std::timed_mutex& lock = *machine_locks.at(name);
     if (!lock.try_lock_for(std::chrono::duration<double>(m->job_timeout_s)))
       return {{"ok", false},
@@ -406,6 +456,7 @@ Hostd::~Hostd() { Stop(); }
 void Hostd::Start() {
   impl_->broker->Start();
   impl_->server.Start();
+  impl_->StartStatusFeed();
   impl_->log("mlp-hostd: probe link on " + impl_->config.link_address + ":" +
              std::to_string(impl_->broker->Port()) + ", jobs on " + impl_->config.job_socket);
 }
@@ -414,6 +465,7 @@ void Hostd::Stop() {
   impl_->broker->FailWaiting();
   impl_->server.Stop();
   impl_->broker->Stop();
+  impl_->StopStatusFeed();
 }
 
 std::uint16_t Hostd::LinkPort() const { return impl_->broker->Port(); }

@@ -109,6 +109,7 @@ std::vector<std::string> WriteToController(JobContext& ctx,
   const WrittenFiles written =
       WriteResult(c, {max_mm, 2 * max_mm}, ctx.machine.name, job, out, reply);
   ctx.history.MarkWritesDone(job);
+  ctx.feed.OffsetsWritten(ctx.machine.name, job, rows);
   for (const std::string& w : written.warnings) ctx.log("job " + std::to_string(job) + ": " + w);
   return written.files;
 }

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "plant_feed.h"
 #include <nlohmann/json.hpp>
 
 namespace mlp::service {
@@ -28,6 +29,7 @@ struct JobContext {
   const MachineConfig& machine;
   history::History& history;
   Log log;
+  PlantFeed& feed;  ///< the plant's live feed (does nothing without a broker configured)
 };
 
 /// A request that cannot be carried out as written: the message names the field.

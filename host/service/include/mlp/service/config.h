@@ -9,6 +9,7 @@
 #include "mlp/nc/nc_output.h"
 
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -48,6 +49,22 @@ struct MachineConfig {
   double job_timeout_s = 120.0;
 };
 
+/// The live feed to the plant's MQTT broker (docs/HOSTD.md, "Plant"); absent: no broker.
+struct MqttConfig {
+  std::string host;
+  int port = 1883;
+  /// The host's name in topics and its MQTT client id: unique in the plant (a second client with
+  /// the same id throws the first off the broker).
+  std::string host_id;
+  std::string topic_prefix = "mlprobe";
+  std::string username;
+  std::string password_file;  ///< read, and its owner-only mode checked, when the host starts
+  std::string ca_file, cert_file, key_file;  ///< TLS when ca_file is given
+  double status_period_s = 10.0;             ///< the retained status, refreshed this often
+  int keepalive_s = 30;
+  int max_queued = 10000;  ///< messages held while the broker is away
+};
+
 struct HostdConfig {
   std::string path;      ///< the file read
   std::string data_dir;  ///< history.sqlite, clouds/, reports/, calibrations/
@@ -57,6 +74,7 @@ struct HostdConfig {
   double capture_timeout_s = 30.0;
   std::vector<ProbeEntry> probes;
   std::vector<MachineConfig> machines;
+  std::optional<MqttConfig> mqtt;
 
   std::string HistoryFile() const { return data_dir + "/history.sqlite"; }
   std::string CalibrationDir() const { return data_dir + "/calibrations"; }

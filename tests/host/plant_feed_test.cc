@@ -1,0 +1,168 @@
+// mlp-hostd's live feed to the plant: a real Mosquitto broker (TLS, user and password), a real
+// mlp-hostd running relocate jobs (no probe needed), a subscriber for the quality engineer.
+// Every answer on .../result, refusals on .../refusal as well, the offsets written on
+// .../offset, the retained status, the last will when the host dies, "stopped" when it stops;
+// the broker away: jobs still run and their messages arrive when it is back.
+
+#include <filesystem>
+#include <fstream>
+
+#include "hostd_site.h"
+#include "plant/broker.h"
+
+namespace mlp::test {
+namespace {
+
+const BrokerUser kHostUser{"cell3-host", "h0st-secret"}, kQuality{"quality", "qa-secret"};
+const std::string kElectrode = mlp::test::SourceDir() + "/samples/tools/electrode_10x6.json";
+const std::string kTable = "T30 P30 X0.01 Y0 Z60.0 C0 D11.662 ;EDM electrode 10x6\n";
+const std::string kResult = "mlprobe/cell3/machine/lcnc-1/result";
+
+// A site whose lcnc-1 is an EDM sinker with C, feeding `broker` over TLS as host "cell3"; the
+// electrode's textures before, after (turned and shifted) and tilted beyond the limit.
+void PlantSite(const Site& site, const Broker& broker, int port, bool tls) {
+  json config = json::parse(ReadText(site.dir / "hostd.json"));
+  config["machines"][1]["controller"]["write_tool_table"] = true;
+  config["machines"][1]["controller"]["axes"] = "XYZC";
+  std::ofstream(site.dir / "mqtt.pass") << kHostUser.password << "\n";
+  fs::permissions(site.dir / "mqtt.pass", fs::perms::owner_read | fs::perms::owner_write);
+  config["mqtt"] = {{"host", "127.0.0.1"},          {"port", port},
+                    {"host_id", "cell3"},           {"username", kHostUser.name},
+                    {"password_file", "mqtt.pass"}, {"status_period_s", 0.5}};
+  if (tls) config["mqtt"]["tls"] = {{"ca_file", broker.ca_file()}};
+  std::ofstream(site.dir / "hostd.json") << config.dump(1);
+  std::ofstream(site.dir / "tool.tbl") << kTable;
+  fs::create_directories(site.dir / "data" / "tools");
+  fs::copy_file(kElectrode, site.dir / "data" / "tools" / "electrode.json");
+  for (const auto& [folder, pose] :
+       {std::pair{"before", "--seed 1"},
+        {"after", "--seed 2 --rotation-deg 0.003,-0.004,0.4 --shift-mm 0.03,-0.02,0.015"},
+        {"tilted", "--seed 3 --rotation-deg 0.05,0,0"}}) {
+    const auto r = RunProcess(kMlp + " tool render-texture --tool " + kElectrode + " --out " +
+                              (site.dir / "data" / "tools" / folder).string() + " " + pose);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+}
+
+json RelocateJob(const std::string& images) {
+  return {{"op", "relocate"},
+          {"machine", "lcnc-1"},
+          {"reference", "tools/before"},
+          {"images", "tools/" + images},
+          {"tool", "tools/electrode.json"},
+          {"tool_number", 30}};
+}
+
+bool StatusIs(const Subscriber& s, const std::string& state, const std::string& reason = "") {
+  return Eventually([&] {
+    const auto all = s.Messages();
+    for (auto it = all.rbegin(); it != all.rend(); ++it)
+      if (it->topic == "mlprobe/cell3/status")
+        return it->payload.value("state", "") == state &&
+               (reason.empty() || it->payload.value("reason", "") == reason);
+    return false;
+  });
+}
+
+TEST(PlantFeed, ResultsRefusalsOffsetsAndStatusReachTheBrokerOverTls) {
+  Broker broker("hostd_feed", {kHostUser, kQuality});
+  Site site("plant_feed", 17465);
+  PlantSite(site, broker, broker.tls_port(), /*tls=*/true);
+  if (HasFatalFailure()) return;
+  Subscriber quality(broker, kQuality, "mlprobe/#", "quality-hostd");
+  Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+  ASSERT_TRUE(StatusIs(quality, "online")) << ReadText(site.dir / "hostd.log");
+  const auto online = quality.On("mlprobe/cell3/status").back();
+  EXPECT_EQ(online.payload.at("machines").size(), 2u);
+  EXPECT_EQ(online.payload.at("host"), "cell3");
+  const auto probe = quality.On("mlprobe/cell3/probe/MLP-REF-0001/status");
+  ASSERT_FALSE(probe.empty());
+  EXPECT_EQ(probe.back().payload.at("connected"), false);
+  const auto status = site.Mlp("status");
+  EXPECT_NE(status.out.find("plant feed (MQTT): connected"), std::string::npos) << status.out;
+
+  // Refused (tilted beyond the limit): on result and on refusal.
+  const auto tilted = site.Mlp("request " + site.Request("tilted", RelocateJob("tilted")));
+  EXPECT_EQ(tilted.exit_code, 6) << tilted.err;
+  const auto refusals = quality.On("mlprobe/cell3/machine/lcnc-1/refusal");
+  ASSERT_EQ(refusals.size(), 1u);
+  EXPECT_EQ(refusals[0].payload.at("status"), "refused");
+  EXPECT_EQ(refusals[0].payload.at("op"), "relocate");
+  EXPECT_NE(refusals[0].payload.at("error").get<std::string>().find("clamp it again"),
+            std::string::npos);
+
+  // Done: the reply on result, T30's change on offset with its values before and after.
+  const auto run = site.Mlp("request " + site.Request("after", RelocateJob("after")) + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const json reply = json::parse(run.out);
+  const auto results = quality.On(kResult, 2);
+  ASSERT_EQ(results.size(), 2u);
+  EXPECT_EQ(results[1].payload.at("job_id"), reply.at("job_id"));
+  EXPECT_EQ(results[1].payload.at("update"), reply.at("update"));
+  EXPECT_EQ(results[1].payload.at("status"), "done");
+  // T30's X, Y, Z and C: one message each, as the history records them.
+  const auto offsets = quality.On("mlprobe/cell3/machine/lcnc-1/offset", 4);
+  ASSERT_EQ(offsets.size(), 4u);
+  for (const auto& offset : offsets) {
+    EXPECT_EQ(offset.payload.at("job_id"), reply.at("job_id"));
+    EXPECT_NE(offset.payload.at("target").get<std::string>().find("30"), std::string::npos)
+        << offset.payload;
+    EXPECT_NE(offset.payload.at("before"), offset.payload.at("after")) << offset.payload;
+  }
+  EXPECT_EQ(quality.On("mlprobe/cell3/machine/lcnc-1/refusal").size(), 1u);  // no more
+
+  // The host dies: the broker says so for it (the last will, retained).
+  hostd.Stop(SIGKILL);
+  EXPECT_TRUE(StatusIs(quality, "offline", "connection lost"));
+  // Started again and stopped: online, then "stopped".
+  Child again({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd2.log");
+  ASSERT_TRUE(StatusIs(quality, "online")) << ReadText(site.dir / "hostd2.log");
+  EXPECT_EQ(again.Stop(), 0);
+  EXPECT_TRUE(StatusIs(quality, "offline", "stopped"));
+}
+
+TEST(PlantFeed, ABrokerAwayStopsNoJobAndGetsItsMessagesWhenBack) {
+  Broker broker("hostd_away", {kHostUser, kQuality});
+  Site site("plant_away", 17466);
+  PlantSite(site, broker, broker.port(), /*tls=*/false);
+  if (HasFatalFailure()) return;
+  Subscriber quality(broker, kQuality, "mlprobe/+/machine/#", "quality-away-hostd", true);
+  broker.Stop();
+  Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+  ASSERT_TRUE(site.WaitFor([&] { return site.Mlp("status").exit_code == 0; }))
+      << ReadText(site.dir / "hostd.log");
+  const auto status = site.Mlp("status");
+  EXPECT_NE(status.out.find("plant feed (MQTT): NOT connected"), std::string::npos) << status.out;
+  const auto run = site.Mlp("request " + site.Request("after", RelocateJob("after")) + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;  // the job ran and wrote, the broker away
+  EXPECT_NE(ReadText(site.dir / "tool.tbl"), kTable);
+  const json held = json::parse(site.Mlp("status --json").out).at("mqtt");
+  EXPECT_EQ(held.at("queued"), 5);  // the result and T30's four offsets (no status: not held)
+  EXPECT_EQ(held.at("connected"), false);
+  broker.Start();
+  const auto results = quality.On(kResult);
+  ASSERT_EQ(results.size(), 1u);
+  EXPECT_EQ(results[0].payload.at("job_id"), json::parse(run.out).at("job_id"));
+  EXPECT_EQ(quality.On("mlprobe/cell3/machine/lcnc-1/offset", 4).size(), 4u);
+  EXPECT_NE(ReadText(site.dir / "hostd.log").find("messages held meanwhile"), std::string::npos);
+}
+
+TEST(PlantFeed, APasswordFileOthersCanReadStopsTheStart) {
+  Broker broker("hostd_pass", {kHostUser});
+  Site site("plant_pass", 17467);
+  json config = json::parse(ReadText(site.dir / "hostd.json"));
+  std::ofstream(site.dir / "mqtt.pass") << kHostUser.password << "\n";
+  fs::permissions(site.dir / "mqtt.pass", fs::perms::owner_read | fs::perms::others_read);
+  config["mqtt"] = {{"host", "127.0.0.1"},
+                    {"port", broker.port()},
+                    {"host_id", "cell3"},
+                    {"username", kHostUser.name},
+                    {"password_file", "mqtt.pass"}};
+  std::ofstream(site.dir / "hostd.json") << config.dump(1);
+  const auto r = RunProcess(kHostd + " --config " + (site.dir / "hostd.json").string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("chmod 600"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace mlp::test
