@@ -14,6 +14,7 @@ packages=(
   libboost-dev libboost-system-dev nlohmann-json3-dev
   libssl-dev libsqlite3-dev libsqlitecpp-dev
   libmosquitto-dev mosquitto openssl  # the plant feed (MQTT); its tests start a real broker with TLS
+  libpqxx-dev libpq-dev postgresql  # the plant database; its tests start a real server (initdb, pg_ctl)
   libgtest-dev libgmock-dev libbenchmark-dev
   g++-aarch64-linux-gnu qemu-user  # the firmware for the probe's board (scripts/build-arm64.sh)
   systemd valgrind  # systemd-analyze checks the board's unit; scripts/count-fw-instructions.sh

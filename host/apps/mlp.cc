@@ -1,7 +1,6 @@
 // mlp: the command-line client. Thin: parses the sub-command and calls the host library.
 
 #include "mlp/host/fit_command.h"
-#include "mlp/host/history_command.h"
 #include "mlp/host/job_command.h"
 
 #include <cerrno>
@@ -71,7 +70,7 @@ int main(int argc, char** argv) {
   const std::vector<std::string> rest(args.begin() + 1, args.end());
   if (args[0] == "status") return mlp::host::RunStatusCommand(rest, std::cout, std::cerr);
   if (args[0] == "request") return mlp::host::RunRequestCommand(rest, std::cout, std::cerr);
-  if (args[0] == "history") return mlp::host::RunHistoryCommand(rest, std::cout, std::cerr);
+  if (args[0] == "history") return RunSibling(argv, "mlp-history");
   std::cerr << "mlp: unknown command '" << args[0] << "'\n" << kUsage;
   return mlp::host::kExitBadInput;
 }

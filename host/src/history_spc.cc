@@ -140,8 +140,8 @@ int RunHistorySpc(const std::vector<std::string>& args, std::ostream& out, std::
   q.feature = a.Text("--feature");
   if (a.Has("--machine")) q.machine = a.Text("--machine");
   q.last = static_cast<int>(std::min(a.Integer("--last", 50, 2), 100000LL));
-  const history::History h(HistoryDatabase(a.Text("--db", "")));
-  const std::vector<Characteristic> cs = Characteristics(h.FeatureResults(q));
+  const std::vector<Characteristic> cs =
+      Characteristics(OpenRecords(a.Text("--db", ""))->FeatureResults(q));
   if (cs.empty()) {
     err << "mlp history: no measured " << q.feature << " with a size and tolerance"
         << (q.machine ? " on " + *q.machine : std::string()) << "\n";

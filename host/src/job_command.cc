@@ -66,6 +66,13 @@ void PrintStatus(const json& s, std::ostream& out) {
     if (!q.value("last_error", "").empty()) out << ", last error: " << q.value("last_error", "");
     out << "\n";
   }
+  if (const json& d = s.value("plant_database", json()); d.is_object()) {
+    out << "  plant database: " << (d.value("connected", false) ? "reached" : "NOT reached") << ", "
+        << d.value("sent", 0) << " jobs sent, " << d.value("waiting", 0)
+        << " waiting in the outbox";
+    if (!d.value("last_error", "").empty()) out << ", last error: " << d.value("last_error", "");
+    out << "\n";
+  }
 }
 
 // The request file's text, or stdin's; refused unread beyond what the host would take (a file of

@@ -7,50 +7,29 @@
 #include <filesystem>
 #include <fstream>
 
-#include "hostd_site.h"
+#include "electrode_site.h"
 #include "plant/broker.h"
 
 namespace mlp::test {
 namespace {
 
 const BrokerUser kHostUser{"cell3-host", "h0st-secret"}, kQuality{"quality", "qa-secret"};
-const std::string kElectrode = mlp::test::SourceDir() + "/samples/tools/electrode_10x6.json";
-const std::string kTable = "T30 P30 X0.01 Y0 Z60.0 C0 D11.662 ;EDM electrode 10x6\n";
 const std::string kResult = "mlprobe/cell3/machine/lcnc-1/result";
 
 // A site whose lcnc-1 is an EDM sinker with C, feeding `broker` over TLS as host "cell3"; the
 // electrode's textures before, after (turned and shifted) and tilted beyond the limit.
 void PlantSite(const Site& site, const Broker& broker, int port, bool tls) {
   json config = json::parse(ReadText(site.dir / "hostd.json"));
-  config["machines"][1]["controller"]["write_tool_table"] = true;
-  config["machines"][1]["controller"]["axes"] = "XYZC";
   std::ofstream(site.dir / "mqtt.pass") << kHostUser.password << "\n";
   fs::permissions(site.dir / "mqtt.pass", fs::perms::owner_read | fs::perms::owner_write);
-  config["mqtt"] = {{"host", "127.0.0.1"},          {"port", port},
-                    {"host_id", "cell3"},           {"username", kHostUser.name},
-                    {"password_file", "mqtt.pass"}, {"status_period_s", 0.5}};
+  config["host_id"] = "cell3";
+  config["mqtt"] = {{"host", "127.0.0.1"},
+                    {"port", port},
+                    {"username", kHostUser.name},
+                    {"password_file", "mqtt.pass"},
+                    {"status_period_s", 0.5}};
   if (tls) config["mqtt"]["tls"] = {{"ca_file", broker.ca_file()}};
-  std::ofstream(site.dir / "hostd.json") << config.dump(1);
-  std::ofstream(site.dir / "tool.tbl") << kTable;
-  fs::create_directories(site.dir / "data" / "tools");
-  fs::copy_file(kElectrode, site.dir / "data" / "tools" / "electrode.json");
-  for (const auto& [folder, pose] :
-       {std::pair{"before", "--seed 1"},
-        {"after", "--seed 2 --rotation-deg 0.003,-0.004,0.4 --shift-mm 0.03,-0.02,0.015"},
-        {"tilted", "--seed 3 --rotation-deg 0.05,0,0"}}) {
-    const auto r = RunProcess(kMlp + " tool render-texture --tool " + kElectrode + " --out " +
-                              (site.dir / "data" / "tools" / folder).string() + " " + pose);
-    ASSERT_EQ(r.exit_code, 0) << r.err;
-  }
-}
-
-json RelocateJob(const std::string& images) {
-  return {{"op", "relocate"},
-          {"machine", "lcnc-1"},
-          {"reference", "tools/before"},
-          {"images", "tools/" + images},
-          {"tool", "tools/electrode.json"},
-          {"tool_number", 30}};
+  ElectrodeSite(site, config);
 }
 
 bool StatusIs(const Subscriber& s, const std::string& state, const std::string& reason = "") {
@@ -135,7 +114,7 @@ TEST(PlantFeed, ABrokerAwayStopsNoJobAndGetsItsMessagesWhenBack) {
   EXPECT_NE(status.out.find("plant feed (MQTT): NOT connected"), std::string::npos) << status.out;
   const auto run = site.Mlp("request " + site.Request("after", RelocateJob("after")) + " --json");
   ASSERT_EQ(run.exit_code, 0) << run.err;  // the job ran and wrote, the broker away
-  EXPECT_NE(ReadText(site.dir / "tool.tbl"), kTable);
+  EXPECT_NE(ReadText(site.dir / "tool.tbl"), kElectrodeTable);
   const json held = json::parse(site.Mlp("status --json").out).at("mqtt");
   EXPECT_EQ(held.at("queued"), 5);  // the result and T30's four offsets (no status: not held)
   EXPECT_EQ(held.at("connected"), false);
@@ -155,7 +134,6 @@ TEST(PlantFeed, APasswordFileOthersCanReadStopsTheStart) {
   fs::permissions(site.dir / "mqtt.pass", fs::perms::owner_read | fs::perms::others_read);
   config["mqtt"] = {{"host", "127.0.0.1"},
                     {"port", broker.port()},
-                    {"host_id", "cell3"},
                     {"username", kHostUser.name},
                     {"password_file", "mqtt.pass"}};
   std::ofstream(site.dir / "hostd.json") << config.dump(1);

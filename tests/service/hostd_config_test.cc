@@ -88,8 +88,8 @@ TEST(HostdConfig, TheMqttFeedIsOptionalAndItsNamesMustBeTopicLevels) {
       R"({"name": "m", "probe": "P", "controller": {"kind": "files", "result_dir": "/o"}})";
   EXPECT_FALSE(ParseHostdConfig(kHead + R"("machines": [)" + machine + "]}", "/etc/h.json").mqtt);
   const HostdConfig c = ParseHostdConfig(
-      kHead + R"("machines": [)" + machine + R"(], "mqtt": {"host": "broker.plant", "port": 8883,
-      "host_id": "cell3", "username": "cell3", "password_file": "mqtt.pass",
+      kHead + R"("machines": [)" + machine +
+          R"(], "host_id": "cell3", "mqtt": {"host": "broker.plant", "port": 8883, "username": "cell3", "password_file": "mqtt.pass",
       "tls": {"ca_file": "plant-ca.crt"}, "status_period_s": 5}})",
       "/etc/mlprobe/hostd.json");
   ASSERT_TRUE(c.mqtt);
@@ -99,15 +99,17 @@ TEST(HostdConfig, TheMqttFeedIsOptionalAndItsNamesMustBeTopicLevels) {
   EXPECT_EQ(c.mqtt->password_file, "/etc/mlprobe/mqtt.pass");
   EXPECT_EQ(c.mqtt->ca_file, "/etc/mlprobe/plant-ca.crt");
   EXPECT_EQ(c.mqtt->status_period_s, 5);
+  EXPECT_EQ(c.host_id, "cell3");
   const std::string with = kHead + R"("machines": [)" + machine + R"(], "mqtt": )";
-  ExpectError(with + R"({"host": "b", "host_id": "a/b"}})", "mqtt.host_id");
-  ExpectError(with + R"({"host": "b", "host_id": "c", "topic_prefix": "plant/#"}})",
-              "mqtt.topic_prefix");
-  ExpectError(with + R"({"host": "b", "host_id": "c", "port": 0}})", "mqtt.port");
-  ExpectError(with + R"({"host": "b", "host_id": "c", "username": "u"}})", "password_file");
-  ExpectError(with + R"({"host": "b", "host_id": "c", "qos": 2}})", "mqtt");
+  ExpectError(kHead + R"("machines": [)" + machine + R"(], "host_id": "a/b", "mqtt": {"host":
+              "b"}})",
+              "host_id");
+  ExpectError(with + R"({"host": "b", "topic_prefix": "plant/#"}})", "mqtt.topic_prefix");
+  ExpectError(with + R"({"host": "b", "port": 0}})", "mqtt.port");
+  ExpectError(with + R"({"host": "b", "username": "u"}})", "password_file");
+  ExpectError(with + R"({"host": "b", "qos": 2}})", "mqtt");
   ExpectError(kHead + R"("machines": [{"name": "bay+3", "probe": "P", "controller": {"kind":
-              "files", "result_dir": "/o"}}], "mqtt": {"host": "b", "host_id": "c"}})",
+              "files", "result_dir": "/o"}}], "mqtt": {"host": "b"}})",
               "machines[].name");
   // Without the feed a machine's name is free.
   EXPECT_NO_THROW(ParseHostdConfig(kHead + R"("machines": [{"name": "bay+3", "probe": "P",

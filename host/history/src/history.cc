@@ -425,6 +425,68 @@ std::vector<std::int64_t> History::CloseInterruptedJobs(const std::string& reaso
   return ids;
 }
 
+// The outbox and its trigger: whatever closes a job (or changes a closed one) queues it in the
+// same transaction, so that no path can close a job the plant never hears of.
+constexpr const char* kPlantOutbox = R"sql(
+CREATE TABLE IF NOT EXISTS plant_outbox (
+  job_id INTEGER PRIMARY KEY REFERENCES jobs (id), version INTEGER NOT NULL);
+CREATE TRIGGER IF NOT EXISTS plant_outbox_on_close AFTER UPDATE OF status, reply ON jobs
+  WHEN NEW.status != 'running'
+  BEGIN
+    INSERT INTO plant_outbox (job_id, version) VALUES (NEW.id, 1)
+      ON CONFLICT (job_id) DO UPDATE SET version = version + 1;
+  END;
+)sql";
+
+void History::EnablePlantOutbox() {
+  try {
+    SQLite::Transaction t(impl_->db);
+    const bool first =
+        impl_->db.execAndGet("SELECT COUNT(*) FROM sqlite_master WHERE name = 'plant_outbox'")
+            .getInt() == 0;
+    impl_->db.exec(kPlantOutbox);
+    if (first)
+      impl_->db.exec(
+          "INSERT INTO plant_outbox (job_id, version) SELECT id, 1 FROM jobs WHERE status != "
+          "'running'");
+    t.commit();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": the plant's outbox: " + e.what());
+  }
+}
+
+std::vector<History::OutboxEntry> History::PlantOutbox(int limit) const {
+  std::vector<OutboxEntry> out;
+  try {
+    SQLite::Statement q(impl_->db,
+                        "SELECT job_id, version FROM plant_outbox ORDER BY job_id LIMIT ?");
+    q.bind(1, limit);
+    while (q.executeStep()) out.push_back({q.getColumn(0).getInt64(), q.getColumn(1).getInt64()});
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": the plant's outbox: " + e.what());
+  }
+  return out;
+}
+
+std::int64_t History::PlantOutboxSize() const {
+  try {
+    return impl_->db.execAndGet("SELECT COUNT(*) FROM plant_outbox").getInt64();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": the plant's outbox: " + e.what());
+  }
+}
+
+void History::PlantSent(const OutboxEntry& sent) {
+  try {
+    SQLite::Statement q(impl_->db, "DELETE FROM plant_outbox WHERE job_id = ? AND version = ?");
+    q.bind(1, sent.job);
+    q.bind(2, sent.version);
+    q.exec();
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": the plant's outbox: " + e.what());
+  }
+}
+
 namespace {
 
 constexpr const char* kSummaryColumns =
@@ -510,7 +572,7 @@ std::optional<JobSummary> History::LatestCapture(const std::string& machine,
   return std::nullopt;
 }
 
-json History::ExportJob(std::int64_t job) const {
+json History::ExportJob(std::int64_t job, const std::string& /*host*/) const {
   try {
     SQLite::Statement q(impl_->db,
                         "SELECT machine, kind, probe_serial, calibration_id, request, status, "

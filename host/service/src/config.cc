@@ -9,6 +9,8 @@
 #include <set>
 #include <sstream>
 
+#include <unistd.h>
+
 namespace mlp::service {
 namespace {
 
@@ -121,6 +123,12 @@ ControllerConfig ParseController(const Reader& r, const json& m, const std::stri
   return c;
 }
 
+std::string ThisHostName() {
+  char name[256] = {};
+  if (gethostname(name, sizeof(name) - 1) != 0 || name[0] == '\0') return "mlp-host";
+  return name;
+}
+
 // Names that go into topic levels must be valid ones: checked here, where the file can be named.
 void CheckTopicNames(const Reader& r, const HostdConfig& c) {
   const auto level = [&](const std::string& name, const std::string& field) {
@@ -130,7 +138,7 @@ void CheckTopicNames(const Reader& r, const HostdConfig& c) {
       throw ConfigError(r.Where(field) + ": " + e.what() + " (the MQTT feed puts it in topics)");
     }
   };
-  level(c.mqtt->host_id, "mqtt.host_id");
+  level(c.host_id, "host_id");
   std::string prefix = c.mqtt->topic_prefix;  // levels joined by '/'
   for (std::size_t at = 0; at != std::string::npos;) {
     const std::size_t slash = prefix.find('/', at);
@@ -144,7 +152,7 @@ void CheckTopicNames(const Reader& r, const HostdConfig& c) {
 MqttConfig ParseMqtt(const Reader& r, const json& j) {
   const std::string w = "mqtt";
   r.OnlyKnown(j,
-              {"host", "port", "host_id", "topic_prefix", "username", "password_file", "tls",
+              {"host", "port", "topic_prefix", "username", "password_file", "tls",
                "status_period_s", "keepalive_s", "max_queued", "comment"},
               w);
   const auto integer = [&](const char* key, int fallback) {
@@ -155,7 +163,6 @@ MqttConfig ParseMqtt(const Reader& r, const json& j) {
   if (c.host.empty()) r.Fail("mqtt.host", "must not be empty");
   c.port = integer("port", c.port);
   if (c.port < 1 || c.port > 65535) r.Fail("mqtt.port", "must be 1..65535");
-  c.host_id = jf::Text<ConfigError>(j, "host_id", r.Where(w));
   if (j.contains("topic_prefix"))
     c.topic_prefix = jf::Text<ConfigError>(j, "topic_prefix", r.Where(w));
   if (j.contains("username")) c.username = jf::Text<ConfigError>(j, "username", r.Where(w));
@@ -192,7 +199,7 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
   const json j = jf::ParseDocument<ConfigError>(text, kFormat, path);
   r.OnlyKnown(j,
               {"format", "comment", "data_dir", "job_socket", "capture_timeout_s", "probe_link",
-               "probes", "machines", "mqtt"},
+               "probes", "machines", "host_id", "mqtt", "plant_database"},
               "config");
   HostdConfig c;
   c.path = path;
@@ -235,6 +242,17 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
     mc.limits = ParseLimits(r, m, w);
     mc.job_timeout_s = r.Seconds(m, "job_timeout_s", mc.job_timeout_s, w);
     c.machines.push_back(mc);
+  }
+  c.host_id = j.contains("host_id") ? jf::Text<ConfigError>(j, "host_id", r.Where("config"))
+                                    : ThisHostName();
+  if (c.host_id.empty() || c.host_id.size() > 64) r.Fail("host_id", "must be 1 to 64 characters");
+  if (j.contains("plant_database")) {
+    const json& d = jf::Object<ConfigError>(j, "plant_database", r.Where("config"));
+    r.OnlyKnown(d, {"connection", "comment"}, "plant_database");
+    c.plant_database =
+        PlantDatabaseConfig{jf::Text<ConfigError>(d, "connection", r.Where("plant_database"))};
+    if (c.plant_database->connection.empty())
+      r.Fail("plant_database.connection", "must not be empty");
   }
   if (j.contains("mqtt")) {
     c.mqtt = ParseMqtt(r, jf::Object<ConfigError>(j, "mqtt", r.Where("config")));

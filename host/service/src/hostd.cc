@@ -22,6 +22,7 @@
 
 #include "job_common.h"
 #include "plant_feed.h"
+#include "plant_forwarder.h"
 
 namespace mlp::service {
 namespace {
@@ -105,6 +106,7 @@ struct Hostd::Impl {
   std::map<std::string, std::string> busy;  // machine -> what it runs
   std::atomic<bool> history_lost{false};
   PlantFeed feed;
+  PlantForwarder forwarder;
   // The retained status on the plant's broker, refreshed every mqtt.status_period_s.
   std::thread status_thread;
   std::mutex status_m;
@@ -116,7 +118,8 @@ struct Hostd::Impl {
         log(std::move(l)),
         history((fs::create_directories(config.data_dir), config.HistoryFile())),
         server(config.job_socket, log),
-        feed(config, log) {
+        feed(config, log),
+        forwarder(config, log) {
     link::HostLinkConfig link_config;
     link_config.bind_address = config.link_address;
     link_config.port = config.link_port;
@@ -258,7 +261,8 @@ struct Hostd::Impl {
             {"machines", machines},
             {"history", config.HistoryFile()},
             {"history_ok", HistoryOk()},
-            {"mqtt", feed.Counters()}};
+            {"mqtt", feed.Counters()},
+            {"plant_database", forwarder.Counters()}};
   }
 
   void StartStatusFeed() {
@@ -311,6 +315,7 @@ struct Hostd::Impl {
       throw;
     }
     if (!reply.value("repeated", false)) feed.Answered(name, op, reply);
+    forwarder.Wake();
     return reply;
   }
 
@@ -457,6 +462,7 @@ void Hostd::Start() {
   impl_->broker->Start();
   impl_->server.Start();
   impl_->StartStatusFeed();
+  impl_->forwarder.Start();
   impl_->log("mlp-hostd: probe link on " + impl_->config.link_address + ":" +
              std::to_string(impl_->broker->Port()) + ", jobs on " + impl_->config.job_socket);
 }
@@ -466,6 +472,7 @@ void Hostd::Stop() {
   impl_->server.Stop();
   impl_->broker->Stop();
   impl_->StopStatusFeed();
+  impl_->forwarder.Stop();
 }
 
 std::uint16_t Hostd::LinkPort() const { return impl_->broker->Port(); }

@@ -41,12 +41,12 @@ std::string ReadPassword(const std::string& path) {
 PlantFeed::PlantFeed(const HostdConfig& config, Log log) {
   if (!config.mqtt) return;
   const MqttConfig& c = *config.mqtt;
-  host_id_ = c.host_id;
+  host_id_ = config.host_id;
   prefix_ = c.topic_prefix;
   plant::MqttOptions o;
   o.host = c.host;
   o.port = c.port;
-  o.client_id = "mlp-hostd-" + c.host_id;
+  o.client_id = "mlp-hostd-" + config.host_id;
   o.username = c.username;
   if (!c.password_file.empty()) o.password = ReadPassword(c.password_file);
   o.tls = {c.ca_file, c.cert_file, c.key_file};

@@ -72,6 +72,7 @@ struct InterruptedWrite {
 };
 
 struct JobSummary {
+  std::string host;  ///< the host it ran on: the plant database's; "" in a host's own history
   std::int64_t id = 0;
   std::string machine, kind, probe_serial, calibration_id, started_utc, finished_utc;
   JobStatus status = JobStatus::kRunning;
@@ -80,6 +81,7 @@ struct JobSummary {
 /// One measured feature as the SPC view reads it: its job, where and when, the reply (the fit's
 /// size and error) and the request (the tolerance).
 struct FeatureResult {
+  std::string host;  ///< as JobSummary::host
   std::int64_t job = 0;
   std::string machine, started_utc;
   JobStatus status = JobStatus::kRunning;
@@ -98,9 +100,24 @@ struct FeatureQuery {
 struct JobFilter {
   std::optional<std::string> machine, kind, since_utc;  ///< since: ISO 8601, inclusive
   int limit = 1000;
+  std::optional<std::string> host{};  ///< the plant database's: this host's jobs only
 };
 
-class History {
+/// What `mlp history` reads, from a host's own history (History) or the plant's database
+/// (mlp::plant::PlantDatabase): the same queries over the same tables.
+class JobRecords {
+ public:
+  virtual ~JobRecords() = default;
+  virtual std::vector<JobSummary> ListJobs(const JobFilter& filter) const = 0;
+  /// The results FeatureQuery selects, oldest first.
+  virtual std::vector<FeatureResult> FeatureResults(const FeatureQuery& query) const = 0;
+  /// The whole job: its row, captures, results, offset writes. Throws HistoryError for an
+  /// unknown id (or, in the plant's database, one that several hosts have and `host` does not
+  /// tell apart).
+  virtual nlohmann::json ExportJob(std::int64_t job, const std::string& host = "") const = 0;
+};
+
+class History : public JobRecords {
  public:
   /// Opens or creates the file (schema version 2; a newer schema is refused, an older one
   /// migrated). Throws HistoryError naming the file.
@@ -152,16 +169,31 @@ class History {
   /// `reason` on start-up; returns their ids.
   std::vector<std::int64_t> CloseInterruptedJobs(const std::string& reason);
 
-  std::vector<JobSummary> ListJobs(const JobFilter& filter) const;
-  /// The results FeatureQuery selects, oldest first.
-  std::vector<FeatureResult> FeatureResults(const FeatureQuery& query) const;
+  std::vector<JobSummary> ListJobs(const JobFilter& filter) const override;
+  std::vector<FeatureResult> FeatureResults(const FeatureQuery& query) const override;
   /// The newest capture job on `machine` whose request named `capture_id`, whatever its status
   /// (a macro refers to its captures by name; a failed newest one must not let an older one
   /// stand in).
   std::optional<JobSummary> LatestCapture(const std::string& machine,
                                           const std::string& capture_id) const;
-  /// The whole job: its row, captures, results, offset writes. Throws for an unknown id.
-  nlohmann::json ExportJob(std::int64_t job) const;
+  /// `host` is ignored: a host's history is its own.
+  nlohmann::json ExportJob(std::int64_t job, const std::string& host = "") const override;
+
+  /// The plant's outbox: from now on every job closed (whatever closes it: finished, settled,
+  /// a capture rejected) is queued, in the same transaction, for the plant's database; the
+  /// first call also queues every job already closed. Idempotent.
+  void EnablePlantOutbox();
+  /// A job waiting for the plant's database; `version` counts its closes (a capture rejected
+  /// after it was sent is queued again).
+  struct OutboxEntry {
+    std::int64_t job = 0, version = 0;
+  };
+  /// The oldest `limit` entries.
+  std::vector<OutboxEntry> PlantOutbox(int limit) const;
+  std::int64_t PlantOutboxSize() const;
+  /// The entry reached the plant's database. Removed only if the job was not closed again
+  /// meanwhile (then its newer state is sent next).
+  void PlantSent(const OutboxEntry& sent);
 
  private:
   struct Impl;

@@ -53,9 +53,6 @@ struct MachineConfig {
 struct MqttConfig {
   std::string host;
   int port = 1883;
-  /// The host's name in topics and its MQTT client id: unique in the plant (a second client with
-  /// the same id throws the first off the broker).
-  std::string host_id;
   std::string topic_prefix = "mlprobe";
   std::string username;
   std::string password_file;  ///< read, and its owner-only mode checked, when the host starts
@@ -65,8 +62,18 @@ struct MqttConfig {
   int max_queued = 10000;  ///< messages held while the broker is away
 };
 
+/// The plant's PostgreSQL database, where every finished job is also sent (docs/HOSTD.md,
+/// "Plant"); absent: the local history only.
+struct PlantDatabaseConfig {
+  /// A libpq connection string or URI (host, port, dbname, user, sslmode, passfile, ...).
+  std::string connection;
+};
+
 struct HostdConfig {
-  std::string path;      ///< the file read
+  std::string path;  ///< the file read
+  /// This host's name in the plant (MQTT topics, the plant database's rows): unique there.
+  /// Default: the computer's host name.
+  std::string host_id;
   std::string data_dir;  ///< history.sqlite, clouds/, reports/, calibrations/
   std::string link_address = "127.0.0.1";
   std::uint16_t link_port = 7420;
@@ -75,6 +82,7 @@ struct HostdConfig {
   std::vector<ProbeEntry> probes;
   std::vector<MachineConfig> machines;
   std::optional<MqttConfig> mqtt;
+  std::optional<PlantDatabaseConfig> plant_database;
 
   std::string HistoryFile() const { return data_dir + "/history.sqlite"; }
   std::string CalibrationDir() const { return data_dir + "/calibrations"; }
