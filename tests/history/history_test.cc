@@ -5,8 +5,10 @@
 
 #include "mlp/history/file_hash.h"
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include <SQLiteCpp/SQLiteCpp.h>
 #include <gtest/gtest.h>
@@ -122,6 +124,41 @@ TEST(History, AFeaturesResultsForSpc) {
   EXPECT_EQ(last2[1].job, measured.back());
   EXPECT_EQ(h.FeatureResults({"bore", std::nullopt, 50}).size(), measured.size() + 1);
   EXPECT_TRUE(h.FeatureResults({"slot", std::nullopt, 50}).empty());
+}
+
+// mlp-hostd runs one job per machine at once, on one History: two machines' jobs write at the
+// same moment. Each call is its own transaction; none may fail for the other's, nor mix rows.
+TEST(History, TwoMachinesJobsWriteAtOnce) {
+  History h(FreshDb("concurrent").string());
+  constexpr int kJobsPerMachine = 150;
+  std::atomic<int> failures{0};
+  const auto machine = [&](const std::string& name) {
+    for (int k = 0; k < kJobsPerMachine; ++k) {
+      try {
+        const std::int64_t job = h.StartJob(Bore(name));
+        h.AddResult(job, {"bore", {{"size_mm", 60.0 + k * 1e-4}}, {{"ok", true}}});
+        h.AddWriteIntents(job, {{"lcnc", "tool 12", {{"mm", 1}}, {{"mm", 2}}, "intent"}},
+                          {{"job_id", job}});
+        h.MarkWritesDone(job);
+        h.FinishJob(job, JobStatus::kInTolerance, {{"job_id", job}}, {});
+      } catch (const HistoryError&) {
+        ++failures;
+      }
+    }
+  };
+  std::thread a(machine, "vmc-1"), b(machine, "vmc-2");
+  a.join(), b.join();
+  EXPECT_EQ(failures.load(), 0);
+  JobFilter f;
+  f.limit = 10000;
+  const auto jobs = h.ListJobs(f);
+  ASSERT_EQ(jobs.size(), 2u * kJobsPerMachine);
+  for (const auto& j : jobs) {
+    EXPECT_EQ(j.status, JobStatus::kInTolerance);
+    const json e = h.ExportJob(j.id);
+    EXPECT_EQ(e.at("results").size(), 1u);
+    EXPECT_EQ(e.at("offset_writes").size(), 1u);
+  }
 }
 
 TEST(History, TheLatestCaptureOfANameWhateverItsStatus) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <mutex>
 #include <optional>
 #include <sstream>
 
@@ -94,6 +95,11 @@ JobStatus JobStatusFrom(const std::string& text) {
 }
 
 struct History::Impl {
+  // One connection serves every thread of the host (a job per machine at once): each public
+  // call holds this for its whole transaction, or two machines' BEGINs would meet on the one
+  // connection ("cannot start a transaction within a transaction") and mix their rows.
+  // Recursive: a call may use another (StartJob checks the file).
+  mutable std::recursive_mutex m;
   std::string path;
   SQLite::Database db;
   std::optional<std::pair<dev_t, ino_t>> identity;  // the file opened, to notice its removal
@@ -190,6 +196,7 @@ History::History(const std::string& path) {
 History::~History() = default;
 
 void History::CheckFile() const {
+  const std::lock_guard lock(impl_->m);
   if (FileIdentity(impl_->path) != impl_->identity)
     Fail("history " + impl_->path +
          " was removed or replaced while the host ran: no job is recorded, so none runs "
@@ -197,6 +204,7 @@ void History::CheckFile() const {
 }
 
 void History::SetJobIdFloor(std::int64_t floor) {
+  const std::lock_guard lock(impl_->m);
   try {
     SQLite::Statement q(impl_->db,
                         "INSERT OR REPLACE INTO meta VALUES ('job_id_floor', "
@@ -210,6 +218,7 @@ void History::SetJobIdFloor(std::int64_t floor) {
 }
 
 std::int64_t History::StartJob(const JobStart& s) {
+  const std::lock_guard lock(impl_->m);
   CheckFile();
   try {
     // The id follows the last job, and never falls below the floor: a new history in a data
@@ -237,6 +246,7 @@ std::int64_t History::StartJob(const JobStart& s) {
 }
 
 void History::AddCapture(std::int64_t job, const CaptureRow& r) {
+  const std::lock_guard lock(impl_->m);
   impl_->InsertForRunningJob(job,
                              "INSERT INTO captures (job_id, capture_id, pose, cloud_path, "
                              "cloud_sha256, points) VALUES (?, ?, ?, ?, ?, ?)",
@@ -250,6 +260,7 @@ void History::AddCapture(std::int64_t job, const CaptureRow& r) {
 }
 
 void History::AddResult(std::int64_t job, const ResultRow& r) {
+  const std::lock_guard lock(impl_->m);
   impl_->InsertForRunningJob(
       job, "INSERT INTO results (job_id, feature, fit, decision) VALUES (?, ?, ?, ?)",
       [&](SQLite::Statement& q) {
@@ -260,6 +271,7 @@ void History::AddResult(std::int64_t job, const ResultRow& r) {
 }
 
 void History::AddOffsetWrite(std::int64_t job, const OffsetWriteRow& r) {
+  const std::lock_guard lock(impl_->m);
   try {
     SQLite::Transaction t(impl_->db);
     impl_->RequireRunning(job);
@@ -273,6 +285,7 @@ void History::AddOffsetWrite(std::int64_t job, const OffsetWriteRow& r) {
 void History::AddWriteIntents(std::int64_t job,
                               const std::vector<OffsetWriteRow>& rows,
                               const json& reply_so_far) {
+  const std::lock_guard lock(impl_->m);
   CheckFile();
   try {
     // This commit must survive a power cut too: it is what tells the next start that the
@@ -295,6 +308,7 @@ void History::AddWriteIntents(std::int64_t job,
 }
 
 void History::MarkWritesDone(std::int64_t job) {
+  const std::lock_guard lock(impl_->m);
   try {
     SQLite::Statement q(impl_->db,
                         "UPDATE offset_writes SET state = 'written', written_utc = ? "
@@ -308,6 +322,7 @@ void History::MarkWritesDone(std::int64_t job) {
 }
 
 std::vector<InterruptedWrite> History::InterruptedWrites() const {
+  const std::lock_guard lock(impl_->m);
   std::vector<InterruptedWrite> out;
   try {
     SQLite::Statement q(impl_->db,
@@ -342,6 +357,7 @@ void History::SettleInterrupted(std::int64_t job,
                                 bool written,
                                 JobStatus status,
                                 const json& reply) {
+  const std::lock_guard lock(impl_->m);
   try {
     SQLite::Transaction t(impl_->db);
     SQLite::Statement q(impl_->db,
@@ -358,6 +374,7 @@ void History::SettleInterrupted(std::int64_t job,
 
 std::optional<EarlierRequest> History::FindRequest(const std::string& machine,
                                                    const std::string& request_id) const {
+  const std::lock_guard lock(impl_->m);
   try {
     SQLite::Statement q(impl_->db,
                         "SELECT id, status, COALESCE(reply, ''), EXISTS (SELECT 1 FROM "
@@ -377,6 +394,7 @@ void History::FinishJob(std::int64_t job,
                         JobStatus status,
                         const json& reply,
                         const json& timings_ms) {
+  const std::lock_guard lock(impl_->m);
   if (status == JobStatus::kRunning) Fail("history: a job is finished with a final status");
   try {
     SQLite::Transaction t(impl_->db);
@@ -391,6 +409,7 @@ void History::FinishJob(std::int64_t job,
 bool History::RejectCapture(const std::string& machine,
                             std::int64_t job,
                             const std::string& reason) {
+  const std::lock_guard lock(impl_->m);
   CheckFile();
   try {
     SQLite::Statement u(impl_->db,
@@ -407,6 +426,7 @@ bool History::RejectCapture(const std::string& machine,
 }
 
 std::vector<std::int64_t> History::CloseInterruptedJobs(const std::string& reason) {
+  const std::lock_guard lock(impl_->m);
   std::vector<std::int64_t> ids;
   try {
     SQLite::Transaction t(impl_->db);
@@ -439,6 +459,7 @@ CREATE TRIGGER IF NOT EXISTS plant_outbox_on_close AFTER UPDATE OF status, reply
 )sql";
 
 void History::EnablePlantOutbox() {
+  const std::lock_guard lock(impl_->m);
   try {
     SQLite::Transaction t(impl_->db);
     const bool first =
@@ -456,6 +477,7 @@ void History::EnablePlantOutbox() {
 }
 
 std::vector<History::OutboxEntry> History::PlantOutbox(int limit) const {
+  const std::lock_guard lock(impl_->m);
   std::vector<OutboxEntry> out;
   try {
     SQLite::Statement q(impl_->db,
@@ -469,6 +491,7 @@ std::vector<History::OutboxEntry> History::PlantOutbox(int limit) const {
 }
 
 std::int64_t History::PlantOutboxSize() const {
+  const std::lock_guard lock(impl_->m);
   try {
     return impl_->db.execAndGet("SELECT COUNT(*) FROM plant_outbox").getInt64();
   } catch (const SQLite::Exception& e) {
@@ -477,6 +500,7 @@ std::int64_t History::PlantOutboxSize() const {
 }
 
 void History::PlantSent(const OutboxEntry& sent) {
+  const std::lock_guard lock(impl_->m);
   try {
     SQLite::Statement q(impl_->db, "DELETE FROM plant_outbox WHERE job_id = ? AND version = ?");
     q.bind(1, sent.job);
@@ -509,6 +533,7 @@ JobSummary SummaryOf(SQLite::Statement& q) {
 }  // namespace
 
 std::vector<JobSummary> History::ListJobs(const JobFilter& f) const {
+  const std::lock_guard lock(impl_->m);
   std::vector<JobSummary> out;
   try {
     SQLite::Statement q(impl_->db,
@@ -527,6 +552,7 @@ std::vector<JobSummary> History::ListJobs(const JobFilter& f) const {
 }
 
 std::vector<FeatureResult> History::FeatureResults(const FeatureQuery& f) const {
+  const std::lock_guard lock(impl_->m);
   std::vector<FeatureResult> out;
   try {
     SQLite::Statement q(impl_->db,
@@ -558,6 +584,7 @@ std::vector<FeatureResult> History::FeatureResults(const FeatureQuery& f) const 
 
 std::optional<JobSummary> History::LatestCapture(const std::string& machine,
                                                  const std::string& capture_id) const {
+  const std::lock_guard lock(impl_->m);
   try {
     SQLite::Statement q(impl_->db,
                         std::string(kSummaryColumns) +
@@ -573,6 +600,7 @@ std::optional<JobSummary> History::LatestCapture(const std::string& machine,
 }
 
 json History::ExportJob(std::int64_t job, const std::string& /*host*/) const {
+  const std::lock_guard lock(impl_->m);
   try {
     SQLite::Statement q(impl_->db,
                         "SELECT machine, kind, probe_serial, calibration_id, request, status, "
