@@ -57,6 +57,8 @@ set(CPACK_COMPONENT_FW_DESCRIPTION
 # no arm64 libraries installed to ask: it names its few by hand (scripts/build-arm64.sh).
 if(NOT CMAKE_CROSSCOMPILING)
   set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+elseif(CMAKE_SYSTEM_PROCESSOR STREQUAL "aarch64")
+  set(CPACK_DEBIAN_PACKAGE_ARCHITECTURE arm64)  # else dpkg's own: amd64
 endif()
 set(CPACK_DEBIAN_HOST_PACKAGE_CONTROL_EXTRA
     "${CMAKE_SOURCE_DIR}/host/packaging/postinst;${CMAKE_SOURCE_DIR}/host/packaging/prerm;${CMAKE_SOURCE_DIR}/host/packaging/postrm;${CMAKE_SOURCE_DIR}/host/packaging/conffiles")

@@ -55,3 +55,33 @@ if ! [ "${points:-0}" -gt 1000 ]; then
   exit 1
 fi
 echo "build-arm64: the aarch64 firmware's cloud equals the x86-64 one byte for byte ($points points)"
+
+# The firmware's Debian package for the board (docs/PACKAGES.md). dpkg-shlibdeps cannot ask an
+# arm64 system here, so each library mlp-fw needs (its NEEDED entries) is mapped to the sysroot's
+# package and version; a library the map lacks stops the build rather than ship a package that
+# would not run.
+echo "build-arm64: the mlprobe-fw package for arm64"
+declare -A package_of=([libc.so.6]=libc6 [libm.so.6]=libc6 [libstdc++.so.6]=libstdc++6
+  [libgcc_s.so.1]=libgcc-s1 [libpng16.so.16]=libpng16-16 [libcrypto.so.3]=libssl3
+  [libzstd.so.1]=libzstd1 [libz.so.1]=zlib1g [libopencv_core.so.406]=libopencv-core406
+  [libopencv_imgproc.so.406]=libopencv-imgproc406)
+depends=()
+for so in $(aarch64-linux-gnu-readelf -d build-arm64/bin/mlp-fw | sed -n 's/.*Shared library: \[\(.*\)\]/\1/p'); do
+  pkg=${package_of[$so]:-}
+  [ -n "$pkg" ] || { echo "build-arm64: mlp-fw needs $so: add its package to the map" >&2; exit 1; }
+  version=$(awk -v p="$pkg:arm64:" '$1 == p { print $2 }' "$sysroot/.packages")
+  [ -n "$version" ] || { echo "build-arm64: $pkg is not in the sysroot" >&2; exit 1; }
+  depends+=("$pkg (>= $version)")
+done
+depends_line=$(printf '%s\n' "${depends[@]}" | sort -u | paste -sd, - | sed 's/,/, /g')
+rm -rf build-arm64/packages
+(cd build-arm64 && cpack -G DEB -B packages -D "CPACK_DEBIAN_FW_PACKAGE_DEPENDS=$depends_line" \
+  >packages.log 2>&1) || { cat build-arm64/packages.log >&2; exit 1; }
+deb=$(ls build-arm64/packages/mlprobe-fw_*_arm64.deb)
+[ "$(dpkg-deb -f "$deb" Architecture)" = arm64 ] || { echo "build-arm64: $deb is not arm64" >&2; exit 1; }
+contents=$(dpkg-deb -c "$deb")  # whole, not piped into grep -q (pipefail: a broken pipe)
+grep -q '\./usr/bin/mlp-fw$' <<<"$contents" || { echo "build-arm64: no mlp-fw in $deb" >&2; exit 1; }
+dpkg-deb -x "$deb" "$work/deb"
+qemu-aarch64 -L "$sysroot" "$work/deb/usr/bin/mlp-fw" --help >/dev/null ||
+  { echo "build-arm64: the packaged mlp-fw does not run" >&2; exit 1; }
+echo "build-arm64: $(basename "$deb"), Depends: $depends_line"
