@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <optional>
 
+#include <poll.h>
 #include <pqxx/pqxx>
 
 namespace mlp::plant {
@@ -51,6 +52,19 @@ std::optional<std::string> JsonOrNull(const json& j, const char* key) {
   return j.at(key).dump();
 }
 
+// A connection the server has closed (stopped, restarted, a network that dropped it) has its
+// goodbye or EOF waiting on the socket; an idle healthy one has nothing to read. Asked before
+// each use, so that a dead connection is replaced rather than used: libpqxx 6.4 leaks the
+// PGresult of a statement that fails on a broken connection (2264 bytes, found by
+// LeakSanitizer in AServerAwayIsATypedErrorAndTheNextCallReconnects). A server that dies in the
+// middle of a transaction still takes that path, once per outage.
+bool Closed(const pqxx::connection& c) {
+  const int fd = c.sock();
+  if (fd < 0) return true;
+  pollfd p{fd, POLLIN, 0};
+  return poll(&p, 1, 0) != 0;  // readable, hung up or failed: replace it
+}
+
 json Stored(const pqxx::field& f) { return f.is_null() ? json() : json::parse(f.c_str()); }
 
 }  // namespace
@@ -73,7 +87,7 @@ struct PlantDatabase::Impl {
   }
 
   pqxx::connection& Db() const {
-    if (db && db->is_open()) return *db;
+    if (db && db->is_open() && !Closed(*db)) return *db;
     db.reset();
     try {
       db = std::make_unique<pqxx::connection>(connection);
