@@ -5,6 +5,7 @@
 
 #include "mlp/plant/mqtt.h"
 
+#include <algorithm>
 #include <mutex>
 
 #include "broker.h"
@@ -113,9 +114,24 @@ TEST(Mqtt, MessagesWaitWhileTheBrokerIsAwayAndArriveWhenItIsBack) {
   EXPECT_EQ(host.Counters().queued, 3);
   broker.Start();
   EXPECT_TRUE(host.Flush(std::chrono::seconds(60)));
-  const auto got = quality.On("mlprobe/cell3/machine/vmc-1/result", 4);
-  ASSERT_EQ(got.size(), 4u);
-  for (int i = 0; i < 4; ++i) EXPECT_EQ(got[i].payload.at("job_id"), i + 1);
+  // QoS 1 is at least once: the broker may deliver job 1 again after its restart (the
+  // subscriber's acknowledgement can be cut by the stop; seen in a sanitized run). What must
+  // hold: every job arrives, first in the order sent, and nothing else.
+  std::vector<int> first_seen;
+  std::size_t messages = 0;
+  EXPECT_TRUE(test::Eventually([&] {
+    first_seen.clear();
+    const auto got = quality.On("mlprobe/cell3/machine/vmc-1/result");
+    messages = got.size();
+    for (const auto& m : got) {
+      const int job = m.payload.at("job_id");
+      if (std::find(first_seen.begin(), first_seen.end(), job) == first_seen.end())
+        first_seen.push_back(job);
+    }
+    return first_seen.size() >= 4;
+  }));
+  EXPECT_EQ(first_seen, (std::vector<int>{1, 2, 3, 4}));
+  EXPECT_LE(messages, 5u);  // at most job 1 twice: the others were held by our client
 }
 
 TEST(Mqtt, TheQueueIsBoundedWhileTheBrokerIsAway) {
