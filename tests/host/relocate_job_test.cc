@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "hostd_site.h"
+#include "electrode_site.h"  // kElectrode
 
 namespace mlp::test {
 namespace {
@@ -16,7 +16,6 @@ namespace {
 constexpr int kRelocatePort = 17463;    // the probe link's port, unused: no probe here
 constexpr double kShiftTolMm = 0.0005;  // relocate_test's, through the job
 constexpr double kTurnTolDeg = 0.002;
-const std::string kElectrode = mlp::test::SourceDir() + "/samples/tools/electrode_10x6.json";
 const std::string kTable =
     "T3 P3 Z+75.100000 D+10.050000 ;D10 Z4 roughing\n"
     "T30 P30 X0.01 Y0 Z60.0 C0 D11.662 ;EDM electrode 10x6\n";

@@ -1,9 +1,9 @@
 #include "plant_feed.h"
 
+#include "mlp/base/clock.h"
 #include "mlp/base/files.h"
 #include "mlp/plant/mqtt.h"
 
-#include <ctime>
 #include <filesystem>
 
 namespace mlp::service {
@@ -11,15 +11,6 @@ namespace {
 
 using json = nlohmann::json;
 namespace fs = std::filesystem;
-
-std::string UtcNow() {
-  const std::time_t now = std::time(nullptr);
-  std::tm t{};
-  gmtime_r(&now, &t);
-  char text[32];
-  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &t);
-  return text;
-}
 
 // The broker password: a file of the host's own, like the probes' keys (owner-only).
 std::string ReadPassword(const std::string& path) {
@@ -72,7 +63,7 @@ std::string PlantFeed::Topic(const std::string& tail) const {
 
 json PlantFeed::Stamp(json payload) const {
   payload["host"] = host_id_;
-  payload["time_utc"] = UtcNow();
+  payload["time_utc"] = base::UtcNow("%Y-%m-%dT%H:%M:%SZ", false);
   return payload;
 }
 
