@@ -190,6 +190,29 @@ Covariance TwoStageCovariance(const FitResult<Plane>& plane,
                               const std::vector<std::string>& renamed_first);
 
 [[noreturn]] void ThrowDegenerate(const std::string& shape, const std::string& why);
+/// A numerically singular J^T J: "not determined" with an unbounded standard deviation where
+/// FitOptions' test applies (`judged`), plain "not separable" for reference computations.
+[[noreturn]] void ThrowNotSeparable(const std::string& shape, bool judged);
+
+/// The angle [deg] that angles (rad, any order, any range) cover: 360 less the largest gap
+/// between neighbours around the circle. Sorts `angles_rad`.
+double CoveredAngleDeg(std::vector<double>& angles_rad);
+
+/// Throws kDegenerate "<shape>: not determined: the points cover X deg about the fitted
+/// <about>; below <min_deg> deg <why>" when `covered_deg` is under `min_deg`.
+void RequireCoverage(const std::string& shape,
+                     double covered_deg,
+                     double min_deg,
+                     const std::string& about,
+                     const std::string& why);
+
+/// FitOptions::max_relative_std_dev applied: throws kDegenerate, naming the first of
+/// `parameters` (names in `c`) whose standard deviation exceeds `max_relative` x `radius`.
+void RequireDetermined(const std::string& shape,
+                       const Covariance& c,
+                       const std::vector<std::string>& parameters,
+                       double radius,
+                       double max_relative);
 [[noreturn]] void ThrowNotConverged(const std::string& shape, int iterations);
 
 }  // namespace mlp::geometry::internal

@@ -151,6 +151,9 @@ std::optional<Eigen::Vector2d> ReducedStep(const Eigen::Matrix<double, 6, 6>& he
 
 // A tilt step under this [rad] moves no point beyond rounding: stationary.
 constexpr double kStationaryTiltRad = 1e-12;
+// A decrease of the sum of squares below this share of it is rounding, not progress (the sum
+// is accumulated over up to 2e5 residuals in double precision).
+constexpr double kRoundingOfSs = 1e-13;
 
 // Newton's step (Gauss-Newton's where the Hessian is not positive definite: far from a
 // minimum). The Gauss-Newton step comes first, from a cheap pass: when it is already below
@@ -197,14 +200,19 @@ FitResult<Circle3> RefineCircle3InSpace(const Points3& points,
       converged = true;
       break;
     }
-    // Backtracking line search on f: Newton's step is taken whole near the optimum.
+    // Backtracking line search on f: Newton's step is taken whole near the optimum. Only a
+    // strict decrease moves; a decrease within rounding of f ends the iteration: on a short
+    // arc of a large circle (10 deg of R 250 mm) the tilt along the chord is weakly determined
+    // and Newton's steps there wandered at the level of f's rounding, taking equal values as
+    // progress until the iteration limit (issue 49: "no stationary point in 205 iterations").
     bool moved = false;
     for (double t = 1.0; t > 1e-6; t *= 0.5) {
       const ProjectedCircle trial =
           BestCircleFor(points, origin, Tilted(current.state.normal, t * step));
-      if (trial.ok && trial.ss <= current.ss) {
+      if (trial.ok && trial.ss < current.ss) {
         moved = true;
-        converged = t == 1.0 && step.norm() * scale <= kFinishedStep * scale;
+        converged = (t == 1.0 && step.norm() <= kFinishedStep) ||
+                    current.ss - trial.ss <= kRoundingOfSs * current.ss;
         current = trial;
         break;
       }
@@ -213,15 +221,18 @@ FitResult<Circle3> RefineCircle3InSpace(const Points3& points,
   }
   const CircleState& state = current.state;
   const int total_iterations = in_plane.stats.iterations + iterations;
-  if (!state.center.allFinite() || !(state.radius > 0.0) ||
-      (!converged && options.require_convergence)) {
+  if (!state.center.allFinite() || !(state.radius > 0.0))
     ThrowNotConverged("circle", total_iterations);
-  }
   // The rank test and the covariance take the Gauss-Newton matrix J^T J, as every other fit.
   const NormalEquations<6> ne = Linearize(points, origin, state, false).ne;
-  // Lengths in mm; tilts in rad times the radius, their lever arm.
-  const Step6 units = (Step6() << 1.0, 1.0, 1.0, scale, scale, 1.0).finished();
-  if (IsRankDeficient(ne, units)) ThrowDegenerate("circle", "parameters not separable");
+  // Every column in mm of residual per mm of parameter: a tilt of 1 rad moves a point by its
+  // lever arm, the radius, so a tilt in mm is the angle times the radius and its column is
+  // divided by it. (It was multiplied: on R 1000 mm the tilts' columns stood 1e6 above the
+  // centre's and every arc up to 45 deg was called "not separable", issue 49.) This test is for
+  // exact degeneracy only; how well the data determine the circle is its covariance's to say.
+  const Step6 units = (Step6() << 1.0, 1.0, 1.0, 1.0 / scale, 1.0 / scale, 1.0).finished();
+  if (IsRankDeficient(ne, units))
+    ThrowNotSeparable("circle", std::isfinite(options.max_relative_std_dev));
   FitResult<Circle3> fit;
   fit.shape = Circle3{origin + state.center, CanonicalSign<Vec3>(state.normal), state.radius};
   fit.stats = ComputeStats(
@@ -233,6 +244,10 @@ FitResult<Circle3> RefineCircle3InSpace(const Points3& points,
   fit.covariance.matrix = CovarianceFrom(ne, static_cast<int>(2 * points.cols()));
   // The frame of those parameters (the normal's sign as it was iterated).
   OrthonormalBasis(state.normal, &fit.covariance.u, &fit.covariance.v);
+  // The data's say on determinacy comes before the solver's stop is judged (fit_ellipse.cc).
+  RequireDetermined("circle", fit.covariance, {"radius", "center_u", "center_v", "center_w"},
+                    fit.shape.radius, options.max_relative_std_dev);
+  if (!converged && options.require_convergence) ThrowNotConverged("circle", total_iterations);
   return fit;
 }
 

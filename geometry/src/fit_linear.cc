@@ -29,6 +29,9 @@ void FitOptions::Check() const {
   }
   if (circle3 != Circle3Definition::kSpatial && circle3 != Circle3Definition::kPlaneThenCircle)
     throw GeometryError(ErrorCode::kInvalidArgument, "FitOptions.circle3 is not a definition");
+  if (!(max_relative_std_dev > 0.0))  // NaN fails too; infinity is "off"
+    throw GeometryError(ErrorCode::kInvalidArgument,
+                        "FitOptions.max_relative_std_dev must be above 0 (infinity: off)");
 }
 
 double Covariance::StdDev(const std::string& name) const {

@@ -250,19 +250,29 @@ FitStats StatsFrom(const NormalEquations<P>& ne, Eigen::Index n, int iterations)
 }
 
 // Covariance sigma^2 (J^T J)^-1 with sigma^2 = ss / (m - p); zero when there is no redundancy.
+// The inverse is taken of J^T J scaled to a unit diagonal (Jacobi), then scaled back: on a
+// short arc far from the origin the parameters' columns differ by orders of magnitude (a tilt
+// in rad on a lever of 1000 mm beside a centre in mm), and the unscaled pseudo-inverse lost the
+// small variances to the large ones' rounding (issue 49).
 template <int P>
 Eigen::MatrixXd CovarianceFrom(NormalEquations<P> ne, int residual_count) {
   ne.Finish();
   const int dof = residual_count - P;
   const double sigma2 = dof > 0 ? ne.ss / dof : 0.0;
-  Eigen::MatrixXd inv = ne.jtj.completeOrthogonalDecomposition().pseudoInverse();
-  return sigma2 * inv;
+  const Eigen::Matrix<double, P, 1> d =
+      ne.jtj.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+  const Eigen::Matrix<double, P, P> scaled = d.asDiagonal() * ne.jtj * d.asDiagonal();
+  const Eigen::MatrixXd inv = scaled.completeOrthogonalDecomposition().pseudoInverse();
+  return sigma2 * (d.asDiagonal() * inv * d.asDiagonal());
 }
 
 // True when the normal matrix is numerically singular: the points do not determine every
 // parameter (e.g. a cylinder through points on one circle). Columns are scaled by physical
-// units (1 for lengths in mm, the data scale for angles in rad) rather than by their own norm,
-// which would blow a rounding-level column back up to full size and hide the degeneracy.
+// units rather than by their own norm, which would blow a rounding-level column back up to
+// full size and hide the degeneracy: 1 for lengths in mm, 1 / the data scale for angles in rad
+// (an angle in mm is the angle times its lever arm). These were the data scale itself until
+// issue 49, which put a tilt's column scale^2 above a length's and refused every arc of a
+// 1000 mm circle up to 45 deg as "not separable".
 template <int P>
 bool IsRankDeficient(NormalEquations<P> ne, const Eigen::Matrix<double, P, 1>& units) {
   ne.Finish();

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
 
 #include "common.h"
@@ -70,12 +71,18 @@ Consensus<Shape> FindConsensus(const Points3& points,
   int needed = opt.max_samples;
   bool found = false;
   std::vector<int> sample(static_cast<size_t>(sample_size));
+  // A minimal sample determines its shape exactly or not at all: the determinacy test on the
+  // covariance (FitOptions::max_relative_std_dev) is for the final fit of the inliers. On a
+  // cone's narrow sector it refused every sample ("no sample gave a shape") where the final
+  // fit would have said why.
+  FitOptions sample_options;
+  sample_options.max_relative_std_dev = std::numeric_limits<double>::infinity();
   for (int s = 0; s < needed && s < opt.max_samples; ++s) {
     best.samples = s + 1;
     for (int& i : sample) i = static_cast<int>(pick(rng));
     FitResult<Shape> candidate;
     try {
-      candidate = fit(Select(points, sample), FitOptions{});
+      candidate = fit(Select(points, sample), sample_options);
     } catch (const GeometryError&) {
       continue;  // degenerate sample (repeated or collinear points): draw another
     }

@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <ostream>
 #include <sstream>
 #include <string>
@@ -111,14 +112,47 @@ TEST_F(FilesTest, ReadFileAsRaisesTheModulesErrorWithItsPrefix) {
 }
 
 TEST(TemporaryNames, AreRecognisedAndRealFilesAreNot) {
-  EXPECT_TRUE(IsTemporaryName(".tool.tbl.mlp-tmp.4242"));
-  EXPECT_TRUE(IsTemporaryName(".mlp_result.ngc.mlp-tmp"));  // earlier versions
-  EXPECT_TRUE(IsTemporaryName("top.ply.tmp"));              // earlier versions' clouds
+  EXPECT_TRUE(IsTemporaryName(".tool.tbl.mlp-tmp.4242.17"));  // process 4242's 18th write
+  EXPECT_TRUE(IsTemporaryName(".tool.tbl.mlp-tmp.4242"));     // earlier versions
+  EXPECT_TRUE(IsTemporaryName(".mlp_result.ngc.mlp-tmp"));    // earlier versions
+  EXPECT_TRUE(IsTemporaryName("top.ply.tmp"));                // earlier versions' clouds
   EXPECT_FALSE(IsTemporaryName("tool.tbl"));
   EXPECT_FALSE(IsTemporaryName(".mlp-tmp"));
   EXPECT_FALSE(IsTemporaryName("a.mlp-tmp.1"));  // not hidden: not ours
   EXPECT_FALSE(IsTemporaryName(".a.mlp-tmp.12x"));
   EXPECT_FALSE(IsTemporaryName(".a.mlp-tmp."));
+  EXPECT_FALSE(IsTemporaryName(".a.mlp-tmp.12."));
+  EXPECT_FALSE(IsTemporaryName(".a.mlp-tmp.12.3.4"));
+}
+
+// Threads of one process take turns on a FileLock as processes do (flock on each holder's own
+// descriptor); a holder that never lets go makes the waiter fail, named, not hang.
+TEST_F(FilesTest, AFileLockMakesThreadsTakeTurnsAndAWaiterGivesUp) {
+  const std::string lock = Path(".table.mlp-lock");
+  int inside = 0, most_inside = 0;
+  std::mutex count_m;
+  const auto worker = [&] {
+    for (int k = 0; k < 50; ++k) {
+      FileLock held(lock);
+      {
+        std::lock_guard g(count_m);
+        most_inside = std::max(most_inside, ++inside);
+      }
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+      std::lock_guard g(count_m);
+      --inside;
+    }
+  };
+  std::thread a(worker), b(worker);
+  a.join(), b.join();
+  EXPECT_EQ(most_inside, 1);
+  FileLock held(lock);
+  try {
+    FileLock other(lock, /*wait_ms=*/50);
+    FAIL() << "a second holder";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("held by another writer"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Csv, FieldsAreQuotedOnlyWhenTheyMustBe) {  // RFC 4180 section 2

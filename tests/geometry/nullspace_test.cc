@@ -7,6 +7,7 @@
 #include "mlp/geometry/error.h"
 #include "mlp/geometry/fit.h"
 
+#include <limits>
 #include <sstream>
 
 #include "seeded_draw.h"
@@ -22,6 +23,17 @@ using test::RandomDirection;
 constexpr double kPositionTolMm = 1e-4;  // 0.1 um (TraCIM's tightest limit)
 constexpr double kAngleTolRad = 1e-7;    // 0.1 urad
 constexpr double kDeg = M_PI / 180.0;
+
+// Reference computations (ISO 10360-6, TraCIM): the least-squares solution however poorly the
+// set determines the shape (7 points on a 10 deg arc with 3 % form error: a radius sigma
+// several times the radius), so the fits' determinacy test (FitOptions::max_relative_std_dev,
+// issue 49) is off here. What these tests check, that the solver reaches the minimum, is
+// unchanged.
+FitOptions Reference() {
+  FitOptions o;
+  o.max_relative_std_dev = std::numeric_limits<double>::infinity();
+  return o;
+}
 
 // Sum of squared orthogonal distances of the points to a shape [mm^2].
 template <class Shape, class Pts>
@@ -123,7 +135,7 @@ TEST_P(NullSpace, Sphere) {
   const auto e = NullSpaceDeviations(jac, c.form * truth.radius, rng_);
   Points3 pts(3, c.n);
   for (int i = 0; i < c.n; ++i) pts.col(i) = truth.center + (truth.radius + e(i)) * normals.col(i);
-  const auto fit = FitSphere(pts);
+  const auto fit = FitSphere(pts, Reference());
   ASSERT_TRUE(TruthIsTheMinimum(fit.shape, truth, pts, false));
   EXPECT_LT((fit.shape.center - truth.center).norm(), kPositionTolMm);
   EXPECT_NEAR(fit.shape.radius, truth.radius, kPositionTolMm);
@@ -164,7 +176,7 @@ TEST_P(NullSpace, Circle3PlaneThenCircle) {
   }
   // These data are stationary for the plane-then-circle definition (circle3_test.cc builds
   // them for the spatial one).
-  FitOptions plane_first;
+  FitOptions plane_first = Reference();
   plane_first.circle3 = Circle3Definition::kPlaneThenCircle;
   const auto fit = FitCircle3(pts, plane_first);
   EXPECT_LT((fit.shape.center - truth.center).norm(), kPositionTolMm);
@@ -193,7 +205,7 @@ TEST_P(NullSpace, Circle3Spatial) {
   Points3 pts(3, c.n);
   for (int i = 0; i < c.n; ++i)
     pts.col(i) = truth.center + (truth.radius + a(i)) * radial[i] + h(i) * truth.normal;
-  const auto fit = FitCircle3(pts);  // the spatial definition is the default
+  const auto fit = FitCircle3(pts, Reference());  // the spatial definition is the default
   ASSERT_TRUE(TruthIsTheMinimum(fit.shape, truth, pts, false));
   EXPECT_LT((fit.shape.center - truth.center).norm(), kPositionTolMm);
   EXPECT_LT(AngleUpToSign(fit.shape.normal, truth.normal), kAngleTolRad);
@@ -220,7 +232,7 @@ TEST_P(NullSpace, Cylinder) {
   const auto e = NullSpaceDeviations(jac, c.form * truth.radius, rng_);
   Points3 pts(3, c.n);
   for (int i = 0; i < c.n; ++i) pts.col(i) = pts0.col(i) + e(i) * normals.col(i);
-  const auto fit = FitCylinder(pts);
+  const auto fit = FitCylinder(pts, Reference());
   if (!TruthIsTheMinimum(fit.shape, truth, pts, MayDiffer(c))) return;
   EXPECT_LT(AngleUpToSign(fit.shape.axis, truth.axis), kAngleTolRad);
   EXPECT_LT((truth.point - fit.shape.point).cross(fit.shape.axis).norm(), kPositionTolMm);
@@ -250,7 +262,7 @@ TEST_P(NullSpace, Cone) {
   const auto e = NullSpaceDeviations(jac, c.form * truth.distance, rng_);
   Points3 pts(3, c.n);
   for (int i = 0; i < c.n; ++i) pts.col(i) = pts0.col(i) + e(i) * normals.col(i);
-  const auto fit = FitCone(pts);
+  const auto fit = FitCone(pts, Reference());
   if (!TruthIsTheMinimum(fit.shape, truth, pts, MayDiffer(c))) return;
   EXPECT_LT(std::acos(std::min(1.0, fit.shape.axis.dot(truth.axis))), kAngleTolRad);
   EXPECT_LT((truth.point - fit.shape.point).cross(fit.shape.axis).norm(), kPositionTolMm);
@@ -291,7 +303,7 @@ TEST_P(NullSpace, Ellipse3) {
   const bool narrow = c.span_deg <= 15.0;
   FitResult<Ellipse3> fit;
   try {
-    fit = FitEllipse3(pts);
+    fit = FitEllipse3(pts, Reference());
   } catch (const GeometryError& error) {
     ASSERT_TRUE(narrow) << error.what();
     EXPECT_TRUE(error.code() == ErrorCode::kNotConverged || error.code() == ErrorCode::kDegenerate);

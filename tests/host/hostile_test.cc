@@ -347,11 +347,67 @@ TEST(HostileClient, ARepeatedRequestCompensatesOnce) {
   EXPECT_NE(log.find("job " + std::to_string(f.at("job_id").get<int>()) + " on lcnc-1"),
             std::string::npos)
       << log;
+
+  // Issue 48 item 3: the key with another body (a new nominal an operator sent under a
+  // copied request_id) is refused and runs nothing, where it was answered "repeated", exit 0.
+  json changed = measure;
+  changed["nominal"]["diameter_mm"] = 40.030;
+  const auto reused = site.Mlp("request " + site.Request("changed", changed));
+  EXPECT_EQ(reused.exit_code, 6) << reused.out << reused.err;
+  EXPECT_NE(reused.err.find("request_id \"part-0042-bore-A\" was used by job " +
+                            std::to_string(f.at("job_id").get<int>()) + " for another request"),
+            std::string::npos)
+      << reused.err;
+  EXPECT_EQ(test::ReadText(site.dir / "tool.tbl"), table_after);
+  // ... and a measure under the request_id a capture used does not get the capture's reply.
+  json capture = test::TopFaceCapture("top");
+  capture["machine"] = "lcnc-1";
+  capture["request_id"] = "part-0042-top";
+  ASSERT_EQ(site.Mlp("request " + site.Request("capture", capture)).exit_code, 0);
+  json under_capture_key = measure;
+  under_capture_key["request_id"] = "part-0042-top";
+  const auto crossed = site.Mlp("request " + site.Request("crossed", under_capture_key));
+  EXPECT_EQ(crossed.exit_code, 6) << crossed.out << crossed.err;
+  EXPECT_EQ(test::ReadText(site.dir / "tool.tbl"), table_after);
+
+  // Issue 48 item 2: one capture named 1,500 times (7.7 GB peak before) is refused before any
+  // cloud is read, and so is one capture named twice.
+  json flood = measure;
+  flood.erase("request_id");
+  flood["captures"] = json::array();
+  for (int k = 0; k < 1500; ++k) flood["captures"].push_back(captures[0]);
+  const auto many = site.Mlp("request " + site.Request("flood", flood));
+  EXPECT_EQ(many.exit_code, 7);
+  EXPECT_NE(many.err.find("captures lists 1500 captures; a job takes at most 256"),
+            std::string::npos)
+      << many.err;
+  flood["captures"] = {captures[0], captures[1], captures[0]};
+  const auto twice = site.Mlp("request " + site.Request("twice", flood));
+  EXPECT_EQ(twice.exit_code, 7);
+  EXPECT_NE(twice.err.find("names capture job " + std::to_string(captures[0]) + " twice"),
+            std::string::npos)
+      << twice.err;
+
+  // Issue 48 item 10: a failing request of 1 MiB is kept by its size and SHA-256 only (51 of
+  // them filled a 64 MB data disk).
+  json big = measure;
+  big.erase("request_id");
+  big["captures"] = {987654};
+  constexpr std::size_t kBigBytes = 1000 * 1000;  // under the socket's 1 MiB a request may hold
+  big["nominal"]["comment"] = std::string(kBigBytes, 'x');
+  const auto large = site.Mlp("request " + site.Request("large", big) + " --json");
+  EXPECT_EQ(large.exit_code, 7) << large.err;
+  const std::int64_t large_job = json::parse(large.out).at("job_id");
   EXPECT_EQ(hostd.Stop(), 0);
   history::History h((site.dir / "data" / "history.sqlite").string());
   const json job = h.ExportJob(f.at("job_id"));
   ASSERT_EQ(job.at("offset_writes").size(), 1u);
   EXPECT_EQ(job.at("offset_writes").at(0).at("state"), "written");
+  const json stored = h.ExportJob(large_job).at("request");
+  EXPECT_EQ(stored.at("op"), "measure");
+  EXPECT_GT(stored.at("bytes").get<std::size_t>(), kBigBytes);
+  EXPECT_EQ(stored.at("sha256").get<std::string>().size(), 64u);
+  EXPECT_LT(stored.dump().size(), 1024u);
 }
 
 // Issue 24 items 5, 9, 12: a host killed between announcing a write and confirming it is
@@ -367,7 +423,7 @@ TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
   std::ofstream(site.dir / "data" / "clouds" / "41" / ".side.ply.mlp-tmp.4242") << "half a cloud";
   // As a host killed in its write leaves it: tool 12's radius 4.999 -> 4.989 announced; the
   // table shows it written. A second job announced 4.999 -> 4.979 but never wrote.
-  std::int64_t written_job = 0, lost_job = 0, confirmed_job = 0, files_job = 0;
+  std::int64_t written_job = 0, lost_job = 0, confirmed_job = 0, files_job = 0, relocate_job = 0;
   {
     history::History h((site.dir / "data" / "history.sqlite").string());
     const auto announce = [&](double after_mm) {
@@ -388,6 +444,13 @@ TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
     // Killed after the write was confirmed, before the job was closed (found by the kill test).
     confirmed_job = announce(4.989);
     h.MarkWritesDone(confirmed_job);
+    // Issue 48 item 4: a relocate job killed after its .ngc (written first) and before the
+    // table: its reply is not a measure's, and the restart read the .ngc's header as "written".
+    relocate_job = h.StartJob({"lcnc-1", "relocate", "MLP-REF-0001", "", {}});
+    h.AddWriteIntents(relocate_job,
+                      {{"lcnc-1:tool", "offset 12 offset X", 0.0, 0.031},
+                       {"lcnc-1:tool", "offset 12 length geometry", 101.2, 101.215}},
+                      {{"job_id", relocate_job}, {"status", "done"}, {"tool", 12}});
     // A `files` machine's write is its result file naming the job (in any key order).
     files_job = h.StartJob({"vmc-1", "align", "MLP-REF-0001", "", {}});
     h.AddWriteIntents(files_job, {{"vmc-1:work", "G54", 0, 0.01}},
@@ -397,6 +460,10 @@ TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
   std::ofstream(site.dir / "out" / ("vmc-1-job" + std::to_string(files_job) + ".json"))
       << json{{"status", "done"}, {"job_id", files_job}}.dump();
   std::ofstream(site.dir / "tool.tbl") << "T12 P12 Z101.2 D9.978 ;finishing end mill\n";
+  fs::create_directories(site.dir / "lcnc");
+  std::ofstream(site.dir / "lcnc" / "mlp_result.ngc")
+      << "(mlprobe job " << relocate_job
+      << ": relocate)\no<mlp_result> sub\no<mlp_result> endsub\n";
   {
     Child hostd = StartHostd(site);
     ASSERT_TRUE(StatusOk(site));
@@ -417,6 +484,9 @@ TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
     EXPECT_EQ(l.at("status"), "failed");
     EXPECT_EQ(l.at("offset_writes").at(0).at("state"), "not_written");
     EXPECT_EQ(h.ExportJob(files_job).at("offset_writes").at(0).at("state"), "written");
+    const json r = h.ExportJob(relocate_job);
+    EXPECT_EQ(r.at("status"), "failed");  // the table shows neither X 0.031 nor Z 101.215
+    for (const json& row : r.at("offset_writes")) EXPECT_EQ(row.at("state"), "not_written");
     const json c = h.ExportJob(confirmed_job);
     EXPECT_EQ(c.at("status"), "in_tolerance");  // not "failed: the host stopped"
     EXPECT_EQ(c.at("reply").at("ok"), true);

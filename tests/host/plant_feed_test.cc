@@ -8,7 +8,9 @@
 #include <fstream>
 
 #include "electrode_site.h"
+#include "garbage_server.h"
 #include "plant/broker.h"
+#include <sys/stat.h>
 
 namespace mlp::test {
 namespace {
@@ -126,6 +128,51 @@ TEST(PlantFeed, ABrokerAwayStopsNoJobAndGetsItsMessagesWhenBack) {
   EXPECT_NE(ReadText(site.dir / "hostd.log").find("messages held meanwhile"), std::string::npos);
 }
 
+// Issue 48, item 1: a plant database address where another service answers with bytes that are
+// not UTF-8. libpq quotes them in its error, the status thread published that error, and
+// nlohmann's dump threw: mlp-hostd aborted about 1 s after every start. A relocate job whose
+// images.json ends in such bytes had its reply replaced by the same exception.
+TEST(PlantFeed, BytesThatAreNotUtf8FromThePlantOrAFileStopNeitherTheHostNorItsFeed) {
+  Broker broker("hostd_utf8", {kHostUser, kQuality});
+  GarbageServer garbage;
+  Site site("plant_utf8", 17469);
+  PlantSite(site, broker, broker.port(), /*tls=*/false);
+  if (HasFatalFailure()) return;
+  json config = json::parse(ReadText(site.dir / "hostd.json"));
+  config["plant_database"] = {
+      {"connection", "postgresql://mlp@127.0.0.1:" + std::to_string(garbage.port()) + "/plant"}};
+  std::ofstream(site.dir / "hostd.json") << config.dump(1);
+  Subscriber quality(broker, kQuality, "mlprobe/#", "quality-utf8");
+  Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+  ASSERT_TRUE(StatusIs(quality, "online")) << ReadText(site.dir / "hostd.log");
+  // Several status periods (0.5 s) after the database first answered with its bytes.
+  ASSERT_TRUE(Eventually([&] { return garbage.answered() >= 2; }));
+  const auto status = quality.On("mlprobe/cell3/status", 4);
+  ASSERT_GE(status.size(), 4u) << ReadText(site.dir / "hostd.log");
+  const std::string error = status.back().payload.at("plant_database").at("last_error");
+  EXPECT_FALSE(error.empty());
+  const auto polled = site.Mlp("status --json");
+  ASSERT_EQ(polled.exit_code, 0) << polled.err << ReadText(site.dir / "hostd.log");
+
+  // images.json ending in bytes ff fe: a typed failure in the reply and on the feed.
+  fs::create_directories(site.dir / "data" / "tools" / "bad");
+  fs::copy(site.dir / "data" / "tools" / "after", site.dir / "data" / "tools" / "bad",
+           fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  std::ofstream(site.dir / "data" / "tools" / "bad" / "images.json", std::ios::app) << "\xff\xfe";
+  const auto bad = site.Mlp("request " + site.Request("bad", RelocateJob("bad")) + " --json");
+  EXPECT_NE(bad.exit_code, 0);
+  ASSERT_FALSE(bad.out.empty()) << bad.err;
+  const json reply = json::parse(bad.out);
+  EXPECT_EQ(reply.at("ok"), false);
+  EXPECT_EQ(reply.at("error").get<std::string>().find("type_error"), std::string::npos) << bad.out;
+  EXPECT_NE(reply.at("error").get<std::string>().find("images.json"), std::string::npos) << bad.out;
+  const auto results = quality.On(kResult);
+  ASSERT_EQ(results.size(), 1u);
+  EXPECT_EQ(results[0].payload.at("job_id"), reply.at("job_id"));
+  EXPECT_TRUE(hostd.Alive()) << ReadText(site.dir / "hostd.log");
+  EXPECT_EQ(hostd.Stop(), 0) << ReadText(site.dir / "hostd.log");
+}
+
 TEST(PlantFeed, APasswordFileOthersCanReadStopsTheStart) {
   Broker broker("hostd_pass", {kHostUser});
   Site site("plant_pass", 17467);
@@ -140,6 +187,12 @@ TEST(PlantFeed, APasswordFileOthersCanReadStopsTheStart) {
   const auto r = RunProcess(kHostd + " --config " + (site.dir / "hostd.json").string());
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("chmod 600"), std::string::npos) << r.err;
+  // Issue 48: a FIFO in its place blocked the start (and SIGTERM) waiting for a writer.
+  fs::remove(site.dir / "mqtt.pass");
+  ASSERT_EQ(mkfifo((site.dir / "mqtt.pass").c_str(), 0600), 0);
+  const auto fifo = RunProcess(kHostd + " --config " + (site.dir / "hostd.json").string());
+  EXPECT_EQ(fifo.exit_code, 2);
+  EXPECT_NE(fifo.err.find("is not a regular file"), std::string::npos) << fifo.err;
 }
 
 }  // namespace

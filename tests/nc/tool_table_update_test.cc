@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -146,6 +148,48 @@ TEST_F(ToolTableUpdateTest, TheLogKeepsEveryUpdateInOrder) {
   EXPECT_NE(lines[1].find("120.50000,120.49000"), std::string::npos) << lines[1];
   EXPECT_NE(lines[3].find("120.48000,120.47000,10.00000,10.00000,run 3"), std::string::npos)
       << lines[3];
+}
+
+}  // namespace
+}  // namespace mlp::nc
+
+namespace mlp::nc {
+namespace {
+
+// Issue 48, item 5: two machines' lanes of one host configured on one tool table. Each lane
+// reads, changes and writes the table; with one temporary name per process one lane's rename
+// took the other's file away ("cannot replace": 8 of 160 writes lost), and without a lock a
+// lane's write replaced the table the other had read, dropping its change without a word.
+TEST_F(ToolTableUpdateTest, TwoWritersOfOneTableLoseNoChange) {
+  constexpr int kWritesEach = 80;
+  constexpr double kStepMm = 0.001;
+  const auto lane = [&](int tool, std::vector<std::string>* errors) {
+    for (int k = 0; k < kWritesEach; ++k) {
+      try {
+        const double now = LoadToolTable(Table()).Find(tool)->Get('Z');
+        ToolUpdate u{tool, "", std::nullopt, std::nullopt, std::nullopt, std::nullopt};
+        u.length_mm = now + kStepMm;
+        // Decided on `now`: the other lane's writes between the read and this write leave this
+        // tool's Z as it was, so the stale check passes; only a lost write would show.
+        u.length_before_mm = now;
+        UpdateToolTable(Table(), {u}, {}, "lane of T" + std::to_string(tool));
+      } catch (const std::exception& e) {
+        errors->push_back(e.what());
+      }
+    }
+  };
+  std::vector<std::string> errors1, errors2;
+  std::thread a(lane, 1, &errors1), b(lane, 2, &errors2);
+  a.join(), b.join();
+  EXPECT_TRUE(errors1.empty()) << errors1.front();
+  EXPECT_TRUE(errors2.empty()) << errors2.front();
+  const ToolTable after = LoadToolTable(Table());
+  EXPECT_NEAR(after.Find(1)->Get('Z'), 120.5 + kWritesEach * kStepMm, kReadBackMm);
+  EXPECT_NEAR(after.Find(2)->Get('Z'), 95.25 + kWritesEach * kStepMm, kReadBackMm);
+  std::size_t temporaries = 0;
+  for (const auto& e : fs::directory_iterator(dir_))
+    temporaries += base::IsTemporaryName(e.path().filename().string());
+  EXPECT_EQ(temporaries, 0u);
 }
 
 }  // namespace

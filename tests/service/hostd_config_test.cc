@@ -79,6 +79,11 @@ TEST(HostdConfig, ErrorsNameTheField) {
                   "probe_link": {"address": "x", "port": 70000}})",
               "probe_link.port");
   ExpectError(R"({"format": "mlprobe-hostd/2"})", "format");
+  // Issue 48: a machine's name names its files (reports/<machine>-job<N>.svg): never a path.
+  for (const char* name : {"../../../escaped", "a/b", ".hidden", ""})
+    ExpectError(kHead + R"("machines": [{"name": ")" + name +
+                    R"(", "probe": "P", "controller": {"kind": "files", "result_dir": "/o"}}]})",
+                "machines[0].name");
 }
 
 // The plant's MQTT feed: optional, paths relative to the file, and names that go into topics
@@ -108,6 +113,9 @@ TEST(HostdConfig, TheMqttFeedIsOptionalAndItsNamesMustBeTopicLevels) {
   ExpectError(with + R"({"host": "b", "port": 0}})", "mqtt.port");
   ExpectError(with + R"({"host": "b", "username": "u"}})", "password_file");
   ExpectError(with + R"({"host": "b", "qos": 2}})", "mqtt");
+  // Issue 48: 1e-9 s was taken (33,000 retained publishes in 3 s).
+  ExpectError(with + R"({"host": "b", "status_period_s": 1e-9}})",
+              "mqtt.status_period_s must be at least 0.1 s");
   ExpectError(kHead + R"("machines": [{"name": "bay+3", "probe": "P", "controller": {"kind":
               "files", "result_dir": "/o"}}], "mqtt": {"host": "b"}})",
               "machines[].name");

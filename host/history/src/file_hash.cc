@@ -7,14 +7,14 @@
 
 namespace mlp::history {
 
-std::string Sha256OfFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw HistoryError("cannot read " + path + " to hash it");
+namespace {
+
+// One digest over what `feed` hands it, as lower-case hex.
+template <class Feed>
+std::string Sha256Hex(Feed feed) {
   EVP_MD_CTX* ctx = EVP_MD_CTX_new();
   EVP_DigestInit_ex(ctx, EVP_sha256(), nullptr);
-  char buf[1 << 16];
-  while (in.read(buf, sizeof buf) || in.gcount() > 0)
-    EVP_DigestUpdate(ctx, buf, static_cast<size_t>(in.gcount()));
+  feed([ctx](const char* data, size_t n) { EVP_DigestUpdate(ctx, data, n); });
   unsigned char md[EVP_MAX_MD_SIZE];
   unsigned int n = 0;
   EVP_DigestFinal_ex(ctx, md, &n);
@@ -26,6 +26,22 @@ std::string Sha256OfFile(const std::string& path) {
     hex += two;
   }
   return hex;
+}
+
+}  // namespace
+
+std::string Sha256OfFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw HistoryError("cannot read " + path + " to hash it");
+  return Sha256Hex([&](const auto& update) {
+    char buf[1 << 16];
+    while (in.read(buf, sizeof buf) || in.gcount() > 0)
+      update(buf, static_cast<size_t>(in.gcount()));
+  });
+}
+
+std::string Sha256OfText(const std::string& text) {
+  return Sha256Hex([&](const auto& update) { update(text.data(), text.size()); });
 }
 
 }  // namespace mlp::history

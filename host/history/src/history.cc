@@ -2,6 +2,7 @@
 
 #include "mlp/base/clock.h"
 #include "mlp/base/csv.h"
+#include "mlp/base/json_text.h"
 
 #include <algorithm>
 #include <fstream>
@@ -62,7 +63,7 @@ std::optional<std::pair<dev_t, ino_t>> FileIdentity(const std::string& path) {
 
 // Stored JSON text: bytes that are not UTF-8 (quoted from a peer in an error) become U+FFFD
 // rather than making the row unwritable.
-std::string Text(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
+std::string Text(const json& j) { return base::json_fields::DumpText(j); }
 
 json ParseStored(const std::string& text) { return text.empty() ? json() : json::parse(text); }
 
@@ -378,13 +379,15 @@ std::optional<EarlierRequest> History::FindRequest(const std::string& machine,
   try {
     SQLite::Statement q(impl_->db,
                         "SELECT id, status, COALESCE(reply, ''), EXISTS (SELECT 1 FROM "
-                        "offset_writes w WHERE w.job_id = jobs.id AND w.state != 'not_written') "
-                        "FROM jobs WHERE machine = ? AND request_id = ? ORDER BY id DESC LIMIT 1");
+                        "offset_writes w WHERE w.job_id = jobs.id AND w.state != 'not_written'), "
+                        "request FROM jobs WHERE machine = ? AND request_id = ? "
+                        "ORDER BY id DESC LIMIT 1");
     q.bind(1, machine);
     q.bind(2, request_id);
     if (!q.executeStep()) return std::nullopt;
     return EarlierRequest{q.getColumn(0).getInt64(), JobStatusFrom(q.getColumn(1).getString()),
-                          ParseStored(q.getColumn(2).getString()), q.getColumn(3).getInt() != 0};
+                          ParseStored(q.getColumn(2).getString()), q.getColumn(3).getInt() != 0,
+                          q.getColumn(4).getString()};
   } catch (const SQLite::Exception& e) {
     Fail("history " + impl_->path + ": " + e.what());
   }

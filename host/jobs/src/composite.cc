@@ -142,6 +142,7 @@ PcdMeasurement MeasurePcd(const geometry::Points3& points, const PcdNominal& n) 
   for (const BoreMeasurement& hole : m.holes) m.converged = m.converged && hole.converged;
   m.centre_mcs = circle.shape.center;
   m.diameter_mm = 2 * circle.shape.radius;
+  m.diameter_u_mm = 2 * circle.covariance.StdDev("radius");
   m.rms_mm = circle.stats.rms;
   Vec3 axis = circle.shape.normal;
   if (axis.dot(n.holes.front().axis_mcs) < 0) axis = -axis;

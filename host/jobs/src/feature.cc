@@ -236,6 +236,7 @@ BoreMeasurement MeasureBore(const geometry::Points3& points, const BoreNominal& 
   const double t = (n.top_centre_mcs - fit.shape.point).dot(axis) / m.axis_mcs.dot(axis);
   m.top_centre_mcs = fit.shape.point + t * m.axis_mcs;
   m.diameter_mm = 2 * fit.shape.radius;
+  m.diameter_u_mm = 2 * fit.covariance.StdDev("radius");
   m.rms_mm = fit.stats.rms;
   m.max_abs_mm = std::max(-fit.stats.min_residual, fit.stats.max_residual);
   m.points = static_cast<int>(wall.size());

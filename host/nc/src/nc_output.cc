@@ -1,5 +1,6 @@
 #include "mlp/nc/nc_output.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -74,6 +75,22 @@ std::string ToString(ToolRegister r) {
       return "offset C";
   }
   return "?";
+}
+
+std::optional<ToolRegister> ToolRegisterFrom(const std::string& text) {
+  // Also as requests spell registers ("radius_wear", "offset_x"): underscores for spaces,
+  // any case.
+  std::string spaced = text;
+  for (char& c : spaced) c = c == '_' ? ' ' : static_cast<char>(std::tolower(c));
+  for (const ToolRegister r :
+       {ToolRegister::kLengthGeometry, ToolRegister::kLengthWear, ToolRegister::kRadiusGeometry,
+        ToolRegister::kRadiusWear, ToolRegister::kOffsetX, ToolRegister::kOffsetY,
+        ToolRegister::kOffsetC})
+    if (std::string name = ToString(r);
+        std::equal(name.begin(), name.end(), spaced.begin(), spaced.end(),
+                   [](char a, char b) { return std::tolower(a) == b; }))
+      return r;
+  return std::nullopt;
 }
 
 char OffsetWord(ToolRegister r) {

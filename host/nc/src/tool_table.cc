@@ -50,6 +50,12 @@ double ToolRecord::Get(char word) const {
   return it == words.end() ? 0.0 : it->second;
 }
 
+double ToolRecord::Register(ToolRegister reg) const {
+  if (const char word = OffsetWord(reg); word != 0) return Get(word);
+  const bool length = reg == ToolRegister::kLengthGeometry || reg == ToolRegister::kLengthWear;
+  return length ? Get('Z') : Get('D') / 2.0;
+}
+
 ToolTable::Line ToolTable::ParseLine(const std::string& text, const std::string& where) {
   Line line;
   line.original = text;

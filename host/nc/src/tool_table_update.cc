@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -96,10 +97,26 @@ std::string ToolChangeLogFor(const std::string& table_path) {
       .string();
 }
 
+std::string ToolTableLockFor(const std::string& table_path) {
+  const std::filesystem::path table(table_path);
+  std::string name(1, '.');  // appended piece by piece: GCC 12 -O3 false -Wrestrict on a + b
+  name.append(table.filename().string()).append(".mlp-lock");
+  return (table.parent_path() / name).string();
+}
+
 ToolTableUpdateResult UpdateToolTable(const std::string& table_path,
                                       const std::vector<ToolUpdate>& updates,
                                       const ToolChangeLimits& limits,
                                       const std::string& source) {
+  // Read, change and write as one step against other writers of the same table (two machines
+  // configured on one file, two hosts): without it one lane's write replaces the table the
+  // other read, and its change is lost without a word.
+  std::optional<base::FileLock> lock;
+  try {
+    lock.emplace(ToolTableLockFor(table_path));
+  } catch (const base::FileError& e) {
+    Fail(e.what());
+  }
   ToolTable table = LoadToolTable(table_path);
   ToolTableUpdateResult result;
   std::set<int> seen;

@@ -1,5 +1,7 @@
 #include "mlp/plant/database.h"
 
+#include "mlp/base/json_text.h"
+
 #include <algorithm>
 #include <optional>
 
@@ -49,7 +51,7 @@ std::string Text(const json& j, const char* key) {
 
 std::optional<std::string> JsonOrNull(const json& j, const char* key) {
   if (!j.contains(key) || j.at(key).is_null()) return std::nullopt;
-  return j.at(key).dump();
+  return base::json_fields::DumpText(j.at(key));
 }
 
 // A connection the server has closed (stopped, restarted, a network that dropped it) has its
@@ -157,24 +159,27 @@ void PlantDatabase::Send(const std::string& host, const json& job) {
         "status, reply, timings_ms, started_utc, finished_utc) VALUES ($1, $2, $3, $4, $5, $6, "
         "$7::jsonb, $8, $9::jsonb, $10::jsonb, $11, $12)",
         host, id, Text(job, "machine"), Text(job, "kind"), Text(job, "probe_serial"),
-        Text(job, "calibration_id"), job.at("request").dump(), Text(job, "status"),
-        JsonOrNull(job, "reply"), JsonOrNull(job, "timings_ms"), Text(job, "started_utc"),
-        finished);
+        Text(job, "calibration_id"), base::json_fields::DumpText(job.at("request")),
+        Text(job, "status"), JsonOrNull(job, "reply"), JsonOrNull(job, "timings_ms"),
+        Text(job, "started_utc"), finished);
     int n = 0;
     for (const json& c : job.value("captures", json::array()))
       tx.exec_params("INSERT INTO captures VALUES ($1, $2, $3, $4, $5::jsonb, $6, $7, $8)", host,
-                     id, n++, Text(c, "capture_id"), c.at("pose").dump(), Text(c, "cloud_path"),
-                     Text(c, "cloud_sha256"), c.value("points", std::int64_t{0}));
+                     id, n++, Text(c, "capture_id"), base::json_fields::DumpText(c.at("pose")),
+                     Text(c, "cloud_path"), Text(c, "cloud_sha256"),
+                     c.value("points", std::int64_t{0}));
     n = 0;
     for (const json& r : job.value("results", json::array()))
       tx.exec_params("INSERT INTO results VALUES ($1, $2, $3, $4, $5::jsonb, $6::jsonb)", host, id,
-                     n++, Text(r, "feature"), r.at("fit").dump(), r.at("decision").dump());
+                     n++, Text(r, "feature"), base::json_fields::DumpText(r.at("fit")),
+                     base::json_fields::DumpText(r.at("decision")));
     n = 0;
     for (const json& w : job.value("offset_writes", json::array()))
       tx.exec_params(
           "INSERT INTO offset_writes VALUES ($1, $2, $3, $4, $5, $6::jsonb, $7::jsonb, $8, $9)",
-          host, id, n++, Text(w, "adapter"), Text(w, "target"), w.at("before").dump(),
-          w.at("after").dump(), Text(w, "written_utc"), Text(w, "state"));
+          host, id, n++, Text(w, "adapter"), Text(w, "target"),
+          base::json_fields::DumpText(w.at("before")), base::json_fields::DumpText(w.at("after")),
+          Text(w, "written_utc"), Text(w, "state"));
   });
 }
 

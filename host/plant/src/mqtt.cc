@@ -1,5 +1,7 @@
 #include "mlp/plant/mqtt.h"
 
+#include "mlp/base/json_text.h"
+
 #include <algorithm>
 #include <condition_variable>
 #include <deque>
@@ -38,7 +40,7 @@ void CheckTopicLevel(const std::string& level, const std::string& what) {
     // Quoted as JSON: a control character in a name must not reach a log line raw.
     std::string message = what;
     message += ' ';
-    message += json(level).dump(-1, ' ', false, json::error_handler_t::replace);
+    message += base::json_fields::DumpText(json(level));
     message += " cannot be a topic level: 1 to 64 characters, no '/', '+', '#' or control ones";
     throw MqttError(message);
   }
@@ -207,7 +209,7 @@ struct MqttPublisher::Impl {
             MOSQ_ERR_SUCCESS)
       throw MqttError("mqtt.username: refused by the client library");
     if (!options.will_topic.empty()) {
-      const std::string text = options.will_payload.dump();
+      const std::string text = base::json_fields::DumpText(options.will_payload);
       if (mosquitto_will_set(client, options.will_topic.c_str(), static_cast<int>(text.size()),
                              text.data(), 1, true) != MOSQ_ERR_SUCCESS)
         throw MqttError("mqtt: the last will's topic " + options.will_topic + " is not valid");
@@ -280,7 +282,7 @@ MqttPublisher::~MqttPublisher() {
 
 bool MqttPublisher::Publish(const std::string& topic, const json& payload, bool retain) {
   Impl& s = *impl_;
-  Impl::Waiting message{topic, payload.dump(), retain};
+  Impl::Waiting message{topic, base::json_fields::DumpText(payload), retain};
   {
     std::lock_guard lock(s.m);
     if (s.counters.queued >= s.options.max_queued) {

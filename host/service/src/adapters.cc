@@ -79,9 +79,7 @@ nc::ToolOffsetChange ResolveToolChange(const ControllerConfig& c,
   }
   t.reg = reg;
   t.incremental = false;
-  t.before_mm = nc::OffsetWord(reg) != 0 ? tool->Get(nc::OffsetWord(reg))
-                : IsLength(reg)          ? tool->Get('Z')
-                                         : tool->Get('D') / 2.0;
+  t.before_mm = tool->Register(reg);
   t.after_mm = t.before_mm + change_mm;
   return t;
 }
@@ -99,18 +97,16 @@ std::string ControllerFile(const ControllerConfig& c,
 bool WritesReachedController(const ControllerConfig& c,
                              const std::string& machine,
                              std::int64_t job,
-                             const nlohmann::json& tool_changes) {
+                             const std::vector<nc::ToolOffsetChange>& tool_changes) {
   try {
     if (c.kind == ControllerConfig::Kind::kLinuxCnc && c.write_tool_table &&
         !tool_changes.empty()) {
       const nc::ToolTable table = nc::LoadToolTable(c.tool_table);
-      for (const auto& t : tool_changes) {
-        const auto tool = table.Find(t.at("tool").get<int>());
-        const bool length = t.at("length").get<bool>();
-        if (!tool) return false;
-        const double now_mm = length ? tool->Get('Z') : tool->Get('D') / 2.0;
+      for (const nc::ToolOffsetChange& t : tool_changes) {
+        const auto tool = table.Find(t.tool);
+        if (!tool || t.incremental) return false;
         // The table holds 4+ decimals; a value written is read back within 1e-6 mm.
-        if (std::abs(now_mm - t.at("after_mm").get<double>()) > 1e-6) return false;
+        if (std::abs(tool->Register(t.reg) - t.after_mm) > 1e-6) return false;
       }
       return true;
     }

@@ -4,6 +4,8 @@
 #include "mlp/base/json_fields.h"
 #include "mlp/plant/mqtt.h"
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -179,6 +181,8 @@ MqttConfig ParseMqtt(const Reader& r, const json& j) {
     }
   }
   c.status_period_s = r.Seconds(j, "status_period_s", c.status_period_s, w);
+  // 1e-9 s was taken: 33,000 retained publishes in 3 s (issue 48).
+  if (c.status_period_s < 0.1) r.Fail("mqtt.status_period_s", "must be at least 0.1 s");
   c.keepalive_s = integer("keepalive_s", c.keepalive_s);
   if (c.keepalive_s < 5 || c.keepalive_s > 3600) r.Fail("mqtt.keepalive_s", "must be 5..3600");
   c.max_queued = integer("max_queued", c.max_queued);
@@ -234,6 +238,17 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
     r.OnlyKnown(m, {"name", "probe", "controller", "limits", "job_timeout_s", "comment"}, w);
     MachineConfig mc;
     mc.name = jf::Text<ConfigError>(m, "name", r.Where(w));
+    // The name is a file name (reports/<machine>-job<N>.svg, <machine>-job<N>.json): a name
+    // "../../../escaped" wrote outside the data folder (issue 48).
+    const bool file_name =
+        !mc.name.empty() && mc.name.size() <= 64 && mc.name[0] != '.' &&
+        std::none_of(mc.name.begin(), mc.name.end(), [](char ch) {
+          return ch == '/' || ch == '\\' || std::iscntrl(static_cast<unsigned char>(ch));
+        });
+    if (!file_name)
+      r.Fail(w + ".name",
+             "must be 1 to 64 characters without '/', '\\' or control characters, not starting "
+             "with '.': it names the machine's files");
     if (!names.insert(mc.name).second) r.Fail(w + ".name", "is listed twice");
     mc.probe_serial = jf::Text<ConfigError>(m, "probe", r.Where(w));
     if (!serials.count(mc.probe_serial))

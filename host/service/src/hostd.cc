@@ -189,12 +189,12 @@ struct Hostd::Impl {
   void SettleInterruptedWrites() {
     for (const history::InterruptedWrite& w : history.InterruptedWrites()) {
       const MachineConfig* m = config.Machine(w.machine);
-      json tools = json::array();
-      const json& u = w.reply.contains("update") ? w.reply.at("update") : json();
-      if (u.is_object() && u.contains("after_mm") && u.at("after_mm").is_number())
-        tools.push_back({{"tool", u.at("offset")},
-                         {"length", u.at("register").get<std::string>().rfind("length", 0) == 0},
-                         {"after_mm", u.at("after_mm")}});
+      // From the announced rows, not the reply's shape: a tool or relocate job's reply is not
+      // a measure's, and reading only the latter sent those jobs to the .ngc header, which is
+      // written before the table (1 kill in 40 recorded "written" a table never changed).
+      std::vector<nc::ToolOffsetChange> tools;
+      for (const history::OffsetWriteRow& row : w.writes)
+        if (const auto t = ToolChangeOfRow(row)) tools.push_back(*t);
       // Confirmed writes are the controller's too: never "failed", never run again.
       const bool written =
           w.confirmed ||
@@ -361,6 +361,19 @@ struct Hostd::Impl {
     if (!earlier) return std::nullopt;
     const bool succeeded = earlier->reply.value("ok", false);
     if (!earlier->wrote && !succeeded) return std::nullopt;
+    // The same key with another body is a new request that a stale or copied request_id
+    // would silently drop (an operator's new offset answered "repeated" and never written):
+    // refused, so that the macro sees it and sends a fresh key.
+    if (!RepeatsStoredRequest(request, earlier->request)) {
+      log("request " + id + " on " + m.name + " refused: job " + std::to_string(earlier->job) +
+          " ran another request with that request_id");
+      return json{{"ok", false},
+                  {"status", "refused"},
+                  {"earlier_job", earlier->job},
+                  {"error", "request_id \"" + id + "\" was used by job " +
+                                std::to_string(earlier->job) + " for another request on " + m.name +
+                                ": nothing run; give this request a request_id of its own"}};
+    }
     json reply = earlier->reply;
     reply["repeated"] = true;
     reply["earlier_job"] = earlier->job;
@@ -402,8 +415,8 @@ struct Hostd::Impl {
                                  ? jf::Text<RequestError>(request, "capture_id", "request")
                                  : std::string("c1");
     CheckSafeName(name, "request.capture_id");
-    const std::int64_t job =
-        history.StartJob({m.name, "capture", m.probe_serial, "", request, RequestId(request)});
+    const std::int64_t job = history.StartJob(
+        {m.name, "capture", m.probe_serial, "", StoredRequest(request), RequestId(request)});
     try {
       const std::string id = m.name + "-" + std::to_string(job) + "-" + name;
       const link::CaptureRequest cr = ParseCapture(request, id);

@@ -1,5 +1,7 @@
 #include "mlp/service/job_client.h"
 
+#include "mlp/service/request_json.h"
+
 #include <chrono>
 #include <utility>  // before Asio (Boost 1.74 needs std::exchange)
 
@@ -24,7 +26,7 @@ json SendRequest(const std::string& socket_path, const json& request, int timeou
   if (ec)
     throw JobClientError("mlp-hostd is not answering on " + socket_path + " (" + ec.message() +
                          "): is it running?");
-  asio::write(socket, asio::buffer(request.dump() + "\n"), ec);
+  asio::write(socket, asio::buffer(DumpSafe(request) + "\n"), ec);
   if (ec) throw JobClientError("cannot send the request: " + ec.message());
   asio::streambuf buffer(kMaxReplyBytes);
   bool done = false;

@@ -10,6 +10,8 @@
 #include <cctype>
 #include <ctime>
 #include <filesystem>
+#include <set>
+#include <sstream>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -31,14 +33,30 @@ double AgeHours(const std::string& utc) {
   return std::difftime(std::time(nullptr), timegm(&t)) / 3600.0;
 }
 
+json StoredRequest(const json& request) {
+  const std::string text = base::json_fields::DumpText(request);
+  if (text.size() <= kMaxStoredRequestBytes) return request;
+  json stub = {{"stored", "size and SHA-256 only: the request's JSON text is over " +
+                              std::to_string(kMaxStoredRequestBytes) + " bytes"},
+               {"bytes", text.size()},
+               {"sha256", history::Sha256OfText(text)}};
+  for (const char* key : {"op", "machine", "request_id"})
+    if (request.contains(key) && request.at(key).is_string()) stub[key] = request.at(key);
+  return stub;
+}
+
+bool RepeatsStoredRequest(const json& request, const std::string& stored_text) {
+  return base::json_fields::DumpText(StoredRequest(request)) == stored_text;
+}
+
 JobRun::JobRun(JobContext& c, const std::string& k, const json& request)
     : ctx(c),
       kind(k),
       calibration(
           calib::CalibrationStore(c.config.CalibrationDir()).Latest(c.machine.probe_serial)) {
   job = ctx.history.StartJob({ctx.machine.name, kind, ctx.machine.probe_serial,
-                              calibration ? calibration->calibration_id : "", request,
-                              RequestId(request)});
+                              calibration ? calibration->calibration_id : "",
+                              StoredRequest(request), RequestId(request)});
   reply = {{"job_id", job}, {"machine", ctx.machine.name}};
 }
 
@@ -164,6 +182,19 @@ std::vector<history::OffsetWriteRow> OffsetWriteRows(const nc::NcResult& out) {
   return rows;
 }
 
+std::optional<nc::ToolOffsetChange> ToolChangeOfRow(const history::OffsetWriteRow& row) {
+  std::istringstream words(row.target);
+  std::string offset, rest;
+  int tool = 0;
+  if (!(words >> offset >> tool) || offset != "offset" || !row.after.is_number()) return {};
+  std::getline(words >> std::ws, rest);
+  const auto reg = nc::ToolRegisterFrom(rest);
+  if (!reg) return {};
+  nc::ToolOffsetChange t{tool, *reg, 0.0, row.after.get<double>(), false};
+  if (row.before.is_number()) t.before_mm = row.before.get<double>();
+  return t;
+}
+
 std::string ReadDataFile(const std::string& data_dir,
                          const std::string& name,
                          const std::string& field,
@@ -238,20 +269,42 @@ std::int64_t CaptureJobId(JobContext& ctx, const json& c) {
   return latest->id;
 }
 
-std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
-                                              const json& capture_jobs,
-                                              std::int64_t job) {
+// The capture rows a job will read, checked before any cloud is: each a finished capture on
+// this machine, none named twice (a 7 KB request naming one capture 1,500 times made the host
+// read it 1,500 times and peak at 7.7 GB, issue 48), their points within the job's budget.
+std::vector<json> CaptureRows(JobContext& ctx, const json& capture_jobs) {
   if (!capture_jobs.is_array() || capture_jobs.empty())
     throw JobInputError("captures must list the capture jobs to use");
-  std::vector<StoredCapture> out;
+  if (capture_jobs.size() > kMaxCapturesPerJob)
+    throw JobInputError("captures lists " + std::to_string(capture_jobs.size()) +
+                        " captures; a job takes at most " + std::to_string(kMaxCapturesPerJob));
+  std::set<std::int64_t> seen;
+  std::int64_t points = 0;
+  std::vector<json> rows;
   for (const auto& c : capture_jobs) {
     const std::int64_t id = CaptureJobId(ctx, c);
+    if (!seen.insert(id).second)
+      throw JobInputError("captures names capture job " + std::to_string(id) +
+                          " twice: each capture counts once");
     const json stored = ctx.history.ExportJob(id);
     if (stored.at("kind") != "capture" || stored.at("status") != "done" ||
         stored.at("machine") != ctx.machine.name || stored.at("captures").empty())
       throw JobInputError("job " + std::to_string(id) + " is not a finished capture on " +
                           ctx.machine.name);
-    const json& row = stored.at("captures").at(0);
+    rows.push_back(stored.at("captures").at(0));
+    points += rows.back().at("points").get<std::int64_t>();
+    if (points > kMaxJobPoints)
+      throw JobInputError("the captures hold over " + std::to_string(kMaxJobPoints) +
+                          " points together; a job takes at most that many");
+  }
+  return rows;
+}
+
+std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
+                                              const json& capture_jobs,
+                                              std::int64_t job) {
+  std::vector<StoredCapture> out;
+  for (const json& row : CaptureRows(ctx, capture_jobs)) {
     const std::string path = row.at("cloud_path");
     if (history::Sha256OfFile(path) != row.at("cloud_sha256"))
       throw JobInputError("the cloud " + path + " changed since it was captured (SHA-256)");

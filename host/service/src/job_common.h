@@ -90,6 +90,30 @@ struct StoredCapture {
   std::optional<base::EdgeSight> edge;  ///< the LED frame's edge of an edge ROI
 };
 
+/// Requests longer than this (as JSON text) are kept in the history by size and SHA-256 only.
+constexpr std::size_t kMaxStoredRequestBytes = 64u << 10;
+
+/// The request as the history keeps it: whole up to kMaxStoredRequestBytes; a larger one by
+/// its op, machine, request_id, size and SHA-256 (51 failing 1 MiB requests in 2 s filled a
+/// 64 MB data disk and real jobs were then refused, issue 48). A repeat is recognised by this
+/// form's text (RepeatsStoredRequest).
+nlohmann::json StoredRequest(const nlohmann::json& request);
+
+/// True when `request` is the one stored as `stored_text` (the history's JSON text of its
+/// StoredRequest): the same body, byte for byte as JSON, not only the same request_id.
+bool RepeatsStoredRequest(const nlohmann::json& request, const std::string& stored_text);
+
+/// The tool change a history row announced (OffsetWriteRows' "offset N <register>" with an
+/// absolute `after`), or empty for a work offset or an incremental change: how a restart settles
+/// an interrupted write against the tool table whatever the job kind.
+std::optional<nc::ToolOffsetChange> ToolChangeOfRow(const history::OffsetWriteRow& row);
+
+/// What one job may read of the stored captures (issue 48): at most this many captures...
+constexpr std::size_t kMaxCapturesPerJob = 256;
+/// ... holding at most this many points together: two clouds at the link's largest
+/// (link::kMaxCloudPoints), 384 MB as machine coordinates, twice that while they are gathered.
+constexpr std::int64_t kMaxJobPoints = std::int64_t{16} << 20;
+
 /// The clouds of earlier capture jobs (`capture_jobs`: ids) on this machine, each checked
 /// against the SHA-256 the history holds, recorded as this job's captures. Throws
 /// JobInputError.

@@ -228,6 +228,7 @@ Measured Cylindrical(const FeatureRequest& q,
   m.size = functional ? b.functional_diameter_mm : b.diameter_mm;
   const double tp = TruePosition(b.top_centre_mcs, n.top_centre_mcs, n.axis_mcs);
   m.fields = {{"diameter_mm", b.diameter_mm},
+              {"diameter_u_mm", b.diameter_u_mm},
               {n.boss ? "diameter_mcc_mm" : "diameter_mic_mm", b.functional_diameter_mm},
               {"centre_mm", JsonVec(b.top_centre_mcs)},
               {"true_position_mm", tp},
@@ -358,6 +359,7 @@ Measured Pcd(const FeatureRequest& q, const jobs::PcdNominal& n, const Evidence&
     const jobs::BoreMeasurement& h = p.holes[k];
     holes.push_back({{"centre_mm", JsonVec(h.top_centre_mcs)},
                      {"diameter_mm", h.diameter_mm},
+                     {"diameter_u_mm", h.diameter_u_mm},
                      {"true_position_mm", p.true_position_mm[k]},
                      {"points", h.points}});
     CheckPosition(q, p.true_position_mm[k], "hole " + std::to_string(k + 1), &m);
@@ -367,11 +369,9 @@ Measured Pcd(const FeatureRequest& q, const jobs::PcdNominal& n, const Evidence&
     m.fe.arc_span_deg = std::min(*m.fe.arc_span_deg, h.arc_span_deg);
   }
   m.found_mcs = p.centre_mcs, m.nominal_mcs = n.centre_mcs;
-  m.fields = {{"diameter_mm", p.diameter_mm},
-              {"centre_mm", JsonVec(p.centre_mcs)},
-              {"rotation_deg", p.rotation_deg},
-              {"centres_rms_mm", p.rms_mm},
-              {"holes", holes}};
+  m.fields = {{"diameter_mm", p.diameter_mm},       {"diameter_u_mm", p.diameter_u_mm},
+              {"centre_mm", JsonVec(p.centre_mcs)}, {"rotation_deg", p.rotation_deg},
+              {"centres_rms_mm", p.rms_mm},         {"holes", holes}};
   return m;
 }
 

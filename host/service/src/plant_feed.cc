@@ -17,6 +17,9 @@ std::string ReadPassword(const std::string& path) {
   std::error_code ec;
   const fs::perms p = fs::status(path, ec).permissions();
   if (ec) throw ConfigError("mqtt.password_file " + path + ": cannot be read");
+  // A FIFO there blocked the start and SIGTERM with it (issue 48): only a regular file is read.
+  if (!fs::is_regular_file(path, ec))
+    throw ConfigError("mqtt.password_file " + path + " is not a regular file");
   if ((p & (fs::perms::group_all | fs::perms::others_all)) != fs::perms::none)
     throw ConfigError("mqtt.password_file " + path +
                       " is readable by others: chmod 600 it (it holds the broker password)");

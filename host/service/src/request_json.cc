@@ -1,5 +1,7 @@
 #include "mlp/service/request_json.h"
 
+#include "mlp/base/json_text.h"
+
 namespace mlp::service {
 namespace {
 
@@ -37,8 +39,6 @@ json ParseRequest(std::string_view text) {
   return j;
 }
 
-std::string DumpSafe(const json& j, int indent) {
-  return j.dump(indent, ' ', false, json::error_handler_t::replace);
-}
+std::string DumpSafe(const json& j, int indent) { return base::json_fields::DumpText(j, indent); }
 
 }  // namespace mlp::service

@@ -56,7 +56,24 @@ void WriteFileAtomically(const std::string& path,
 /// Throws FileError (a short write is an error; the log then ends in part of a line at most).
 void AppendRecord(const std::string& path, std::string_view header, std::string_view line);
 
-/// True for a temporary file a cut-short WriteFileAtomically leaves (".<name>.mlp-tmp.<pid>"),
+/// An exclusive advisory lock (flock(2)) on the file `path` (created, empty, when missing), held
+/// while the object lives. flock locks belong to an open file description, so two threads of
+/// one process exclude each other as two processes do: what a read-modify-write of a file that
+/// two writers share (one tool table for two machines' lanes) needs around it. Waits up to
+/// `wait_ms` for a holder, then throws FileError naming the file.
+class FileLock {
+ public:
+  explicit FileLock(const std::string& path, int wait_ms = 10000);
+  ~FileLock();
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+/// True for a temporary file a cut-short WriteFileAtomically leaves
+/// (".<name>.mlp-tmp.<pid>.<n>", n counting the process's writes; ".<name>.mlp-tmp.<pid>"),
 /// and for those of earlier versions (".<name>.mlp-tmp", "<cloud>.ply.tmp"): a service removes
 /// them at start-up. Never true for a file the project writes.
 bool IsTemporaryName(std::string_view filename);

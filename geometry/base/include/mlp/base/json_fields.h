@@ -2,6 +2,8 @@
 /// @file Typed, checked reads of JSON fields shared by the probe model and scene files: each
 /// throws `Error` (the caller's error type) naming the field, never a bare JSON exception.
 
+#include "mlp/base/json_text.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>

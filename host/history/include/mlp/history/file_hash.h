@@ -10,5 +10,7 @@ namespace mlp::history {
 
 /// Lower-case hex. Throws HistoryError when the file cannot be read.
 std::string Sha256OfFile(const std::string& path);
+/// Lower-case hex of the bytes of `text`.
+std::string Sha256OfText(const std::string& text);
 
 }  // namespace mlp::history

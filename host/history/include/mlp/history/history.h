@@ -58,7 +58,8 @@ struct EarlierRequest {
   std::int64_t job = 0;
   JobStatus status = JobStatus::kRunning;
   nlohmann::json reply;
-  bool wrote = false;  ///< it wrote, or was about to write, to the controller
+  bool wrote = false;   ///< it wrote, or was about to write, to the controller
+  std::string request;  ///< the request as stored (JobStart::request's JSON text)
 };
 
 /// A job the host left running with writes it had announced: not yet confirmed (intents), or

@@ -102,7 +102,8 @@ struct PcdMeasurement {
   std::vector<BoreMeasurement> holes;
   geometry::Vec3 centre_mcs = geometry::Vec3::Zero();  ///< of the circle through the centres
   double diameter_mm = 0.0;
-  double rms_mm = 0.0;  ///< of the centres about that circle
+  double diameter_u_mm = 0.0;  ///< from the circle's fit alone (k = 1), as BoreMeasurement's
+  double rms_mm = 0.0;         ///< of the centres about that circle
   /// The circle of the centres and every hole's fit reached a stationary point; false: it stopped
   /// at its iteration limit and the values are an estimate (the jobs' gate then refuses to write).
   bool converged = true;

@@ -38,6 +38,10 @@ struct BoreMeasurement {
   geometry::Vec3 top_centre_mcs = geometry::Vec3::Zero();  ///< fitted axis at the nominal top
   geometry::Vec3 axis_mcs = geometry::Vec3::UnitZ();
   double diameter_mm = 0.0;  ///< least-squares cylinder
+  /// Standard uncertainty of diameter_mm from the fit alone (k = 1: twice the radius' standard
+  /// deviation from the residuals, geometry Covariance): what the points seen determine, not
+  /// the probe's calibration. A short arc of a large bore is a measurement with a large u.
+  double diameter_u_mm = 0.0;
   /// The functional size (ISO 14405-1): a bore's maximum inscribed circle (the largest pin it
   /// takes), a boss's minimum circumscribed circle (the smallest ring over it), of the wall
   /// points projected along the fitted axis; 0 when the points span 180 deg or less (no

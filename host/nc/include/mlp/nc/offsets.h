@@ -22,6 +22,8 @@ enum class ToolRegister {
 
 /// "length geometry", "radius wear", "offset X", ...
 std::string ToString(ToolRegister r);
+/// The register ToString names; empty for any other text.
+std::optional<ToolRegister> ToolRegisterFrom(const std::string& text);
 /// The tool table's word of an offset register ('X', 'Y', 'C'); 0 for the others.
 char OffsetWord(ToolRegister r);
 

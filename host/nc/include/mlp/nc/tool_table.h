@@ -8,6 +8,7 @@
 /// units, D a diameter. T and P are required; a tool number appears once.
 
 #include "mlp/base/input_error.h"
+#include "mlp/nc/offsets.h"
 
 #include <map>
 #include <optional>
@@ -29,6 +30,9 @@ struct ToolRecord {
   std::string comment;           ///< after ';', without it
   /// A word's value; LinuxCNC reads an absent word as 0.
   double Get(char word) const;
+  /// A register's value as the table holds it: a length is Z, a radius half of D, an offset
+  /// its word (LinuxCNC has no wear registers: a wear register reads its geometry's word).
+  double Register(ToolRegister reg) const;
 };
 
 class ToolTable {

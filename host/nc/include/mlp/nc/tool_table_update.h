@@ -68,6 +68,10 @@ inline constexpr double kStaleToleranceMm = 1e-6;
 /// of logs already on machines).
 std::string ToolChangeLogFor(const std::string& table_path);
 
+/// The lock file UpdateToolTable holds while it reads, changes and writes a table
+/// (".<table>.mlp-lock" beside it): writers of one table take turns, threads and processes.
+std::string ToolTableLockFor(const std::string& table_path);
+
 /// Applies `updates` to the tool table at `table_path` as one change and logs it, `source`
 /// saying who asked (a job, a folder of images). Nothing is written, the table and the log as
 /// they were, when it throws: ToolChangeRefused for a value that is not finite or no longer the

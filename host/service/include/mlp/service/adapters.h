@@ -51,12 +51,13 @@ WrittenFiles WriteResult(const ControllerConfig& c,
 std::string ControllerFile(const ControllerConfig& c, const std::string& machine, std::int64_t job);
 
 /// After a stop between a job's announced writes and their confirmation: did they reach the
-/// controller? LinuxCNC with the host writing the tool table: every tool's value there equals
-/// its `after`. Otherwise: the controller file carries this job's header. Never throws (an
+/// controller? LinuxCNC with the host writing the tool table and tool changes announced: every
+/// register there holds its `after_mm` (the table is what G43 applies, whichever job kind
+/// wrote it). Otherwise: the controller file carries this job's header. Never throws (an
 /// unreadable file means not written).
 bool WritesReachedController(const ControllerConfig& c,
                              const std::string& machine,
                              std::int64_t job,
-                             const nlohmann::json& tool_changes);
+                             const std::vector<nc::ToolOffsetChange>& tool_changes);
 
 }  // namespace mlp::service
