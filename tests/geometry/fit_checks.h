@@ -86,12 +86,9 @@ inline std::vector<ParameterCheck> Checks(const geometry::FitResult<geometry::Co
                                           const Truth& t) {
   std::vector<ParameterCheck> out;
   const geometry::Covariance& c = f.covariance;
-  const Vec3 a = Aligned(t.axis, f.shape.axis);
   // The true cone's radius where the fitted point lies along its axis, and its distance there.
-  const double sign = a.dot(t.axis);  // the truth's radius grows along t.axis
   const double z = (f.shape.point - t.center).dot(t.axis);
   const double radius_there = t.radius + z * std::tan(t.half_angle);
-  (void)sign;
   out.push_back({"half_angle", f.shape.half_angle - t.half_angle, c.StdDev("half_angle")});
   out.push_back(
       {"distance", f.shape.distance - radius_there * std::cos(t.half_angle), c.StdDev("distance")});

@@ -192,63 +192,46 @@ TEST(PartialSweep, CirclesInSpaceBothDefinitionsLsAndRobust) {
   });
 }
 
-TEST(PartialSweep, SpheresOnCaps) {
-  Sweep("sphere", [](const std::string& label, const Truth& t, const Points& p, Tally* tally) {
+// The least-squares fit, and the robust one on clouds up to `robust_points` (the robust ones
+// score every sample on every point).
+template <class Ls, class Robust>
+Runner LsAndRobust(Ls ls, Robust robust, Eigen::Index robust_points = 20000) {
+  return [=](const std::string& label, const Truth& t, const Points& p, Tally* tally) {
     Attempt(
-        label + " ls", t, [&] { return g::FitSphere(p); }, tally);
-    if (p.cols() <= 20000)
+        label + " ls", t, [&] { return ls(p); }, tally);
+    if (p.cols() <= robust_points)
       Attempt(
-          label + " robust", t, [&] { return Inner(g::FitSphereRobust(p)); }, tally);
-  });
+          label + " robust", t, [&] { return Inner(robust(p)); }, tally);
+  };
+}
+
+TEST(PartialSweep, SpheresOnCaps) {
+  Sweep("sphere", LsAndRobust([](const Points& p) { return g::FitSphere(p); },
+                              [](const Points& p) { return g::FitSphereRobust(p); }));
 }
 
 TEST(PartialSweep, CylindersOnSectors) {
-  Sweep("cylinder", [](const std::string& label, const Truth& t, const Points& p, Tally* tally) {
-    Attempt(
-        label + " ls", t, [&] { return g::FitCylinder(p); }, tally);
-    if (p.cols() <= 20000)
-      Attempt(
-          label + " robust", t, [&] { return Inner(g::FitCylinderRobust(p)); }, tally);
-  });
+  Sweep("cylinder", LsAndRobust([](const Points& p) { return g::FitCylinder(p); },
+                                [](const Points& p) { return g::FitCylinderRobust(p); }));
 }
 
 TEST(PartialSweep, ConesOnSectors) {
-  Sweep("cone", [](const std::string& label, const Truth& t, const Points& p, Tally* tally) {
-    Attempt(
-        label + " ls", t, [&] { return g::FitCone(p); }, tally);
-    if (p.cols() <= 20000)
-      Attempt(
-          label + " robust", t, [&] { return Inner(g::FitConeRobust(p)); }, tally);
-  });
+  Sweep("cone", LsAndRobust([](const Points& p) { return g::FitCone(p); },
+                            [](const Points& p) { return g::FitConeRobust(p); }));
 }
 
 TEST(PartialSweep, EllipsesOnArcs) {
-  Sweep("ellipse", [](const std::string& label, const Truth& t, const Points& p, Tally* tally) {
-    Attempt(
-        label + " ls", t, [&] { return g::FitEllipse3(p); }, tally);
-    // The robust ellipse scores each sample by exact foot points on every point: a few
-    // thousand points keep this test under a minute.
-    if (p.cols() <= 3000)
-      Attempt(
-          label + " robust", t, [&] { return Inner(g::FitEllipse3Robust(p)); }, tally);
-  });
+  // The robust ellipse scores each sample by exact foot points on every point: a few thousand
+  // points keep this test under a minute.
+  Sweep("ellipse", LsAndRobust([](const Points& p) { return g::FitEllipse3(p); },
+                               [](const Points& p) { return g::FitEllipse3Robust(p); }, 3000));
 }
 
 TEST(PartialSweep, LinesAndPlanes) {
-  Sweep("line", [](const std::string& label, const Truth& t, const Points& p, Tally* tally) {
-    Attempt(
-        label + " ls", t, [&] { return g::FitLine3(p); }, tally);
-    if (p.cols() <= 20000)
-      Attempt(
-          label + " robust", t, [&] { return Inner(g::FitLine3Robust(p)); }, tally);
-  });
-  Sweep("plane", [](const std::string& label, const Truth& t, const Points& p, Tally* tally) {
-    Attempt(
-        label + " ls", t, [&] { return g::FitPlane(p); }, tally);
-    if (p.cols() <= 20000)
-      Attempt(
-          label + " robust", t, [&] { return Inner(g::FitPlaneRobust(p)); }, tally);
-  });
+  Sweep("line", LsAndRobust([](const Points& p) { return g::FitLine3(p); },
+                            [](const Points& p) { return g::FitLine3Robust(p); }));
+  Sweep("plane", LsAndRobust([](const Points& p) { return g::FitPlane(p); },
+                             [](const Points& p) { return g::FitPlaneRobust(p); }));
 }
 
 }  // namespace
