@@ -5,6 +5,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <string>
 #include <vector>
@@ -33,8 +34,22 @@ class Child {
     }
   }
   ~Child() { Stop(); }
+  pid_t Pid() const { return pid_; }
+  /// The process's peak resident memory so far [MB] (VmHWM); 0 when it has none to read.
+  double PeakMemoryMb() const {
+    std::ifstream in("/proc/" + std::to_string(pid_) + "/status");
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+    return 0.0;
+  }
   /// True while the process runs (not exited, not killed).
-  bool Alive() const { return pid_ > 0 && waitpid(pid_, nullptr, WNOHANG) == 0; }
+  /// Does not reap it: Stop still reads its exit code.
+  bool Alive() const {
+    if (pid_ <= 0) return false;
+    siginfo_t info{};
+    return waitid(P_PID, static_cast<id_t>(pid_), &info, WEXITED | WNOHANG | WNOWAIT) == 0 &&
+           info.si_pid == 0;
+  }
   /// SIGTERM (graceful) by default; SIGKILL is a crash.
   int Stop(int signal = SIGTERM) {
     if (pid_ <= 0) return exit_code_;

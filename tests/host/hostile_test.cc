@@ -46,6 +46,8 @@ constexpr int kSettlePort = 17455;
 constexpr int kQueuePort = 17456;
 constexpr int kDiskPort = 17457;
 constexpr int kKillPort = 17458;
+constexpr int kCloudPort = 17470;
+constexpr int kIdlePort = 17471;
 constexpr int kHostileClients = 16;  // as many as the tester used
 
 std::string Log(const Site& site) { return test::ReadText(site.dir / "hostd.log"); }
@@ -175,6 +177,114 @@ TEST(HostileLink, PeersCannotLockTheProbeOut) {
   EXPECT_NE(log.find("serial is not printable ASCII (hex fffefdfc)"), std::string::npos) << log;
   EXPECT_NE(log.find("exceeds 1024"), std::string::npos) << log;
   EXPECT_NE(log.find("from 127.0.0.1:"), std::string::npos) << log;  // who it was
+  EXPECT_TRUE(hostd.Alive());
+}
+
+// A cloud of `points` identical points: zstd packs 4M of them into a few kilobytes.
+link::LinkCloud Bomb(const std::string& serial, const std::string& capture_id, int points) {
+  link::LinkCloud c;
+  c.capture_id = capture_id;
+  c.probe_serial = serial;
+  c.calibration_id = "cal-x";
+  c.xyz.assign(3 * static_cast<std::size_t>(points), 1.0);
+  c.quality.assign(static_cast<std::size_t>(points), 1.0f);
+  return c;
+}
+
+link::ProbeLinkConfig LinkAs(const std::string& serial, const fs::path& key_file, int port) {
+  link::ProbeLinkConfig cfg;
+  cfg.serial = serial;
+  cfg.key = link::LoadKeyFile(key_file.string());
+  cfg.port = static_cast<std::uint16_t>(port);
+  return cfg;
+}
+
+// Issue 48 items 6, 7 and 11 (the echoed H): a cloud is taken only for a capture a job waits
+// for, from the probe it asked, with the H it sent; nothing else is decompressed. Before, a
+// second probe's key could pre-send the capture ids of the first one's next captures (they are
+// "<machine>-<job>-<name>"): the real cloud was then a "duplicate" and the job failed, and 20
+// small zstd clouds of 8M points each cost the host 270 MB.
+TEST(HostileLink, CloudsAreTakenOnlyAsAskedOfTheProbeAsked) {
+  Site site("hostile_clouds", kCloudPort);
+  std::ofstream(site.dir / "rogue.key") << std::string(64, 'b') << "\n";
+  fs::permissions(site.dir / "rogue.key", fs::perms::owner_read | fs::perms::owner_write);
+  EditConfig(site, [](json& c) {
+    c["probes"].push_back({{"serial", "MLP-ROGUE-0002"}, {"key_file", "rogue.key"}});
+  });
+  Child hostd = StartHostd(site);
+  Child probe = StartProbe(site, kCloudPort);
+  ASSERT_TRUE(test::ProbeConnected(site));
+  const double idle_mb = hostd.PeakMemoryMb();
+  link::ProbeLink rogue(LinkAs("MLP-ROGUE-0002", site.dir / "rogue.key", kCloudPort),
+                        [](const std::string&) {});
+  rogue.Start();
+  // The rogue pre-sends 4M-point clouds under the ids of the next three captures on vmc-1.
+  constexpr int kBombPoints = 4 << 20;
+  constexpr int kCaptures = 3;
+  for (int job = 1; job <= kCaptures; ++job)
+    ASSERT_EQ(
+        rogue.Submit(Bomb("MLP-ROGUE-0002", "vmc-1-" + std::to_string(job) + "-top", kBombPoints)),
+        link::SubmitResult::kQueued);
+  EXPECT_TRUE(rogue.WaitAllAcknowledged(30s));  // answered, so its buffer never fills
+  for (int job = 1; job <= kCaptures; ++job) {
+    const auto run =
+        site.Mlp("request " + site.Request("top", test::TopFaceCapture("top")) + " --json");
+    ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+    const json r = json::parse(run.out);
+    EXPECT_EQ(r.at("job_id"), job);
+    EXPECT_LT(r.at("points").get<int>(), kBombPoints);  // the honest probe's cloud
+    EXPECT_EQ(r.at("probe_calibration_id"), "nominal-design") << r.dump();
+  }
+  // Each bomb decoded would be 4M x 28 bytes (112 MB) and its body 64 MB more.
+  constexpr double kAllowedGrowthMb = 60.0;
+  EXPECT_LT(hostd.PeakMemoryMb() - idle_mb, kAllowedGrowthMb);
+  EXPECT_NE(Log(site).find("not taken: no job waits for this capture id"), std::string::npos);
+
+  // In place of the virtual probe, a stand-in with its key, so that the rogue's cloud arrives
+  // while the capture waits, before the real one.
+  probe.Stop();
+  ASSERT_TRUE(site.WaitFor([&] {
+    const auto s = site.Mlp("status --json");
+    return s.exit_code == 0 && json::parse(s.out).at("probes").at(0).at("connected") == false;
+  }));
+  link::ProbeLink stand_in(LinkAs("MLP-REF-0001", site.dir / "probe.key", kCloudPort),
+                           [](const std::string&) {});
+  stand_in.Start();
+  ASSERT_TRUE(test::ProbeConnected(site));
+  constexpr int kRealPoints = 100;
+  // Answers one request with a cloud whose H is the request's moved by `shift_mm` along x.
+  const auto answer = [&](double shift_mm) {
+    const auto request = stand_in.NextRequest(60s);
+    if (!request) return;
+    rogue.Submit(Bomb("MLP-ROGUE-0002", request->capture_id, kBombPoints));
+    rogue.WaitAllAcknowledged(30s);
+    link::LinkCloud c = Bomb("MLP-REF-0001", request->capture_id, kRealPoints);
+    c.mcs_from_flange = request->mcs_from_flange;
+    c.mcs_from_flange.translation().x() += shift_mm;
+    stand_in.Submit(c);
+  };
+  std::thread honest(answer, 0.0);
+  const auto run =
+      site.Mlp("request " + site.Request("top", test::TopFaceCapture("top")) + " --json");
+  honest.join();
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  EXPECT_EQ(json::parse(run.out).at("points"), kRealPoints);
+  EXPECT_NE(Log(site).find("not taken: that capture was asked of probe MLP-REF-0001"),
+            std::string::npos)
+      << Log(site);
+
+  // Item 11: a cloud that echoes another H than the request's (50 um off) fails the capture at
+  // once, and is not stored; before, it was stored with the probe's H.
+  std::thread moved_echo(answer, 0.050);
+  const auto moved = site.Mlp("request " + site.Request("moved", test::TopFaceCapture("top")));
+  moved_echo.join();
+  stand_in.Stop();
+  rogue.Stop();
+  EXPECT_NE(moved.exit_code, 0);
+  EXPECT_NE(moved.err.find("the cloud carries another pose H than the request's (0.050000 mm"),
+            std::string::npos)
+      << moved.out << moved.err;
+  EXPECT_FALSE(fs::exists(site.dir / "data" / "clouds" / std::to_string(kCaptures + 2)));
   EXPECT_TRUE(hostd.Alive());
 }
 
@@ -387,6 +497,23 @@ TEST(HostileClient, ARepeatedRequestCompensatesOnce) {
   EXPECT_NE(twice.err.find("names capture job " + std::to_string(captures[0]) + " twice"),
             std::string::npos)
       << twice.err;
+
+  // Issue 48 item 11: a write that fails is settled at once from the controller: not there, so
+  // a retry under the same request_id runs (its rows were left "intent" and the retry was
+  // answered with the failure, for ever).
+  const fs::path result_dir = site.dir / "lcnc";
+  fs::remove_all(result_dir);
+  std::ofstream(result_dir) << "a file where the result folder belongs\n";
+  json retry = measure;
+  retry["request_id"] = "part-0042-bore-B";
+  const auto cut = site.Mlp("request " + site.Request("retry", retry));
+  EXPECT_NE(cut.exit_code, 0) << cut.out;
+  EXPECT_EQ(test::ReadText(site.dir / "tool.tbl"), table_after);
+  fs::remove(result_dir);
+  const auto retried = site.Mlp("request " + site.Request("retry", retry) + " --json");
+  ASSERT_EQ(retried.exit_code, 0) << retried.err;
+  EXPECT_FALSE(json::parse(retried.out).contains("repeated")) << retried.out;
+  EXPECT_NE(test::ReadText(site.dir / "tool.tbl"), table_after);  // written this time
 
   // Issue 48 item 10: a failing request of 1 MiB is kept by its size and SHA-256 only (51 of
   // them filled a 64 MB data disk).
@@ -603,6 +730,32 @@ TEST(Hostd, KillsInsideMeasureJobsNeverCompensateTwice) {
 
 // Issue 24 item 8: a machine's queue never holds up status or another machine. The probe here
 // authenticates and then never answers a capture (a firmware hung mid-capture).
+// Issue 48 item 11: 64 idle connections renewed every 8 s made half of the `mlp status` calls
+// fail with a broken pipe. Connections that never send a request are the ones closed when all
+// are taken: status answers every time, however many idle ones are held.
+TEST(HostileClient, IdleConnectionsCannotCrowdOutStatus) {
+  Site site("hostile_idle", kIdlePort);
+  Child hostd = StartHostd(site);
+  asio::io_context io;
+  constexpr int kIdle = 80;  // over the 64 the job socket holds
+  std::vector<std::unique_ptr<asio::local::stream_protocol::socket>> idle;
+  for (int i = 0; i < kIdle; ++i) {
+    idle.push_back(std::make_unique<asio::local::stream_protocol::socket>(io));
+    idle.back()->connect(asio::local::stream_protocol::endpoint(site.socket));
+  }
+  constexpr int kCalls = 20;
+  int answered = 0;
+  for (int i = 0; i < kCalls; ++i) {
+    answered += StatusOk(site);
+    // The idle ones come back as fast as they are closed, as the tester's did.
+    idle[static_cast<std::size_t>(i)] = std::make_unique<asio::local::stream_protocol::socket>(io);
+    idle[static_cast<std::size_t>(i)]->connect(asio::local::stream_protocol::endpoint(site.socket));
+  }
+  EXPECT_EQ(answered, kCalls);
+  EXPECT_NE(Log(site).find("closed the oldest that had sent no request"), std::string::npos);
+  EXPECT_TRUE(hostd.Alive());
+}
+
 TEST(HostileClient, AFullQueueHoldsUpNobodyElse) {
   Site site("hostile_queue", kQueuePort);
   EditConfig(site, [](json& c) { c["capture_timeout_s"] = 20; });

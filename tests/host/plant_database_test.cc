@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "electrode_site.h"
+#include "garbage_server.h"
 #include "plant/postgres.h"
 
 namespace mlp::test {
@@ -81,6 +82,66 @@ TEST(HostdPlantDatabase, EveryJobReachesThePlantAndWaitsWhileTheServerIsAway) {
   EXPECT_TRUE(PlantHasJob(pg, refused_job, "refused")) << ReadText(site.dir / "hostd2.log");
   EXPECT_EQ(PlantJobs(pg).size(), 2u);  // nothing twice
   EXPECT_NE(ReadText(site.dir / "hostd.log").find("jobs wait in the outbox"), std::string::npos);
+}
+
+// True once `child` has ended, polling for up to `bound`; a host that ignores SIGTERM is killed
+// at the end of the test instead of hanging it.
+bool EndsWithin(Child& child, std::chrono::seconds bound) {
+  const auto deadline = std::chrono::steady_clock::now() + bound;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (!child.Alive()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return !child.Alive();
+}
+
+constexpr const char* kSecret = "S3cret-pw";
+
+// Issue 48 item 9: libpq quotes a malformed connection string whole, password and all, and the
+// host printed it in `mlp status --json`, its log and `mlp history --db`; `mlp history --db`
+// waited for ever on a server that accepts and never answers; and a SIGTERM was not obeyed
+// while the plant database stalled (39 s on a locked table, for ever on a silent server).
+TEST(HostdPlantDatabase, NoPasswordInAnyOutputAndNoWaitForeverOnAStalledServer) {
+  SilentServer silent;
+  const std::string port = std::to_string(silent.port());
+  const std::vector<std::string> uris = {
+      "postgresql://mlp:" + std::string(kSecret) + "@[::1/mlprobe",     // IPv6 bracket left open
+      "postgresql://mlp:" + std::string(kSecret) + "@127.0.0.1:5x/db",  // a port that is not one
+      "postgresql://mlp@127.0.0.1:" + port + "/mlprobe?password=" + kSecret,
+      "postgresql://mlp:" + std::string(kSecret) + "@127.0.0.1:" + port + "/mlprobe"};
+  std::string printed;  // everything every program printed
+  for (const std::string& uri : uris) {
+    const auto r = RunProcess("timeout 60 " + kMlp + " history --db '" + uri + "' --format json");
+    EXPECT_NE(r.exit_code, 0) << uri;
+    EXPECT_NE(r.exit_code, 124) << "mlp history waited on " << uri;  // timeout's code
+    printed += r.out + r.err;
+  }
+  for (const std::string& uri : uris) {
+    Site site("plant_database_secret", 17469);
+    json config = json::parse(ReadText(site.dir / "hostd.json"));
+    config["host_id"] = "cell3";
+    config["plant_database"] = {{"connection", uri}};
+    ElectrodeSite(site, config);
+    if (HasFatalFailure()) return;
+    Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
+    ASSERT_TRUE(site.WaitFor([&] { return site.Mlp("status").exit_code == 0; }))
+        << ReadText(site.dir / "hostd.log");
+    // A job in the outbox makes the host meet the database.
+    site.Mlp("request " + site.Request("tilted", RelocateJob("tilted")));
+    EXPECT_TRUE(site.WaitFor([&] {
+      const json s = json::parse(site.Mlp("status --json").out).at("plant_database");
+      return !s.at("last_error").get<std::string>().empty();
+    })) << uri;
+    printed += site.Mlp("status --json").out + site.Mlp("status").out;
+    // SIGTERM while the forwarder waits on the silent server: obeyed.
+    kill(hostd.Pid(), SIGTERM);
+    EXPECT_TRUE(EndsWithin(hostd, std::chrono::seconds(30))) << uri;
+    EXPECT_EQ(hostd.Stop(SIGKILL), 0) << uri;
+    printed += ReadText(site.dir / "hostd.log");
+  }
+  EXPECT_GT(silent.accepted(), 0);
+  EXPECT_EQ(printed.find(kSecret), std::string::npos) << printed;
+  EXPECT_NE(printed.find("***"), std::string::npos) << printed;  // redacted, not dropped
 }
 
 }  // namespace

@@ -123,6 +123,30 @@ TEST(ToolJob, TheToolCamerasResultGoesThroughTheAdapterOrIsRefused) {
   const auto sly = site.Mlp("request " + site.Request("tool-sly", ToolJob("tools/sly")));
   EXPECT_EQ(sly.exit_code, 7);
   EXPECT_NE(sly.err.find("not a plain file name"), std::string::npos) << sly.err;
+  // Issue 48 item 8: a manifest that is a 1 GiB sparse file (+1,023 MB before, and the job
+  // wrote) and an image declaring 30000 x 30000 (decoded before its size was checked: +855 MB
+  // for a 875 KB PNG) are refused unread and undecoded.
+  const double before_mb = hostd.PeakMemoryMb();
+  fs::create_directories(site.dir / "data" / "tools" / "vast");
+  std::ofstream(site.dir / "data" / "tools" / "vast" / "images.json") << manifest.dump();
+  fs::resize_file(site.dir / "data" / "tools" / "vast" / "images.json", std::uintmax_t{1} << 30);
+  const auto vast = site.Mlp("request " + site.Request("tool-vast", ToolJob("tools/vast")));
+  EXPECT_EQ(vast.exit_code, 7);
+  EXPECT_NE(vast.err.find("holds more than 1048576 bytes"), std::string::npos) << vast.err;
+  fs::remove(site.dir / "data" / "tools" / "vast" / "images.json");
+  fs::copy(site.dir / "data" / "tools" / "new", site.dir / "data" / "tools" / "huge",
+           fs::copy_options::recursive);
+  const json listed = json::parse(ReadText(site.dir / "data" / "tools" / "huge" / "images.json"));
+  const fs::path first = site.dir / "data" / "tools" / "huge" /
+                         listed.at("images").at(0).at("file").get<std::string>();
+  // The camera's PGM, its header declaring 30000 x 30000 (a decoder allocates from it).
+  std::ofstream(first, std::ios::binary) << "P5\n# 900 megapixels\n30000 30000\n255\n"
+                                         << std::string(4096, '\x80');
+  const auto huge = site.Mlp("request " + site.Request("tool-huge", ToolJob("tools/huge")));
+  EXPECT_EQ(huge.exit_code, 7);
+  EXPECT_NE(huge.err.find("declares 30000 x 30000 pixels"), std::string::npos) << huge.err;
+  constexpr double kAllowedGrowthMb = 100.0;  // each attack alone was over 850 MB
+  EXPECT_LT(hostd.PeakMemoryMb() - before_mb, kAllowedGrowthMb);
   json missing = ToolJob("tools/new");
   missing["tool_number"] = 9;
   const auto nine = site.Mlp("request " + site.Request("tool-nine", missing));

@@ -133,6 +133,53 @@ TEST(CloudCodec, TheLedFramesEdgeRidesAlongExactly) {
   }
 }
 
+// Issue 48 item 11: an edge point count of 0xFFFFFFFF passed the link and became -1 further on,
+// failing every later job on that capture. The count follows the edge's ten numbers.
+TEST(CloudCodec, AnEdgeOfMoreThanASensorsPointsIsRefused) {
+  LinkCloud c;
+  c.xyz = {1, 2, 3};
+  c.quality = {0.5f};
+  c.edge = TestEdge();
+  c.edge->points = base::kMaxEdgePoints;
+  EXPECT_EQ(DecodeCloud(EncodeCloud(c, false)).edge->points, base::kMaxEdgePoints);
+  c.edge->points = 0xffffffffu;
+  EXPECT_THROW(EncodeCloud(c, false), LinkError);
+  c.edge->points = 100;
+  Bytes b = EncodeCloud(c, false);
+  const size_t count_at = 3 * 2 + 16 * 8 + 3 * 8 + 1 + 10 * 8;
+  for (size_t k = 0; k < 4; ++k) b[count_at + k] = 0xff;
+  try {
+    DecodeCloud(b);
+    ADD_FAILURE() << "an edge of 0xFFFFFFFF points was decoded";
+  } catch (const LinkError& e) {
+    EXPECT_NE(std::string(e.what()).find("more than 65535 points"), std::string::npos) << e.what();
+  }
+}
+
+// The host reads a cloud's header before deciding to decode it: the same metadata and count as
+// the whole decode, from a payload whose points it never unpacks.
+TEST(CloudCodec, TheHeaderAloneTellsWhoseCaptureAndHowMany) {
+  LinkCloud c;
+  c.capture_id = "vmc-1-7-top";
+  c.probe_serial = "MLP-REF-0001";
+  c.calibration_id = "cal-3";
+  c.mcs_from_flange.translation() = Eigen::Vector3d(1, 2, 3);
+  c.edge = TestEdge();
+  c.xyz.assign(3 * 5000, 2.5);
+  c.quality.assign(5000, 0.5f);
+  Bytes b = EncodeCloud(c, true);
+  const CloudHeader h = PeekCloud(b);
+  EXPECT_EQ(h.meta.capture_id, c.capture_id);
+  EXPECT_EQ(h.meta.probe_serial, c.probe_serial);
+  EXPECT_EQ(h.meta.calibration_id, c.calibration_id);
+  EXPECT_TRUE(h.meta.mcs_from_flange.isApprox(c.mcs_from_flange, 0.0));
+  EXPECT_EQ(h.points, 5000u);
+  EXPECT_TRUE(h.meta.xyz.empty());
+  b.back() ^= 0xff;  // the packed points: the header does not read them
+  EXPECT_EQ(PeekCloud(b).points, 5000u);
+  EXPECT_THROW(DecodeCloud(b), LinkError);
+}
+
 TEST(CloudCodec, BadCloudsAreRefusedOnEncode) {
   LinkCloud c;
   c.xyz = {0, 0, 1e9};  // 1000 km

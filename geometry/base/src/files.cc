@@ -1,5 +1,6 @@
 #include "mlp/base/files.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -68,13 +69,28 @@ void Publish(const std::string& tmp, const std::string& path, Replace replace) {
 
 }  // namespace
 
-std::string ReadFile(const std::string& path) {
+std::string ReadFile(const std::string& path, std::size_t max_bytes) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw FileError("cannot read " + path + ": " + Why());
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
+  if (max_bytes == kAnySize) {
+    std::ostringstream bytes;
+    bytes << in.rdbuf();
+    if (in.bad()) throw FileError("cannot read " + path + ": " + Why());
+    return std::move(bytes).str();
+  }
+  // In chunks, never more than one past the limit: the size a file claims (a FIFO has none, a
+  // sparse file a false one) is not trusted.
+  constexpr std::size_t kChunk = 64 * 1024;
+  std::string bytes;
+  char chunk[kChunk];
+  while (in && bytes.size() <= max_bytes) {
+    in.read(chunk, static_cast<std::streamsize>(std::min(kChunk, max_bytes + 1 - bytes.size())));
+    bytes.append(chunk, static_cast<std::size_t>(in.gcount()));
+  }
   if (in.bad()) throw FileError("cannot read " + path + ": " + Why());
-  return std::move(bytes).str();
+  if (bytes.size() > max_bytes)
+    throw FileError(path + " holds more than " + std::to_string(max_bytes) + " bytes");
+  return bytes;
 }
 
 bool IsTemporaryName(std::string_view name) {

@@ -308,13 +308,15 @@ void History::AddWriteIntents(std::int64_t job,
   }
 }
 
-void History::MarkWritesDone(std::int64_t job) {
+void History::MarkWritesDone(std::int64_t job, bool written) {
   const std::lock_guard lock(impl_->m);
   try {
     SQLite::Statement q(impl_->db,
-                        "UPDATE offset_writes SET state = 'written', written_utc = ? "
-                        "WHERE job_id = ? AND state = 'intent'");
-    q.bind(1, base::UtcTimestamp());
+                        written ? "UPDATE offset_writes SET state = 'written', written_utc = ? "
+                                  "WHERE job_id = ? AND state = 'intent'"
+                                : "UPDATE offset_writes SET state = 'not_written' "
+                                  "WHERE job_id = ?2 AND state = 'intent'");
+    if (written) q.bind(1, base::UtcTimestamp());
     q.bind(2, job);
     q.exec();
   } catch (const SQLite::Exception& e) {

@@ -3,10 +3,15 @@
 #include "mlp/base/json_text.h"
 
 #include <algorithm>
+#include <cctype>
 #include <optional>
+#include <regex>
+#include <string>
+#include <vector>
 
 #include <poll.h>
 #include <pqxx/pqxx>
+#include <sys/socket.h>
 
 namespace mlp::plant {
 namespace {
@@ -69,6 +74,91 @@ bool Closed(const pqxx::connection& c) {
 
 json Stored(const pqxx::field& f) { return f.is_null() ? json() : json::parse(f.c_str()); }
 
+std::string PercentDecoded(const std::string& text) {
+  std::string out;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '%' && i + 2 < text.size() &&
+        std::isxdigit(static_cast<unsigned char>(text[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(text[i + 2]))) {
+      out += static_cast<char>(std::stoi(text.substr(i + 1, 2), nullptr, 16));
+      i += 2;
+    } else {
+      out += text[i];
+    }
+  }
+  return out;
+}
+
+// The secrets a connection string may hold: a URI's password (as written and decoded; libpq
+// takes the user info up to the first '@' or '/') and every `password=` value, in a URI's query
+// or a keyword string.
+std::vector<std::string> Secrets(const std::string& connection) {
+  std::vector<std::string> out;
+  const std::size_t scheme = connection.find("://");
+  if (scheme != std::string::npos) {
+    const std::size_t start = scheme + 3;
+    const std::size_t end = connection.find_first_of("@/", start);
+    if (end != std::string::npos && connection[end] == '@') {
+      const std::size_t colon = connection.find(':', start);
+      if (colon != std::string::npos && colon < end)
+        out.push_back(connection.substr(colon + 1, end - colon - 1));
+    }
+  }
+  static const std::regex kPassword(R"(password\s*=\s*('(?:[^'\\]|\\.)*'|[^&\s]*))",
+                                    std::regex::icase);
+  for (std::sregex_iterator it(connection.begin(), connection.end(), kPassword), end; it != end;
+       ++it) {
+    std::string value = (*it)[1].str();
+    if (value.size() >= 2 && value.front() == '\'') value = value.substr(1, value.size() - 2);
+    out.push_back(value);
+  }
+  std::vector<std::string> all;
+  for (const std::string& secret : out) {
+    if (secret.empty()) continue;
+    all.push_back(secret);
+    all.push_back(PercentDecoded(secret));
+  }
+  // The longest first: a password that holds another is replaced whole.
+  std::sort(all.begin(), all.end(),
+            [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
+  return all;
+}
+
+// libpq quotes a malformed connection string whole in its errors (unexpected character, bad
+// percent-encoding, an IPv6 bracket left open): every secret is replaced before a message
+// leaves this file.
+std::string Redacted(std::string message, const std::vector<std::string>& secrets) {
+  for (const std::string& secret : secrets) {
+    for (std::size_t at = message.find(secret); at != std::string::npos;
+         at = message.find(secret, at + 3))
+      message.replace(at, secret.size(), "***");
+  }
+  return message;
+}
+
+// libpq waits for ever on a server that accepts and never answers (`mlp history --db` hung),
+// and a statement on a locked table as long as the lock: a bound on both, unless the
+// connection sets its own. connect_timeout counts the whole start-up, authentication included.
+constexpr int kConnectTimeoutS = 5;
+constexpr const char* kStatementLimits = "-c statement_timeout=30000 -c lock_timeout=10000";
+
+std::string WithLimits(const std::string& connection) {
+  std::string out = connection;
+  const bool uri = IsDatabaseUri(connection);
+  const auto add = [&](const std::string& key, const std::string& value) {
+    if (connection.find(key + "=") != std::string::npos) return;
+    if (uri) {
+      out += (out.find('?') == std::string::npos ? "?" : "&") + key + "=";
+      for (char c : value) out += c == ' ' ? "%20" : c == '=' ? "%3D" : std::string(1, c);
+    } else {
+      out += " " + key + "='" + value + "'";
+    }
+  };
+  add("connect_timeout", std::to_string(kConnectTimeoutS));
+  add("options", kStatementLimits);
+  return out;
+}
+
 }  // namespace
 
 bool IsDatabaseUri(const std::string& text) {
@@ -77,9 +167,23 @@ bool IsDatabaseUri(const std::string& text) {
 
 struct PlantDatabase::Impl {
   std::string connection;
+  std::vector<std::string> secrets;
   mutable std::mutex m;
   mutable std::unique_ptr<pqxx::connection> db;
   bool prepared = false;
+  // The socket of the statement running now (-1: none), for Interrupt; fd_m keeps it from being
+  // shut down after the connection that owned it is gone.
+  mutable std::mutex fd_m;
+  mutable int busy_fd = -1;
+
+  [[noreturn]] void Fail(const std::string& message) const {
+    throw PlantDatabaseError(Redacted(message, secrets));
+  }
+
+  void SetBusy(int fd) const {
+    std::lock_guard lock(fd_m);
+    busy_fd = fd;
+  }
 
   // The connection string may hold a password: errors name the database by host and name.
   std::string Where() const {
@@ -93,8 +197,8 @@ struct PlantDatabase::Impl {
     db.reset();
     try {
       db = std::make_unique<pqxx::connection>(connection);
-    } catch (const pqxx::failure& e) {
-      throw PlantDatabaseError(std::string("the plant database cannot be reached: ") + e.what());
+    } catch (const std::exception& e) {  // pqxx::failure, or argument_error for a bad string
+      Fail(std::string("the plant database cannot be reached: ") + e.what());
     }
     return *db;
   }
@@ -103,8 +207,15 @@ struct PlantDatabase::Impl {
   template <typename Body>
   auto InTransaction(const std::string& what, Body body) const {
     std::lock_guard lock(m);
+    // Cleared before the connection can go (a catch below may drop it).
+    struct Idle {
+      const Impl& d;
+      ~Idle() { d.SetBusy(-1); }
+    } idle{*this};
     try {
-      pqxx::work tx(Db());
+      pqxx::connection& c = Db();
+      SetBusy(c.sock());
+      pqxx::work tx(c);
       if constexpr (std::is_void_v<decltype(body(tx))>) {
         body(tx);
         tx.commit();
@@ -114,20 +225,29 @@ struct PlantDatabase::Impl {
         return out;
       }
     } catch (const pqxx::sql_error& e) {
-      throw PlantDatabaseError(Where() + ": " + what + ": " + e.what());
+      Fail(Where() + ": " + what + ": " + e.what());
     } catch (const pqxx::failure& e) {
       const std::string where = Where();
+      SetBusy(-1);
       db.reset();
-      throw PlantDatabaseError(where + ": " + what + ": " + e.what());
+      Fail(where + ": " + what + ": " + e.what());
     } catch (const json::exception& e) {
-      throw PlantDatabaseError(Where() + ": " + what +
-                               ": a stored value that is not JSON: " + e.what());
+      Fail(Where() + ": " + what + ": a stored value that is not JSON: " + e.what());
     }
   }
 };
 
 PlantDatabase::PlantDatabase(std::string connection) : impl_(std::make_unique<Impl>()) {
-  impl_->connection = std::move(connection);
+  impl_->secrets = Secrets(connection);
+  impl_->connection = WithLimits(connection);
+  // The limits added may name the string in an error too.
+  for (const std::string& s : Secrets(impl_->connection)) impl_->secrets.push_back(s);
+}
+
+void PlantDatabase::Interrupt() {
+  std::lock_guard lock(impl_->fd_m);
+  // shutdown, not close: the descriptor stays libpq's; its blocked read returns at once.
+  if (impl_->busy_fd >= 0) ::shutdown(impl_->busy_fd, SHUT_RDWR);
 }
 
 PlantDatabase::~PlantDatabase() = default;

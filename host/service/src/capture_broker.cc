@@ -4,14 +4,27 @@
 #include <condition_variable>
 #include <map>
 #include <mutex>
+#include <string>
 
 namespace mlp::service {
 
-// One waiting job per capture id; the link's thread fills it in.
+// One waiting job per capture id: the probe asked and the request's H; the link's thread fills
+// in the answer.
 struct Pending {
+  std::string serial;
+  Eigen::Isometry3d mcs_from_flange = Eigen::Isometry3d::Identity();
   std::optional<link::LinkCloud> cloud;
   std::optional<link::ProbeError> error;
 };
+
+// The probe echoes the request's H as the same 16 doubles; anything else is not this capture.
+// Tolerances far below any machine's resolution, above a re-normalisation's rounding.
+constexpr double kEchoTolMm = 1e-9, kEchoTolRotation = 1e-12;
+
+bool SamePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a.translation() - b.translation()).cwiseAbs().maxCoeff() <= kEchoTolMm &&
+         (a.linear() - b.linear()).cwiseAbs().maxCoeff() <= kEchoTolRotation;
+}
 
 struct CaptureBroker::Impl {
   link::Log log;
@@ -33,11 +46,36 @@ struct CaptureBroker::Impl {
     cv.notify_all();
   }
 
+  // Before the link decodes a cloud: only the capture a job waits for, from the probe it asked,
+  // with the H it sent. A cloud with another H fails that job at once (it would otherwise be
+  // measured with the probe's H, or wait out its timeout).
+  std::string Admit(const std::string& serial, const link::CloudHeader& head) {
+    std::lock_guard lock(m);
+    const auto it = pending.find(head.meta.capture_id);
+    if (it == pending.end())
+      return "no job waits for this capture id (timed out, resent after a restart, or never "
+             "asked)";
+    Pending& p = it->second;
+    if (p.serial != serial) return "that capture was asked of probe " + p.serial;
+    if (p.cloud || p.error) return "that capture is answered already";
+    if (!SamePose(head.meta.mcs_from_flange, p.mcs_from_flange)) {
+      const double off_mm =
+          (head.meta.mcs_from_flange.translation() - p.mcs_from_flange.translation()).norm();
+      p.error = link::ProbeError{link::ProbeErrorCode::kCaptureFailed, head.meta.capture_id,
+                                 "the cloud carries another pose H than the request's (" +
+                                     std::to_string(off_mm) +
+                                     " mm apart): not measured, take the capture again"};
+      cv.notify_all();
+      return "its pose H is not the request's";
+    }
+    return {};
+  }
+
   void OnError(const std::string& serial, const link::ProbeError& e) {
     std::lock_guard lock(m);
     const auto it = pending.find(e.capture_id);
-    if (it == pending.end()) return;  // the link logged it already
-    (void)serial;
+    // The link logged it already; an error from another probe does not end this capture.
+    if (it == pending.end() || it->second.serial != serial) return;
     it->second.error = e;
     cv.notify_all();
   }
@@ -50,6 +88,9 @@ CaptureBroker::CaptureBroker(link::HostLinkConfig config, const link::Log& log)
       std::move(config), [this](const link::LinkCloud& c) { impl_->OnCloud(c); }, log);
   impl_->host->OnError(
       [this](const std::string& s, const link::ProbeError& e) { impl_->OnError(s, e); });
+  impl_->host->SetAdmission([this](const std::string& serial, const link::CloudHeader& head) {
+    return impl_->Admit(serial, head);
+  });
 }
 
 CaptureBroker::~CaptureBroker() { Stop(); }
@@ -79,7 +120,8 @@ link::LinkCloud CaptureBroker::Capture(const std::string& serial,
     std::lock_guard lock(s.m);
     if (s.stopping)
       throw CaptureError(CaptureError::Kind::kBadRequest, "the host is stopping: no capture");
-    if (!s.pending.emplace(request.capture_id, Pending{}).second)
+    if (!s.pending.emplace(request.capture_id, Pending{serial, request.mcs_from_flange, {}, {}})
+             .second)
       throw CaptureError(CaptureError::Kind::kBadRequest,
                          "capture id " + request.capture_id + " is already in flight");
   }

@@ -124,8 +124,19 @@ std::vector<std::string> WriteToController(JobContext& ctx,
   ctx.history.AddWriteIntents(job, rows, reply);
   // The gate checked the change (a radius change for D); the writer holds the same limit again.
   const double max_mm = ctx.machine.limits.max_offset_change_mm;
-  const WrittenFiles written =
-      WriteResult(c, {max_mm, 2 * max_mm}, ctx.machine.name, job, out, reply);
+  WrittenFiles written;
+  try {
+    written = WriteResult(c, {max_mm, 2 * max_mm}, ctx.machine.name, job, out, reply);
+  } catch (...) {
+    // A write that failed is settled now as a restart would settle it, from what the controller
+    // shows: left as "intent", a retry under the same request_id was answered with this
+    // failure and never ran again.
+    std::vector<nc::ToolOffsetChange> tools;
+    for (const history::OffsetWriteRow& row : rows)
+      if (const auto t = ToolChangeOfRow(row)) tools.push_back(*t);
+    ctx.history.MarkWritesDone(job, WritesReachedController(c, ctx.machine.name, job, tools));
+    throw;
+  }
   ctx.history.MarkWritesDone(job);
   ctx.feed.OffsetsWritten(ctx.machine.name, job, rows);
   for (const std::string& w : written.warnings) ctx.log("job " + std::to_string(job) + ": " + w);

@@ -23,7 +23,7 @@ struct PlantForwarder::Impl {
   std::thread thread;
   mutable std::mutex m;
   std::condition_variable wake;
-  bool stop = false, woken = false, connected = false, said_down = false;
+  bool stop = false, woken = false, connected = false, said_down = false, finished = false;
   std::int64_t sent = 0, waiting = -1;  // waiting: as last counted by this thread
   std::string last_error;
   std::set<std::int64_t> unreadable;  // jobs the history cannot export: left queued, skipped
@@ -91,9 +91,12 @@ struct PlantForwarder::Impl {
       wake.wait_for(lock, wait, [this] { return stop || woken; });
       woken = false;
       if (stop) {
+        // What the last jobs closed, if the database answered the last time: a server that is
+        // away would hold the stop up for its connect timeout.
+        const bool reachable = connected;
         lock.unlock();
         try {
-          SendQueued();  // what the last jobs closed, if the database takes it now
+          if (reachable) SendQueued();
         } catch (const std::exception&) {
           // kept in the outbox for the next start
         }
@@ -117,17 +120,33 @@ PlantForwarder::~PlantForwarder() { Stop(); }
 void PlantForwarder::Start() {
   if (!impl_ || impl_->thread.joinable()) return;
   impl_->history->EnablePlantOutbox();
-  impl_->thread = std::thread([this] { impl_->Run(); });
+  impl_->thread = std::thread([this] {
+    impl_->Run();
+    std::lock_guard lock(impl_->m);
+    impl_->finished = true;
+    impl_->wake.notify_all();
+  });
 }
 
 void PlantForwarder::Stop() {
   if (!impl_) return;
-  {
-    std::lock_guard lock(impl_->m);
-    impl_->stop = true;
-  }
+  if (!impl_->thread.joinable()) return;
+  std::unique_lock lock(impl_->m);
+  impl_->stop = true;
   impl_->wake.notify_all();
-  if (impl_->thread.joinable()) impl_->thread.join();
+  // A send in progress may finish; one that waits on a stalled server (a locked table, a
+  // server that went silent) is cut: the job stays in the outbox. Before, a SIGTERM waited 39 s
+  // on a locked table and for ever on a silent server.
+  constexpr std::chrono::milliseconds kGrace(1000), kRetry(100);
+  if (!impl_->wake.wait_for(lock, kGrace, [this] { return impl_->finished; })) {
+    while (!impl_->wake.wait_for(lock, kRetry, [this] { return impl_->finished; })) {
+      lock.unlock();
+      impl_->db->Interrupt();  // again: it may have been connecting (bounded at 5 s)
+      lock.lock();
+    }
+  }
+  lock.unlock();
+  impl_->thread.join();
 }
 
 void PlantForwarder::Wake() {

@@ -3,7 +3,9 @@
 #include "mlp/base/files.h"
 #include "mlp/toolcam/pin_calibration.h"
 
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -21,6 +23,86 @@ namespace {
   throw ToolInputError(what);
 }
 
+// A manifest lists a few hundred images at most; 1 MiB is thousands.
+constexpr std::size_t kMaxManifestBytes = 1 << 20;
+
+std::uint32_t BigEndian32(const std::string& b, std::size_t at) {
+  std::uint32_t v = 0;
+  for (std::size_t k = 0; k < 4; ++k) v = (v << 8) | static_cast<std::uint8_t>(b[at + k]);
+  return v;
+}
+std::int32_t LittleEndian32(const std::string& b, std::size_t at) {
+  std::uint32_t v = 0;
+  for (std::size_t k = 4; k-- > 0;) v = (v << 8) | static_cast<std::uint8_t>(b[at + k]);
+  return static_cast<std::int32_t>(v);
+}
+
+// An image's width and height from its header, before anything is decoded: a 875 KB PNG may
+// declare 30000 x 30000 pixels (855 MB once decoded). Written by hand because OpenCV 4.6 has no
+// header-only read (cv::imread decodes whole). PGM (what the tool camera writes): "P5", then
+// width, height and maxval as decimal text between white space and # comments (netpbm's
+// pgm(5)); PNG: the IHDR chunk follows the 8-byte signature (ISO/IEC 15948, 11.2.2); BMP:
+// BITMAPINFOHEADER's width and height (negative: top-down). Other formats are refused: the tool
+// images are lossless (a JPEG's 8 x 8 blocks move an edge by a sub-pixel amount that nothing can
+// tell from a real one).
+bool PgmSize(const std::string& b, std::int64_t* width, std::int64_t* height) {
+  std::size_t at = 2;
+  const auto number = [&](std::int64_t* v) {
+    for (;;) {  // white space and comments before each number
+      while (at < b.size() && std::isspace(static_cast<unsigned char>(b[at]))) ++at;
+      if (at < b.size() && b[at] == '#') {
+        while (at < b.size() && b[at] != '\n') ++at;
+        continue;
+      }
+      break;
+    }
+    const std::size_t first = at;
+    *v = 0;
+    while (at < b.size() && at - first < 9 && std::isdigit(static_cast<unsigned char>(b[at])))
+      *v = 10 * *v + (b[at++] - '0');
+    return at > first;
+  };
+  return number(width) && number(height);
+}
+
+bool HeaderSize(const std::string& b, std::int64_t* width, std::int64_t* height) {
+  if (b.size() >= 3 && b.compare(0, 2, "P5") == 0) return PgmSize(b, width, height);
+  static const std::string kPng("\x89PNG\r\n\x1a\n", 8);
+  if (b.size() >= 24 && b.compare(0, 8, kPng) == 0 && b.compare(12, 4, "IHDR") == 0) {
+    *width = BigEndian32(b, 16), *height = BigEndian32(b, 20);
+    return true;
+  }
+  if (b.size() >= 26 && b.compare(0, 2, "BM") == 0) {
+    *width = LittleEndian32(b, 18), *height = std::abs(std::int64_t{LittleEndian32(b, 22)});
+    return true;
+  }
+  return false;
+}
+
+// One listed image, its size checked from its header before it is decoded.
+std::vector<std::uint8_t> ReadImage(const std::string& file, const ToolCameraModel& camera) {
+  const std::string size =
+      std::to_string(camera.width_px) + " x " + std::to_string(camera.height_px);
+  // Larger than any PGM, PNG or BMP of that size can be (16-bit RGBA, 8 bytes a pixel, and
+  // headers).
+  const std::size_t max_bytes =
+      8 * static_cast<std::size_t>(camera.width_px) * static_cast<std::size_t>(camera.height_px) +
+      (1 << 20);
+  const std::string bytes = base::ReadFileAs<ToolInputError>(file, "tool images: ", max_bytes);
+  std::int64_t w = 0, h = 0;
+  if (!HeaderSize(bytes, &w, &h))
+    throw ToolInputError(file + " is not a PGM, PNG or BMP image (tool images are lossless)");
+  if (w != camera.width_px || h != camera.height_px)
+    throw ToolInputError(file + " declares " + std::to_string(w) + " x " + std::to_string(h) +
+                         " pixels, the manifest " + size + ": not decoded");
+  const cv::Mat g = cv::imdecode(
+      cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data())),
+      cv::IMREAD_GRAYSCALE);
+  if (g.empty() || g.cols != camera.width_px || g.rows != camera.height_px)
+    throw ToolInputError("cannot read " + file + " as a " + size + " grey image");
+  return {g.begin<std::uint8_t>(), g.end<std::uint8_t>()};
+}
+
 }  // namespace
 
 ToolImageSeries ReadToolImageSeries(const std::string& dir) {
@@ -30,8 +112,8 @@ ToolImageSeries ReadToolImageSeries(const std::string& dir) {
   if (!fs::is_regular_file(manifest, ec)) throw ToolInputError(manifest + " is not a regular file");
   const fs::path folder = fs::canonical(dir, ec);
   ToolImageSeries s;
-  static_cast<ToolImages&>(s) =
-      ParseToolImages(base::ReadFileAs<ToolInputError>(manifest, "tool images: "), manifest);
+  static_cast<ToolImages&>(s) = ParseToolImages(
+      base::ReadFileAs<ToolInputError>(manifest, "tool images: ", kMaxManifestBytes), manifest);
   const std::int64_t per_image = std::int64_t{s.camera.width_px} * std::int64_t{s.camera.height_px};
   if (per_image * static_cast<std::int64_t>(s.files.size()) > kMaxSeriesPixels)
     throw ToolInputError(manifest + ": more than " + std::to_string(kMaxSeriesPixels) +
@@ -43,11 +125,7 @@ ToolImageSeries ReadToolImageSeries(const std::string& dir) {
     const std::string file = (fs::path(dir) / name).string();
     if (!fs::is_regular_file(file, ec) || fs::canonical(file, ec).parent_path() != folder)
       Refuse(file, " is not a regular file in " + dir);
-    const cv::Mat g = cv::imread(file, cv::IMREAD_GRAYSCALE);
-    if (g.empty() || g.cols != s.camera.width_px || g.rows != s.camera.height_px)
-      throw ToolInputError("cannot read " + file + " as a " + std::to_string(s.camera.width_px) +
-                           " x " + std::to_string(s.camera.height_px) + " grey image");
-    s.pixels.emplace_back(g.begin<std::uint8_t>(), g.end<std::uint8_t>());
+    s.pixels.push_back(ReadImage(file, s.camera));
   }
   return s;
 }

@@ -164,22 +164,39 @@ Bytes EncodeCloud(const LinkCloud& c, bool compress) {
   return out;
 }
 
+namespace {
+
+// The metadata up to and including the point count, which it checks against the limit.
+std::size_t ReadHeader(Reader* r, LinkCloud* c) {
+  c->capture_id = r->String(kMaxIdBytes);
+  c->probe_serial = r->String(kMaxIdBytes);
+  c->calibration_id = r->String(kMaxIdBytes);
+  std::array<double, 16> h{};
+  for (double& v : h) v = r->F64();
+  std::string why;
+  if (!base::PoseFromRowMajor(h, &c->mcs_from_flange, &why)) Bad("flange pose: " + why);
+  c->first_frame_ns = static_cast<std::int64_t>(r->U64());
+  c->last_frame_ns = static_cast<std::int64_t>(r->U64());
+  c->processed_ns = static_cast<std::int64_t>(r->U64());
+  c->edge = GetEdge(r);
+  const std::size_t n = r->U32();
+  if (n > kMaxCloudPoints) Bad("point count " + std::to_string(n) + " over the limit");
+  return n;
+}
+
+}  // namespace
+
+CloudHeader PeekCloud(const Bytes& payload) {
+  Reader r(payload);
+  CloudHeader h;
+  h.points = ReadHeader(&r, &h.meta);
+  return h;
+}
+
 LinkCloud DecodeCloud(const Bytes& payload) {
   Reader r(payload);
   LinkCloud c;
-  c.capture_id = r.String(kMaxIdBytes);
-  c.probe_serial = r.String(kMaxIdBytes);
-  c.calibration_id = r.String(kMaxIdBytes);
-  std::array<double, 16> h{};
-  for (double& v : h) v = r.F64();
-  std::string why;
-  if (!base::PoseFromRowMajor(h, &c.mcs_from_flange, &why)) Bad("flange pose: " + why);
-  c.first_frame_ns = static_cast<std::int64_t>(r.U64());
-  c.last_frame_ns = static_cast<std::int64_t>(r.U64());
-  c.processed_ns = static_cast<std::int64_t>(r.U64());
-  c.edge = GetEdge(&r);
-  const std::size_t n = r.U32();
-  if (n > kMaxCloudPoints) Bad("point count " + std::to_string(n) + " over the limit");
+  const std::size_t n = ReadHeader(&r, &c);
   const std::size_t max_body = 3 * (4 + kMaxVarint * n) + n;  // three streams + quality
   const std::uint8_t method = r.U8();
   Bytes body;
@@ -189,7 +206,10 @@ LinkCloud DecodeCloud(const Bytes& payload) {
     const std::size_t size = r.U32();
     if (size > max_body) Bad("stated body size over the limit for its point count");
     const Bytes packed = r.Blob(payload.size());
-    // The frame's own content size must agree: no decompression bomb, no short body.
+    // The frame's own content size must agree: no short body, no more than stated. The stated
+    // size is bounded by the point count, not by the packed size (a 1.3 KB frame may unpack to
+    // 128 MB): the host decodes only a cloud it asked for, of the probe it asked
+    // (HostLink::SetAdmission), so a key's holder costs one legal cloud per request at most.
     const unsigned long long stated = ZSTD_getFrameContentSize(packed.data(), packed.size());
     if (stated != size) Bad("zstd frame size disagrees with the stated size");
     body.resize(size);

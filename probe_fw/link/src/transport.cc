@@ -142,6 +142,7 @@ struct HostLink::Impl {
   CloudHandler on_cloud;
   StatusHandler on_status;
   ErrorHandler on_error;
+  Admission admission;
   Log log;
   asio::io_context io;
   std::atomic<bool> running{false};
@@ -154,6 +155,9 @@ struct HostLink::Impl {
   std::size_t active = 0;                       // io thread only
   std::deque<std::weak_ptr<Conn>> handshaking;  // io thread only; oldest first
   Throttled refused, evicted, duplicate;
+  // Per serial and reason: a capture asked of another probe must not hide behind a flood of
+  // resends nobody waits for. Bounded: the serials are the configured ones, the reasons few.
+  std::map<std::string, Throttled> unwanted;
   // The authenticated connection of each probe (io thread only); `names` and `statuses` mirror
   // what other threads may ask about.
   struct Registered {
@@ -197,16 +201,28 @@ struct HostLink::Impl {
   void Dispatch(const Frame& f, const std::string& serial, Conn& c, Session& session) {
     switch (f.type) {
       case MessageType::kCloud: {
-        const LinkCloud cloud = DecodeCloud(f.payload);
-        if (cloud.probe_serial != serial)
-          throw LinkError(LinkFault::kProtocol, "cloud of probe " + cloud.probe_serial);
-        if (FirstTime(cloud.capture_id)) {
+        // The header first: nothing is decompressed for a cloud that is not wanted.
+        const CloudHeader head = PeekCloud(f.payload);
+        if (head.meta.probe_serial != serial)
+          throw LinkError(LinkFault::kProtocol, "cloud of probe " + head.meta.probe_serial);
+        // Seen per probe: another probe's key cannot spend this probe's capture id.
+        const std::string key = serial + '\n' + head.meta.capture_id;
+        if (seen.count(key) != 0) {
+          Count(&HostLinkStats::duplicates);
+        } else if (const std::string why = admission ? admission(serial, head) : std::string();
+                   !why.empty()) {
+          Count(&HostLinkStats::unwanted);
+          Throttled& t = unwanted[serial + '\n' + why];
+          if (t.Due())
+            SafeLog("link: cloud " + head.meta.capture_id + " of probe " + serial +
+                    " not taken: " + why + " (" + std::to_string(t.Count()) + " such clouds)");
+        } else {
+          const LinkCloud cloud = DecodeCloud(f.payload);
+          Remember(key);
           on_cloud(cloud);
           Count(&HostLinkStats::delivered);
-        } else {
-          Count(&HostLinkStats::duplicates);
         }
-        SendSealed(c, session, MessageType::kAck, EncodeAck(cloud.capture_id));
+        SendSealed(c, session, MessageType::kAck, EncodeAck(head.meta.capture_id));
         return;
       }
       case MessageType::kStatus: {
@@ -239,13 +255,12 @@ struct HostLink::Impl {
     ++(stats.*field);
   }
 
-  // True the first time a capture id is seen (bounded memory: the oldest ids are forgotten).
-  bool FirstTime(const std::string& id) {
-    if (!seen.insert(id).second) return false;
-    seen_order.push_back(id);
+  // Remembers a delivered (serial, capture id); bounded: the oldest are forgotten.
+  void Remember(const std::string& key) {
+    if (!seen.insert(key).second) return;
+    seen_order.push_back(key);
     if (seen_order.size() > cfg.remembered_captures)
       seen.erase(seen_order.front()), seen_order.pop_front();
-    return true;
   }
 
   // Never ends while the host runs: an accept that fails (no file descriptors left) is tried
@@ -374,6 +389,7 @@ HostLink::~HostLink() { Stop(); }
 
 void HostLink::OnStatus(StatusHandler handler) { impl_->on_status = std::move(handler); }
 void HostLink::OnError(ErrorHandler handler) { impl_->on_error = std::move(handler); }
+void HostLink::SetAdmission(Admission admission) { impl_->admission = std::move(admission); }
 
 bool HostLink::RequestCapture(const std::string& serial, const CaptureRequest& request) {
   auto& d = *impl_;

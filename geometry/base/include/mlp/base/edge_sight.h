@@ -26,6 +26,11 @@ struct EdgeSight {
   std::uint32_t points = 0;  ///< edge points on the line
 };
 
+/// Edge points on one line at most: one per sensor row or column along it, and the link's AOI
+/// is 16-bit. A count of 0xFFFFFFFF became -1 as an int further on and failed every later job
+/// on that capture.
+constexpr std::uint32_t kMaxEdgePoints = 65535;
+
 /// The numbers of a sight in their serial order: normal, first ray, last ray, rms.
 inline std::array<double, 10> EdgeSightNumbers(const EdgeSight& s) {
   std::array<double, 10> v{};
@@ -40,7 +45,8 @@ inline std::array<double, 10> EdgeSightNumbers(const EdgeSight& s) {
 
 /// A sight from its serial numbers and point count; false and the reason in `why` when they
 /// are not one: a number not finite, a vector not of unit length (to 1e-6), a ray not in front
-/// of the camera or off the plane (to 1e-6), a negative rms, fewer than 2 points.
+/// of the camera or off the plane (to 1e-6), a negative rms, fewer than 2 points or more than
+/// kMaxEdgePoints.
 inline bool EdgeSightFromNumbers(const std::array<double, 10>& v,
                                  std::uint32_t points,
                                  EdgeSight* sight,
@@ -67,6 +73,8 @@ inline bool EdgeSightFromNumbers(const std::array<double, 10>& v,
   }
   if (!(s.rms_px >= 0.0)) return *why = "the edge's rms is negative", false;
   if (points < 2) return *why = "the edge has fewer than 2 points", false;
+  if (points > kMaxEdgePoints)
+    return *why = "the edge has more than " + std::to_string(kMaxEdgePoints) + " points", false;
   *sight = s;
   return true;
 }

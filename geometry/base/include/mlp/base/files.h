@@ -5,6 +5,7 @@
 /// never be replaced), fsync of the folder. A crash or a full disk leaves the old file or none,
 /// never half of one; after a power cut the new file is there or the old one is.
 
+#include <cstddef>
 #include <functional>
 #include <iosfwd>
 #include <stdexcept>
@@ -19,15 +20,22 @@ class FileError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// The whole file as bytes; throws FileError when it cannot be opened or read.
-std::string ReadFile(const std::string& path);
+/// No limit on a file's size (ReadFile's default).
+constexpr std::size_t kAnySize = static_cast<std::size_t>(-1);
+
+/// The whole file as bytes; throws FileError when it cannot be opened or read, or holds more
+/// than `max_bytes` (then after reading at most max_bytes + 1 of them: a 1 GiB sparse file
+/// named as a manifest costs nothing).
+std::string ReadFile(const std::string& path, std::size_t max_bytes = kAnySize);
 
 /// ReadFile, its FileError raised as the caller's typed error (`prefix` + the reason): how a
 /// module reads the files it owns.
 template <class Error>
-std::string ReadFileAs(const std::string& path, const std::string& prefix = {}) {
+std::string ReadFileAs(const std::string& path,
+                       const std::string& prefix = {},
+                       std::size_t max_bytes = kAnySize) {
   try {
-    return ReadFile(path);
+    return ReadFile(path, max_bytes);
   } catch (const FileError& e) {
     throw Error(prefix + e.what());
   }

@@ -142,8 +142,9 @@ class History : public JobRecords {
   void AddWriteIntents(std::int64_t job,
                        const std::vector<OffsetWriteRow>& rows,
                        const nlohmann::json& reply_so_far);
-  /// The job's announced writes reached the controller.
-  void MarkWritesDone(std::int64_t job);
+  /// The job's announced writes reached the controller (`written`), or a write that failed
+  /// was found not to have (then a retry under the same request_id runs again).
+  void MarkWritesDone(std::int64_t job, bool written = true);
   /// Marks a finished capture of `machine` failed with `reason` (the controller saw the
   /// machine move while its frames were taken): no job may use it, by id or by name, and an
   /// older capture of its name never stands in. False when `job` is no finished capture there.

@@ -15,7 +15,8 @@
 namespace mlp::plant {
 
 /// The database cannot be reached or refused a statement; the message says which and why (never
-/// the password).
+/// the password: libpq quotes a malformed connection string whole, so every password it holds
+/// is replaced by *** in every message).
 class PlantDatabaseError : public history::HistoryError {
  public:
   using history::HistoryError::HistoryError;
@@ -31,6 +32,11 @@ class PlantDatabase : public history::JobRecords {
 
   /// Creates the tables if they are missing (schema version 1); throws PlantDatabaseError.
   void Prepare();
+  /// From another thread: the statement running now fails at once with PlantDatabaseError (its
+  /// transaction is not committed). What a host that is asked to stop does to a send that
+  /// waits on a stalled server. Connecting is bounded by connect_timeout (5 s, added to the
+  /// connection unless it sets its own, with statement_timeout 30 s and lock_timeout 10 s).
+  void Interrupt();
   /// One job as History::ExportJob gives it, from `host`: inserted, or replacing the earlier
   /// state of the same (host, job) with its children, in one transaction. Throws
   /// PlantDatabaseError (the connection is made again at the next call).

@@ -27,7 +27,8 @@ using Log = std::function<void(const std::string& line)>;
 using Handler = std::function<nlohmann::json(const nlohmann::json& request)>;
 
 struct JobServerLimits {
-  /// Connections open at once; a connection beyond them is answered "too many connections".
+  /// Connections open at once. A connection beyond them closes the oldest one that has sent no
+  /// request yet; when every one has, it is answered "too many connections".
   std::size_t max_connections = 64;
   /// From the connection to its request line, and from the reply ready to it taken: a client
   /// that trickles bytes or never reads is cut off after this.

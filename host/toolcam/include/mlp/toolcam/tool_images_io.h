@@ -1,6 +1,7 @@
 #pragma once
 /// @file A tool camera's images as it leaves them: DIR/images.json (`mlprobe-tool-images/1`,
-/// tool_images.h) and the images it lists, in any format OpenCV reads; and the camera for a
+/// tool_images.h) and the images it lists, PGM, PNG or BMP (lossless; their size is read from their
+/// header before they are decoded); and the camera for a
 /// tool in them from a calibration file (`mlprobe-tool-camera/1`, pin_calibration.h). Shared by
 /// `mlp tool` and the host service's tool job, which reads folders a client names: every
 /// listed file must be a plain name in the manifest's folder, and the images are bounded.
@@ -27,8 +28,9 @@ struct ToolImageSeries : ToolImages {
 constexpr std::int64_t kMaxSeriesPixels = std::int64_t{1} << 30;
 
 /// Reads DIR/images.json and its images. Throws ToolInputError naming the file: a manifest
-/// out of range, a file name with a folder in it or starting with a dot, an image that cannot
-/// be read or is not the manifest's size, more than kMaxSeriesPixels.
+/// over 1 MiB or out of range, a file name with a folder in it or starting with a dot, an image
+/// that cannot be read, is not PGM, PNG or BMP or does not declare the manifest's size (checked
+/// before decoding), more than kMaxSeriesPixels.
 ToolImageSeries ReadToolImageSeries(const std::string& dir);
 
 /// The camera for a tool `length_mm` long in `series`: the calibration's (`calibration_json`,

@@ -51,6 +51,16 @@ Bytes EncodeCloud(const LinkCloud& cloud, bool compress);
 /// the stated point count allows.
 LinkCloud DecodeCloud(const Bytes& payload);
 
+/// A CLOUD's metadata and stated point count without its points: what the host checks against
+/// the request that asked for the capture before it decompresses and decodes anything (a
+/// 1.3 KB zstd frame may state 8M points: 350 MB once decoded). Throws as DecodeCloud does on
+/// the part it reads.
+struct CloudHeader {
+  LinkCloud meta;  ///< everything but xyz and quality, which are empty
+  std::size_t points = 0;
+};
+CloudHeader PeekCloud(const Bytes& payload);
+
 /// The cloud after a round trip: coordinates on the 0.1 um grid, quality on 8 bits.
 LinkCloud Quantised(const LinkCloud& cloud);
 

@@ -41,11 +41,13 @@ struct HostLinkConfig {
   std::size_t max_connections = 64;
   /// Peers in their handshake at once; a new one closes the oldest (docs/LINK.md, "Limits").
   std::size_t max_handshakes = 8;
-  std::size_t remembered_captures = 1u << 20;  ///< capture ids kept for de-duplication
+  /// (serial, capture id) pairs kept for de-duplication
+  std::size_t remembered_captures = 1u << 20;
 };
 
 struct HostLinkStats {
   std::uint64_t connections = 0, authenticated = 0, delivered = 0, duplicates = 0, rejected = 0;
+  std::uint64_t unwanted = 0;  ///< clouds the admission turned away
 };
 
 class HostLink {
@@ -56,9 +58,17 @@ class HostLink {
   using ErrorHandler = std::function<void(const std::string& serial, const ProbeError& error)>;
   HostLink(HostLinkConfig config, CloudHandler on_cloud, Log log);
   ~HostLink();
+  /// Asked on the link's thread, before a CLOUD's points are decompressed and decoded: the
+  /// serial the session authenticated and the cloud's header. Returns an empty string to take
+  /// the cloud, otherwise the reason it is not wanted: the cloud is then acknowledged (the probe
+  /// may drop it), logged (throttled) and neither decoded nor remembered as seen, so the real
+  /// cloud for that capture id still gets through.
+  using Admission = std::function<std::string(const std::string& serial, const CloudHeader& head)>;
   /// Optional, before Start; called on the link's thread. Errors are logged either way.
   void OnStatus(StatusHandler handler);
   void OnError(ErrorHandler handler);
+  /// Optional, before Start; without it every cloud of an authenticated probe is taken.
+  void SetAdmission(Admission admission);
   /// Thread-safe. Sends the request to the probe if it is connected and authenticated: true when
   /// it was queued for sending, false when the probe is not connected (the job fails or waits).
   /// Throws LinkError (kMalformedPayload) for a request the probe would refuse anyway.
