@@ -36,6 +36,24 @@ PlaneMeasurement Face(const geometry::Points3& points,
   }
 }
 
+// The angle between a face's normal and a datum direction moves, to first order, only as each
+// normal tilts toward the other (a turn about the other's direction leaves it): each face's
+// tilt sigma along that direction, in quadrature [rad]. Where the normals are parallel that
+// direction is not defined and the angle moves to second order: the larger tilt sigma stands.
+double AngleU(const PlaneMeasurement& face, const Vec3& datum, const PlaneMeasurement* datum_face) {
+  const Vec3 n = face.plane.normal;
+  const Vec3 toward_datum = datum - datum.dot(n) * n;
+  const Vec3 toward_face = n - n.dot(datum) * datum;
+  constexpr double kParallel = 1e-9;
+  const auto tilt = [&](const PlaneMeasurement& f, const Vec3& toward) {
+    if (toward.norm() > kParallel) return PlaneTiltU(f, toward.normalized());
+    return std::max(PlaneTiltU(f, f.covariance.u), PlaneTiltU(f, f.covariance.v));
+  };
+  const double u_face = tilt(face, toward_datum);
+  const double u_datum = datum_face != nullptr ? tilt(*datum_face, toward_face) : 0.0;
+  return std::hypot(u_face, u_datum);
+}
+
 Vec3 Unit(const Vec3& v, const std::string& what) {
   if (!(v.norm() > 1e-9) || !v.allFinite()) throw FeatureError(what + " must be a direction");
   return v.normalized();
@@ -64,6 +82,7 @@ WidthMeasurement MeasureWidth(const geometry::Points3& points, const WidthNomina
   const double at_plus = n.width_mm / 2 + sigma * m.plus.height_mm;
   const double at_minus = -n.width_mm / 2 - sigma * m.minus.height_mm;
   m.width_mm = at_plus - at_minus;
+  m.width_u_mm = std::hypot(m.plus.height_u_mm, m.minus.height_u_mm);
   m.centre_mcs = n.centre_mcs + ((at_plus + at_minus) / 2) * d;
   m.parallelism_deg = AngleBetweenDeg(m.plus.plane.normal, -m.minus.plane.normal);
   return m;
@@ -105,6 +124,7 @@ StepMeasurement MeasureStep(const geometry::Points3& points, const StepNominal& 
   m.b = Face(points, n.b, "step: face B");
   const Vec3 b_at_nominal = n.b.point_mcs + m.b.height_mm * n.b.normal_mcs.normalized();
   m.height_mm = (b_at_nominal - m.a.plane.point).dot(m.a.plane.normal);
+  m.height_u_mm = std::hypot(m.b.height_u_mm, PlaneHeightU(m.a, b_at_nominal));
   m.parallelism_deg = AngleBetweenDeg(m.a.plane.normal, m.b.plane.normal);
   return m;
 }
@@ -118,6 +138,7 @@ AngleMeasurement MeasureAngle(const geometry::Points3& points, const AngleNomina
     datum = m.datum.plane.normal;
   }
   m.angle_deg = AngleBetweenDeg(m.face.plane.normal, datum);
+  m.angle_u_deg = Deg(AngleU(m.face, datum, n.datum_face ? &m.datum : nullptr));
   m.skew_deg = AngleBetweenDeg(m.face.plane.normal, n.face.normal_mcs.normalized());
   return m;
 }
@@ -190,6 +211,8 @@ EllipseMeasurement MeasureEllipse(const geometry::Points3& points, const Ellipse
   m.top_centre_mcs = n.top_centre_mcs + fit.shape.center.x() * u + fit.shape.center.y() * v;
   m.major_mm = 2 * fit.shape.semi_major;
   m.minor_mm = 2 * fit.shape.semi_minor;
+  m.major_u_mm = 2 * fit.covariance.StdDev("semi_major");
+  m.minor_u_mm = 2 * fit.covariance.StdDev("semi_minor");
   m.rotation_deg = Deg(fit.shape.angle);
   if (m.rotation_deg > 90) m.rotation_deg -= 180;
   m.rms_mm = fit.stats.rms;

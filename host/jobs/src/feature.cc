@@ -174,6 +174,7 @@ PlaneMeasurement MeasurePlane(const geometry::Points3& points, const PlaneNomina
       pts.col(static_cast<Eigen::Index>(k)) = points.col(keep[k]);
     const auto fit = geometry::FitPlane(pts);
     m.plane = fit.shape;
+    m.covariance = fit.covariance;
     m.rms_mm = fit.stats.rms;
     m.points = static_cast<int>(keep.size());
     std::vector<Eigen::Index> next;
@@ -196,7 +197,23 @@ PlaneMeasurement MeasurePlane(const geometry::Points3& points, const PlaneNomina
   if (m.plane.normal.dot(n0) < 0) m.plane.normal = -m.plane.normal;
   // The fitted plane met by the line through the nominal point along the nominal normal.
   m.height_mm = (m.plane.point - n.point_mcs).dot(m.plane.normal) / n0.dot(m.plane.normal);
+  m.height_u_mm = PlaneHeightU(m, n.point_mcs) / std::abs(n0.dot(m.plane.normal));
   return m;
+}
+
+double PlaneHeightU(const PlaneMeasurement& face, const Vec3& at_mcs) {
+  const geometry::Covariance& c = face.covariance;
+  if (c.matrix.rows() != 3) return 0.0;  // no fit (an angle's absent datum face)
+  const Vec3 d = at_mcs - face.plane.point;
+  const Vec3 g(1.0, d.dot(c.u), d.dot(c.v));  // (offset, tilt_u, tilt_v)
+  return std::sqrt(std::max(0.0, g.dot(c.matrix * g)));
+}
+
+double PlaneTiltU(const PlaneMeasurement& face, const Vec3& toward) {
+  const geometry::Covariance& c = face.covariance;
+  if (c.matrix.rows() != 3) return 0.0;
+  const Eigen::Vector2d t(toward.dot(c.u), toward.dot(c.v));
+  return std::sqrt(std::max(0.0, t.dot(c.matrix.bottomRightCorner<2, 2>() * t)));
 }
 
 BoreMeasurement MeasureBore(const geometry::Points3& points, const BoreNominal& n) {

@@ -6,6 +6,7 @@
 #include "mlp/jobs/surface.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -209,6 +210,7 @@ void AddFace(const jobs::PlaneMeasurement& f, jobs::FitEvidence* fe) {
 json FaceFields(const jobs::PlaneMeasurement& f) {
   return {{"normal", JsonVec(f.plane.normal)},
           {"height_mm", f.height_mm},
+          {"height_u_mm", f.height_u_mm},
           {"rms_mm", f.rms_mm},
           {"points", f.points},
           {"area_mm2", f.area_mm2}};
@@ -281,6 +283,7 @@ Measured Width(const FeatureRequest& /*request*/, const jobs::WidthNominal& n, c
   Measured m;
   m.size = w.width_mm;
   m.fields = {{"width_mm", w.width_mm},
+              {"width_u_mm", w.width_u_mm},
               {"centre_mm", JsonVec(w.centre_mcs)},
               {"parallelism_deg", w.parallelism_deg},
               {"face_plus", FaceFields(w.plus)},
@@ -302,10 +305,9 @@ Measured Rectangle(const FeatureRequest& q, const jobs::RectangleNominal& n, con
   m.size = x ? rect.x.width_mm : rect.y.width_mm;
   CheckSize(x ? "size y" : "size x", x ? rect.y.width_mm : rect.x.width_mm, *q.other_spec, &m);
   const double tp = TruePosition(rect.centre_mcs, n.centre_mcs, n.axis_mcs);
-  m.fields = {{"size_x_mm", rect.x.width_mm},
-              {"size_y_mm", rect.y.width_mm},
-              {"centre_mm", JsonVec(rect.centre_mcs)},
-              {"true_position_mm", tp},
+  m.fields = {{"size_x_mm", rect.x.width_mm},          {"size_x_u_mm", rect.x.width_u_mm},
+              {"size_y_mm", rect.y.width_mm},          {"size_y_u_mm", rect.y.width_u_mm},
+              {"centre_mm", JsonVec(rect.centre_mcs)}, {"true_position_mm", tp},
               {"rotation_deg", rect.rotation_deg}};
   CheckPosition(q, tp, q.nominal.feature, &m);
   m.found_mcs = rect.centre_mcs, m.nominal_mcs = n.centre_mcs;
@@ -323,6 +325,7 @@ Measured Step(const FeatureRequest& /*request*/, const jobs::StepNominal& n, con
   Measured m;
   m.size = s.height_mm;
   m.fields = {{"height_mm", s.height_mm},
+              {"height_u_mm", s.height_u_mm},
               {"parallelism_deg", s.parallelism_deg},
               {"face_a", FaceFields(s.a)},
               {"face_b", FaceFields(s.b)}};
@@ -337,7 +340,10 @@ Measured Angle(const FeatureRequest& /*request*/, const jobs::AngleNominal& n, c
   const jobs::AngleMeasurement a = jobs::MeasureAngle(ev.points_mcs, n);
   Measured m;
   m.size = a.angle_deg;
-  m.fields = {{"angle_deg", a.angle_deg}, {"skew_deg", a.skew_deg}, {"face", FaceFields(a.face)}};
+  m.fields = {{"angle_deg", a.angle_deg},
+              {"angle_u_deg", a.angle_u_deg},
+              {"skew_deg", a.skew_deg},
+              {"face", FaceFields(a.face)}};
   AddFace(a.face, &m.fe);
   m.panels = {jobs::FacePanel("the face", ev.points_mcs, a.face)};
   if (n.datum_face) {
@@ -381,7 +387,9 @@ Measured Ellipse(const FeatureRequest& q, const jobs::EllipseNominal& n, const E
   m.size = q.size == "major" ? e.major_mm : e.minor_mm;
   const double tp = TruePosition(e.top_centre_mcs, n.top_centre_mcs, n.axis_mcs);
   m.fields = {{"major_mm", e.major_mm},
+              {"major_u_mm", e.major_u_mm},
               {"minor_mm", e.minor_mm},
+              {"minor_u_mm", e.minor_u_mm},
               {"centre_mm", JsonVec(e.top_centre_mcs)},
               {"true_position_mm", tp},
               {"rotation_deg", e.rotation_deg},
@@ -403,9 +411,18 @@ Measured Surface(const FeatureRequest& /*request*/,
   const jobs::SurfaceMeasurement s = jobs::MeasureSurface(ev.points_mcs, nominal);
   Measured m;
   m.size = s.profile_mm;
-  m.fields = {{"profile_mm", s.profile_mm}, {"mean_mm", s.mean_mm},  {"min_mm", s.min_mm},
-              {"max_mm", s.max_mm},         {"rms_mm", s.rms_mm},    {"points", s.points},
-              {"coverage", s.coverage},     {"area_mm2", s.area_mm2}};
+  // The mean's standard uncertainty: the deviations' scatter about it over the root of their
+  // count (k = 1; the points taken as independent, which a probe's neighbours are not quite).
+  const double scatter_mm = std::sqrt(std::max(0.0, s.rms_mm * s.rms_mm - s.mean_mm * s.mean_mm));
+  m.fields = {{"profile_mm", s.profile_mm},
+              {"mean_mm", s.mean_mm},
+              {"mean_u_mm", scatter_mm / std::sqrt(static_cast<double>(std::max(1, s.points)))},
+              {"min_mm", s.min_mm},
+              {"max_mm", s.max_mm},
+              {"rms_mm", s.rms_mm},
+              {"points", s.points},
+              {"coverage", s.coverage},
+              {"area_mm2", s.area_mm2}};
   if (nominal.best_fit) {  // the form alone: the points laid on the nominal first
     m.fields["best_fit"] = {{"rotation_rad", JsonVec(s.best_fit.rotation_rad)},
                             {"translation_mm", JsonVec(s.best_fit.translation_mm)},

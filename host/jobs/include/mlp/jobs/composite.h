@@ -27,6 +27,9 @@ struct WidthNominal {
 struct WidthMeasurement {
   PlaneMeasurement plus, minus;  ///< the faces at +direction and -direction
   double width_mm = 0.0;
+  /// Standard uncertainty from the two faces' fits (k = 1): their heights' u in quadrature
+  /// (independent points).
+  double width_u_mm = 0.0;
   /// The mid-point between the faces on the line through the nominal centre along the nominal
   /// direction.
   geometry::Vec3 centre_mcs = geometry::Vec3::Zero();
@@ -68,6 +71,9 @@ struct StepMeasurement {
   PlaneMeasurement a, b;
   /// Signed distance from face A's plane to face B at B's nominal point, along A's normal [mm].
   double height_mm = 0.0;
+  /// Standard uncertainty from the two faces' fits (k = 1): B's height at its nominal point and
+  /// A's plane there (A's tilts over the lever from A's points to B), in quadrature.
+  double height_u_mm = 0.0;
   double parallelism_deg = 0.0;
 };
 
@@ -85,6 +91,9 @@ struct AngleMeasurement {
   PlaneMeasurement face;
   PlaneMeasurement datum;  ///< empty (points 0) without a datum face
   double angle_deg = 0.0;  ///< between the face's normal and the datum's, 0..180
+  /// Standard uncertainty from the fits (k = 1) [deg]: each normal's tilt toward the other, in
+  /// quadrature; a fixed datum direction has none.
+  double angle_u_deg = 0.0;
   /// The face's turn from its nominal orientation (skew), 0..180 [deg].
   double skew_deg = 0.0;
 };
@@ -131,6 +140,9 @@ struct EllipseNominal {
 struct EllipseMeasurement {
   geometry::Vec3 top_centre_mcs = geometry::Vec3::Zero();
   double major_mm = 0.0, minor_mm = 0.0;  ///< diameters
+  /// Their standard uncertainties from the fit alone (k = 1: twice the semi-axes' standard
+  /// deviations, geometry Covariance).
+  double major_u_mm = 0.0, minor_u_mm = 0.0;
   /// Turn of the major axis about the nominal axis from its nominal direction, -90..90 [deg].
   double rotation_deg = 0.0;
   double rms_mm = 0.0, max_abs_mm = 0.0;

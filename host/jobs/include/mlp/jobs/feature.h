@@ -4,6 +4,7 @@
 /// squares; functional sizes where a mating part cares (ISO 14405-1: the largest pin a bore
 /// takes).
 
+#include "mlp/geometry/fit_result.h"
 #include "mlp/geometry/types.h"
 
 #include <limits>
@@ -87,6 +88,13 @@ struct PlaneMeasurement {
   /// Where the face is along the nominal normal, at the nominal point: + means proud of the
   /// nominal (material left), - below it [mm].
   double height_mm = 0.0;
+  /// Standard uncertainty of height_mm from the fit alone (k = 1; PlaneHeightU at the nominal
+  /// point), as BoreMeasurement::diameter_u_mm: what the points seen determine.
+  double height_u_mm = 0.0;
+  /// The final fit's parameter covariance (offset along the normal at plane.point, tilts
+  /// toward covariance.u and .v; geometry fit_result.h): what the features built on this face
+  /// take their uncertainty from.
+  geometry::Covariance covariance;
   /// Minimum-zone flatness of the points used (ISO 12781), Chebyshev fit [mm]; 0 unless
   /// PlaneNominal::flatness asked for it.
   double flatness_mm = 0.0;
@@ -98,6 +106,16 @@ struct PlaneMeasurement {
   /// The points of the final fit, as indices into the points given (for the report).
   std::vector<Eigen::Index> used;
 };
+
+/// Standard uncertainty (k = 1, from the fit's residuals) of the face's height along its normal
+/// at `at_mcs`: the offset's variance plus each tilt's times its lever from the centroid
+/// squared (GUM 5.1.2, the plane's covariance propagated linearly). Grows with the distance
+/// from the points: a face seen in a small window and judged far from it is uncertain there.
+double PlaneHeightU(const PlaneMeasurement& face, const geometry::Vec3& at_mcs);
+
+/// Standard uncertainty [rad] of the face's normal turning toward the unit direction `toward`
+/// (its component in the plane counts): the tilts' covariance projected on it.
+double PlaneTiltU(const PlaneMeasurement& face, const geometry::Vec3& toward);
 
 /// A face: the points in the nominal's band, least squares, then iterated trimming of points
 /// beyond 3 RMS (a chip or a burr is not the face) until none is dropped. Linear in the points
