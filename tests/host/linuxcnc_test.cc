@@ -29,6 +29,7 @@ constexpr int kAlignPort = 17438;         // the alignment test's
 constexpr int kPosePort = 17440;          // the controller-pose test's
 constexpr int kDriftPort = 17459;         // the moved-capture test's
 constexpr int kRelocatePort = 17464;      // the re-clamped electrode's (no probe: unused)
+constexpr int kSharedTablePort = 17472;   // two machines on one table (no probe: unused)
 constexpr double kDisturbanceMm = 0.005;  // 5x the M-code's 1 um pose drift limit
 constexpr double kFaceHeightTolMm = 0.001;
 constexpr double kOriginTolMm = 0.005;           // issue 6: alignment origin within 5 um
@@ -421,6 +422,82 @@ TEST(LinuxCnc, ARelocatedElectrodesOffsetsMoveTheNextBurn) {
   EXPECT_NEAR(after.at("position")[0].get<double>(), t30.at("x").get<double>(), kRoundingMm);
   EXPECT_NEAR(after.at("position")[1].get<double>(), t30.at("y").get<double>(), kRoundingMm);
   EXPECT_NEAR(after.at("position")[2].get<double>(), 10.0 + t30.at("z").get<double>(), kExactMm);
+}
+
+// Issue 48 item 5 on the real controller: two machines configured on one LinuxCNC tool table,
+// the host writing it (write_tool_table), relocate jobs on both at once, round after round.
+// Before, 8 of 160 writes were lost ("cannot replace .../tool.tbl: No such file": both lanes
+// used one temporary name). A relocation moves the offsets by the re-clamp's shift each time it
+// runs, so a lost write shows as a missing step: every job answers, both tools hold all
+// kRounds steps, and LinuxCNC started on the table afterwards offsets by them.
+TEST(LinuxCnc, TwoMachinesOnOneToolTableLoseNoWrite) {
+  ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0)
+      << "linuxcnc-uspace is not installed: bash scripts/install-deps.sh";
+  Site site("linuxcnc_shared_table", kSharedTablePort);
+  const fs::path config = LinuxCncSite(site);
+  std::ofstream(config / "tool.tbl", std::ios::app)
+      << "T30 P30 X0.01 Z60.0 D11.662 ;EDM electrode A\n"
+      << "T31 P31 X0.01 Z60.0 D11.662 ;EDM electrode B\n";
+  json hostd_config = json::parse(test::ReadText(site.dir / "hostd.json"));
+  for (auto& m : hostd_config.at("machines"))
+    if (m.at("name") == "lcnc-1") {
+      m["controller"]["write_tool_table"] = true;
+      json second = m;
+      second["name"] = "lcnc-2";
+      second["controller"]["result_dir"] = (config / "subs2").string();
+      hostd_config["machines"].push_back(second);
+      break;
+    }
+  std::ofstream(site.dir / "hostd.json") << hostd_config.dump(1);
+  const std::string electrode = mlp::test::SourceDir() + "/samples/tools/electrode_10x6.json";
+  fs::create_directories(site.dir / "data" / "tools");
+  fs::copy_file(electrode, site.dir / "data" / "tools" / "electrode.json");
+  const std::string render = test::kMlp + " tool render-texture --tool " + electrode + " --out " +
+                             (site.dir / "data" / "tools").string();
+  ASSERT_EQ(RunProcess(render + "/before --seed 1").exit_code, 0);
+  ASSERT_EQ(RunProcess(render + "/after --seed 2 --rotation-deg 0.003,-0.004,0.002 --shift-mm "
+                                "0.03,-0.02,0.015")
+                .exit_code,
+            0);
+  const auto job = [&](const std::string& machine, int tool) {
+    return json{{"op", "relocate"},
+                {"machine", machine},
+                {"reference", "tools/before"},
+                {"images", "tools/after"},
+                {"tool", "tools/electrode.json"},
+                {"tool_number", tool}};
+  };
+  Child hostd({test::kHostd, "--config", (site.dir / "hostd.json").string()},
+              site.dir / "hostd.log");
+  ASSERT_TRUE(site.WaitFor([&] { return site.Mlp("status").exit_code == 0; }));
+  constexpr int kRounds = 20;  // a lost step is 30 um in X, 15 um in Z: over the tolerance
+  for (int round = 0; round < kRounds; ++round) {
+    const std::string a = site.Request("a" + std::to_string(round), job("lcnc-1", 30));
+    const std::string b = site.Request("b" + std::to_string(round), job("lcnc-2", 31));
+    auto first = std::async(std::launch::async, [&] { return site.Mlp("request " + a); });
+    auto second = std::async(std::launch::async, [&] { return site.Mlp("request " + b); });
+    const auto ra = first.get(), rb = second.get();
+    EXPECT_EQ(ra.exit_code, 0) << "round " << round << ": " << ra.err;
+    EXPECT_EQ(rb.exit_code, 0) << "round " << round << ": " << rb.err;
+  }
+  EXPECT_EQ(hostd.Stop(), 0);
+  const std::string table = test::ReadText(config / "tool.tbl");
+  LinuxCnc cnc(config, site.socket);
+  ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
+  const json after = cnc.Run("G21 G90 G54 G40 G49\nT30 M6\nG43 H30\nT31 M6\nG43 H31\nM2\n");
+  ASSERT_TRUE(after.value("ended", false)) << after.dump();
+  constexpr double kRelocateTolMm = 0.0005;  // the relocation's own tolerance (relocate_test)
+  for (const char* tool : {"30", "31"}) {
+    const json& t = after.at("tools").at(tool);
+    EXPECT_NEAR(t.at("x").get<double>(), 0.01 - kRounds * 0.03, kRounds * kRelocateTolMm)
+        << "T" << tool << table;
+    EXPECT_NEAR(t.at("y").get<double>(), kRounds * 0.02, kRounds * kRelocateTolMm)
+        << "T" << tool << table;
+    EXPECT_NEAR(t.at("z").get<double>(), 60.0 - kRounds * 0.015, kRounds * kRelocateTolMm)
+        << "T" << tool << table;
+  }
+  EXPECT_NEAR(after.at("tool_offset")[2].get<double>(),
+              after.at("tools").at("31").at("z").get<double>(), kExactMm);
 }
 
 }  // namespace
