@@ -363,6 +363,21 @@ TEST(LinuxCnc, ACaptureTakenWhileTheMachineMovedIsRejected) {
   EXPECT_NE(again.err.find("is no finished capture on lcnc-1"), std::string::npos) << again.err;
 }
 
+// The electrode's description and its textures before and after a re-clamp (turned 0.002 deg
+// about Z, shifted 0.03, -0.02, 0.015 mm) in the site's data/tools.
+void ElectrodeTextures(const Site& site) {
+  const std::string electrode = mlp::test::SourceDir() + "/samples/tools/electrode_10x6.json";
+  fs::create_directories(site.dir / "data" / "tools");
+  fs::copy_file(electrode, site.dir / "data" / "tools" / "electrode.json");
+  const std::string render = test::kMlp + " tool render-texture --tool " + electrode + " --out " +
+                             (site.dir / "data" / "tools").string();
+  ASSERT_EQ(RunProcess(render + "/before --seed 1").exit_code, 0);
+  ASSERT_EQ(RunProcess(render + "/after --seed 2 --rotation-deg 0.003,-0.004,0.002 --shift-mm "
+                                "0.03,-0.02,0.015")
+                .exit_code,
+            0);
+}
+
 // An EDM electrode re-clamped (seed 000 example 6): the relocate job through M101 finds it
 // from its texture, its subroutine's G10 L1 sets tool 30's X, Y, Z (this machine has no C axis:
 // the job writes what the machine has, the electrode clamped back within 0.01 deg of its turn),
@@ -375,16 +390,8 @@ TEST(LinuxCnc, ARelocatedElectrodesOffsetsMoveTheNextBurn) {
   const fs::path config = LinuxCncSite(site);
   std::ofstream(config / "tool.tbl", std::ios::app)
       << "T30 P30 X0.01 Z60.0 D11.662 ;EDM electrode\n";
-  const std::string electrode = mlp::test::SourceDir() + "/samples/tools/electrode_10x6.json";
-  fs::create_directories(site.dir / "data" / "tools");
-  fs::copy_file(electrode, site.dir / "data" / "tools" / "electrode.json");
-  const std::string render = test::kMlp + " tool render-texture --tool " + electrode + " --out " +
-                             (site.dir / "data" / "tools").string();
-  ASSERT_EQ(RunProcess(render + "/before --seed 1").exit_code, 0);
-  ASSERT_EQ(RunProcess(render + "/after --seed 2 --rotation-deg 0.003,-0.004,0.002 --shift-mm "
-                                "0.03,-0.02,0.015")
-                .exit_code,
-            0);
+  ElectrodeTextures(site);
+  if (HasFatalFailure()) return;
   std::ofstream(config / "jobs" / "1.json") << json{
       {"op", "relocate"},
       {"machine", "lcnc-1"},
@@ -449,16 +456,8 @@ TEST(LinuxCnc, TwoMachinesOnOneToolTableLoseNoWrite) {
       break;
     }
   std::ofstream(site.dir / "hostd.json") << hostd_config.dump(1);
-  const std::string electrode = mlp::test::SourceDir() + "/samples/tools/electrode_10x6.json";
-  fs::create_directories(site.dir / "data" / "tools");
-  fs::copy_file(electrode, site.dir / "data" / "tools" / "electrode.json");
-  const std::string render = test::kMlp + " tool render-texture --tool " + electrode + " --out " +
-                             (site.dir / "data" / "tools").string();
-  ASSERT_EQ(RunProcess(render + "/before --seed 1").exit_code, 0);
-  ASSERT_EQ(RunProcess(render + "/after --seed 2 --rotation-deg 0.003,-0.004,0.002 --shift-mm "
-                                "0.03,-0.02,0.015")
-                .exit_code,
-            0);
+  ElectrodeTextures(site);
+  if (HasFatalFailure()) return;
   const auto job = [&](const std::string& machine, int tool) {
     return json{{"op", "relocate"},
                 {"machine", machine},
