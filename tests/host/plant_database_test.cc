@@ -82,6 +82,11 @@ TEST(HostdPlantDatabase, EveryJobReachesThePlantAndWaitsWhileTheServerIsAway) {
   EXPECT_TRUE(PlantHasJob(pg, refused_job, "refused")) << ReadText(site.dir / "hostd2.log");
   EXPECT_EQ(PlantJobs(pg).size(), 2u);  // nothing twice
   EXPECT_NE(ReadText(site.dir / "hostd.log").find("jobs wait in the outbox"), std::string::npos);
+  // Issue 48: the database password in none of the outputs, logs or `mlp history --db` reads.
+  const std::string printed = done.out + done.err + exported.out + exported.err + refused.out +
+                              refused.err + ReadText(site.dir / "hostd.log") +
+                              ReadText(site.dir / "hostd2.log") + PlantJobs(pg).dump();
+  EXPECT_EQ(printed.find(Postgres::kPassword), std::string::npos);
 }
 
 // True once `child` has ended, polling for up to `bound`; a host that ignores SIGTERM is killed

@@ -98,8 +98,16 @@ TEST(PlantFeed, ResultsRefusalsOffsetsAndStatusReachTheBrokerOverTls) {
   // Started again and stopped: online, then "stopped".
   Child again({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd2.log");
   ASSERT_TRUE(StatusIs(quality, "online")) << ReadText(site.dir / "hostd2.log");
+  const auto status_json = site.Mlp("status --json");
   EXPECT_EQ(again.Stop(), 0);
   EXPECT_TRUE(StatusIs(quality, "offline", "stopped"));
+  // Issue 48: the broker password in none of it: the programs' outputs, both logs, every
+  // message the plant received.
+  std::string printed = status.out + status.err + tilted.out + tilted.err + run.out + run.err +
+                        status_json.out + status_json.err + ReadText(site.dir / "hostd.log") +
+                        ReadText(site.dir / "hostd2.log");
+  for (const auto& m : quality.Messages()) printed += m.topic + m.payload.dump();
+  EXPECT_EQ(printed.find(kHostUser.password), std::string::npos);
 }
 
 TEST(PlantFeed, ABrokerAwayStopsNoJobAndGetsItsMessagesWhenBack) {
