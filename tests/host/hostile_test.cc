@@ -685,10 +685,12 @@ TEST(Hostd, KillsInsideMeasureJobsNeverCompensateTwice) {
     }
     Child hostd = StartHostd(site);  // settles what the killed host announced
     const auto t0 = std::chrono::steady_clock::now();
-    const auto retry = site.Mlp("request " + file);
-    job_ms =
+    const auto retry = site.Mlp("request " + file + " --json");
+    const double retry_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     ASSERT_EQ(retry.exit_code, 0) << i << retry.err << Log(site);
+    // The window follows a job that ran, not a repeat answered from the history in a few ms.
+    if (!json::parse(retry.out).value("repeated", false)) job_ms = retry_ms;
     EXPECT_EQ(hostd.Stop(), 0);
     ASSERT_FALSE(std::isnan(Tool12DiameterMm(table))) << "a cut table:\n" << test::ReadText(table);
   }
@@ -768,10 +770,12 @@ TEST(Hostd, KillsInsideRelocateJobsNeverMoveTwice) {
     }
     Child hostd = StartHostd(site);  // settles what the killed host announced
     const auto t0 = std::chrono::steady_clock::now();
-    const auto retry = site.Mlp("request " + file);
-    job_ms =
+    const auto retry = site.Mlp("request " + file + " --json");
+    const double retry_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     ASSERT_EQ(retry.exit_code, 0) << i << retry.err << Log(site);
+    // The kill window follows a job that ran, not a repeat answered from the history.
+    if (!json::parse(retry.out).value("repeated", false)) job_ms = retry_ms;
     EXPECT_EQ(hostd.Stop(), 0);
     const double now_mm = Tool30XMm(table);
     ASSERT_FALSE(std::isnan(now_mm)) << "a cut table:\n" << test::ReadText(table);
@@ -791,7 +795,7 @@ TEST(Hostd, KillsInsideRelocateJobsNeverMoveTwice) {
       EXPECT_NE(w.at("state"), "intent") << job.id;
   }
   std::cout << "kill -9 inside relocate jobs: " << kRelocateKills << " kills, " << started
-            << " jobs started; last job " << job_ms << " ms\n";
+            << " jobs started; a job " << job_ms << " ms\n";
   EXPECT_GT(started, kRelocateKills);  // not vacuous: some kills cut a job short
 }
 
