@@ -149,5 +149,55 @@ TEST(HostdPlantDatabase, NoPasswordInAnyOutputAndNoWaitForeverOnAStalledServer) 
   EXPECT_NE(printed.find("***"), std::string::npos) << printed;  // redacted, not dropped
 }
 
+// Issue 48 item 9, the locked table: a plant database where another session holds the jobs
+// table locked. The job runs (the plant never holds a job up); the forwarder's send waits on
+// the lock; SIGTERM then stops the host within a few seconds, before the 10 s lock_timeout
+// would have freed it (it took 39 s before), and the job waits in the outbox for the next start.
+TEST(HostdPlantDatabase, ALockedTableHoldsUpNeitherAJobNorAStop) {
+  Postgres pg("locked");
+  Site site("plant_database_locked", 17475);
+  DatabaseSite(site, pg);
+  if (HasFatalFailure()) return;
+  auto hostd = std::make_unique<Child>(
+      std::vector<std::string>{kHostd, "--config", (site.dir / "hostd.json").string()},
+      site.dir / "hostd.log");
+  ASSERT_TRUE(site.WaitFor([&] { return site.Mlp("status").exit_code == 0; }));
+  const auto done = site.Mlp("request " + site.Request("after", RelocateJob("after")) + " --json");
+  ASSERT_EQ(done.exit_code, 0) << done.err;
+  ASSERT_TRUE(PlantHasJob(pg, json::parse(done.out).at("job_id"), "done"));
+  const auto query = [&](const std::string& sql) {
+    const auto r = RunProcess("psql '" + pg.Uri() + "' -tAc \"" + sql + "\"");
+    return r.exit_code == 0 ? std::atoi(r.out.c_str()) : -1;
+  };
+  Child lock({"/usr/bin/psql", pg.Uri(), "-c",
+              "BEGIN; LOCK TABLE jobs IN ACCESS EXCLUSIVE MODE; SELECT pg_sleep(120); COMMIT;"},
+             site.dir / "lock.log");
+  ASSERT_TRUE(Eventually([&] {
+    return query(
+               "SELECT count(*) FROM pg_locks l JOIN pg_class c ON l.relation = c.oid WHERE "
+               "c.relname = 'jobs' AND l.mode = 'AccessExclusiveLock' AND l.granted") == 1;
+  }));
+  const auto refused =
+      site.Mlp("request " + site.Request("tilted", RelocateJob("tilted")) + " --json");
+  EXPECT_EQ(refused.exit_code, 6) << refused.err;  // the job ran and answered
+  const std::int64_t refused_job = json::parse(refused.out).at("job_id");
+  ASSERT_TRUE(Eventually([&] {
+    return query("SELECT count(*) FROM pg_locks WHERE NOT granted") > 0;
+  })) << "the forwarder never waited on the lock";
+  kill(hostd->Pid(), SIGTERM);
+  // Under lock_timeout (10 s): the send was cut, not timed out.
+  const auto bound = std::chrono::seconds(static_cast<int>(8 * TimeScale()));
+  EXPECT_TRUE(EndsWithin(*hostd, bound)) << ReadText(site.dir / "hostd.log");
+  EXPECT_EQ(hostd->Stop(SIGKILL), 0);
+  hostd.reset();
+  // The lock's session ends with its backend (psql's end alone leaves pg_sleep running).
+  query(
+      "SELECT count(pg_terminate_backend(pid)) FROM pg_locks WHERE relation = 'jobs'::regclass "
+      "AND mode = 'AccessExclusiveLock' AND granted");
+  lock.Stop();
+  Child again({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd2.log");
+  EXPECT_TRUE(PlantHasJob(pg, refused_job, "refused")) << ReadText(site.dir / "hostd2.log");
+}
+
 }  // namespace
 }  // namespace mlp::test
