@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <random>
 #include <thread>
 
 #include "child_process.h"
@@ -123,6 +124,39 @@ inline bool MachineRuns(const Site& site, const std::string& machine, const std:
       if (m.at("name") == machine && m.at("running") == op) return true;
     return false;
   });
+}
+
+// A request cut by kill -9 (issue 24 item 5, issue 48), then sent again: the host `start`
+// gives takes the request and is killed at a random instant within 1.2 x `*job_ms` of it; then
+// `after_kill`; then a new host (settling what the killed one announced) answers the request
+// again under its request_id and is stopped. `*job_ms` follows a retry that ran: a repeat
+// answered from the history takes milliseconds and would shrink the window to nothing.
+struct KillRetry {
+  test::ProcessRun retry;  ///< `mlp request FILE --json` to the new host
+  int stop_code = -1;      ///< the new host's exit code on SIGTERM
+};
+inline KillRetry KillThenRetry(const Site& site,
+                               const std::string& request_file,
+                               const std::function<Child()>& start,
+                               std::mt19937* rng,
+                               double* job_ms,
+                               const std::function<void()>& after_kill = {}) {
+  {
+    Child hostd = start();
+    Child client({kMlp, "request", request_file, "--socket", site.socket}, site.dir / "client.log");
+    const auto delay = std::uniform_real_distribution<double>(0, 1.2 * *job_ms)(*rng);
+    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(delay));
+    hostd.Stop(SIGKILL);
+  }
+  if (after_kill) after_kill();
+  Child hostd = start();
+  const auto t0 = std::chrono::steady_clock::now();
+  KillRetry r{site.Mlp("request " + request_file + " --json")};
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (r.retry.exit_code == 0 && !json::parse(r.retry.out).value("repeated", false)) *job_ms = ms;
+  r.stop_code = hostd.Stop();
+  return r;
 }
 
 // A request through `mlp request --json`: the reply, or {} after a failure the test reports.

@@ -674,24 +674,12 @@ TEST(Hostd, KillsInsideMeasureJobsNeverCompensateTwice) {
     json measure = test::BoreMeasureJob(captures, 40.010);
     measure["request_id"] = "kill-" + std::to_string(i);
     const std::string file = site.Request("measure" + std::to_string(i), measure);
-    {
-      Child hostd = StartHostd(site);
-      Child client({test::kMlp, "request", file, "--socket", site.socket}, site.dir / "client.log");
-      // A kill anywhere from the request's arrival to past the reply; the window follows the
-      // job's duration as measured by the retries (slower machines, wider window).
-      const auto delay = std::uniform_real_distribution<double>(0, 1.2 * job_ms)(rng);
-      std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(delay));
-      hostd.Stop(SIGKILL);
-    }
-    Child hostd = StartHostd(site);  // settles what the killed host announced
-    const auto t0 = std::chrono::steady_clock::now();
-    const auto retry = site.Mlp("request " + file + " --json");
-    const double retry_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    ASSERT_EQ(retry.exit_code, 0) << i << retry.err << Log(site);
-    // The window follows a job that ran, not a repeat answered from the history in a few ms.
-    if (!json::parse(retry.out).value("repeated", false)) job_ms = retry_ms;
-    EXPECT_EQ(hostd.Stop(), 0);
+    // A kill anywhere from the request's arrival to past the reply; the window follows the
+    // job's duration as measured by the retries (slower machines, wider window).
+    const test::KillRetry r = test::KillThenRetry(
+        site, file, [&] { return StartHostd(site); }, &rng, &job_ms);
+    ASSERT_EQ(r.retry.exit_code, 0) << i << r.retry.err << Log(site);
+    EXPECT_EQ(r.stop_code, 0);
     ASSERT_FALSE(std::isnan(Tool12DiameterMm(table))) << "a cut table:\n" << test::ReadText(table);
   }
   // Every job as the history has it: no write left as an intent, the written ones chain from
@@ -761,22 +749,10 @@ TEST(Hostd, KillsInsideRelocateJobsNeverMoveTwice) {
     json job = test::RelocateJob("after");
     job["request_id"] = "relocate-kill-" + std::to_string(i);
     const std::string file = site.Request("relocate" + std::to_string(i), job);
-    {
-      Child hostd = StartHostd(site);
-      Child client({test::kMlp, "request", file, "--socket", site.socket}, site.dir / "client.log");
-      const auto delay = std::uniform_real_distribution<double>(0, 1.2 * job_ms)(rng);
-      std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(delay));
-      hostd.Stop(SIGKILL);
-    }
-    Child hostd = StartHostd(site);  // settles what the killed host announced
-    const auto t0 = std::chrono::steady_clock::now();
-    const auto retry = site.Mlp("request " + file + " --json");
-    const double retry_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    ASSERT_EQ(retry.exit_code, 0) << i << retry.err << Log(site);
-    // The kill window follows a job that ran, not a repeat answered from the history.
-    if (!json::parse(retry.out).value("repeated", false)) job_ms = retry_ms;
-    EXPECT_EQ(hostd.Stop(), 0);
+    const test::KillRetry r = test::KillThenRetry(
+        site, file, [&] { return StartHostd(site); }, &rng, &job_ms);
+    ASSERT_EQ(r.retry.exit_code, 0) << i << r.retry.err << Log(site);
+    EXPECT_EQ(r.stop_code, 0);
     const double now_mm = Tool30XMm(table);
     ASSERT_FALSE(std::isnan(now_mm)) << "a cut table:\n" << test::ReadText(table);
     steps_mm.push_back(now_mm - x_mm);

@@ -9,6 +9,7 @@
 
 #include <future>
 
+#include "electrode_site.h"
 #include "hostd_site.h"
 #include "linuxcnc_machine.h"
 #include "test_data.h"
@@ -366,7 +367,7 @@ TEST(LinuxCnc, ACaptureTakenWhileTheMachineMovedIsRejected) {
 // The electrode's description and its textures before and after a re-clamp (turned 0.002 deg
 // about Z, shifted 0.03, -0.02, 0.015 mm) in the site's data/tools.
 void ElectrodeTextures(const Site& site) {
-  const std::string electrode = mlp::test::SourceDir() + "/samples/tools/electrode_10x6.json";
+  const std::string& electrode = test::kElectrode;
   fs::create_directories(site.dir / "data" / "tools");
   fs::copy_file(electrode, site.dir / "data" / "tools" / "electrode.json");
   const std::string render = test::kMlp + " tool render-texture --tool " + electrode + " --out " +
@@ -392,13 +393,7 @@ TEST(LinuxCnc, ARelocatedElectrodesOffsetsMoveTheNextBurn) {
       << "T30 P30 X0.01 Z60.0 D11.662 ;EDM electrode\n";
   ElectrodeTextures(site);
   if (HasFatalFailure()) return;
-  std::ofstream(config / "jobs" / "1.json") << json{
-      {"op", "relocate"},
-      {"machine", "lcnc-1"},
-      {"reference", "tools/before"},
-      {"images", "tools/after"},
-      {"tool", "tools/electrode.json"},
-      {"tool_number", 30}}.dump();
+  std::ofstream(config / "jobs" / "1.json") << test::RelocateJob("after").dump();
   Child hostd({test::kHostd, "--config", (site.dir / "hostd.json").string()},
               site.dir / "hostd.log");
   ASSERT_TRUE(site.WaitFor([&] { return fs::exists(site.socket); }));
@@ -459,12 +454,9 @@ TEST(LinuxCnc, TwoMachinesOnOneToolTableLoseNoWrite) {
   ElectrodeTextures(site);
   if (HasFatalFailure()) return;
   const auto job = [&](const std::string& machine, int tool) {
-    return json{{"op", "relocate"},
-                {"machine", machine},
-                {"reference", "tools/before"},
-                {"images", "tools/after"},
-                {"tool", "tools/electrode.json"},
-                {"tool_number", tool}};
+    json j = test::RelocateJob("after");
+    j["machine"] = machine, j["tool_number"] = tool;
+    return j;
   };
   Child hostd({test::kHostd, "--config", (site.dir / "hostd.json").string()},
               site.dir / "hostd.log");

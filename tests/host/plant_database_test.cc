@@ -13,10 +13,10 @@
 namespace mlp::test {
 namespace {
 
-void DatabaseSite(const Site& site, const Postgres& pg) {
+void DatabaseSite(const Site& site, const std::string& connection) {
   json config = json::parse(ReadText(site.dir / "hostd.json"));
   config["host_id"] = "cell3";
-  config["plant_database"] = {{"connection", pg.Uri()}};
+  config["plant_database"] = {{"connection", connection}};
   ElectrodeSite(site, config);
 }
 
@@ -37,7 +37,7 @@ bool PlantHasJob(const Postgres& pg, std::int64_t job, const std::string& status
 TEST(HostdPlantDatabase, EveryJobReachesThePlantAndWaitsWhileTheServerIsAway) {
   Postgres pg("hostd");
   Site site("plant_database", 17468);
-  DatabaseSite(site, pg);
+  DatabaseSite(site, pg.Uri());
   if (HasFatalFailure()) return;
   auto hostd = std::make_unique<Child>(
       std::vector<std::string>{kHostd, "--config", (site.dir / "hostd.json").string()},
@@ -123,10 +123,7 @@ TEST(HostdPlantDatabase, NoPasswordInAnyOutputAndNoWaitForeverOnAStalledServer) 
   }
   for (const std::string& uri : uris) {
     Site site("plant_database_secret", 17469);
-    json config = json::parse(ReadText(site.dir / "hostd.json"));
-    config["host_id"] = "cell3";
-    config["plant_database"] = {{"connection", uri}};
-    ElectrodeSite(site, config);
+    DatabaseSite(site, uri);
     if (HasFatalFailure()) return;
     Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
     ASSERT_TRUE(site.WaitFor([&] { return site.Mlp("status").exit_code == 0; }))
@@ -156,7 +153,7 @@ TEST(HostdPlantDatabase, NoPasswordInAnyOutputAndNoWaitForeverOnAStalledServer) 
 TEST(HostdPlantDatabase, ALockedTableHoldsUpNeitherAJobNorAStop) {
   Postgres pg("locked");
   Site site("plant_database_locked", 17475);
-  DatabaseSite(site, pg);
+  DatabaseSite(site, pg.Uri());
   if (HasFatalFailure()) return;
   auto hostd = std::make_unique<Child>(
       std::vector<std::string>{kHostd, "--config", (site.dir / "hostd.json").string()},

@@ -351,24 +351,13 @@ TEST(ToolJob, KillsInsideToolJobsLeaveTheTableWholeAndWriteOnce) {
     job["accept_findings"] = true;  // the worn tool's 20 um is written, not refused
     job["request_id"] = "tool-kill-" + std::to_string(i);
     const std::string file = site.Request("kill" + std::to_string(i), job);
-    {
-      Child hostd = start();
-      Child client({kMlp, "request", file, "--socket", site.socket}, site.dir / "client.log");
-      const auto delay = std::uniform_real_distribution<double>(0, 1.2 * job_ms)(rng);
-      std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(delay));
-      hostd.Stop(SIGKILL);
-      ASSERT_FALSE(std::isnan(Tool3(table).first)) << "a cut table:\n" << ReadText(table);
-    }
-    Child hostd = start();  // settles what the killed host announced
-    const auto t0 = std::chrono::steady_clock::now();
-    const auto retry = site.Mlp("request " + file + " --json");
-    const double retry_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    ASSERT_EQ(retry.exit_code, 0) << i << retry.err << ReadText(site.dir / "hostd.log");
-    // The kill window follows a job that ran; a repeat answered from the history takes
-    // milliseconds and would shrink it to nothing.
-    if (!json::parse(retry.out).value("repeated", false)) job_ms = retry_ms;
-    EXPECT_EQ(hostd.Stop(), 0);
+    bool whole_after_kill = false;
+    const KillRetry r = KillThenRetry(site, file, start, &rng, &job_ms,
+                                      [&] { whole_after_kill = !std::isnan(Tool3(table).first); });
+    ASSERT_TRUE(whole_after_kill) << "a cut table:\n" << ReadText(table);
+    ASSERT_EQ(r.retry.exit_code, 0) << i << r.retry.err << ReadText(site.dir / "hostd.log");
+    EXPECT_EQ(r.stop_code, 0);
+    const ProcessRun& retry = r.retry;
     const json update = json::parse(retry.out).at("update");
     const auto [z, d] = Tool3(table);
     EXPECT_NEAR(z, update.at("length_after_mm").get<double>(), 1e-6) << i;

@@ -239,9 +239,7 @@ struct PlantDatabase::Impl {
 
 PlantDatabase::PlantDatabase(std::string connection) : impl_(std::make_unique<Impl>()) {
   impl_->secrets = Secrets(connection);
-  impl_->connection = WithLimits(connection);
-  // The limits added may name the string in an error too.
-  for (const std::string& s : Secrets(impl_->connection)) impl_->secrets.push_back(s);
+  impl_->connection = WithLimits(connection);  // the limits add no secret
 }
 
 void PlantDatabase::Interrupt() {

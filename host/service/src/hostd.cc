@@ -192,13 +192,10 @@ struct Hostd::Impl {
       // From the announced rows, not the reply's shape: a tool or relocate job's reply is not
       // a measure's, and reading only the latter sent those jobs to the .ngc header, which is
       // written before the table (1 kill in 40 recorded "written" a table never changed).
-      std::vector<nc::ToolOffsetChange> tools;
-      for (const history::OffsetWriteRow& row : w.writes)
-        if (const auto t = ToolChangeOfRow(row)) tools.push_back(*t);
       // Confirmed writes are the controller's too: never "failed", never run again.
       const bool written =
-          w.confirmed ||
-          (m != nullptr && WritesReachedController(m->controller, w.machine, w.job, tools));
+          w.confirmed || (m != nullptr && WritesReachedController(m->controller, w.machine, w.job,
+                                                                  ToolChangesOf(w.writes)));
       json reply = w.reply;
       history::JobStatus status = history::JobStatus::kFailed;
       if (written) {

@@ -131,10 +131,8 @@ std::vector<std::string> WriteToController(JobContext& ctx,
     // A write that failed is settled now as a restart would settle it, from what the controller
     // shows: left as "intent", a retry under the same request_id was answered with this
     // failure and never ran again.
-    std::vector<nc::ToolOffsetChange> tools;
-    for (const history::OffsetWriteRow& row : rows)
-      if (const auto t = ToolChangeOfRow(row)) tools.push_back(*t);
-    ctx.history.MarkWritesDone(job, WritesReachedController(c, ctx.machine.name, job, tools));
+    ctx.history.MarkWritesDone(
+        job, WritesReachedController(c, ctx.machine.name, job, ToolChangesOf(rows)));
     throw;
   }
   ctx.history.MarkWritesDone(job);
@@ -193,17 +191,21 @@ std::vector<history::OffsetWriteRow> OffsetWriteRows(const nc::NcResult& out) {
   return rows;
 }
 
-std::optional<nc::ToolOffsetChange> ToolChangeOfRow(const history::OffsetWriteRow& row) {
-  std::istringstream words(row.target);
-  std::string offset, rest;
-  int tool = 0;
-  if (!(words >> offset >> tool) || offset != "offset" || !row.after.is_number()) return {};
-  std::getline(words >> std::ws, rest);
-  const auto reg = nc::ToolRegisterFrom(rest);
-  if (!reg) return {};
-  nc::ToolOffsetChange t{tool, *reg, 0.0, row.after.get<double>(), false};
-  if (row.before.is_number()) t.before_mm = row.before.get<double>();
-  return t;
+std::vector<nc::ToolOffsetChange> ToolChangesOf(const std::vector<history::OffsetWriteRow>& rows) {
+  std::vector<nc::ToolOffsetChange> out;
+  for (const history::OffsetWriteRow& row : rows) {
+    std::istringstream words(row.target);
+    std::string offset, rest;
+    int tool = 0;
+    if (!(words >> offset >> tool) || offset != "offset" || !row.after.is_number()) continue;
+    std::getline(words >> std::ws, rest);
+    const auto reg = nc::ToolRegisterFrom(rest);
+    if (!reg) continue;
+    nc::ToolOffsetChange t{tool, *reg, 0.0, row.after.get<double>(), false};
+    if (row.before.is_number()) t.before_mm = row.before.get<double>();
+    out.push_back(t);
+  }
+  return out;
 }
 
 std::string ReadDataFile(const std::string& data_dir,

@@ -103,10 +103,10 @@ nlohmann::json StoredRequest(const nlohmann::json& request);
 /// StoredRequest): the same body, byte for byte as JSON, not only the same request_id.
 bool RepeatsStoredRequest(const nlohmann::json& request, const std::string& stored_text);
 
-/// The tool change a history row announced (OffsetWriteRows' "offset N <register>" with an
-/// absolute `after`), or empty for a work offset or an incremental change: how a restart settles
-/// an interrupted write against the tool table whatever the job kind.
-std::optional<nc::ToolOffsetChange> ToolChangeOfRow(const history::OffsetWriteRow& row);
+/// The tool changes history rows announced (OffsetWriteRows' "offset N <register>" with an
+/// absolute `after`; work offsets and incremental changes are left out): how an interrupted or
+/// failed write is settled against the tool table whatever the job kind.
+std::vector<nc::ToolOffsetChange> ToolChangesOf(const std::vector<history::OffsetWriteRow>& rows);
 
 /// What one job may read of the stored captures (issue 48): at most this many captures...
 constexpr std::size_t kMaxCapturesPerJob = 256;
