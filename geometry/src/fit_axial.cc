@@ -378,11 +378,11 @@ FitResult<Cone> FitCone(const Points3& points,
       SolveAxial<ConeModel>(points, unforced, "cone", init, ConeStartOnAxis, ValidCone);
   if (std::isfinite(options.max_relative_std_dev)) {
     RequireConeSector(points, sol.state);
-    // A solver that did not converge may stand on an axis about which a narrow sector looks
-    // wide (a robust cone on 19.5 deg of R 90 mm said "not_converged" after 254 iterations, its
-    // iterate's axis seeing over 60 deg; issue 49's fresh seeds): the sector about where it
-    // began counts too.
-    if (!sol.stats.converged) RequireConeSector(points, sol.start);
+    // The solver may end on an axis about which a narrow sector looks wide: not converged (a
+    // robust cone on 19.5 deg of R 90 mm, "not_converged" after 254 iterations) or converged to
+    // a wrong minimum that fits as well (7.8 deg of R 88 mm, half angle 43 sigma off; issue
+    // 49's fresh seeds). The sector about where it began counts too.
+    RequireConeSector(points, sol.start);
   }
   FitResult<Cone> fit;
   AxialState s = sol.state;
