@@ -20,6 +20,7 @@ MLP_BUILD_DIR=build-sanitize bash scripts/build.sh -DCMAKE_C_COMPILER=clang \
   -DCMAKE_CXX_COMPILER=clang++ -DMLP_SANITIZE=ON -DMLP_BUILD_BENCHMARKS=OFF -DCMAKE_CXX_FLAGS=-g1
 export ASAN_OPTIONS="detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1"
 export UBSAN_OPTIONS="print_stacktrace=1"
+export LSAN_OPTIONS="suppressions=$PWD/scripts/lsan.supp:print_suppressions=0"
 # The waits that give normal work time to finish (a capture, say) are 4 times as long: ASan
 # makes the renderer and the firmware 2 to 3 times slower (tests/test_data.h, TimeScale).
 export MLP_TEST_TIME_SCALE=4

@@ -10,5 +10,17 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
 bash scripts/build.sh
-ctest --test-dir build --output-on-failure -j 2 --timeout 600
+# Three long runs are left out unless MLP_LONG=1 (before a release, and after a change to what
+# they cover; docs/DEVELOPING.md): the arm64 cross build with the firmware's tests under qemu
+# (672 s with a cold cache), the tool camera's 100 seeded clean-tool runs (148 s) and the
+# acceptance test through the calibrated chain (158 s). With them CI took 44 to 66 minutes
+# against the brief's 30; without them it is what the release run's other 584 tests take.
+long='^(portability/arm64_firmware|toolcam/ToolMeasure\.NoFalseFindingsOnACleanToolOver100SeededRuns'
+long="$long|verify/VerifyCli\.QuickAcceptanceThroughTheCalibratedChainMeetsTheIssueFigures)\$"
+if [ "${MLP_LONG:-0}" = 1 ]; then
+  ctest --test-dir build --output-on-failure -j 2 --timeout 600
+else
+  echo "test: 3 long runs left out (MLP_LONG=1 runs them): $long"
+  ctest --test-dir build --output-on-failure -j 2 --timeout 600 -E "$long"
+fi
 MLP_SANITIZE_MAX_S=15 bash scripts/sanitize.sh --quick

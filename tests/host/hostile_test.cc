@@ -769,8 +769,9 @@ TEST(Hostd, KillsInsideRelocateJobsNeverMoveTwice) {
   int started = 0;
   for (const auto& job : h.ListJobs({"lcnc-1", "relocate", {}, 10000})) {
     ++started;
-    for (const json& w : h.ExportJob(job.id).at("offset_writes"))
-      EXPECT_NE(w.at("state"), "intent") << job.id;
+    // Held: a range-for over a member of the temporary ExportJob returns reads freed memory.
+    const json exported = h.ExportJob(job.id);
+    for (const json& w : exported.at("offset_writes")) EXPECT_NE(w.at("state"), "intent") << job.id;
   }
   std::cout << "kill -9 inside relocate jobs: " << kRelocateKills << " kills, " << started
             << " jobs started; a job " << job_ms << " ms\n";
