@@ -21,6 +21,7 @@ packages=(
   linuxcnc-uspace  # the real controller for the LinuxCNC adapter tests and demo
   linuxcnc-uspace-dev  # hal.h and liblinuxcnchal: the setter as a HAL component (mlp-setter-hal)
   clang libclang-rt-14-dev llvm  # the sanitized build, its symbolizer, the libFuzzer targets
+  python3 python3-numpy  # the outside renderer (../shared/conformance) the firmware is judged on
 )
 # The probe board's arm64 packages are downloaded and extracted into a sysroot, never installed
 # (scripts/arm64-sysroot.sh): apt only needs their lists.

@@ -112,7 +112,10 @@ void Print(const Summary& s,
                                   {"too_narrow", s.counts.too_narrow},
                                   {"cut", s.counts.cut},
                                   {"indirect", s.counts.indirect},
-                                  {"reflectance_slope", s.counts.reflectance_dropped}}},
+                                  {"reflectance_slope", s.counts.reflectance_dropped},
+                                  {"second_on_epipolar_line", s.counts.second_on_line},
+                                  {"undecided_on_epipolar_line", s.counts.undecided_on_line},
+                                  {"beside_rejected_stripe", s.counts.beside_rejected}}},
                                 {"probe_serial", meta.probe_serial},
                                 {"capture_id", meta.capture_id},
                                 {"seconds", s.seconds}};
@@ -127,7 +130,10 @@ void Print(const Summary& s,
       << " saturated, " << s.counts.double_peak << " double-peaked, " << s.counts.too_wide
       << " too wide, " << s.counts.too_narrow << " too narrow, " << s.counts.cut
       << " cut by the ROI, " << s.counts.indirect << " indirect light (reflections), "
-      << s.counts.reflectance_dropped << " reflectance changing too fast\n";
+      << s.counts.reflectance_dropped << " reflectance changing too fast, "
+      << s.counts.second_on_line << " weaker second on an epipolar line, "
+      << s.counts.undecided_on_line << " undecided on one, " << s.counts.beside_rejected
+      << " beside a brighter rejected stripe\n";
   if (s.edge)
     out << "  edge on the LED frame: " << s.edge->points << " points, " << s.edge->rms_px
         << " px rms about its line\n";

@@ -34,6 +34,7 @@ struct Scan {
   // The row scan marks here (per AOI column) where the column scan is wanted: around runs
   // longer than a stripe is wide, and around centres left to the other axis. Null: no marking.
   std::vector<std::uint8_t>* wanted = nullptr;
+  std::vector<StripePoint>* rejected = nullptr;  // candidates rejected for their shape, if asked
 };
 
 // Marks [begin, end) of the other scan's lines as wanted, widened so that its windows fit.
@@ -108,7 +109,8 @@ Verdict Judge(const Span& s, int peak, double bg, int max_level, const StripeOpt
     // A local maximum 3 px or more from the peak, and strong: a second stripe (reflection).
     const bool local_max =
         x > s.begin && x + 1 < s.end && s.row[x] >= s.row[x - 1] && s.row[x] >= s.row[x + 1];
-    if (std::abs(x - peak) >= 3 && local_max && v > o.double_peak_ratio * amplitude) {
+    if (std::abs(x - peak) >= o.double_peak_min_px && local_max &&
+        v > o.double_peak_ratio * amplitude) {
       return Verdict::kDoublePeak;
     }
   }
@@ -252,11 +254,19 @@ std::uint16_t ScanSpan(const Span& s,
     const int margin = 2 * (o.window_half_px + 2);
     if (run_end - run_begin > o.max_width_px) Want(scan, run_begin, run_end, margin);
     const double bg = LocalBackground(s, peak, o.window_half_px);
-    if (!CountVerdict(Judge(s, peak, bg, max_level, o), counts)) continue;
+    const Verdict verdict = Judge(s, peak, bg, max_level, o);
+    // A stripe rejected for its shape is still light on this epipolar line (epipolar.h).
+    const bool evidence = verdict == Verdict::kSaturated || verdict == Verdict::kDoublePeak ||
+                          verdict == Verdict::kTooWide;
+    if (evidence && scan.rejected)
+      scan.rejected->push_back(MakePoint(scan, peak, v, s.row[peak] - bg, max_level));
+    if (!CountVerdict(verdict, counts)) continue;
     double bg2 = 0.0, mass = 0.0, variance = 0.0;
     const double u = ReCentred(s, peak, bg, o, &bg2, &mass, &variance);
     if (variance < o.min_variance_px2) {
       ++counts->too_narrow;
+      if (scan.rejected)
+        scan.rejected->push_back(MakePoint(scan, u, v, s.row[peak] - bg2, max_level));
       continue;
     }
     if (scan.other_axis_too && !AcrossThisScan(scan, u, v, o.window_half_px + 2)) {
@@ -344,21 +354,42 @@ std::vector<std::pair<int, int>> Spans(const std::uint8_t* bits, int length) {
   return spans;
 }
 
-// The frame blurred with a Gaussian of `sigma_px` (OpenCV, reflected borders), full-scale pixels
-// kept at full scale.
-const std::uint16_t* Smoothed(const Frame& frame,
-                              double sigma_px,
-                              int max_level,
-                              std::vector<std::uint16_t>* buffer) {
+// The frame blurred by a Gaussian of sigma_x, sigma_y [px] over `kernel` (0 x 0: OpenCV's size
+// for the sigmas) into *buffer, OpenCV, reflected borders.
+const std::uint16_t* Blurred(const Frame& frame,
+                             double sigma_x,
+                             double sigma_y,
+                             cv::Size kernel,
+                             std::vector<std::uint16_t>* buffer) {
   buffer->resize(frame.pixels.size());
   const cv::Mat in(frame.aoi.height, frame.aoi.width, CV_16U,
                    const_cast<std::uint16_t*>(frame.pixels.data()));
   cv::Mat out(frame.aoi.height, frame.aoi.width, CV_16U, buffer->data());
-  cv::GaussianBlur(in, out, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REFLECT);
+  cv::GaussianBlur(in, out, kernel, sigma_x, sigma_y, cv::BORDER_REFLECT);
+  return buffer->data();
+}
+
+// The frame blurred with a Gaussian of `sigma_px`, full-scale pixels kept at full scale.
+const std::uint16_t* Smoothed(const Frame& frame,
+                              double sigma_px,
+                              int max_level,
+                              std::vector<std::uint16_t>* buffer) {
+  Blurred(frame, sigma_px, sigma_px, cv::Size(0, 0), buffer);
   for (size_t i = 0; i < buffer->size(); ++i) {
     if (frame.pixels[i] >= max_level) (*buffer)[i] = static_cast<std::uint16_t>(max_level);
   }
   return buffer->data();
+}
+
+// The frame blurred along one axis only (a stripe running down the image: along y); full
+// scale only where the blur of full-scale pixels is.
+const std::uint16_t* SmoothedAlong(const Frame& frame,
+                                   double sigma_px,
+                                   bool along_y,
+                                   std::vector<std::uint16_t>* buffer) {
+  const int k = 2 * static_cast<int>(std::ceil(3.0 * sigma_px)) + 1;
+  return along_y ? Blurred(frame, 0.0, sigma_px, cv::Size(1, k), buffer)
+                 : Blurred(frame, sigma_px, 0.0, cv::Size(k, 1), buffer);
 }
 
 }  // namespace
@@ -403,7 +434,8 @@ StripeExtractor::StripeExtractor(const RowMask& mask, const StripeOptions& optio
 
 void StripeExtractor::Extract(const Frame& frame,
                               std::vector<StripePoint>* out,
-                              StripeCounts* counts) {
+                              StripeCounts* counts,
+                              std::vector<StripePoint>* rejected) {
   const Aoi& a = frame.aoi;
   MLP_CHECK_MSG(mask_.aoi.width == a.width && mask_.aoi.height == a.height &&
                     mask_.aoi.x0 == a.x0 && mask_.aoi.y0 == a.y0 &&
@@ -413,16 +445,23 @@ void StripeExtractor::Extract(const Frame& frame,
   const std::uint16_t* pixels = frame.pixels.data();
   if (options_.speckle_sigma_px > 0.0)
     pixels = Smoothed(frame, options_.speckle_sigma_px, max_level, &smoothed_);
+  const double along = options_.along_stripe_sigma_px;
+  const std::uint16_t* row_pixels =
+      along > 0.0 ? SmoothedAlong(frame, along, true, &along_rows_) : pixels;
   const bool both = options_.axes == StripeAxes::kBoth;
   // Which columns the column scan reads: all when it runs alone; with both, those the row scan
   // marked (a stripe running down the image costs the column scan nothing).
   wanted_.assign(static_cast<size_t>(a.width), options_.axes == StripeAxes::kColumns ? 1 : 0);
   if (options_.axes != StripeAxes::kColumns) {
-    Scan rows{{pixels, a.width, a.height}, ScanAxis::kRow, a.x0, a.y0, both};
+    Scan rows{{row_pixels, a.width, a.height}, ScanAxis::kRow, a.x0, a.y0, both};
     if (both) rows.wanted = &wanted_;
+    rows.rejected = rejected;
     ScanLines(rows, mask_, 0, max_level, options_, out, counts);
   }
   if (options_.axes == StripeAxes::kRows) return;
+  const bool any_column =
+      std::find(wanted_.begin(), wanted_.end(), std::uint8_t{1}) != wanted_.end();
+  if (along > 0.0 && any_column) pixels = SmoothedAlong(frame, along, false, &along_columns_);
   for (int c0 = 0; c0 < a.width;) {
     if (!wanted_[static_cast<size_t>(c0)]) {
       ++c0;
@@ -433,8 +472,8 @@ void StripeExtractor::Extract(const Frame& frame,
     // The band's columns transposed: the column scan's lines in memory order.
     transposed_.resize(static_cast<size_t>(c1 - c0) * static_cast<size_t>(a.height));
     Transpose(pixels + c0, a.width, c1 - c0, a.height, transposed_.data());
-    const Scan columns{
-        {transposed_.data(), a.height, c1 - c0}, ScanAxis::kColumn, a.y0, a.x0 + c0, both};
+    Scan columns{{transposed_.data(), a.height, c1 - c0}, ScanAxis::kColumn, a.y0, a.x0 + c0, both};
+    columns.rejected = rejected;
     ScanLines(columns, column_mask_, c0, max_level, options_, out, counts);
     c0 = c1;
   }

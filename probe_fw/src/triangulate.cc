@@ -1,5 +1,6 @@
 #include "mlp/probe_fw/triangulate.h"
 
+#include "mlp/probe_fw/epipolar.h"
 #include "mlp/probe_fw/ghost.h"
 #include "mlp/probe_fw/reflectance.h"
 
@@ -25,6 +26,30 @@ std::optional<Vec3> OnPlane(const ProjectorModel& projector,
   // Below 1e-3 the ray grazes the plane (triangulation angle < 0.06 deg): no depth resolution.
   if (!(std::abs(denom) > 1e-3 * ray.norm())) return std::nullopt;
   return (offset / denom) * ray;
+}
+
+// The options with smoothing along the stripe as the sweep's middle laser frame calls for
+// (EstimateSpeckle): one frame's thousand-odd centres measure the grain; the whole sweep is then
+// read alike. Under measured speckle the profile's own grains make humps inside the centroid
+// window, so only a peak beyond the window is a second stripe.
+StripeOptions WithSpeckleSmoothing(const std::vector<Frame>& frames,
+                                   const RowMask& mask,
+                                   StripeOptions options,
+                                   EpipolarOptions* epipolar) {
+  if (options.along_stripe_sigma_px > 0.0) return options;
+  std::vector<const Frame*> laser;
+  for (const Frame& f : frames) {
+    if (f.IsLaser()) laser.push_back(&f);
+  }
+  if (laser.empty()) return options;
+  std::vector<StripePoint> stripe;
+  StripeCounts ignored;
+  StripeExtractor(mask, options).Extract(*laser[laser.size() / 2], &stripe, &ignored);
+  const SpeckleEstimate speckle = EstimateSpeckle(stripe, *epipolar);
+  options.along_stripe_sigma_px = AlongStripeSigmaPx(speckle);
+  epipolar->smooth_half_lines = SmoothHalfLines(speckle, epipolar->smooth_half_lines);
+  if (options.along_stripe_sigma_px > 0.0) options.double_peak_min_px = options.window_half_px + 1;
+  return options;
 }
 
 }  // namespace
@@ -58,13 +83,20 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
                                          StripeCounts* counts) {
   // The whole sweep's stripe centres first: indirect light is told by the sweep, not a frame.
   std::vector<SweepObservation> seen;
-  std::vector<StripePoint> stripe;
-  StripeExtractor extractor(mask, options);
+  std::vector<StripePoint> stripe, rejected;
+  EpipolarOptions epipolar;
+  StripeExtractor extractor(mask, WithSpeckleSmoothing(laser_frames, mask, options, &epipolar));
   int index = 0;
   for (const Frame& frame : laser_frames) {
     if (!frame.IsLaser()) continue;
-    stripe.clear();
-    extractor.Extract(frame, &stripe, counts);
+    stripe.clear(), rejected.clear();
+    extractor.Extract(frame, &stripe, counts, &rejected);
+    EpipolarCounts held;
+    KeepOneDirectPerEpipolarLine(model, rejected, epipolar, &stripe, &held);
+    counts->second_on_line += held.second_on_line;
+    counts->undecided_on_line += held.undecided;
+    counts->beside_rejected += held.beside_rejected;
+    counts->points -= held.second_on_line + held.undecided + held.beside_rejected;
     for (const StripePoint& s : stripe) seen.push_back({s, frame.laser_column, index, false});
     ++index;
   }

@@ -49,6 +49,10 @@ struct StripeOptions {
   int window_half_px = 4;          ///< centroid window half-width (~3 sigma of a 3-5 px stripe)
   int max_width_px = 12;           ///< wider runs above half maximum are not a laser stripe
   double double_peak_ratio = 0.3;  ///< a second peak above this fraction of the first rejects
+  /// ... when it lies at least this far from the first [px]. Under measured speckle
+  /// (ReconstructSweep) the profile's own grains make humps inside the centroid window, so only
+  /// a peak beyond the window is a second stripe there.
+  int double_peak_min_px = 3;
   /// A profile narrower than this (second moment [px^2]) lies mostly on one pixel: its centre of
   /// mass locks to the pixel (biased by up to a third of a pixel) and is not a point. A design
   /// stripe has ~1.1 px^2; a face seen so that the sheet sweeps it fast narrows it.
@@ -62,6 +66,12 @@ struct StripeOptions {
   /// the stripe trades lateral resolution for it). A symmetric kernel leaves a straight
   /// stripe's centre where it was. Pixels at full scale stay at full scale (still saturated).
   double speckle_sigma_px = 0.0;
+  /// Gaussian smoothing along the stripe only [px, sigma]; 0: none. The row scan reads the frame
+  /// smoothed down the columns, the column scan along the rows: speckle grains along the stripe
+  /// average out while the profile across it keeps its width, and a pixel is saturated only
+  /// where the stripe is at full scale along the kernel, not where one grain clipped.
+  /// ReconstructSweep sets it from the frames (EstimateSpeckle, epipolar.h).
+  double along_stripe_sigma_px = 0.0;
 };
 
 struct StripePoint {
@@ -93,6 +103,10 @@ struct StripeCounts {
   std::uint64_t indirect = 0;
   /// The face's reflectance changes too fast across the stripe to correct (reflectance.h).
   std::uint64_t reflectance_dropped = 0;
+  /// One frame's epipolar line holds at most one direct candidate (epipolar.h): dropped as the
+  /// clearly weaker trace, as one of two that the light could not tell apart, or beside a
+  /// stripe rejected for its shape (saturated, double-peaked...) that outshone it.
+  std::uint64_t second_on_line = 0, undecided_on_line = 0, beside_rejected = 0;
 };
 
 /// The mask of the transposed AOI (rows become columns): what the column scan reads.
@@ -105,15 +119,22 @@ class StripeExtractor {
   /// Throws std::invalid_argument when the mask does not have one entry per row of its AOI.
   StripeExtractor(const RowMask& mask, const StripeOptions& options);
   /// Appends the centres found in `frame` to `out`: the row scan's first, then the column
-  /// scan's. Throws std::invalid_argument when the frame's AOI is not the mask's.
-  void Extract(const Frame& frame, std::vector<StripePoint>* out, StripeCounts* counts);
+  /// scan's. Candidates rejected for their shape (saturated, double-peaked, too wide, too
+  /// narrow: counted, never points) go to `rejected` when given: they are light on their
+  /// epipolar line, evidence against a weaker candidate there (epipolar.h). Throws
+  /// std::invalid_argument when the frame's AOI is not the mask's.
+  void Extract(const Frame& frame,
+               std::vector<StripePoint>* out,
+               StripeCounts* counts,
+               std::vector<StripePoint>* rejected = nullptr);
 
  private:
   RowMask mask_, column_mask_;
   StripeOptions options_;
   std::vector<std::uint16_t> transposed_;
-  std::vector<std::uint16_t> smoothed_;  ///< the frame after speckle smoothing
-  std::vector<std::uint8_t> wanted_;     ///< per AOI column: the column scan reads it
+  std::vector<std::uint16_t> smoothed_;                    ///< the frame after speckle smoothing
+  std::vector<std::uint16_t> along_rows_, along_columns_;  ///< smoothed along the stripe
+  std::vector<std::uint8_t> wanted_;  ///< per AOI column: the column scan reads it
 };
 
 /// One frame: StripeExtractor(mask, options).Extract(frame, out, counts).

@@ -1,0 +1,331 @@
+#include "mlp/probe_fw/epipolar.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <utility>
+
+namespace mlp::probe_fw {
+namespace {
+
+enum class Drop : std::uint8_t { kKept, kWeaker, kUndecided, kBesideRejected };
+
+// A candidate of the frame: a point, or a stripe rejected for its shape (evidence, never kept).
+struct Candidate {
+  StripePoint stripe;
+  double epipolar_px = 0.0;  // which epipolar line, in pixels of the camera's focal length
+  double light = 0.0;        // its amplitude above the background [DN], at least 1
+  bool rejected = false;     // rejected for its shape: evidence, never a point
+  int trace = -1;
+  Drop drop = Drop::kKept;
+};
+
+// The epipolar planes turn about the baseline: the angle of the plane through the candidate's
+// ray, times the focal length, numbers the lines one pixel apart near the image's centre.
+class EpipolarIndex {
+ public:
+  explicit EpipolarIndex(const ProbeModel& model) : model_(model) {
+    const Vec3 t = model.projector.Center();
+    along_ = t.norm() > 0.0 ? t.normalized() : Vec3::UnitX();
+    // Any direction square to the baseline: the one nearest the optical axis.
+    e1_ = (Vec3::UnitZ() - Vec3::UnitZ().dot(along_) * along_);
+    if (e1_.norm() < 1e-9) e1_ = Vec3::UnitY() - Vec3::UnitY().dot(along_) * along_;
+    e1_.normalize();
+    e2_ = along_.cross(e1_);
+  }
+  double Of(const StripePoint& s) const {
+    const Vec2 xy = model_.camera.Undistort(Vec2(s.x_px, s.y_px));
+    const Vec3 normal = along_.cross(Vec3(xy.x(), xy.y(), 1.0));
+    return std::atan2(normal.dot(e2_), normal.dot(e1_)) * model_.camera.fy_px;
+  }
+
+ private:
+  const ProbeModel& model_;
+  Vec3 along_, e1_, e2_;
+};
+
+// Links the candidates of one scan axis along the stripe: by line, each joins the trace whose
+// slope puts it nearest (within the gate), else starts one. Returns the number of traces.
+int LinkTraces(const EpipolarOptions& o, std::vector<Candidate*>& axis, int first_trace) {
+  std::sort(axis.begin(), axis.end(), [](const Candidate* a, const Candidate* b) {
+    return std::make_pair(a->stripe.Line(), a->stripe.Along()) <
+           std::make_pair(b->stripe.Line(), b->stripe.Along());
+  });
+  struct Open {
+    int id, line;
+    double along, slope;
+    int claimed_line, members;
+  };
+  std::vector<Open> open;
+  int next = first_trace;
+  for (Candidate* c : axis) {
+    const int line = c->stripe.Line();
+    std::erase_if(open, [&](const Open& t) { return line - t.line > o.max_line_gap + 1; });
+    Open* best = nullptr;
+    double best_miss = o.link_gate_px;
+    for (Open& t : open) {
+      if (t.line >= line || t.claimed_line == line) continue;
+      const double miss = std::abs(c->stripe.Along() - (t.along + t.slope * (line - t.line)));
+      if (miss <= best_miss) best_miss = miss, best = &t;
+    }
+    if (!best) {
+      open.push_back({next, line, c->stripe.Along(), 0.0, line, 1});
+      c->trace = next++;
+      continue;
+    }
+    const double slope = (c->stripe.Along() - best->along) / (line - best->line);
+    best->slope = best->members == 1 ? slope : 0.5 * (best->slope + slope);
+    best->line = line, best->along = c->stripe.Along(), best->claimed_line = line;
+    ++best->members;
+    c->trace = best->id;
+  }
+  return next;
+}
+
+// The verdict on two traces over the lines where they conflict: +1 the first is direct, -1 the
+// second, 0 neither can be told. log_ratios: ln(light first / light second), line by line.
+int Judge(const std::vector<double>& log_ratios, const EpipolarOptions& o) {
+  const double n = static_cast<double>(log_ratios.size());
+  const double mean = std::accumulate(log_ratios.begin(), log_ratios.end(), 0.0) / n;
+  if (static_cast<int>(log_ratios.size()) < o.min_paired_lines) {
+    if (mean > std::log(o.few_lines_dominance)) return 1;
+    return mean < -std::log(o.few_lines_dominance) ? -1 : 0;
+  }
+  double ss = 0.0;
+  for (double d : log_ratios) ss += (d - mean) * (d - mean);
+  const double sd = std::sqrt(ss / (n - 1.0));
+  const double independent = std::max(1.0, n / o.lines_per_independent);
+  const double needed =
+      std::max(std::log(o.min_dominance), o.significance * sd / std::sqrt(independent));
+  if (mean > needed) return 1;
+  return mean < -needed ? -1 : 0;
+}
+
+struct PairEvidence {
+  std::vector<double> log_ratios;        // ln(light of the lower id / light of the higher id)
+  std::vector<std::pair<int, int>> who;  // the candidates, lower id's first
+};
+
+// Every pair of candidates of different traces on one epipolar line: the evidence per pair of
+// traces, keyed (lower trace id, higher).
+std::map<std::pair<int, int>, PairEvidence> Conflicts(const std::vector<Candidate>& all,
+                                                      const EpipolarOptions& o) {
+  std::vector<int> order(all.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return all[static_cast<size_t>(a)].epipolar_px < all[static_cast<size_t>(b)].epipolar_px;
+  });
+  std::map<std::pair<int, int>, PairEvidence> evidence;
+  for (size_t i = 0; i < order.size(); ++i) {
+    const Candidate& a = all[static_cast<size_t>(order[i])];
+    for (size_t j = i + 1; j < order.size(); ++j) {
+      const Candidate& b = all[static_cast<size_t>(order[j])];
+      if (b.epipolar_px - a.epipolar_px >= o.same_line_px) break;
+      if (a.trace == b.trace) continue;
+      const bool a_first = a.trace < b.trace;
+      const Candidate& lo = a_first ? a : b;
+      const Candidate& hi = a_first ? b : a;
+      PairEvidence& e = evidence[{lo.trace, hi.trace}];
+      e.log_ratios.push_back(std::log(lo.light / hi.light));
+      e.who.push_back(a_first ? std::make_pair(order[i], order[j])
+                              : std::make_pair(order[j], order[i]));
+    }
+  }
+  return evidence;
+}
+
+// Replaces each kept centre of a trace by a line fitted along the trace over +-half lines.
+std::uint64_t FitAlongTraces(std::vector<Candidate>& all, int half) {
+  if (half <= 0) return 0;
+  std::map<int, std::vector<Candidate*>> traces;
+  for (Candidate& c : all) {
+    if (!c.rejected && c.drop == Drop::kKept) traces[c.trace].push_back(&c);
+  }
+  std::uint64_t moved = 0;
+  std::vector<double> fitted;
+  for (auto& [id, members] : traces) {
+    const size_t n = members.size();
+    fitted.assign(n, 0.0);
+    const int first = members.front()->stripe.Line(), last = members.back()->stripe.Line();
+    for (size_t i = 0; i < n; ++i) {
+      const int line = members[i]->stripe.Line();
+      // A window as long on both sides: a one-sided one bends a curving stripe's centre.
+      const int reach = std::min({half, line - first, last - line});
+      double s0 = 0, s1 = 0, s2 = 0, t0 = 0, t1 = 0;
+      for (size_t k = i - std::min(i, static_cast<size_t>(half)); k < n; ++k) {
+        const int d = members[k]->stripe.Line() - line;
+        if (d < -reach) continue;
+        if (d > reach) break;
+        const double a = members[k]->stripe.Along();
+        s0 += 1, s1 += d, s2 += d * d, t0 += a, t1 += a * d;
+      }
+      const double det = s0 * s2 - s1 * s1;
+      // Three centres at least: the fit at d = 0.
+      fitted[i] = (s0 >= 3 && det > 0) ? (t0 * s2 - t1 * s1) / det : members[i]->stripe.Along();
+    }
+    for (size_t i = 0; i < n; ++i) {
+      StripePoint& s = members[i]->stripe;
+      (s.axis == ScanAxis::kRow ? s.x_px : s.y_px) = fitted[i];
+      ++moved;
+    }
+  }
+  return moved;
+}
+
+// Marks `loser` dropped for losing against `winner` (or, winner null, for a draw), keeping the
+// first reason a candidate was given.
+void Mark(Candidate& loser, const Candidate* winner) {
+  if (loser.drop != Drop::kKept) return;
+  loser.drop =
+      !winner ? Drop::kUndecided : (winner->rejected ? Drop::kBesideRejected : Drop::kWeaker);
+}
+
+// Marks the losers of every conflict: on the shared lines, the weaker trace's candidates (both
+// traces' in a draw); a trace that lost over many lines is a reflection and goes whole.
+void Decide(std::vector<Candidate>& all, const EpipolarOptions& o) {
+  std::map<int, const Candidate*> lost;  // trace -> a candidate of the trace it lost to
+  for (const auto& [traces, e] : Conflicts(all, o)) {
+    const int verdict = Judge(e.log_ratios, o);
+    for (const auto& [lo, hi] : e.who) {
+      Candidate& a = all[static_cast<size_t>(lo)];
+      Candidate& b = all[static_cast<size_t>(hi)];
+      if (verdict >= 0) Mark(b, verdict > 0 ? &a : nullptr);
+      if (verdict <= 0) Mark(a, verdict < 0 ? &b : nullptr);
+    }
+    if (verdict == 0 || static_cast<int>(e.log_ratios.size()) < o.min_paired_lines) continue;
+    const auto& [lo, hi] = e.who.front();
+    if (verdict > 0) lost.emplace(traces.second, &all[static_cast<size_t>(lo)]);
+    if (verdict < 0) lost.emplace(traces.first, &all[static_cast<size_t>(hi)]);
+  }
+  for (Candidate& c : all) {
+    const auto it = lost.find(c.trace);
+    if (it != lost.end()) Mark(c, it->second);
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// The candidates of `points` linked along the stripe: per trace, its members in line order.
+std::map<int, std::vector<const Candidate*>> Traces(std::vector<Candidate>& all,
+                                                    const EpipolarOptions& o) {
+  int traces = 0;
+  for (ScanAxis axis : {ScanAxis::kRow, ScanAxis::kColumn}) {
+    std::vector<Candidate*> on_axis;
+    for (Candidate& c : all) {
+      if (c.stripe.axis == axis) on_axis.push_back(&c);
+    }
+    traces = LinkTraces(o, on_axis, traces);
+  }
+  std::map<int, std::vector<const Candidate*>> by_trace;
+  for (const Candidate& c : all) by_trace[c.trace].push_back(&c);
+  for (auto& [id, members] : by_trace) {
+    std::sort(members.begin(), members.end(), [](const Candidate* a, const Candidate* b) {
+      return a->stripe.Line() < b->stripe.Line();
+    });
+  }
+  return by_trace;
+}
+
+}  // namespace
+
+SpeckleEstimate EstimateSpeckle(const std::vector<StripePoint>& points,
+                                const EpipolarOptions& options) {
+  constexpr int kTrend = 8, kMaxLag = 6;
+  std::vector<Candidate> all;
+  all.reserve(points.size());
+  // The profile's light, not its peak pixel: the peak changes with the centre's sub-pixel phase.
+  for (const StripePoint& s : points) all.push_back({s, 0.0, std::max(1.0, s.mass_dn)});
+  std::array<double, kMaxLag + 1> products{}, pairs{};
+  SpeckleEstimate out;
+  std::vector<double> relative;
+  for (const auto& [id, members] : Traces(all, options)) {
+    if (members.size() < 2 * kTrend + 1) continue;
+    relative.assign(members.size(), 0.0);
+    for (size_t i = 0; i < members.size(); ++i) {
+      double sum = 0.0;
+      int n = 0;
+      for (const Candidate* m : members) {
+        if (std::abs(m->stripe.Line() - members[i]->stripe.Line()) <= kTrend) sum += m->light, ++n;
+      }
+      relative[i] = members[i]->light / (sum / n) - 1.0;
+    }
+    for (size_t i = 0; i < members.size(); ++i) {
+      for (size_t k = i; k < members.size(); ++k) {
+        const int lag = members[k]->stripe.Line() - members[i]->stripe.Line();
+        if (lag > kMaxLag) break;
+        products[static_cast<size_t>(lag)] += relative[i] * relative[k];
+        pairs[static_cast<size_t>(lag)] += 1.0;
+      }
+    }
+    out.samples += members.size();
+  }
+  if (pairs[0] < 1.0) return out;
+  const double variance = products[0] / pairs[0];
+  out.contrast = std::sqrt(variance);
+  out.grain_lines = kMaxLag;
+  double before = 1.0;
+  for (int lag = 1; lag <= kMaxLag; ++lag) {
+    if (pairs[static_cast<size_t>(lag)] < 1.0 || !(variance > 0.0)) break;
+    const double rho =
+        products[static_cast<size_t>(lag)] / pairs[static_cast<size_t>(lag)] / variance;
+    if (rho < 0.5) {
+      out.grain_lines = lag - 1 + (before - 0.5) / (before - rho);
+      break;
+    }
+    before = rho;
+  }
+  return out;
+}
+
+double AlongStripeSigmaPx(const SpeckleEstimate& speckle) {
+  constexpr std::size_t kMinSamples = 200;
+  if (speckle.samples < kMinSamples || speckle.contrast < kMinSpeckleContrast) return 0.0;
+  return std::clamp(2.0 * speckle.grain_lines, 1.0, 4.0);
+}
+
+int SmoothHalfLines(const SpeckleEstimate& speckle, int plain) {
+  if (AlongStripeSigmaPx(speckle) == 0.0) return plain;
+  return std::clamp(static_cast<int>(std::ceil(8.0 * speckle.grain_lines)), plain, 12);
+}
+
+void KeepOneDirectPerEpipolarLine(const ProbeModel& model,
+                                  const std::vector<StripePoint>& rejected,
+                                  const EpipolarOptions& options,
+                                  std::vector<StripePoint>* points,
+                                  EpipolarCounts* counts) {
+  const EpipolarIndex index(model);
+  std::vector<Candidate> all;
+  all.reserve(points->size() + rejected.size());
+  for (const StripePoint& s : *points)
+    all.push_back({s, index.Of(s), std::max(1.0, s.amplitude_dn), false});
+  // A saturated stripe's light is at least its clipped peak's.
+  for (const StripePoint& s : rejected)
+    all.push_back({s, index.Of(s), std::max(1.0, s.amplitude_dn), true});
+  Traces(all, options);
+  Decide(all, options);
+  counts->smoothed += FitAlongTraces(all, options.smooth_half_lines);
+  points->clear();
+  for (const Candidate& c : all) {
+    if (c.rejected) continue;
+    switch (c.drop) {
+      case Drop::kKept:
+        points->push_back(c.stripe);
+        break;
+      case Drop::kWeaker:
+        ++counts->second_on_line;
+        break;
+      case Drop::kUndecided:
+        ++counts->undecided;
+        break;
+      case Drop::kBesideRejected:
+        ++counts->beside_rejected;
+        break;
+    }
+  }
+}
+
+}  // namespace mlp::probe_fw
