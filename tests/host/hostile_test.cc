@@ -50,6 +50,7 @@ constexpr int kKillPort = 17458;
 constexpr int kCloudPort = 17470;
 constexpr int kIdlePort = 17471;
 constexpr int kKillRelocatePort = 17473;
+constexpr int kStripesPort = 17476;
 constexpr int kHostileClients = 16;  // as many as the tester used
 
 std::string Log(const Site& site) { return test::ReadText(site.dir / "hostd.log"); }
@@ -289,6 +290,61 @@ TEST(HostileLink, CloudsAreTakenOnlyAsAskedOfTheProbeAsked) {
             std::string::npos)
       << moved.out << moved.err;
   EXPECT_FALSE(fs::exists(site.dir / "data" / "clouds" / std::to_string(kCaptures + 2)));
+  EXPECT_TRUE(hostd.Alive());
+}
+
+// Issue 50 item 5: a capture says what the firmware did with the stripe's light; one whose light
+// was mostly rejected (reflections, saturation, broken profiles) is refused and no job measures
+// from it. A stand-in for the probe sends the counts a real capture would carry.
+TEST(HostileLink, ACaptureWhoseStripeLightWasMostlyRejectedIsRefused) {
+  Site site("hostile_stripes", kStripesPort);
+  test::SaveSceneCalibration(site);
+  Child hostd = StartHostd(site);
+  link::ProbeLink stand_in(LinkAs("MLP-REF-0001", site.dir / "probe.key", kStripesPort),
+                           [](const std::string&) {});
+  stand_in.Start();
+  ASSERT_TRUE(test::ProbeConnected(site));
+  // Answers one request with 100 points and the account given.
+  const auto answer = [&](link::StripeAccount stripes) {
+    const auto request = stand_in.NextRequest(60s);
+    if (!request) return;
+    link::LinkCloud c = Bomb("MLP-REF-0001", request->capture_id, 100);
+    c.mcs_from_flange = request->mcs_from_flange;
+    c.stripes = stripes;
+    stand_in.Submit(c);
+  };
+  const auto capture = [&](const link::StripeAccount& stripes, const std::string& name) {
+    std::thread probe(answer, stripes);
+    const auto run =
+        site.Mlp("request " + site.Request(name, test::TopFaceCapture("top")) + " --json");
+    probe.join();
+    return run;
+  };
+  link::StripeAccount some;  // 47 % rejected: under the default limit (50 %)
+  some.kept = 1000, some.second_on_line = 700, some.saturated = 200, some.weak = 90000;
+  const auto kept = capture(some, "some");
+  ASSERT_EQ(kept.exit_code, 0) << kept.out << kept.err;
+  const json stripes = json::parse(kept.out).at("stripes");
+  EXPECT_NEAR(stripes.at("rejected_share").get<double>(), 900.0 / 1900.0, 1e-12);
+  EXPECT_EQ(stripes.at("rejected").at("second_on_epipolar_line"), 700);
+  EXPECT_EQ(stripes.at("not_stripe_light").at("weak"), 90000);  // no part of the share
+
+  link::StripeAccount most;  // 75 % rejected
+  most.kept = 1000, most.second_on_line = 2000, most.undecided_on_line = 1000;
+  const auto refused = capture(most, "most");
+  stand_in.Stop();
+  EXPECT_EQ(refused.exit_code, 6) << refused.out << refused.err;
+  const json r = json::parse(refused.out);
+  EXPECT_EQ(r.at("status"), "refused");
+  EXPECT_NE(
+      r.at("error").get<std::string>().find("rejected 75 % of the stripe's light (limit 50 %)"),
+      std::string::npos)
+      << r.dump();
+  // A measurement that names it is refused before anything is fitted or written.
+  const auto measure =
+      site.Mlp("request " + site.Request("measure", test::BoreMeasureJob({r.at("job_id")}, 40.0)));
+  EXPECT_NE(measure.exit_code, 0);
+  EXPECT_NE(measure.err.find("is not a finished capture"), std::string::npos) << measure.err;
   EXPECT_TRUE(hostd.Alive());
 }
 

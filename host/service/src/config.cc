@@ -202,14 +202,19 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
   const Reader r{path, fs::absolute(path).parent_path()};
   const json j = jf::ParseDocument<ConfigError>(text, kFormat, path);
   r.OnlyKnown(j,
-              {"format", "comment", "data_dir", "job_socket", "capture_timeout_s", "probe_link",
-               "probes", "machines", "host_id", "mqtt", "plant_database"},
+              {"format", "comment", "data_dir", "job_socket", "capture_timeout_s",
+               "max_rejected_stripe_share", "probe_link", "probes", "machines", "host_id", "mqtt",
+               "plant_database"},
               "config");
   HostdConfig c;
   c.path = path;
   c.data_dir = r.Path(j, "data_dir", "config");
   c.job_socket = r.Path(j, "job_socket", "config");
   c.capture_timeout_s = r.Seconds(j, "capture_timeout_s", c.capture_timeout_s, "config");
+  c.max_rejected_stripe_share = jf::NumberOr<ConfigError>(
+      j, "max_rejected_stripe_share", c.max_rejected_stripe_share, r.Where("config"));
+  if (!(c.max_rejected_stripe_share >= 0.0 && c.max_rejected_stripe_share <= 1.0))
+    throw ConfigError(r.Where("config") + ".max_rejected_stripe_share: must be 0..1");
   const json& link = jf::Object<ConfigError>(j, "probe_link", r.Where("config"));
   r.OnlyKnown(link, {"address", "port", "comment"}, "probe_link");
   c.link_address = jf::Text<ConfigError>(link, "address", r.Where("probe_link"));

@@ -14,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -392,6 +393,31 @@ struct Hostd::Impl {
             {"total", total_ms}};
   }
 
+  static json StripesJson(const link::StripeAccount& a) {
+    return {{"kept", a.kept},
+            {"rejected_share", a.RejectedShare()},
+            {"rejected",
+             {{"saturated", a.saturated},
+              {"double_peak", a.double_peak},
+              {"too_wide", a.too_wide},
+              {"too_narrow", a.too_narrow},
+              {"indirect", a.indirect},
+              {"second_on_epipolar_line", a.second_on_line},
+              {"undecided_on_epipolar_line", a.undecided_on_line},
+              {"beside_rejected_stripe", a.beside_rejected},
+              {"reflectance_slope", a.reflectance}}},
+            {"not_stripe_light", {{"weak", a.weak}, {"cut", a.cut}}}};
+  }
+
+  std::string RejectedStripesError(const link::StripeAccount& a) const {
+    char share[96];
+    std::snprintf(share, sizeof share, "%.0f %% of the stripe's light (limit %.0f %%)",
+                  100.0 * a.RejectedShare(), 100.0 * config.max_rejected_stripe_share);
+    return std::string("the firmware rejected ") + share +
+           " as reflections, saturation or broken profiles: no offset is taken from this "
+           "capture (its counts under \"stripes\"; max_rejected_stripe_share in the config)";
+  }
+
   // The macro saw the machine move while a capture's frames were taken (its pose after the
   // frames differs from the pose it sent): that capture must never be used.
   json RejectCapture(const MachineConfig& m, const json& request) {
@@ -447,6 +473,15 @@ struct Hostd::Impl {
                     {"timings_ms", timings}};
       if (cloud.edge)
         reply["edge"] = {{"points", cloud.edge->points}, {"rms_px", cloud.edge->rms_px}};
+      reply["stripes"] = StripesJson(cloud.stripes);
+      if (cloud.stripes.RejectedShare() > config.max_rejected_stripe_share) {
+        reply["ok"] = false, reply["status"] = "refused";
+        reply["error"] = RejectedStripesError(cloud.stripes);
+        log("job " + std::to_string(job) + " (capture on " + m.name +
+            ") refused: " + reply["error"].get<std::string>());
+        history.FinishJob(job, history::JobStatus::kRefused, reply, timings);
+        return reply;
+      }
       history.FinishJob(job, history::JobStatus::kDone, reply, timings);  // throws: failed
       return reply;
     } catch (const std::exception& e) {

@@ -68,6 +68,18 @@ link::LinkCloud ProbeAgent::Capture(const link::CaptureRequest& request) {
   StripeCounts counts;
   const std::vector<CloudPoint> cloud = ReconstructSweep(model_, laser, roi.mask, {}, &counts);
   if (roi.edge) out.edge = SightOfEdge(model_.camera, *roi.edge);
+  out.stripes = {cloud.size(),
+                 counts.weak,
+                 counts.cut,
+                 counts.saturated,
+                 counts.double_peak,
+                 counts.too_wide,
+                 counts.too_narrow,
+                 counts.indirect,
+                 counts.second_on_line,
+                 counts.undecided_on_line,
+                 counts.beside_rejected,
+                 counts.reflectance_dropped};
   out.capture_id = request.capture_id;
   out.probe_serial = model_.serial;
   out.calibration_id = model_.calibration_id;

@@ -122,7 +122,52 @@ std::optional<base::EdgeSight> GetEdge(Reader* r) {
   return edge;
 }
 
+// The stripe account: a count of fields, then each as a u64 (link version 4).
+constexpr std::uint8_t kAccountFields = 12;
+std::array<std::uint64_t*, kAccountFields> AccountFields(StripeAccount& a) {
+  return {&a.kept,
+          &a.weak,
+          &a.cut,
+          &a.saturated,
+          &a.double_peak,
+          &a.too_wide,
+          &a.too_narrow,
+          &a.indirect,
+          &a.second_on_line,
+          &a.undecided_on_line,
+          &a.beside_rejected,
+          &a.reflectance};
+}
+constexpr std::uint64_t kMaxCount = std::uint64_t{1} << 40;
+
+void PutAccount(Bytes* out, StripeAccount a) {
+  PutU8(out, kAccountFields);
+  for (std::uint64_t* v : AccountFields(a)) {
+    if (*v > kMaxCount) Bad("a stripe count over 2^40");
+    PutU64(out, *v);
+  }
+}
+
+StripeAccount GetAccount(Reader* r) {
+  if (r->U8() != kAccountFields)
+    Bad("stripe account: not " + std::to_string(kAccountFields) + " fields");
+  StripeAccount a;
+  for (std::uint64_t* v : AccountFields(a)) {
+    *v = r->U64();
+    if (*v > kMaxCount) Bad("stripe account: a count over 2^40");
+  }
+  return a;
+}
+
 }  // namespace
+
+double StripeAccount::RejectedShare() const {
+  const double rejected =
+      static_cast<double>(saturated + double_peak + too_wide + too_narrow + indirect +
+                          second_on_line + undecided_on_line + beside_rejected + reflectance);
+  const double light = static_cast<double>(kept) + rejected;
+  return light > 0.0 ? rejected / light : 0.0;
+}
 
 Bytes EncodeCloud(const LinkCloud& c, bool compress) {
   if (c.xyz.size() != 3 * c.quality.size()) Bad("xyz and quality sizes differ");
@@ -145,6 +190,7 @@ Bytes EncodeCloud(const LinkCloud& c, bool compress) {
   PutU64(&out, static_cast<std::uint64_t>(c.last_frame_ns));
   PutU64(&out, static_cast<std::uint64_t>(c.processed_ns));
   PutEdge(&out, c.edge);
+  PutAccount(&out, c.stripes);
   PutU32(&out, static_cast<std::uint32_t>(c.size()));
   const Bytes body = Body(c);
   if (!compress) {
@@ -179,6 +225,7 @@ std::size_t ReadHeader(Reader* r, LinkCloud* c) {
   c->last_frame_ns = static_cast<std::int64_t>(r->U64());
   c->processed_ns = static_cast<std::int64_t>(r->U64());
   c->edge = GetEdge(r);
+  c->stripes = GetAccount(r);
   const std::size_t n = r->U32();
   if (n > kMaxCloudPoints) Bad("point count " + std::to_string(n) + " over the limit");
   return n;

@@ -79,6 +79,9 @@ struct HostdConfig {
   std::uint16_t link_port = 7420;
   std::string job_socket;
   double capture_timeout_s = 30.0;
+  /// A capture whose firmware rejected more than this share of the stripe's light (reflections,
+  /// saturation, double peaks: link::StripeAccount) is refused: no job measures from it.
+  double max_rejected_stripe_share = 0.5;
   std::vector<ProbeEntry> probes;
   std::vector<MachineConfig> machines;
   std::optional<MqttConfig> mqtt;

@@ -22,6 +22,22 @@ constexpr double kResolutionMm = 1e-4;
 /// Points in one cloud at most (a full 2048 x 1536 sweep of 1024 lines is ~3e6).
 constexpr std::uint32_t kMaxCloudPoints = 8u << 20;
 
+/// What the firmware did with the stripe's candidates in a capture (since link version 4): the
+/// points kept and each rejection by its reason (probe_fw/stripe.h, StripeCounts). The host
+/// refuses to act on a capture whose stripe light was mostly rejected (docs/HOSTD.md).
+struct StripeAccount {
+  std::uint64_t kept = 0;
+  /// Not stripe light: below the threshold, or cut by the ROI's edge.
+  std::uint64_t weak = 0, cut = 0;
+  /// Stripe light the firmware would not measure: saturated, double-peaked, too wide, too
+  /// narrow, reflections (told by the sweep, or a second candidate on an epipolar line),
+  /// undecided between two, beside a brighter rejected stripe, reflectance too uneven.
+  std::uint64_t saturated = 0, double_peak = 0, too_wide = 0, too_narrow = 0, indirect = 0,
+                second_on_line = 0, undecided_on_line = 0, beside_rejected = 0, reflectance = 0;
+  /// The rejected stripe light over all stripe light (kept + rejected), 0 when there was none.
+  double RejectedShare() const;
+};
+
 struct LinkCloud {
   std::string capture_id;
   std::string probe_serial;
@@ -39,6 +55,7 @@ struct LinkCloud {
   /// The straight edge the firmware found on the LED frame for an `edge:X,Y` ROI (since link
   /// version 3); empty for other ROIs.
   std::optional<base::EdgeSight> edge;
+  StripeAccount stripes;
   std::vector<double> xyz;     ///< x y z per point [mm], probe frame
   std::vector<float> quality;  ///< 0..1 per point
   std::size_t size() const { return quality.size(); }

@@ -19,7 +19,7 @@ namespace mlp::link {
 using Bytes = std::vector<std::uint8_t>;
 
 // 2: STATUS carries frames dropped and the last error; 3: CLOUD carries the LED frame's edge.
-constexpr std::uint16_t kLinkVersion = 3;
+constexpr std::uint16_t kLinkVersion = 4;
 constexpr std::size_t kHeaderBytes = 20;
 constexpr std::size_t kCrcBytes = 4;
 constexpr std::size_t kTagBytes = 32;
