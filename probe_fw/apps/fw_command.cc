@@ -115,7 +115,8 @@ void Print(const Summary& s,
                                   {"reflectance_slope", s.counts.reflectance_dropped},
                                   {"second_on_epipolar_line", s.counts.second_on_line},
                                   {"undecided_on_epipolar_line", s.counts.undecided_on_line},
-                                  {"beside_rejected_stripe", s.counts.beside_rejected}}},
+                                  {"beside_rejected_stripe", s.counts.beside_rejected},
+                                  {"isolated", s.counts.isolated}}},
                                 {"probe_serial", meta.probe_serial},
                                 {"capture_id", meta.capture_id},
                                 {"seconds", s.seconds}};
@@ -133,7 +134,8 @@ void Print(const Summary& s,
       << s.counts.reflectance_dropped << " reflectance changing too fast, "
       << s.counts.second_on_line << " weaker second on an epipolar line, "
       << s.counts.undecided_on_line << " undecided on one, " << s.counts.beside_rejected
-      << " beside a brighter rejected stripe\n";
+      << " beside a brighter rejected stripe, " << s.counts.isolated
+      << " on a trace of a few lines\n";
   if (s.edge)
     out << "  edge on the LED frame: " << s.edge->points << " points, " << s.edge->rms_px
         << " px rms about its line\n";

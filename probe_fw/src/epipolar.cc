@@ -10,7 +10,7 @@
 namespace mlp::probe_fw {
 namespace {
 
-enum class Drop : std::uint8_t { kKept, kWeaker, kUndecided, kBesideRejected };
+enum class Drop : std::uint8_t { kKept, kWeaker, kUndecided, kBesideRejected, kIsolated };
 
 // A candidate of the frame: a point, or a stripe rejected for its shape (evidence, never kept).
 struct Candidate {
@@ -205,13 +205,9 @@ void Decide(std::vector<Candidate>& all, const EpipolarOptions& o) {
   }
 }
 
-}  // namespace
-
-namespace {
-
-// The candidates of `points` linked along the stripe: per trace, its members in line order.
-std::map<int, std::vector<const Candidate*>> Traces(std::vector<Candidate>& all,
-                                                    const EpipolarOptions& o) {
+// The candidates linked along the stripe: per trace, its members in line order.
+std::map<int, std::vector<Candidate*>> Traces(std::vector<Candidate>& all,
+                                              const EpipolarOptions& o) {
   int traces = 0;
   for (ScanAxis axis : {ScanAxis::kRow, ScanAxis::kColumn}) {
     std::vector<Candidate*> on_axis;
@@ -220,8 +216,8 @@ std::map<int, std::vector<const Candidate*>> Traces(std::vector<Candidate>& all,
     }
     traces = LinkTraces(o, on_axis, traces);
   }
-  std::map<int, std::vector<const Candidate*>> by_trace;
-  for (const Candidate& c : all) by_trace[c.trace].push_back(&c);
+  std::map<int, std::vector<Candidate*>> by_trace;
+  for (Candidate& c : all) by_trace[c.trace].push_back(&c);
   for (auto& [id, members] : by_trace) {
     std::sort(members.begin(), members.end(), [](const Candidate* a, const Candidate* b) {
       return a->stripe.Line() < b->stripe.Line();
@@ -305,8 +301,16 @@ void KeepOneDirectPerEpipolarLine(const ProbeModel& model,
   // A saturated stripe's light is at least its clipped peak's.
   for (const StripePoint& s : rejected)
     all.push_back({s, index.Of(s), std::max(1.0, s.amplitude_dn), true});
-  Traces(all, options);
+  const auto traces = Traces(all, options);
   Decide(all, options);
+  // A trace of a few lines has nothing along the stripe to hold it: a speckle grain, or a
+  // reflection's fragment where the stripe is missing.
+  for (const auto& [id, members] : traces) {
+    if (static_cast<int>(members.size()) >= options.min_trace_lines) continue;
+    for (Candidate* m : members) {
+      if (m->drop == Drop::kKept) m->drop = Drop::kIsolated;
+    }
+  }
   counts->smoothed += FitAlongTraces(all, options.smooth_half_lines);
   points->clear();
   for (const Candidate& c : all) {
@@ -323,6 +327,9 @@ void KeepOneDirectPerEpipolarLine(const ProbeModel& model,
         break;
       case Drop::kBesideRejected:
         ++counts->beside_rejected;
+        break;
+      case Drop::kIsolated:
+        ++counts->isolated;
         break;
     }
   }

@@ -96,7 +96,8 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
     counts->second_on_line += held.second_on_line;
     counts->undecided_on_line += held.undecided;
     counts->beside_rejected += held.beside_rejected;
-    counts->points -= held.second_on_line + held.undecided + held.beside_rejected;
+    counts->isolated += held.isolated;
+    counts->points -= held.second_on_line + held.undecided + held.beside_rejected + held.isolated;
     for (const StripePoint& s : stripe) seen.push_back({s, frame.laser_column, index, false});
     ++index;
   }

@@ -4,6 +4,7 @@
 // ROI extraction time per LED frame.
 // Run: build/bin/mlp_probe_bench --benchmark_counters_tabular=true
 
+#include "mlp/probe_fw/epipolar.h"
 #include "mlp/probe_fw/roi.h"
 #include "mlp/probe_fw/triangulate.h"
 #include "mlp/sim/render.h"
@@ -109,6 +110,27 @@ void BM_StripeExtract(benchmark::State& state) {
   SetRates(state, frames[0].pixels.size());
   state.counters["points_per_frame"] =
       static_cast<double>(found) / static_cast<double>(state.iterations());
+}
+
+// The stripe step with one direct candidate per epipolar line (issue 50): the row and column
+// scans with their rejected candidates kept as evidence, then the traces, conflicts and the fit
+// along each trace (speckle-free frames: no smoothing along the stripe).
+void BM_StripeEpipolar(benchmark::State& state) {
+  const auto& f = Cached();
+  probe_fw::StripeExtractor extractor(probe_fw::RowMask::Full(f.laser[0].aoi), {});
+  std::vector<probe_fw::StripePoint> points, rejected;
+  size_t k = 0, kept = 0;
+  for (auto _ : state) {
+    points.clear(), rejected.clear();
+    probe_fw::StripeCounts counts;
+    extractor.Extract(f.laser[k++ % f.laser.size()], &points, &counts, &rejected);
+    probe_fw::EpipolarCounts held;
+    probe_fw::KeepOneDirectPerEpipolarLine(f.model, rejected, {}, &points, &held);
+    kept += points.size();
+  }
+  SetRates(state, f.laser[0].pixels.size());
+  state.counters["points_per_frame"] =
+      static_cast<double>(kept) / static_cast<double>(state.iterations());
 }
 
 // Naive baseline: per row, OpenCV's maximum, then the centre of mass of +-3 px around it.
@@ -230,6 +252,7 @@ BENCHMARK(BM_FrameRead)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_RenderSweep)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_FirmwareSweep)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_StripeExtract)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_StripeEpipolar)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_NaiveOpenCvStripe)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Triangulate)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_RoiHoleOnLedFrame)->Unit(benchmark::kMillisecond);

@@ -142,20 +142,21 @@ TEST(CloudCodec, TheStripeAccountRidesAlongAndAnImpossibleCountIsRefused) {
   c.stripes.kept = 1, c.stripes.weak = 2, c.stripes.cut = 3, c.stripes.saturated = 4;
   c.stripes.double_peak = 5, c.stripes.too_wide = 6, c.stripes.too_narrow = 7;
   c.stripes.indirect = 8, c.stripes.second_on_line = 9, c.stripes.undecided_on_line = 10;
-  c.stripes.beside_rejected = 11, c.stripes.reflectance = 12;
+  c.stripes.beside_rejected = 11, c.stripes.reflectance = 12, c.stripes.isolated = 13;
   for (bool compress : {false, true}) {
     const StripeAccount d = DecodeCloud(EncodeCloud(c, compress)).stripes;
     EXPECT_EQ(d.kept, 1u);
     EXPECT_EQ(d.weak + d.cut, 5u);
     EXPECT_EQ(d.reflectance, 12u);
     EXPECT_EQ(d.beside_rejected, 11u);
-    // Rejected light: 4 + 5 + ... + 12 = 72 of 73 (weak and cut are not stripe light).
-    EXPECT_DOUBLE_EQ(d.RejectedShare(), 72.0 / 73.0);
+    EXPECT_EQ(d.isolated, 13u);
+    // Rejected light: 4 + 5 + ... + 13 = 85 of 86 (weak and cut are not stripe light).
+    EXPECT_DOUBLE_EQ(d.RejectedShare(), 85.0 / 86.0);
   }
   EXPECT_EQ(StripeAccount{}.RejectedShare(), 0.0);
   Bytes b = EncodeCloud(c, false);
   const size_t account_at = 3 * 2 + 16 * 8 + 3 * 8 + 1;  // strings, pose, times, edge byte
-  ASSERT_EQ(b[account_at], 12);
+  ASSERT_EQ(b[account_at], 13);
   b[account_at + 1 + 8 * 4 + 7] = 0xff;  // the double-peak count's top byte: beyond 2^40
   try {
     DecodeCloud(b);
@@ -163,7 +164,7 @@ TEST(CloudCodec, TheStripeAccountRidesAlongAndAnImpossibleCountIsRefused) {
   } catch (const LinkError& e) {
     EXPECT_NE(std::string(e.what()).find("over 2^40"), std::string::npos) << e.what();
   }
-  b[account_at] = 11;
+  b[account_at] = 12;
   EXPECT_THROW(DecodeCloud(b), LinkError);
 }
 

@@ -405,7 +405,8 @@ struct Hostd::Impl {
               {"second_on_epipolar_line", a.second_on_line},
               {"undecided_on_epipolar_line", a.undecided_on_line},
               {"beside_rejected_stripe", a.beside_rejected},
-              {"reflectance_slope", a.reflectance}}},
+              {"reflectance_slope", a.reflectance},
+              {"isolated", a.isolated}}},
             {"not_stripe_light", {{"weak", a.weak}, {"cut", a.cut}}}};
   }
 

@@ -79,7 +79,8 @@ link::LinkCloud ProbeAgent::Capture(const link::CaptureRequest& request) {
                  counts.second_on_line,
                  counts.undecided_on_line,
                  counts.beside_rejected,
-                 counts.reflectance_dropped};
+                 counts.reflectance_dropped,
+                 counts.isolated};
   out.capture_id = request.capture_id;
   out.probe_serial = model_.serial;
   out.calibration_id = model_.calibration_id;

@@ -123,7 +123,7 @@ std::optional<base::EdgeSight> GetEdge(Reader* r) {
 }
 
 // The stripe account: a count of fields, then each as a u64 (link version 4).
-constexpr std::uint8_t kAccountFields = 12;
+constexpr std::uint8_t kAccountFields = 13;
 std::array<std::uint64_t*, kAccountFields> AccountFields(StripeAccount& a) {
   return {&a.kept,
           &a.weak,
@@ -136,7 +136,8 @@ std::array<std::uint64_t*, kAccountFields> AccountFields(StripeAccount& a) {
           &a.second_on_line,
           &a.undecided_on_line,
           &a.beside_rejected,
-          &a.reflectance};
+          &a.reflectance,
+          &a.isolated};
 }
 constexpr std::uint64_t kMaxCount = std::uint64_t{1} << 40;
 
@@ -162,9 +163,9 @@ StripeAccount GetAccount(Reader* r) {
 }  // namespace
 
 double StripeAccount::RejectedShare() const {
-  const double rejected =
-      static_cast<double>(saturated + double_peak + too_wide + too_narrow + indirect +
-                          second_on_line + undecided_on_line + beside_rejected + reflectance);
+  const double rejected = static_cast<double>(saturated + double_peak + too_wide + too_narrow +
+                                              indirect + second_on_line + undecided_on_line +
+                                              beside_rejected + reflectance + isolated);
   const double light = static_cast<double>(kept) + rejected;
   return light > 0.0 ? rejected / light : 0.0;
 }

@@ -49,6 +49,8 @@ struct EpipolarOptions {
   double few_lines_dominance = 2.0;
   /// The local line fit along a trace spans +-this many lines; 0 keeps the raw centres.
   int smooth_half_lines = 4;
+  /// A trace (points and rejected candidates) on fewer lines than this is no stripe to measure.
+  int min_trace_lines = 5;
 };
 
 struct EpipolarCounts {
@@ -58,6 +60,8 @@ struct EpipolarCounts {
   std::uint64_t undecided = 0;
   /// Candidates dropped beside a rejected stripe on their epipolar line that outshone them.
   std::uint64_t beside_rejected = 0;
+  /// Candidates on a trace of fewer than `min_trace_lines` lines.
+  std::uint64_t isolated = 0;
   /// Centres moved by the fit along their trace (not a loss).
   std::uint64_t smoothed = 0;
 };

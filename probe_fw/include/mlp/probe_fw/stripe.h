@@ -107,6 +107,8 @@ struct StripeCounts {
   /// clearly weaker trace, as one of two that the light could not tell apart, or beside a
   /// stripe rejected for its shape (saturated, double-peaked...) that outshone it.
   std::uint64_t second_on_line = 0, undecided_on_line = 0, beside_rejected = 0;
+  /// On a trace of a few lines only (epipolar.h): nothing along the stripe holds it.
+  std::uint64_t isolated = 0;
 };
 
 /// The mask of the transposed AOI (rows become columns): what the column scan reads.

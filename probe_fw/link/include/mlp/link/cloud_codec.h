@@ -31,9 +31,11 @@ struct StripeAccount {
   std::uint64_t weak = 0, cut = 0;
   /// Stripe light the firmware would not measure: saturated, double-peaked, too wide, too
   /// narrow, reflections (told by the sweep, or a second candidate on an epipolar line),
-  /// undecided between two, beside a brighter rejected stripe, reflectance too uneven.
+  /// undecided between two, beside a brighter rejected stripe, reflectance too uneven, on a
+  /// trace of a few lines.
   std::uint64_t saturated = 0, double_peak = 0, too_wide = 0, too_narrow = 0, indirect = 0,
-                second_on_line = 0, undecided_on_line = 0, beside_rejected = 0, reflectance = 0;
+                second_on_line = 0, undecided_on_line = 0, beside_rejected = 0, reflectance = 0,
+                isolated = 0;
   /// The rejected stripe light over all stripe light (kept + rejected), 0 when there was none.
   double RejectedShare() const;
 };
