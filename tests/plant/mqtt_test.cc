@@ -67,6 +67,7 @@ TEST(Mqtt, DeliversEveryMessageOnceAcknowledgedWithUserAndPassword) {
     for (int i = 0; i < kMessages; ++i) EXPECT_EQ(got[i].payload.at("job_id"), i);  // in order
   }
   EXPECT_TRUE(log.Has("connected to 127.0.0.1:"));
+  EXPECT_FALSE(log.Has(HostOptions(broker, "host-deliver").password));  // issue 48
 }
 
 TEST(Mqtt, AWrongPasswordIsRefusedAndSaidNotPublished) {
@@ -74,13 +75,16 @@ TEST(Mqtt, AWrongPasswordIsRefusedAndSaidNotPublished) {
   Subscriber quality(broker, kQuality, "#", "quality-refuse");
   Lines log;
   MqttOptions o = HostOptions(broker, "host-refuse");
-  o.password = "guess";
+  o.password = "guess-7Qz";
   MqttPublisher host(o, log.Log());
   ASSERT_TRUE(test::Eventually([&] { return !host.Counters().last_error.empty(); }));
   EXPECT_FALSE(host.Counters().connected);
   EXPECT_NE(host.Counters().last_error.find("not authorised"), std::string::npos)
       << host.Counters().last_error;
   EXPECT_TRUE(log.Has("refused the connection"));
+  // Issue 48: the password is in nothing the library says.
+  EXPECT_FALSE(log.Has(o.password));
+  EXPECT_EQ(host.Counters().last_error.find(o.password), std::string::npos);
   host.Publish("mlprobe/x", {{"a", 1}});
   EXPECT_FALSE(host.Flush(std::chrono::milliseconds(500)));
   EXPECT_EQ(host.Counters().published, 0);
