@@ -186,6 +186,8 @@ void Mark(Candidate& loser, const Candidate* winner) {
 // traces' in a draw); a trace that lost over many lines is a reflection and goes whole.
 void Decide(std::vector<Candidate>& all, const EpipolarOptions& o) {
   std::map<int, const Candidate*> lost;  // trace -> a candidate of the trace it lost to
+  std::map<int, int> length;
+  for (const Candidate& c : all) ++length[c.trace];
   for (const auto& [traces, e] : Conflicts(all, o)) {
     const int verdict = Judge(e.log_ratios, o);
     for (const auto& [lo, hi] : e.who) {
@@ -194,7 +196,12 @@ void Decide(std::vector<Candidate>& all, const EpipolarOptions& o) {
       if (verdict >= 0) Mark(b, verdict > 0 ? &a : nullptr);
       if (verdict <= 0) Mark(a, verdict < 0 ? &b : nullptr);
     }
-    if (verdict == 0 || static_cast<int>(e.log_ratios.size()) < o.min_paired_lines) continue;
+    if (verdict == 0) {  // a draw: the shorter trace, more likely a reflection's piece, goes whole
+      const int a = length[traces.first], b = length[traces.second];
+      if (a != b) lost.emplace(a < b ? traces.first : traces.second, nullptr);
+      continue;
+    }
+    if (static_cast<int>(e.log_ratios.size()) < o.min_paired_lines) continue;
     const auto& [lo, hi] = e.who.front();
     if (verdict > 0) lost.emplace(traces.second, &all[static_cast<size_t>(lo)]);
     if (verdict < 0) lost.emplace(traces.first, &all[static_cast<size_t>(hi)]);

@@ -122,7 +122,7 @@ TEST(HostdPlantDatabase, NoPasswordInAnyOutputAndNoWaitForeverOnAStalledServer) 
     printed += r.out + r.err;
   }
   for (const std::string& uri : uris) {
-    Site site("plant_database_secret", 17469);
+    Site site("plant_database_secret", 17477);
     DatabaseSite(site, uri);
     if (HasFatalFailure()) return;
     Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");

@@ -151,7 +151,7 @@ TEST(PlantFeed, ABrokerAwayStopsNoJobAndGetsItsMessagesWhenBack) {
 TEST(PlantFeed, BytesThatAreNotUtf8FromThePlantOrAFileStopNeitherTheHostNorItsFeed) {
   Broker broker("hostd_utf8", {kHostUser, kQuality});
   GarbageServer garbage;
-  Site site("plant_utf8", 17469);
+  Site site("plant_utf8", 17478);
   PlantSite(site, broker, broker.port(), /*tls=*/false);
   if (HasFatalFailure()) return;
   json config = json::parse(ReadText(site.dir / "hostd.json"));
