@@ -13,7 +13,7 @@
 # A report stops the test (-fno-sanitize-recover=all) and fails it. Exit code: ctest's.
 # Usage: bash scripts/sanitize.sh [--all | --quick]   (--quick: only the tests under
 # MLP_SANITIZE_MAX_S seconds (10) in the release run whose timings ctest kept; scripts/test.sh,
-# and so CI, runs --quick with 15 s)
+# and so CI, runs --quick with 10 s)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 MLP_BUILD_DIR=build-sanitize bash scripts/build.sh -DCMAKE_C_COMPILER=clang \

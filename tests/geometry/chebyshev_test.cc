@@ -117,6 +117,32 @@ TEST(MinZoneCircle, ExactAlternatingContacts) {
   EXPECT_LE(fit.roundness, ls.stats.max_residual - ls.stats.min_residual + 1e-12);
 }
 
+// A perfectly regular grid is the most degenerate LP there is: every angle of the grid repeats
+// in every row, so many vertices tie. On a 90-degree arc of a bore with a 3-lobe form of
+// 0.5 um, Dantzig's rule cycled through 100,000 pivots ("LP failed"), as it did on the virtual
+// probe's 106,922 wall points in the clang build
+// (Hostd.MeasuresABoreAndWritesTheOffsetForLinuxCnc); Bland's rule after a run of degenerate pivots
+// ends it. The nominal cylinder is one zone, of width 0.5 um x (max - min of sin 3a over the arc,
+// 2) = 1 um: the minimum is no wider.
+TEST(MinZoneCylinder, ADegenerateGridDoesNotCycle) {
+  constexpr double kLobeMm = 0.5e-3, kRadiusMm = 20.0, kDepthMm = 5.0;
+  for (const int grid : {21, 40}) {
+    const int around = 3 * grid, down = grid;
+    Points3 p(3, around * down);
+    for (int i = 0; i < around; ++i) {
+      const double a = M_PI / 2 * i / around;
+      const double r = kRadiusMm + kLobeMm * std::sin(3 * a);
+      for (int k = 0; k < down; ++k)
+        p.col(i * down + k) = Vec3(r * std::cos(a), r * std::sin(a), -kDepthMm * k / down);
+    }
+    MinZoneCylinderFit fit;
+    ASSERT_NO_THROW(fit = FitMinZoneCylinder(p)) << grid;
+    EXPECT_TRUE(fit.stats.converged) << grid;
+    EXPECT_LE(fit.cylindricity, 2 * kLobeMm + kZoneTolMm) << grid;
+    EXPECT_GT(fit.cylindricity, 0.0) << grid;
+  }
+}
+
 // A bore with three inward bumps: the inscribed circle touches the bumps, the circumscribed
 // circle the outermost points, both known in closed form.
 TEST(FunctionalSize, InscribedAndCircumscribedKnownCircles) {
