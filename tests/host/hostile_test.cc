@@ -6,6 +6,7 @@
 
 #include "mlp/base/files.h"
 #include "mlp/history/history.h"
+#include "mlp/host/demo_command.h"
 #include "mlp/link/transport.h"
 
 #include <algorithm>
@@ -51,6 +52,7 @@ constexpr int kCloudPort = 17470;
 constexpr int kIdlePort = 17471;
 constexpr int kKillRelocatePort = 17473;
 constexpr int kStripesPort = 17476;
+constexpr int kKillAlignPort = 17479;
 constexpr int kHostileClients = 16;  // as many as the tester used
 
 std::string Log(const Site& site) { return test::ReadText(site.dir / "hostd.log"); }
@@ -832,6 +834,76 @@ TEST(Hostd, KillsInsideRelocateJobsNeverMoveTwice) {
   std::cout << "kill -9 inside relocate jobs: " << kRelocateKills << " kills, " << started
             << " jobs started; a job " << job_ms << " ms\n";
   EXPECT_GT(started, kRelocateKills);  // not vacuous: some kills cut a job short
+}
+
+// Issue 48: a kill -9 test per job kind with a write; the alignment's is G54 (G10 L2 in the
+// subroutine LinuxCNC calls). The demo plate's plane-circle-circle alignment from the same 11
+// captures each time, cut at random instants and retried under its request_id: each request
+// ends with one recorded write, none left as an intent, and the subroutine whole and equal, to
+// its digits, to the one an uncut job writes (the alignment is absolute: written twice it
+// would look the same, so the history's count is what shows a second write).
+TEST(Hostd, KillsInsideAlignJobsWriteG54Once) {
+  constexpr int kAlignKills = 16;
+  Site site("hostile_kill_align", kKillAlignPort);
+  test::SaveSceneCalibration(site, test::kDemoPlate);
+  json align;
+  {
+    Child hostd = StartHostd(site);
+    // The reference probe (no calibration error) on the demo plate: the test is of the kills.
+    Child probe({kSim, "serve", "--probe", kProbe, "--scene", test::kDemoPlate, "--port",
+                 std::to_string(kKillAlignPort), "--key", (site.dir / "probe.key").string()},
+                site.dir / "sim.log");
+    ASSERT_TRUE(test::ProbeConnected(site));
+    const auto scene_views = [&](const std::string& prefix) {
+      return test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, prefix);
+    };
+    const auto face = scene_views("face_"), b = scene_views("b_wall"), c = scene_views("c_wall");
+    ASSERT_EQ(face.size() + b.size() + c.size(), 11u);
+    align = host::DemoPlateAlignRequest("lcnc-1", face, b, c);
+  }
+  const fs::path sub = site.dir / "lcnc" / "mlp_result.ngc";
+  std::string uncut;
+  {
+    Child hostd = StartHostd(site);
+    align["request_id"] = "align-uncut";
+    const auto run = site.Mlp("request " + site.Request("align-uncut", align));
+    ASSERT_EQ(run.exit_code, 0) << run.out << run.err << Log(site);
+    uncut = test::ReadText(sub);
+  }
+  // The G10 line without the job's own header (the header names the job).
+  const auto g54 = [](const std::string& text) {
+    const auto at = text.find("G10 L2 P1");
+    return at == std::string::npos ? std::string() : text.substr(at, text.find('\n', at) - at);
+  };
+  ASSERT_FALSE(g54(uncut).empty()) << uncut;
+  std::mt19937 rng(4848);
+  double job_ms = 500;
+  for (int i = 0; i < kAlignKills; ++i) {
+    align["request_id"] = "align-kill-" + std::to_string(i);
+    const std::string file = site.Request("align" + std::to_string(i), align);
+    const test::KillRetry r = test::KillThenRetry(
+        site, file, [&] { return StartHostd(site); }, &rng, &job_ms);
+    ASSERT_EQ(r.retry.exit_code, 0) << i << r.retry.err << Log(site);
+    EXPECT_EQ(r.stop_code, 0);
+    EXPECT_EQ(g54(test::ReadText(sub)), g54(uncut)) << i;
+  }
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  std::map<std::string, int> written_by_request;
+  int started = 0;
+  for (const auto& job : h.ListJobs({"lcnc-1", "align", {}, 10000})) {
+    ++started;
+    const json exported = h.ExportJob(job.id);
+    const std::string id = exported.at("request").value("request_id", "");
+    for (const json& w : exported.at("offset_writes")) {
+      EXPECT_NE(w.at("state"), "intent") << job.id;
+      written_by_request[id] += w.at("state") == "written";
+    }
+  }
+  for (int i = 0; i < kAlignKills; ++i)
+    EXPECT_EQ(written_by_request["align-kill-" + std::to_string(i)], 1) << i;
+  std::cout << "kill -9 inside align jobs: " << kAlignKills << " kills, " << started - 1
+            << " jobs started; a job " << job_ms << " ms\n";
+  EXPECT_GT(started - 1, kAlignKills);  // not vacuous: some kills cut a job short
 }
 
 // Issue 24 item 8: a machine's queue never holds up status or another machine. The probe here
