@@ -53,6 +53,7 @@ constexpr int kIdlePort = 17471;
 constexpr int kKillRelocatePort = 17473;
 constexpr int kStripesPort = 17476;
 constexpr int kKillAlignPort = 17479;
+constexpr int kEdgeCountPort = 17480;
 constexpr int kHostileClients = 16;  // as many as the tester used
 
 std::string Log(const Site& site) { return test::ReadText(site.dir / "hostd.log"); }
@@ -292,6 +293,72 @@ TEST(HostileLink, CloudsAreTakenOnlyAsAskedOfTheProbeAsked) {
             std::string::npos)
       << moved.out << moved.err;
   EXPECT_FALSE(fs::exists(site.dir / "data" / "clouds" / std::to_string(kCaptures + 2)));
+  EXPECT_TRUE(hostd.Alive());
+}
+
+// Issue 48 item 11 through the running host: an edge point count of 0xFFFFFFFF once passed the
+// link and became -1 further on, failing every later job on that capture. A stand-in probe
+// sends it as a faulty firmware could (bytes patched after encoding); the capture fails at once
+// naming it, nothing is stored for it, and the next capture on the same link works. (Before,
+// the host dropped the session: the cloud stayed in the probe's buffer, was resent at every
+// reconnection, and the capture waited out its 60 s; the next one never came.)
+TEST(HostileLink, AnEdgeOfMoreThanASensorsPointsIsRefusedThroughTheHost) {
+  Site site("hostile_edge_count", kEdgeCountPort);
+  test::SaveSceneCalibration(site);
+  Child hostd = StartHostd(site);
+  link::ProbeLink stand_in(LinkAs("MLP-REF-0001", site.dir / "probe.key", kEdgeCountPort),
+                           [](const std::string&) {});
+  stand_in.Start();
+  ASSERT_TRUE(test::ProbeConnected(site));
+  constexpr std::uint32_t kMarker = 0xbeef;  // a legal count whose bytes the test finds
+  const auto answer = [&](bool poisoned) {
+    const auto request = stand_in.NextRequest(60s);
+    if (!request) return;
+    link::LinkCloud c = Bomb("MLP-REF-0001", request->capture_id, 100);
+    c.mcs_from_flange = request->mcs_from_flange;
+    base::EdgeSight e;
+    e.normal_in_probe = Eigen::Vector3d(0.0, 0.9995, -0.0316).normalized();
+    // Rays in the edge's plane (through the probe's origin), ahead of the probe.
+    const Eigen::Vector3d down = e.normal_in_probe.cross(Eigen::Vector3d::UnitX()).normalized();
+    const Eigen::Vector3d ahead = down.z() > 0 ? down : Eigen::Vector3d(-down);
+    e.first_ray_in_probe = (ahead - 0.012 * Eigen::Vector3d::UnitX()).normalized();
+    e.last_ray_in_probe = (ahead + 0.012 * Eigen::Vector3d::UnitX()).normalized();
+    e.rms_px = 0.0625, e.points = kMarker;
+    c.edge = e;
+    link::Bytes b = link::EncodeCloud(c, false);
+    if (poisoned) {
+      const std::array<std::uint8_t, 4> marker{0xef, 0xbe, 0x00, 0x00};
+      const auto at = std::search(b.begin(), b.end(), marker.begin(), marker.end());
+      ASSERT_NE(at, b.end());
+      ASSERT_EQ(std::search(at + 1, b.end(), marker.begin(), marker.end()), b.end());
+      std::fill(at, at + 4, 0xff);
+    }
+    stand_in.SubmitEncoded(c.capture_id, b);
+  };
+  const auto capture = [&](bool poisoned, const std::string& name) {
+    std::thread probe(answer, poisoned);
+    const auto run =
+        site.Mlp("request " + site.Request(name, test::TopFaceCapture(name)) + " --json");
+    probe.join();
+    return run;
+  };
+  const auto poisoned = capture(true, "poisoned");
+  EXPECT_NE(poisoned.exit_code, 0) << poisoned.out << poisoned.err;
+  EXPECT_NE(poisoned.out.find("more than 65535 points"), std::string::npos) << poisoned.out;
+  const auto clean = capture(false, "clean");
+  stand_in.Stop();
+  ASSERT_EQ(clean.exit_code, 0) << clean.out << clean.err << Log(site);
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  int done = 0;
+  for (const auto& job : h.ListJobs({"vmc-1", "capture", {}, 100})) {
+    const json exported = h.ExportJob(job.id);
+    if (exported.at("request").value("capture_id", "") == "poisoned") {
+      EXPECT_NE(job.status, history::JobStatus::kDone) << exported.dump();
+    }
+    done += job.status == history::JobStatus::kDone;
+  }
+  EXPECT_EQ(done, 1);
+  std::cout << "0xFFFFFFFF edge points: " << poisoned.out << "\n";
   EXPECT_TRUE(hostd.Alive());
 }
 

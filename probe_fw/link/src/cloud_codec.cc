@@ -241,6 +241,14 @@ CloudHeader PeekCloud(const Bytes& payload) {
   return h;
 }
 
+CloudIds PeekCloudIds(const Bytes& payload) {
+  Reader r(payload);
+  CloudIds ids;
+  ids.capture_id = r.String(kMaxIdBytes);
+  ids.probe_serial = r.String(kMaxIdBytes);
+  return ids;
+}
+
 LinkCloud DecodeCloud(const Bytes& payload) {
   Reader r(payload);
   LinkCloud c;

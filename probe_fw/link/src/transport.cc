@@ -6,6 +6,7 @@
 #include <deque>
 #include <future>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <thread>
 #include <unordered_set>
@@ -202,27 +203,32 @@ struct HostLink::Impl {
     switch (f.type) {
       case MessageType::kCloud: {
         // The header first: nothing is decompressed for a cloud that is not wanted.
-        const CloudHeader head = PeekCloud(f.payload);
-        if (head.meta.probe_serial != serial)
-          throw LinkError(LinkFault::kProtocol, "cloud of probe " + head.meta.probe_serial);
+        const std::optional<CloudHeader> head = PeekOrReport(f.payload, serial);
+        if (!head) {  // answered to its capture as malformed; the probe may drop it
+          SendSealed(c, session, MessageType::kAck, EncodeAck(PeekCloudIds(f.payload).capture_id));
+          return;
+        }
+        if (head->meta.probe_serial != serial)
+          throw LinkError(LinkFault::kProtocol, "cloud of probe " + head->meta.probe_serial);
         // Seen per probe: another probe's key cannot spend this probe's capture id.
-        const std::string key = serial + '\n' + head.meta.capture_id;
+        const std::string key = serial + '\n' + head->meta.capture_id;
         if (seen.count(key) != 0) {
           Count(&HostLinkStats::duplicates);
-        } else if (const std::string why = admission ? admission(serial, head) : std::string();
+        } else if (const std::string why = admission ? admission(serial, *head) : std::string();
                    !why.empty()) {
           Count(&HostLinkStats::unwanted);
           Throttled& t = unwanted[serial + '\n' + why];
           if (t.Due())
-            SafeLog("link: cloud " + head.meta.capture_id + " of probe " + serial +
+            SafeLog("link: cloud " + head->meta.capture_id + " of probe " + serial +
                     " not taken: " + why + " (" + std::to_string(t.Count()) + " such clouds)");
         } else {
-          const LinkCloud cloud = DecodeCloud(f.payload);
           Remember(key);
-          on_cloud(cloud);
-          Count(&HostLinkStats::delivered);
+          if (std::optional<LinkCloud> cloud = DecodeOrReport(f.payload, serial)) {
+            on_cloud(*cloud);
+            Count(&HostLinkStats::delivered);
+          }
         }
-        SendSealed(c, session, MessageType::kAck, EncodeAck(head.meta.capture_id));
+        SendSealed(c, session, MessageType::kAck, EncodeAck(head->meta.capture_id));
         return;
       }
       case MessageType::kStatus: {
@@ -248,6 +254,48 @@ struct HostLink::Impl {
         throw LinkError(LinkFault::kProtocol,
                         "unexpected message type " + std::to_string(int(f.type)));
     }
+  }
+
+  // A cloud that is not one (issue 48 item 11: an edge of 0xFFFFFFFF points). Dropping the
+  // session for it left the cloud in the probe's store-and-forward buffer, resent at every
+  // reconnection: the probe never came back and its job waited out its timeout. Instead the
+  // cloud is acknowledged (the probe drops it) and its capture answered with the reason;
+  // nothing of it is delivered. Only a payload without even its capture id and serial, or of
+  // another probe, still ends the session.
+  std::optional<CloudHeader> PeekOrReport(const Bytes& payload, const std::string& serial) {
+    try {
+      return PeekCloud(payload);
+    } catch (const LinkError& e) {
+      if (e.fault() != LinkFault::kMalformedPayload) throw;
+      const CloudIds ids = PeekCloudIds(payload);  // throws: not even those
+      if (ids.probe_serial != serial)
+        throw LinkError(LinkFault::kProtocol, "cloud of probe " + ids.probe_serial);
+      Malformed(serial, ids.capture_id, e.what());
+      return std::nullopt;
+    }
+  }
+
+  std::optional<LinkCloud> DecodeOrReport(const Bytes& payload, const std::string& serial) {
+    try {
+      return DecodeCloud(payload);
+    } catch (const LinkError& e) {
+      if (e.fault() != LinkFault::kMalformedPayload) throw;
+      Malformed(serial, PeekCloudIds(payload).capture_id, e.what());
+      return std::nullopt;
+    }
+  }
+
+  void Malformed(const std::string& serial, const std::string& capture_id, const char* what) {
+    Count(&HostLinkStats::malformed);
+    const ProbeError error{ProbeErrorCode::kCaptureFailed, capture_id,
+                           std::string("the probe's cloud is malformed (") + what +
+                               "): not measured; take the capture again, and have the probe's "
+                               "firmware checked if it repeats"};
+    Throttled& t = unwanted[serial + "\nmalformed"];  // a key's holder cannot flood the log
+    if (t.Due())
+      SafeLog("link: cloud " + capture_id + " of probe " + serial + ": " + error.message + " (" +
+              std::to_string(t.Count()) + " such clouds)");
+    if (on_error) on_error(serial, error);
   }
 
   void Count(std::uint64_t HostLinkStats::*field) {
@@ -668,15 +716,18 @@ void ProbeLink::Stop() {
 }
 
 SubmitResult ProbeLink::Submit(const LinkCloud& cloud) {
+  return SubmitEncoded(cloud.capture_id, EncodeCloud(cloud, impl_->cfg.compress));
+}
+
+SubmitResult ProbeLink::SubmitEncoded(const std::string& capture_id, Bytes payload) {
   auto& d = *impl_;
-  Bytes payload = EncodeCloud(cloud, d.cfg.compress);
   {
     std::lock_guard lock(d.m);
     for (const auto& p : d.store) {
-      if (p.capture_id == cloud.capture_id) return SubmitResult::kDuplicate;
+      if (p.capture_id == capture_id) return SubmitResult::kDuplicate;
     }
     if (d.store.size() >= d.cfg.buffer_clouds) return SubmitResult::kBufferFull;
-    d.store.push_back({cloud.capture_id, std::move(payload), 0});
+    d.store.push_back({capture_id, std::move(payload), 0});
     if (d.store.size() >= d.cfg.buffer_clouds) d.status_due = true;
   }
   asio::post(d.io, [&d] {

@@ -79,6 +79,13 @@ struct CloudHeader {
   std::size_t points = 0;
 };
 CloudHeader PeekCloud(const Bytes& payload);
+/// The capture id and the probe serial alone (the payload's first two fields): what the host
+/// needs to answer a capture whose cloud is malformed further on. Throws when even they are not
+/// there.
+struct CloudIds {
+  std::string capture_id, probe_serial;
+};
+CloudIds PeekCloudIds(const Bytes& payload);
 
 /// The cloud after a round trip: coordinates on the 0.1 um grid, quality on 8 bits.
 LinkCloud Quantised(const LinkCloud& cloud);

@@ -48,6 +48,8 @@ struct HostLinkConfig {
 struct HostLinkStats {
   std::uint64_t connections = 0, authenticated = 0, delivered = 0, duplicates = 0, rejected = 0;
   std::uint64_t unwanted = 0;  ///< clouds the admission turned away
+  /// Clouds whose header read but whose body did not (acknowledged, reported to the capture).
+  std::uint64_t malformed = 0;
 };
 
 class HostLink {
@@ -114,6 +116,9 @@ class ProbeLink {
   void Stop();
   /// Thread-safe. kBufferFull: nothing was queued, the capture must wait or be repeated.
   SubmitResult Submit(const LinkCloud& cloud);
+  /// Thread-safe. A cloud already encoded (EncodeCloud's bytes), sent as they are: what a
+  /// stand-in probe uses to send the host what a faulty or hostile firmware could.
+  SubmitResult SubmitEncoded(const std::string& capture_id, Bytes payload);
   std::size_t Unacknowledged() const;
   /// Thread-safe. The next capture request from the host, or nothing after `timeout`. Requests
   /// that arrive while the buffer is full are refused by the link itself (ERROR buffer_full),
