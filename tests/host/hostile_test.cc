@@ -19,6 +19,7 @@
 #include <thread>
 #include <utility>  // before Asio (Boost 1.74 needs std::exchange)
 
+#include "edge_sight_sample.h"
 #include "electrode_site.h"
 #include "hostd_site.h"
 #include <boost/asio.hpp>
@@ -316,15 +317,7 @@ TEST(HostileLink, AnEdgeOfMoreThanASensorsPointsIsRefusedThroughTheHost) {
     if (!request) return;
     link::LinkCloud c = Bomb("MLP-REF-0001", request->capture_id, 100);
     c.mcs_from_flange = request->mcs_from_flange;
-    base::EdgeSight e;
-    e.normal_in_probe = Eigen::Vector3d(0.0, 0.9995, -0.0316).normalized();
-    // Rays in the edge's plane (through the probe's origin), ahead of the probe.
-    const Eigen::Vector3d down = e.normal_in_probe.cross(Eigen::Vector3d::UnitX()).normalized();
-    const Eigen::Vector3d ahead = down.z() > 0 ? down : Eigen::Vector3d(-down);
-    e.first_ray_in_probe = (ahead - 0.012 * Eigen::Vector3d::UnitX()).normalized();
-    e.last_ray_in_probe = (ahead + 0.012 * Eigen::Vector3d::UnitX()).normalized();
-    e.rms_px = 0.0625, e.points = kMarker;
-    c.edge = e;
+    c.edge = test::SampleEdgeSight(kMarker);
     link::Bytes b = link::EncodeCloud(c, false);
     if (poisoned) {
       const std::array<std::uint8_t, 4> marker{0xef, 0xbe, 0x00, 0x00};

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <random>
 
+#include "edge_sight_sample.h"
 #include "test_data.h"
 #include <gtest/gtest.h>
 
@@ -80,17 +81,7 @@ TEST(CloudCodec, FirmwareCloudUnderFourBytesPerPointWithoutLoss) {
 }
 
 // An edge as the firmware reports it: a plane through the camera centre, rays in it.
-base::EdgeSight TestEdge() {
-  base::EdgeSight e;
-  e.normal_in_probe = Eigen::Vector3d(0.0, 0.9995, -0.0316).normalized();
-  const Eigen::Vector3d down = e.normal_in_probe.cross(Eigen::Vector3d::UnitX()).normalized();
-  const Eigen::Vector3d ahead = down.z() > 0 ? down : Eigen::Vector3d(-down);
-  e.first_ray_in_probe = (ahead - 0.012 * Eigen::Vector3d::UnitX()).normalized();
-  e.last_ray_in_probe = (ahead + 0.012 * Eigen::Vector3d::UnitX()).normalized();
-  e.rms_px = 0.0625;
-  e.points = 233;
-  return e;
-}
+base::EdgeSight TestEdge() { return test::SampleEdgeSight(); }
 
 // Link version 3: the LED frame's edge rides with the cloud, exactly; an edge that is not one
 // is refused on encode and on decode.
