@@ -244,17 +244,21 @@ SpeckleEstimate EstimateSpeckle(const std::vector<StripePoint>& points,
   for (const StripePoint& s : points) all.push_back({s, 0.0, std::max(1.0, s.mass_dn)});
   std::array<double, kMaxLag + 1> products{}, pairs{};
   SpeckleEstimate out;
-  std::vector<double> relative;
+  std::vector<double> relative, prefix;
   for (const auto& [id, members] : Traces(all, options)) {
     if (members.size() < 2 * kTrend + 1) continue;
+    // Each member's light against the mean over the lines within kTrend of its own: a window
+    // sliding along the trace (its members ascend by line), summed from prefix sums.
     relative.assign(members.size(), 0.0);
+    prefix.assign(members.size() + 1, 0.0);
+    for (size_t i = 0; i < members.size(); ++i) prefix[i + 1] = prefix[i] + members[i]->light;
+    size_t lo = 0, hi = 0;  // the window [lo, hi)
     for (size_t i = 0; i < members.size(); ++i) {
-      double sum = 0.0;
-      int n = 0;
-      for (const Candidate* m : members) {
-        if (std::abs(m->stripe.Line() - members[i]->stripe.Line()) <= kTrend) sum += m->light, ++n;
-      }
-      relative[i] = members[i]->light / (sum / n) - 1.0;
+      const int line = members[i]->stripe.Line();
+      while (members[lo]->stripe.Line() < line - kTrend) ++lo;
+      while (hi < members.size() && members[hi]->stripe.Line() <= line + kTrend) ++hi;
+      const double mean = (prefix[hi] - prefix[lo]) / static_cast<double>(hi - lo);
+      relative[i] = members[i]->light / mean - 1.0;
     }
     for (size_t i = 0; i < members.size(); ++i) {
       for (size_t k = i; k < members.size(); ++k) {
