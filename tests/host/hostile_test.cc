@@ -206,6 +206,27 @@ link::ProbeLinkConfig LinkAs(const std::string& serial, const fs::path& key_file
   return cfg;
 }
 
+// A top-face capture through the service (request file `name`, capture id `capture_id`), which
+// `stand_in` answers with 100 points and the request's H, sent as the bytes `encode` makes of
+// that cloud (what a faulty or hostile firmware could send): `mlp request`'s run.
+test::ProcessRun StandInCapture(const Site& site,
+                                link::ProbeLink& stand_in,
+                                const std::string& name,
+                                const std::string& capture_id,
+                                const std::function<link::Bytes(link::LinkCloud)>& encode) {
+  std::thread probe([&] {
+    const auto request = stand_in.NextRequest(60s);
+    if (!request) return;
+    link::LinkCloud c = Bomb("MLP-REF-0001", request->capture_id, 100);
+    c.mcs_from_flange = request->mcs_from_flange;
+    stand_in.SubmitEncoded(c.capture_id, encode(c));
+  });
+  const auto run =
+      site.Mlp("request " + site.Request(name, test::TopFaceCapture(capture_id)) + " --json");
+  probe.join();
+  return run;
+}
+
 // Issue 48 items 6, 7 and 11 (the echoed H): a cloud is taken only for a capture a job waits
 // for, from the probe it asked, with the H it sent; nothing else is decompressed. Before, a
 // second probe's key could pre-send the capture ids of the first one's next captures (they are
@@ -312,28 +333,19 @@ TEST(HostileLink, AnEdgeOfMoreThanASensorsPointsIsRefusedThroughTheHost) {
   stand_in.Start();
   ASSERT_TRUE(test::ProbeConnected(site));
   constexpr std::uint32_t kMarker = 0xbeef;  // a legal count whose bytes the test finds
-  const auto answer = [&](bool poisoned) {
-    const auto request = stand_in.NextRequest(60s);
-    if (!request) return;
-    link::LinkCloud c = Bomb("MLP-REF-0001", request->capture_id, 100);
-    c.mcs_from_flange = request->mcs_from_flange;
-    c.edge = test::SampleEdgeSight(kMarker);
-    link::Bytes b = link::EncodeCloud(c, false);
-    if (poisoned) {
-      const std::array<std::uint8_t, 4> marker{0xef, 0xbe, 0x00, 0x00};
-      const auto at = std::search(b.begin(), b.end(), marker.begin(), marker.end());
-      ASSERT_NE(at, b.end());
-      ASSERT_EQ(std::search(at + 1, b.end(), marker.begin(), marker.end()), b.end());
-      std::fill(at, at + 4, 0xff);
-    }
-    stand_in.SubmitEncoded(c.capture_id, b);
-  };
   const auto capture = [&](bool poisoned, const std::string& name) {
-    std::thread probe(answer, poisoned);
-    const auto run =
-        site.Mlp("request " + site.Request(name, test::TopFaceCapture(name)) + " --json");
-    probe.join();
-    return run;
+    return StandInCapture(site, stand_in, name, name, [&](link::LinkCloud c) {
+      c.edge = test::SampleEdgeSight(kMarker);
+      link::Bytes b = link::EncodeCloud(c, false);
+      if (poisoned) {
+        const std::array<std::uint8_t, 4> marker{0xef, 0xbe, 0x00, 0x00};
+        const auto at = std::search(b.begin(), b.end(), marker.begin(), marker.end());
+        EXPECT_NE(at, b.end());
+        EXPECT_EQ(std::search(at + 1, b.end(), marker.begin(), marker.end()), b.end());
+        if (at != b.end()) std::fill(at, at + 4, 0xff);
+      }
+      return b;
+    });
   };
   const auto poisoned = capture(true, "poisoned");
   EXPECT_NE(poisoned.exit_code, 0) << poisoned.out << poisoned.err;
@@ -366,21 +378,12 @@ TEST(HostileLink, ACaptureWhoseStripeLightWasMostlyRejectedIsRefused) {
                            [](const std::string&) {});
   stand_in.Start();
   ASSERT_TRUE(test::ProbeConnected(site));
-  // Answers one request with 100 points and the account given.
-  const auto answer = [&](link::StripeAccount stripes) {
-    const auto request = stand_in.NextRequest(60s);
-    if (!request) return;
-    link::LinkCloud c = Bomb("MLP-REF-0001", request->capture_id, 100);
-    c.mcs_from_flange = request->mcs_from_flange;
-    c.stripes = stripes;
-    stand_in.Submit(c);
-  };
+  // Answered with the account given.
   const auto capture = [&](const link::StripeAccount& stripes, const std::string& name) {
-    std::thread probe(answer, stripes);
-    const auto run =
-        site.Mlp("request " + site.Request(name, test::TopFaceCapture("top")) + " --json");
-    probe.join();
-    return run;
+    return StandInCapture(site, stand_in, name, "top", [&](link::LinkCloud c) {
+      c.stripes = stripes;
+      return link::EncodeCloud(c, true);  // as Submit sends it (ProbeLinkConfig::compress)
+    });
   };
   link::StripeAccount some;  // 47 % rejected: under the default limit (50 %)
   some.kept = 1000, some.second_on_line = 700, some.saturated = 200, some.weak = 90000;
