@@ -124,9 +124,9 @@ void PrintMeasurement(const toolcam::ToolDescription& tool,
         << std::noshowpos << " um across from the camera's calibration\n";
   for (size_t k = 0; k < m.flutes.size(); ++k) {
     const auto& f = m.flutes[k];
-    out << std::setprecision(4) << "  flute " << k + 1 << ": radius " << f.radius_mm << " mm, tip "
-        << std::setprecision(2) << f.tip_h_mm * 1e3 << " um, rms " << f.plus.rms_mm * 1e3
-        << " um\n";
+    out << std::setprecision(4) << "  flute " << k + 1 << ": radius " << f.radius_mm << " mm (u "
+        << std::setprecision(2) << f.radius_u_mm * 1e3 << " um), tip " << f.tip_h_mm * 1e3
+        << " um (u " << f.tip_u_mm * 1e3 << " um), rms " << f.plus.rms_mm * 1e3 << " um\n";
     PrintView(f.plus, f.minus ? "    +y: " : "    ", out);
     if (f.minus) PrintView(*f.minus, "    -y: ", out);
     if (tool.electrode)
@@ -218,7 +218,7 @@ int MeasureTwoViews(const Args& f,
 int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const Args f(args, {{"--images", "--frames", "--other-side", "--tool", "--camera", "--overlay",
                        "--save-reference", "--start-turn-deg", "--second-view", "--second-camera",
-                       "--view-deg", "--view-tolerance-deg"},
+                       "--view-deg", "--view-tolerance-deg", "--ref-height-mm"},
                       {"--json"}});
   const std::string images =
       f.Text("--images", "").empty() ? f.Text("--frames", "") : f.Text("--images", "");
@@ -241,8 +241,9 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
                     : toolcam::ToolCameraFor(im_other, camera_text, camera_file, tool.length_mm,
                                              kPitchWarnDeg, &warnings);
   for (const auto& w : warnings) err << "mlp tool: warning: " << w << "\n";
-  toolcam::MeasureOptions options;
+  toolcam::MeasureOptions options = toolcam::ForTool(tool);
   options.blur_rad = im.blur_rad;
+  if (f.Has("--ref-height-mm")) options.h_ref_mm = f.Number("--ref-height-mm");
   if (f.Has("--start-turn-deg")) {
     options.start_turn_deg = f.Number("--start-turn-deg");
     if (!(std::abs(*options.start_turn_deg) <= 360))

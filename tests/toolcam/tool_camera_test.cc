@@ -81,6 +81,11 @@ TEST(ToolModel, ReadsTheSamplesAndRefusesBadOnes) {
                 .find("one edge per flute"),
             std::string::npos);
   EXPECT_NE(why("{}").find("format"), std::string::npos);
+  // A reference height on the end's shape (a D10 ball nose's reaches 5 mm): refused.
+  const std::string ball = R"("diameter_mm": 10, "flutes": 2, "flute_length_mm": 20, )"
+                           R"("corner_radius_mm": 5, "reference_height_mm": )";
+  EXPECT_NE(why(head + ball + "4}").find("reference_height_mm"), std::string::npos);
+  EXPECT_EQ(ParseTool(ToJson(ParseTool(head + ball + "5.5}"))).reference_height_mm, 5.5);
 }
 
 TEST(ToolModel, EdgeGeometry) {

@@ -15,10 +15,12 @@ namespace {
 
 using mlp::test::RunProcess;
 const std::string kMlp = mlp::test::Program("mlp");
-constexpr double kDiameterTolMm = 0.002;  // the worn tool's diameter through the command
-constexpr double kLengthTolMm = 0.001;    // and its length
-constexpr double kCarriedTolMm = 0.002;   // calibration carried 30 mm down the axis to a tool
-constexpr double kRollTolDeg = 0.002;     // the pin's figures through the command
+constexpr double kDiameterTolMm = 0.002;     // the worn tool's diameter through the command
+constexpr double kLengthTolMm = 0.001;       // and its length
+constexpr double kSmallRadiusTolMm = 0.002;  // issue 51's limits for a tool under D3
+constexpr double kSmallLengthTolMm = 0.003;
+constexpr double kCarriedTolMm = 0.002;  // calibration carried 30 mm down the axis to a tool
+constexpr double kRollTolDeg = 0.002;    // the pin's figures through the command
 constexpr double kPitchTolDeg = 0.005;
 constexpr double kScaleTol = 2e-5;              // 20 ppm: 1 um over the 50 mm pin
 constexpr double kGaugeAlongTolPx = 0.25;       // 1 um
@@ -110,6 +112,49 @@ TEST(ToolCli, MeasuresTheRenderedToolAndDrawsTheOverlay) {
                        "endmill_d10_z4_new.json")
                 .exit_code,
             2);
+}
+
+// A D1.0 drill (virtual camera, the product's renderer): measured where the images show it;
+// refused, with the edge and the reason and exit 3, where they do not: the tool outside the
+// field, a reference height where its helix turns the edges face-on, a turn the images leave
+// partly unseen. Before: 6.9 mm and a tip 59 m away from an empty image, exit 0.
+TEST(ToolCli, RefusesWhatTheImagesDoNotSupport) {
+  const std::string dir = "/tmp/mlp_tool_cli_refuse";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string tool = dir + "/drill_d1.json";
+  std::ofstream(tool) << R"({"format": "mlprobe-tool/1", "id": "DR1.0", "diameter_mm": 1.0,
+    "length_mm": 40.0, "flutes": 2, "point_angle_deg": 118, "helix_deg": 30,
+    "flute_length_mm": 12.0, "core_ratio": 0.3})";
+  const std::string render = kMlp + " tool render --tool " + tool +
+                             " --rpm 6150 --fps 100 --resolution-deg 9 --seed 7 --out " + dir;
+  // The default camera is placed for a D10: its axis 3 mm left of the image, this tool unseen.
+  ASSERT_EQ(RunProcess(render + "/away").exit_code, 0);
+  const auto away = RunProcess(kMlp + " tool measure --images " + dir + "/away --tool " + tool);
+  EXPECT_EQ(away.exit_code, 3) << away.out;
+  EXPECT_TRUE(away.out.empty()) << away.out;
+  EXPECT_NE(away.err.find("edge 1 on the +y flank"), std::string::npos) << away.err;
+  ASSERT_EQ(RunProcess(render + "/seen --axis-u-px -60").exit_code, 0);
+  const std::string measure = kMlp + " tool measure --images " + dir + "/seen --tool " + tool;
+  const auto seen = RunProcess(measure + " --json");
+  ASSERT_EQ(seen.exit_code, 0) << seen.err;
+  const auto m = nlohmann::json::parse(seen.out);
+  EXPECT_NEAR(m.at("diameter_mm").get<double>(), 1.0, 2 * kSmallRadiusTolMm);
+  EXPECT_NEAR(m.at("length_mm").get<double>(), 40.0, kSmallLengthTolMm);
+  for (const auto& f : m.at("flutes")) EXPECT_LT(f.at("radius_u_mm").get<double>(), 0.001);
+  const auto face_on = RunProcess(measure + " --ref-height-mm 1.5");
+  EXPECT_EQ(face_on.exit_code, 3) << face_on.out;
+  EXPECT_NE(face_on.err.find("outline points lie on the model"), std::string::npos) << face_on.err;
+  EXPECT_EQ(RunProcess(measure + " --ref-height-mm 0.2").exit_code, 2);  // on the point
+  // Ten images of forty gone: 99 deg of the turn unseen, over half the 180 deg pitch.
+  nlohmann::json manifest;
+  std::ifstream(dir + "/seen/images.json") >> manifest;
+  auto& images = manifest.at("images");
+  images.erase(images.begin() + 10, images.begin() + 20);
+  std::ofstream(dir + "/seen/images.json") << manifest.dump(1);
+  const auto gap = RunProcess(measure);
+  EXPECT_EQ(gap.exit_code, 3) << gap.out;
+  EXPECT_NE(gap.err.find("unseen"), std::string::npos) << gap.err;
 }
 
 // The camera calibrated with the bladed pin through the command line, then a tool measured

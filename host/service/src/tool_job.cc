@@ -221,7 +221,7 @@ ToolValues MeasureCutter(const JobContext& ctx,
                          json* reply) {
   const Series plus =
       ReadSeries(ctx, q.images, "request.images", camera_json, tool.length_mm, warnings);
-  toolcam::MeasureOptions options;
+  toolcam::MeasureOptions options = toolcam::ForTool(tool);
   options.blur_rad = plus.images.blur_rad;
   options.start_turn_deg = q.start_turn_deg;
   if (!q.second_view.empty())

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <map>
 
 #include <Eigen/Dense>
@@ -19,6 +21,15 @@ using geometry::Vec2;
 [[noreturn]] void Bad(const std::string& what) {
   throw ToolInputError("tool measurement: " + what);
 }
+
+// The refusal rules (Refuse): at least this many outline points where the model expects the
+// flank and end; a radius within 10 % and a tip within 1 mm of the model's (the tool file's
+// own bounds on runout and an edge's length); the view's standard uncertainty of radius and
+// tip within 5 um (an outline that fixes the edge gives ~0.1 um, tests/toolcam).
+constexpr size_t kMinOutlinePoints = 20;
+constexpr double kMaxRadiusChange = 0.1;
+constexpr double kMaxTipChangeMm = 1.0;
+constexpr double kMaxUncertaintyMm = 0.005;
 
 // Pixel -> tool frame, undoing the lens' radial distortion (the camera's calibration).
 
@@ -142,32 +153,44 @@ struct Model {
   }
 };
 
-// Least squares over the active points (Gauss-Newton, numeric derivatives: the model's
-// silhouette has no closed form once the helix turns the edge with height).
+// The normal matrix J^T J over the active points for the fitted parameters (the first n_par of
+// dy, dh, dturn) and the gradient -J^T r, at x (numeric derivatives: the model's silhouette
+// has no closed form once the helix turns the edge with height). Leaves the residuals at x.
+struct Normal {
+  Eigen::MatrixXd a;
+  Eigen::VectorXd b;
+};
+
+Normal NormalAt(const Model& m, std::vector<FitPoint>* pts, const Eigen::Vector3d& x, int n_par) {
+  m.Residuals(x, pts);
+  std::vector<double> r0;
+  for (const FitPoint& f : *pts) r0.push_back(f.residual);
+  Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n_par, static_cast<Eigen::Index>(pts->size()));
+  for (int k = 0; k < n_par; ++k) {
+    Eigen::Vector3d xe = x;
+    constexpr double eps = 1e-5;  // one step for the offsets [mm] and the turn [rad]
+    xe(k) += eps;
+    m.Residuals(xe, pts);
+    for (size_t i = 0; i < pts->size(); ++i)
+      jt(k, static_cast<Eigen::Index>(i)) = ((*pts)[i].residual - r0[i]) / eps;
+  }
+  Normal n{Eigen::MatrixXd::Zero(n_par, n_par), Eigen::VectorXd::Zero(n_par)};
+  for (size_t i = 0; i < pts->size(); ++i) {
+    (*pts)[i].residual = r0[i];
+    if (!(*pts)[i].active) continue;
+    const Eigen::VectorXd j = jt.col(static_cast<Eigen::Index>(i));
+    n.a += j * j.transpose();
+    n.b -= j * r0[i];
+  }
+  return n;
+}
+
+// Least squares over the active points (Gauss-Newton).
 Eigen::Vector3d Fit(const Model& m, std::vector<FitPoint>* pts, Eigen::Vector3d x) {
   const int n_par = m.fit_turn ? 3 : 2;
   for (int it = 0; it < 30; ++it) {
-    m.Residuals(x, pts);
-    std::vector<double> r0;
-    for (const FitPoint& f : *pts) r0.push_back(f.residual);
-    Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n_par, static_cast<Eigen::Index>(pts->size()));
-    for (int k = 0; k < n_par; ++k) {
-      Eigen::Vector3d xe = x;
-      constexpr double eps = 1e-5;  // one step for the offsets [mm] and the turn [rad]
-      xe(k) += eps;
-      m.Residuals(xe, pts);
-      for (size_t i = 0; i < pts->size(); ++i)
-        jt(k, static_cast<Eigen::Index>(i)) = ((*pts)[i].residual - r0[i]) / eps;
-    }
-    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n_par, n_par);
-    Eigen::VectorXd b = Eigen::VectorXd::Zero(n_par);
-    for (size_t i = 0; i < pts->size(); ++i) {
-      if (!(*pts)[i].active) continue;
-      const Eigen::VectorXd j = jt.col(static_cast<Eigen::Index>(i));
-      a += j * j.transpose();
-      b -= j * r0[i];
-    }
-    const Eigen::VectorXd step = a.ldlt().solve(b);
+    const Normal n = NormalAt(m, pts, x, n_par);
+    const Eigen::VectorXd step = n.a.ldlt().solve(n.b);
     if (!step.allFinite()) Fail("the flute's outline does not determine its position");
     x.head(n_par) += step;
     if (step.norm() < 1e-8) break;
@@ -285,6 +308,53 @@ std::vector<std::pair<double, double>> Profile(const std::vector<FitPoint>& pts,
   return profile;
 }
 
+// The standard uncertainties (k = 1) of the view's radius and tip from the fit's covariance,
+// s^2 (J^T J)^-1 with s the residuals' rms over n - p degrees of freedom (ISO/IEC Guide 98-3,
+// least squares): what the outline determines. Infinite where it does not (a flank with no
+// end in view leaves the tip free).
+void Uncertainty(const Model& m,
+                 std::vector<FitPoint>* pts,
+                 const Eigen::Vector3d& x,
+                 double sum_sq,
+                 FluteView* v) {
+  const int n_par = m.fit_turn ? 3 : 2;
+  v->radius_u_mm = v->tip_u_mm = std::numeric_limits<double>::infinity();
+  if (v->points <= n_par) return;
+  const Normal n = NormalAt(m, pts, x, n_par);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(n.a);
+  const double largest = eig.eigenvalues().maxCoeff(), smallest = eig.eigenvalues().minCoeff();
+  if (!(smallest > 1e-12 * largest)) return;  // a direction the points do not see
+  const Eigen::MatrixXd cov = n.a.inverse() * (sum_sq / (v->points - n_par));
+  v->radius_u_mm = std::sqrt(cov(0, 0)), v->tip_u_mm = std::sqrt(cov(1, 1));
+}
+
+// A view the evidence does not support is refused, never reported: most of its outline off
+// the model (not this tool's shape, or not the tool), a radius or tip far from the model's
+// (the file bounds runout to 10 % of the radius and an edge's length to 1 mm), or a position
+// the outline does not determine.
+void Refuse(const FluteView& v,
+            const Eigen::Vector3d& x,
+            int offered,
+            const ToolDescription& model,
+            const std::string& name) {
+  const auto um = [](double mm) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.1f um", mm * 1000);
+    return std::string(text);
+  };
+  if (2 * v.points < offered)
+    Fail(name + ": only " + std::to_string(v.points) + " of " + std::to_string(offered) +
+         " outline points lie on the model (the rest off it by more than the contamination "
+         "or finding limit): the images do not show this tool's shape");
+  if (std::abs(x(0)) > kMaxRadiusChange * model.Radius())
+    Fail(name + ": radius " + um(x(0)) + " from the model's, beyond 10 % of the radius");
+  if (std::abs(x(1)) > kMaxTipChangeMm)
+    Fail(name + ": tip " + um(x(1)) + " from the model's, beyond 1 mm");
+  if (!(v.radius_u_mm <= kMaxUncertaintyMm && v.tip_u_mm <= kMaxUncertaintyMm))
+    Fail(name + ": the outline does not determine the edge (u(radius) " + um(v.radius_u_mm) +
+         ", u(tip) " + um(v.tip_u_mm) + ", limit " + um(kMaxUncertaintyMm) + ")");
+}
+
 // One edge in one principal image against `model`'s edge `edge` (facing the view's side at
 // the reference height when the tool has turned turn0); `o` mirrored for the -y side.
 FluteView MeasureView(const Outline& o,
@@ -293,7 +363,8 @@ FluteView MeasureView(const Outline& o,
                       double turn0,
                       int side,
                       const MeasureOptions& opt,
-                      double pitch_deg) {
+                      double pitch_deg,
+                      const std::string& name) {
   Model m;
   m.tool = model;
   m.turn0 = turn0;
@@ -314,7 +385,10 @@ FluteView MeasureView(const Outline& o,
   for (const Vec2& p : o.bottom)
     if (p.x() > model.core_ratio * r && p.x() < r - 0.1 * rc && p.y() < 0.7 * rc)
       pts.push_back({p, false});
-  if (pts.size() < 20) Fail("too few outline points on a flute's principal image");
+  if (pts.size() < kMinOutlinePoints)
+    Fail(name + ": " + std::to_string(pts.size()) +
+         " outline points where the model expects the flank and end, under " +
+         std::to_string(kMinOutlinePoints) + " (is the tool in view?)");
   Eigen::Vector3d x = Eigen::Vector3d::Zero();
   FluteView v;
   v.side = side;
@@ -335,6 +409,8 @@ FluteView MeasureView(const Outline& o,
     ++v.points;
   }
   v.rms_mm = v.points > 0 ? std::sqrt(ss / v.points) : 0.0;
+  Uncertainty(m, &pts, x, ss, &v);
+  Refuse(v, x, static_cast<int>(pts.size()), model, name);
   // Back in the tool frame: the -y side's points and model were read mirrored.
   for (const FitPoint& f : pts)
     v.points_yh.emplace_back(side * f.p.x(), f.p.y()), v.point_kind.push_back(f.kind);
@@ -557,7 +633,10 @@ FluteView PrincipalView(const IndexedImages& x,
   // The image's turn: the edge at the side (+y: 90 deg, -y: -90 deg) at the reference height.
   const double turn0 =
       side * M_PI / 2 - model.EdgeAngle(e, opt.h_ref_mm, 0.0) - offset_deg / base::kDegPerRad;
-  FluteView v = MeasureView(x.outlines[SideIndex(side)][i0], model, e, turn0, side, opt, pitch_deg);
+  const std::string name =
+      "edge " + std::to_string(e + 1) + " on the " + (side > 0 ? "+y" : "-y") + " flank";
+  FluteView v =
+      MeasureView(x.outlines[SideIndex(side)][i0], model, e, turn0, side, opt, pitch_deg, name);
   v.frame = static_cast<int>(i0);
   v.angle_deg = x.angle_deg[i0] + offset_deg;
   return v;
@@ -573,10 +652,13 @@ FluteMeasurement FromViews(FluteView plus, std::optional<FluteView> minus, int e
   fm.plus = std::move(plus);
   fm.minus = std::move(minus);
   fm.radius_mm = fm.plus.radius_mm, fm.tip_h_mm = fm.plus.tip_h_mm;
+  fm.radius_u_mm = fm.plus.radius_u_mm, fm.tip_u_mm = fm.plus.tip_u_mm;
   fm.angle_deg = fm.plus.angle_deg;
   if (fm.minus) {
     fm.radius_mm = (fm.plus.radius_mm + fm.minus->radius_mm) / 2;
     fm.tip_h_mm = (fm.plus.tip_h_mm + fm.minus->tip_h_mm) / 2;
+    fm.radius_u_mm = std::hypot(fm.plus.radius_u_mm, fm.minus->radius_u_mm) / 2;
+    fm.tip_u_mm = std::hypot(fm.plus.tip_u_mm, fm.minus->tip_u_mm) / 2;
   }
   return fm;
 }
@@ -671,6 +753,24 @@ void Summarise(ToolMeasurement* t) {
 
 }  // namespace
 
+MeasureOptions ForTool(const ToolDescription& tool) {
+  MeasureOptions o;
+  if (tool.reference_height_mm > 0) {
+    o.h_ref_mm = tool.reference_height_mm;
+    return o;
+  }
+  // Near the end, so that the helix has turned the edge little between the reference height
+  // and the end the fit leans on: within an eighth of the lead (a D1 drill's 30 deg helix
+  // turns an edge face-on 1.4 mm up, so 1.5 mm indexes a web), yet 0.4 mm clear of the
+  // end's shape (a ball nose's, a drill's point).
+  const double lead_mm =
+      tool.helix_deg > 0 ? 2 * M_PI * tool.Radius() / std::tan(tool.helix_deg / base::kDegPerRad)
+                         : 1e300;
+  o.h_ref_mm = std::max(tool.EndHeight() + 0.4, std::min(MeasureOptions::kDefaultReferenceHeightMm,
+                                                         tool.EndHeight() + lead_mm / 8));
+  return o;
+}
+
 Vec2 ToolFromImage(const Vec2& px, const ToolCameraModel& c) {
   return c.ToolFromPixel(Undistort(px, c));
 }
@@ -750,10 +850,38 @@ Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCamera
 
 namespace {
 
-void CheckSeries(const ToolSeries& s, int flutes) {
+// The smallest angle between neighbouring flutes [deg].
+double SmallestPitchDeg(const ToolDescription& t) {
+  double pitch = 360.0;
+  for (int k = 0; k < t.flutes; ++k)
+    pitch = std::min(pitch, PeakAfterDeg(t, (k + 1) % t.flutes, k));
+  return t.flutes > 1 ? pitch : 360.0;
+}
+
+// A series that can index every flute: 3 images a flute, positions within the plan, no gap in
+// the turn wider than half the smallest pitch (else a flute's peak may fall where no image
+// is, and the nearest image's flank is measured as the edge's); and a reference height above
+// the end's shape, within the flutes.
+void CheckSeries(const ToolSeries& s, const ToolDescription& tool, const MeasureOptions& opt) {
+  const int flutes = tool.flutes;
   if (s.frames.size() != s.positions.size() || s.position_count < 3 * flutes ||
       s.frames.size() < 3 * static_cast<size_t>(flutes))
     Bad("at least 3 images per flute, each with its angular position, are needed");
+  std::vector<int> at = s.positions;
+  std::sort(at.begin(), at.end());
+  if (at.front() < 0 || at.back() >= s.position_count)
+    Bad("an image's angular position is outside 0.." + std::to_string(s.position_count - 1));
+  int widest = at.front() + s.position_count - at.back();
+  for (size_t i = 1; i < at.size(); ++i) widest = std::max(widest, at[i] - at[i - 1]);
+  const double gap_deg = widest * 360.0 / s.position_count;
+  if (gap_deg > SmallestPitchDeg(tool) / 2)
+    Fail("the images leave " + std::to_string(std::lround(gap_deg)) +
+         " deg of the turn unseen, over half the smallest pitch (" +
+         std::to_string(std::lround(SmallestPitchDeg(tool))) + " deg): a flute may not be seen");
+  if (!(opt.h_ref_mm > tool.EndHeight() && opt.h_ref_mm < tool.flute_length_mm))
+    Bad("the reference height " + std::to_string(opt.h_ref_mm) +
+        " mm must lie above the end's shape (" + std::to_string(tool.EndHeight()) +
+        " mm) and below the flute length");
 }
 
 bool IsReference(const ToolDescription& t) {
@@ -801,7 +929,7 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
                             const ToolCameraModel& camera,
                             const MeasureOptions& opt) {
   const ToolSeries series{frames, positions, position_count, camera};
-  CheckSeries(series, nominal.flutes);
+  CheckSeries(series, nominal, opt);
   // The images in angular order; the flutes are the maxima of the reference height's extreme.
   const IndexedImages x = IndexImages(series, opt);
   if (x.top[0] == frames.size()) Fail("no image shows the outline at the reference height");
@@ -834,7 +962,7 @@ ToolMeasurement MeasureToolBothSides(const ToolSeries& plus,
                                      const MeasureOptions& opt) {
   const int n = nominal.flutes;
   const auto count = static_cast<size_t>(n);
-  CheckSeries(plus, n), CheckSeries(minus, n);
+  CheckSeries(plus, nominal, opt), CheckSeries(minus, nominal, opt);
   const IndexedImages xp = IndexImages(plus, opt), xm = IndexImages(minus, opt);
   if (xp.top[0] == plus.frames.size()) Bad("the +y series does not show the tool's +y flank");
   if (xm.top[1] == minus.frames.size()) Bad("the -y series does not show the tool's -y flank");

@@ -177,6 +177,8 @@ nlohmann::json ViewJson(const FluteView& v) {
           {"radius_mm", v.radius_mm},
           {"tip_h_mm", v.tip_h_mm},
           {"rms_mm", v.rms_mm},
+          {"radius_u_mm", v.radius_u_mm},
+          {"tip_u_mm", v.tip_u_mm},
           {"points", v.points},
           {"removed", v.removed},
           {"findings", findings}};
@@ -194,8 +196,10 @@ nlohmann::json ToolMeasurementJson(const ToolDescription& tool, const ToolMeasur
     flutes.push_back({{"edge", f.edge + 1},
                       {"angle_deg", f.angle_deg},
                       {"radius_mm", f.radius_mm},
+                      {"radius_u_mm", f.radius_u_mm},
                       {"runout_mm", f.radius_mm - mean_radius},
                       {"tip_h_mm", f.tip_h_mm},
+                      {"tip_u_mm", f.tip_u_mm},
                       {"views", views}});
     if (tool.electrode)
       flutes.back().update(

@@ -242,6 +242,11 @@ void ToolDescription::Validate() const {
     Fail("thread_pitch_mm must be in [0, diameter / 2]");
   if (!(wear_limit_mm >= 0 && wear_limit_mm <= 0.1 * Radius()))
     Fail("wear_limit_mm must be in [0, 10 % of the radius]");
+  if (!(reference_height_mm == 0 ||
+        (reference_height_mm > EndHeight() && reference_height_mm < flute_length_mm)))
+    Fail(
+        "reference_height_mm must be 0 (the default, 1.5 mm) or above the end's shape and "
+        "below flute_length_mm");
   if (!flute_angles_deg.empty()) {
     if (static_cast<int>(flute_angles_deg.size()) != flutes || flute_angles_deg[0] != 0)
       Fail("flute_angles_deg must list one angle per flute, the first 0");
@@ -293,6 +298,7 @@ ToolDescription ParseTool(const std::string& text) {
   t.tip_diameter_mm = jf::NumberOr<ToolInputError>(j, "tip_diameter_mm", 0.0, "tool");
   t.thread_pitch_mm = jf::NumberOr<ToolInputError>(j, "thread_pitch_mm", 0.0, "tool");
   t.wear_limit_mm = jf::NumberOr<ToolInputError>(j, "wear_limit_mm", 0.0, "tool");
+  t.reference_height_mm = jf::NumberOr<ToolInputError>(j, "reference_height_mm", 0.0, "tool");
   if (j.contains("flute_angles_deg") && !electrode) {
     if (!j.at("flute_angles_deg").is_array()) Fail("flute_angles_deg must be an array");
     for (const json& a : j.at("flute_angles_deg")) {
@@ -357,6 +363,7 @@ std::string ToJson(const ToolDescription& t) {
   if (t.tip_diameter_mm > 0) with["tip_diameter_mm"] = t.tip_diameter_mm;
   if (t.thread_pitch_mm > 0) with["thread_pitch_mm"] = t.thread_pitch_mm;
   if (t.wear_limit_mm > 0) with["wear_limit_mm"] = t.wear_limit_mm;
+  if (t.reference_height_mm > 0) with["reference_height_mm"] = t.reference_height_mm;
   if (!t.flute_angles_deg.empty() && !t.electrode) with["flute_angles_deg"] = t.flute_angles_deg;
   if (t.electrode) with["section_mm"] = {t.section_mm[0], t.section_mm[1]};
   if (!t.blades.empty()) {

@@ -39,7 +39,9 @@ geometry::Vec2 Undistort(const geometry::Vec2& pixel, const ToolCameraModel& cam
 geometry::Vec2 ToolFromImage(const geometry::Vec2& pixel, const ToolCameraModel& camera);
 
 struct MeasureOptions {
-  double h_ref_mm = 1.5;  ///< the height that indexes the flutes (above the corner)
+  /// The height that indexes the flutes (above the corner); ForTool chooses it for a tool.
+  double h_ref_mm = kDefaultReferenceHeightMm;
+  static constexpr double kDefaultReferenceHeightMm = 1.5;
   /// Half the band round it: the flank over it is smoothed (a quadratic in h) with what sticks
   /// out by more than `contamination_mm` left out, so a drop or a build-up there does not move
   /// the indexing (seed 000 example 3).
@@ -65,6 +67,11 @@ struct MeasureOptions {
   std::optional<double> start_turn_deg;
 };
 
+/// The options for a tool: the defaults with its file's reference height, or one chosen for
+/// its shape: 1.5 mm, lowered to an eighth of the helix' lead above the end's shape (a small
+/// helical tool's edges turn face-on within a few mm), at least 0.4 mm above it.
+MeasureOptions ForTool(const ToolDescription& tool);
+
 /// A stretch of an edge off its model.
 struct Finding {
   bool buildup = false;  ///< outside the model; else wear (inside)
@@ -80,11 +87,14 @@ struct Finding {
 /// spindle axis in view, on the -y flank (-1; measured mirrored, figures as the edge's own).
 struct FluteView {
   int side = 1;
-  int frame = 0;                ///< the image (index into the frames given)
-  double angle_deg = 0.0;       ///< where its extreme lies in the images' angular order
-  double radius_mm = 0.0;       ///< the edge's distance from the calibrated axis
-  double tip_h_mm = 0.0;        ///< its tip above the nominal tip (negative: longer)
-  double rms_mm = 0.0;          ///< of the outline about the shifted model
+  int frame = 0;           ///< the image (index into the frames given)
+  double angle_deg = 0.0;  ///< where its extreme lies in the images' angular order
+  double radius_mm = 0.0;  ///< the edge's distance from the calibrated axis
+  double tip_h_mm = 0.0;   ///< its tip above the nominal tip (negative: longer)
+  double rms_mm = 0.0;     ///< of the outline about the shifted model
+  /// Standard uncertainties (k = 1) of radius and tip from the fit's covariance: what the
+  /// outline's noise leaves open (not the calibration's share).
+  double radius_u_mm = 0.0, tip_u_mm = 0.0;
   int points = 0, removed = 0;  ///< used; left out as contamination or findings
   std::vector<Finding> findings;
   /// For the overlay, in the tool frame [mm]: the fitted model's outline (flank from the top
@@ -107,7 +117,9 @@ struct FluteMeasurement {
   /// The edge's radius about the spindle axis: with both flanks the views' mean, where the
   /// axis' error in the camera's calibration cancels (+ on one side, - on the other).
   double radius_mm = 0.0;
-  double tip_h_mm = 0.0;   ///< the views' mean
+  double tip_h_mm = 0.0;  ///< the views' mean
+  /// Their standard uncertainties (k = 1) from the views' fits (the mean's, with both).
+  double radius_u_mm = 0.0, tip_u_mm = 0.0;
   double angle_deg = 0.0;  ///< the +y view's
   /// An electrode's corner: how far it moved in since the nominal (or the stored reference),
   /// across the axis and up from the end [mm] (negative: it grew).

@@ -111,6 +111,10 @@ struct ToolDescription {
   /// finding within it is reported and the tool table written; beyond it, refused. 0: every
   /// finding refuses.
   double wear_limit_mm = 0.0;
+  /// The height above the nominal tip whose flank indexes the flutes and names each one's
+  /// principal image [mm]: where every flute stands clear on the silhouette (a small drill's
+  /// helix turns its flutes face-on within a few mm). 0: the measurement's default (1.5 mm).
+  double reference_height_mm = 0.0;
 
   double Radius() const { return diameter_mm / 2; }
   /// Flute k's angle about z from flute 0 [rad].
