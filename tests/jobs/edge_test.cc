@@ -72,6 +72,30 @@ TEST(Edge, AgainstTheNominalTheOffsetIsPositiveWhereTheWallIsProud) {
   EXPECT_NEAR(CompareEdge(m, n).angle_deg, -0.1, 1e-9);
 }
 
+// The u each view carries (100 points at 0.1 px over 3 mm: 0.1 / sqrt(100) px of 0.03 mm
+// across, 0.1 sqrt(12) / 100^1.5 rad in turn), through the line's fit: one view's segment at
+// its middle gives its own across u; two views 80 mm apart give half the root of two of it at
+// their middle and their turn through the lever of 80 mm.
+TEST(Edge, TheUncertaintyIsTheViewsCarriedThroughTheLine) {
+  EdgeNominal n;
+  n.face.normal_mcs = Vec3::UnitZ();
+  n.point_mcs = kOnEdge;
+  n.wall_normal_mcs = -kIntoMaterial;
+  const double across_mm = 0.1 / std::sqrt(100.0) * 3.0 / 100.0;
+  const EdgeDeviation one = CompareEdge(MeasureEdge({ViewAt(0, "c")}, kFace), n);
+  EXPECT_NEAR(one.offset_u_mm, across_mm, kExactMm);
+  EXPECT_NEAR(one.angle_u_deg, 0.1 * std::sqrt(12.0) / 1000.0 * 180.0 / M_PI, kExactMm);
+  const EdgeDeviation two = CompareEdge(MeasureEdge({ViewAt(-40, "a"), ViewAt(40, "b")}, kFace), n);
+  EXPECT_NEAR(two.offset_u_mm, across_mm / std::sqrt(2.0), 1e-3 * across_mm);
+  EXPECT_LT(two.angle_u_deg, one.angle_u_deg);
+  // A face height uncertainty moves nothing seen straight down, and an oblique view's segment.
+  EXPECT_NEAR(CompareEdge(MeasureEdge({ViewAt(0, "c")}, kFace), n, 0.01).offset_u_mm,
+              one.offset_u_mm, kExactMm);
+  const EdgeDeviation tilted =
+      CompareEdge(MeasureEdge({ViewAt(0, "d", Vec3(-30 * kIntoMaterial))}, kFace), n, 0.01);
+  EXPECT_NEAR(tilted.offset_u_mm, std::hypot(one.offset_u_mm, 0.01 * 30.0 / 120.0), 1e-4);
+}
+
 TEST(Edge, BadViewsAreRefusedByName) {
   const auto refused = [](const std::vector<EdgeView>& views, const geometry::Plane& face,
                           const std::string& why) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 namespace mlp::jobs {
 namespace {
@@ -50,6 +51,52 @@ geometry::Line3 LineThrough(const std::vector<EdgeMeasurement::Segment>& segment
   return geometry::FitLine3(samples).shape;
 }
 
+struct EdgeU {
+  double offset_mm = 0.0, angle_rad = 0.0;
+};
+
+// The line's across-offset at `at_mm` along it and its angle, as linear functions of each
+// view's own across-offset (at its segment's middle) and turn, through LineThrough's fit (its
+// samples, equal weights: across y(s) = mean + slope (s - mean s); one view's samples give
+// its own segment back); their variances summed (views independent), the face's height term
+// added (common to every view, so its across-shifts add before squaring).
+EdgeU Uncertainty(const EdgeMeasurement& m, double at_mm, double face_height_u_mm) {
+  const Vec3 d = m.line_mcs.direction;
+  std::vector<double> s;  // every sample's position along the line
+  for (const auto& g : m.segments_mcs)
+    for (int i = 0; i < kSamplesPerSegment; ++i)
+      s.push_back((g.first_mcs + (g.last_mcs - g.first_mcs) * i / (kSamplesPerSegment - 1.0) -
+                   m.line_mcs.point)
+                      .dot(d));
+  double mean = 0, spread = 0;
+  for (double x : s) mean += x / static_cast<double>(s.size());
+  for (double x : s) spread += (x - mean) * (x - mean);
+  double var_offset = 0, var_slope = 0, face_offset = 0, face_slope = 0;
+  for (size_t k = 0; k < m.segments_mcs.size(); ++k) {
+    const auto& g = m.segments_mcs[k];
+    const double length_mm = (g.last_mcs - g.first_mcs).norm();
+    const double points = std::max(2, g.points);
+    const double u_across = g.rms_px / std::sqrt(points) * length_mm / points;
+    const double u_turn = g.rms_px * std::sqrt(12.0) / std::pow(points, 1.5);
+    const double middle = (0.5 * (g.first_mcs + g.last_mcs) - m.line_mcs.point).dot(d);
+    double c_offset[2] = {0, 0}, c_slope[2] = {0, 0};  // per (own offset, own turn)
+    for (int i = 0; i < kSamplesPerSegment; ++i) {
+      const double x = s[k * kSamplesPerSegment + static_cast<size_t>(i)];
+      const double w_offset = 1.0 / static_cast<double>(s.size()) +
+                              (spread > 0 ? (at_mm - mean) * (x - mean) / spread : 0);
+      const double w_slope = spread > 0 ? (x - mean) / spread : 0;
+      c_offset[0] += w_offset, c_offset[1] += w_offset * (x - middle);
+      c_slope[0] += w_slope, c_slope[1] += w_slope * (x - middle);
+    }
+    var_offset += std::pow(c_offset[0] * u_across, 2) + std::pow(c_offset[1] * u_turn, 2);
+    var_slope += std::pow(c_slope[0] * u_across, 2) + std::pow(c_slope[1] * u_turn, 2);
+    face_offset += c_offset[0] * g.across_per_height * face_height_u_mm;
+    face_slope += c_slope[0] * g.across_per_height * face_height_u_mm;
+  }
+  return {std::sqrt(var_offset + face_offset * face_offset),
+          std::sqrt(var_slope + face_slope * face_slope)};
+}
+
 }  // namespace
 
 EdgeView EdgeViewInMcs(const base::EdgeSight& s,
@@ -79,8 +126,13 @@ EdgeMeasurement MeasureEdge(const std::vector<EdgeView>& views, const Plane& fac
       throw FeatureError("edge: capture " + v.capture_id +
                          " sees the lit face on the other side of the edge from capture " +
                          views.front().capture_id);
+    const Vec3 mid_ray = (v.first_ray_mcs + v.last_ray_mcs).normalized();
     m.segments_mcs.push_back({OnFace(v.camera_mcs, v.first_ray_mcs, face, v.capture_id),
-                              OnFace(v.camera_mcs, v.last_ray_mcs, face, v.capture_id)});
+                              OnFace(v.camera_mcs, v.last_ray_mcs, face, v.capture_id), v.points,
+                              v.rms_px,
+                              // The face raised by h meets the ray h / (ray . n) further
+                              // along it: its in-face part, seen across the edge.
+                              mid_ray.dot(into) / mid_ray.dot(face.normal)});
     material += into;
     m.points += v.points;
     m.rms_px = std::max(m.rms_px, v.rms_px);
@@ -122,7 +174,7 @@ void EdgeNominal::Check() const {
   if (views < 1 || views > 8) throw FeatureError("edge: views must be 1..8");
 }
 
-EdgeDeviation CompareEdge(const EdgeMeasurement& m, const EdgeNominal& n) {
+EdgeDeviation CompareEdge(const EdgeMeasurement& m, const EdgeNominal& n, double face_height_u_mm) {
   const Vec3 d = m.line_mcs.direction;
   EdgeDeviation e;
   e.found_mcs = m.line_mcs.point + d * d.dot(n.point_mcs - m.line_mcs.point);
@@ -130,6 +182,9 @@ EdgeDeviation CompareEdge(const EdgeMeasurement& m, const EdgeNominal& n) {
   const Vec3 nominal = n.Direction();
   const Vec3 face = n.face.normal_mcs.normalized();
   e.angle_deg = std::atan2(nominal.cross(d).dot(face), std::abs(nominal.dot(d))) * base::kDegPerRad;
+  const EdgeU u = Uncertainty(m, d.dot(n.point_mcs - m.line_mcs.point), face_height_u_mm);
+  e.offset_u_mm = u.offset_mm * std::abs(m.into_material_mcs.dot(n.Outward()));
+  e.angle_u_deg = u.angle_rad * base::kDegPerRad;
   return e;
 }
 

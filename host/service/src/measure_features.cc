@@ -443,11 +443,13 @@ Measured Surface(const FeatureRequest& /*request*/,
 Measured Edge(const FeatureRequest& /*request*/, const jobs::EdgeNominal& n, const Evidence& ev) {
   const jobs::PlaneMeasurement f = jobs::MeasurePlane(ev.points_mcs, n.face);
   const jobs::EdgeMeasurement e = jobs::MeasureEdge(ev.edges, f.plane);
-  const jobs::EdgeDeviation d = jobs::CompareEdge(e, n);
+  const jobs::EdgeDeviation d = jobs::CompareEdge(e, n, f.height_u_mm);
   Measured m;
   m.size = d.offset_mm;
   m.fields = {{"offset_mm", d.offset_mm},
+              {"offset_u_mm", d.offset_u_mm},
               {"angle_deg", d.angle_deg},
+              {"angle_u_deg", d.angle_u_deg},
               {"edge",
                {{"point_mm", JsonVec(d.found_mcs)},
                 {"direction", JsonVec(e.line_mcs.direction)},

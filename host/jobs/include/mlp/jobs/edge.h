@@ -44,6 +44,11 @@ struct EdgeMeasurement {
   double rms_px = 0.0;  ///< largest of the views'
   struct Segment {
     geometry::Vec3 first_mcs, last_mcs;
+    int points = 0;       ///< the view's edge points (one per sensor row or column)
+    double rms_px = 0.0;  ///< about their line in the image
+    /// Across the edge, in the face, per mm the face stands higher: how a face height error
+    /// moves this view's segment (its mid ray's slope).
+    double across_per_height = 0.0;
   };
   std::vector<Segment> segments_mcs;
 };
@@ -73,8 +78,20 @@ struct EdgeNominal {
 struct EdgeDeviation {
   double offset_mm = 0.0;
   double angle_deg = 0.0;
+  /// Their standard uncertainties (k = 1) from what was seen, as BoreMeasurement's
+  /// diameter_u_mm: each view's edge points about their image line (rms_px over the root of
+  /// their count across, rms_px sqrt(12) / points^1.5 in direction; one point per sensor row
+  /// or column, so the line is about `points` px long), carried through the line's fit over
+  /// the views, and the face's height_u_mm through the views' ray slopes (common to all).
+  /// Not the calibration's share.
+  double offset_u_mm = 0.0;
+  double angle_u_deg = 0.0;
   geometry::Vec3 found_mcs = geometry::Vec3::Zero();  ///< the measured edge at the nominal point
 };
-EdgeDeviation CompareEdge(const EdgeMeasurement& m, const EdgeNominal& n);
+/// `face_height_u_mm`: the face's height uncertainty (PlaneMeasurement::height_u_mm), 0 if
+/// not known.
+EdgeDeviation CompareEdge(const EdgeMeasurement& m,
+                          const EdgeNominal& n,
+                          double face_height_u_mm = 0.0);
 
 }  // namespace mlp::jobs
