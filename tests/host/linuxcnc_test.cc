@@ -8,6 +8,8 @@
 #include "mlp/link/transport.h"
 
 #include <future>
+#include <optional>
+#include <random>
 
 #include "electrode_site.h"
 #include "hostd_site.h"
@@ -31,6 +33,7 @@ constexpr int kPosePort = 17440;          // the controller-pose test's
 constexpr int kDriftPort = 17459;         // the moved-capture test's
 constexpr int kRelocatePort = 17464;      // the re-clamped electrode's (no probe: unused)
 constexpr int kSharedTablePort = 17472;   // two machines on one table (no probe: unused)
+constexpr int kKillPort = 17481;          // kills beside a running LinuxCNC (no probe: unused)
 constexpr double kDisturbanceMm = 0.005;  // 5x the M-code's 1 um pose drift limit
 constexpr double kFaceHeightTolMm = 0.001;
 constexpr double kOriginTolMm = 0.005;           // issue 6: alignment origin within 5 um
@@ -489,6 +492,93 @@ TEST(LinuxCnc, TwoMachinesOnOneToolTableLoseNoWrite) {
   }
   EXPECT_NEAR(after.at("tool_offset")[2].get<double>(),
               after.at("tools").at("31").at("z").get<double>(), kExactMm);
+}
+
+// Issue 48 item 4 beside a running LinuxCNC: the relocate job through M101, the host killed
+// (SIGKILL) at a random instant after the M-code's request left (the client is wrapped to mark
+// that moment), the program aborted by the failed M-code, the host restarted and the program
+// run again under the same request_id, as an operator would. LinuxCNC's own G10 L1 (the
+// subroutine) writes its tool table; each request must move T30 by one re-clamp step, never
+// two, never none, and the history keep no intent.
+TEST(LinuxCnc, KillsOfTheHostInsideM101MoveTheElectrodeOncePerRequest) {
+  ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0)
+      << "linuxcnc-uspace is not installed: bash scripts/install-deps.sh";
+  constexpr int kRounds = 8;
+  constexpr double kShiftXMm = -0.03, kRelocateTolMm = 0.0005;  // relocate_test's
+  Site site("linuxcnc_kill", kKillPort);
+  const fs::path config = LinuxCncSite(site);
+  std::ofstream(config / "tool.tbl", std::ios::app)
+      << "T30 P30 X0.01 Z60.0 D11.662 ;EDM electrode\n";
+  ElectrodeTextures(site);
+  if (HasFatalFailure()) return;
+  const fs::path sent = site.dir / "request.sent", client = site.dir / "mlp-marked";
+  std::ofstream(client) << "#!/bin/sh\ntouch " << sent.string() << "\nexec " << test::kMlp
+                        << " \"$@\"\n";
+  fs::permissions(client, fs::perms::owner_all);
+  // Built in place: a Child copied would stop the process when its temporary dies.
+  std::optional<Child> hostd;
+  const auto start = [&] {
+    hostd.emplace(
+        std::vector<std::string>{test::kHostd, "--config", (site.dir / "hostd.json").string()},
+        site.dir / "hostd.log");
+  };
+  start();
+  ASSERT_TRUE(site.WaitFor([&] { return fs::exists(site.socket); }));
+  test::LinuxCnc cnc(config, "mlprobe-sim.ini",
+                     "MLP=" + client.string() + " MLP_SOCKET=" + site.socket);
+  ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
+  const std::string program = "G21 G90 G54 G40 G49\nM101 P1\nM66 E0 L0\no<mlp_result> call\nM2\n";
+  const auto t30_x = [](const json& state) { return state.at("tools").at("30").at("x"); };
+  // An uncut request first: the step, and how long the job takes from the request's leaving.
+  std::ofstream(config / "jobs" / "1.json") << test::RelocateJob("after").dump();
+  fs::remove(sent);
+  double x_mm = t30_x(cnc.State()).get<double>();
+  const json uncut = cnc.Run(program);
+  ASSERT_TRUE(uncut.value("ended", false) && uncut.at("errors").empty()) << uncut.dump();
+  ASSERT_NEAR(t30_x(uncut).get<double>() - x_mm, kShiftXMm, kRelocateTolMm);
+  x_mm = t30_x(uncut).get<double>();
+  const double job_ms =
+      std::chrono::duration<double, std::milli>(
+          fs::last_write_time(config / "subs" / "mlp_result.ngc") - fs::last_write_time(sent))
+          .count();
+  std::mt19937 rng(4811);
+  int aborted = 0;
+  for (int round = 0; round < kRounds; ++round) {
+    json job = test::RelocateJob("after");
+    job["request_id"] = "lcnc-kill-" + std::to_string(round);
+    std::ofstream(config / "jobs" / "1.json") << job.dump();
+    fs::remove(sent);
+    auto first = std::async(std::launch::async, [&] { return cnc.Run(program); });
+    ASSERT_TRUE(site.WaitFor([&] { return fs::exists(sent); })) << "round " << round;
+    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(
+        std::uniform_real_distribution<double>(0, 1.5 * job_ms)(rng)));
+    hostd->Stop(SIGKILL);
+    const json cut = first.get();
+    ASSERT_TRUE(cut.value("ended", false)) << cut.dump();
+    aborted += !cut.at("errors").empty();
+    hostd.reset();
+    start();
+    ASSERT_TRUE(site.WaitFor([&] { return site.Mlp("status").exit_code == 0; }));
+    const json again = cnc.Run(program);
+    ASSERT_TRUE(again.value("ended", false) && again.at("errors").empty())
+        << "round " << round << ": " << again.dump() << test::ReadText(site.dir / "hostd.log");
+    EXPECT_NEAR(t30_x(again).get<double>() - x_mm, kShiftXMm, kRelocateTolMm)
+        << "round " << round << (cut.at("errors").empty() ? " (not cut)" : " (cut)");
+    x_mm = t30_x(again).get<double>();
+  }
+  EXPECT_EQ(hostd->Stop(), 0);
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  int started = 0;
+  for (const auto& job : h.ListJobs({"lcnc-1", "relocate", {}, 10000})) {
+    ++started;
+    const json exported = h.ExportJob(job.id);  // held: see KillsInsideRelocateJobs
+    for (const json& w : exported.at("offset_writes")) EXPECT_NE(w.at("state"), "intent") << job.id;
+  }
+  std::printf(
+      "kill -9 beside LinuxCNC: %d rounds, %d programs aborted by the kill, %d relocate "
+      "jobs started; a job %.0f ms from the request\n",
+      kRounds, aborted, started, job_ms);
+  EXPECT_GT(aborted, 0);  // not vacuous: some kills cut the M-code's job
 }
 
 }  // namespace
