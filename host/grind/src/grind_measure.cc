@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 
 namespace mlp::grind {
 namespace {
@@ -66,6 +67,34 @@ bool Along(const WheelSection& wheel,
   return true;
 }
 
+// An edge point this far (and 4 robust sigma) from the wheel's edge at the shift found is not
+// the wheel's: a droplet, a burr, a chip (the edge's own noise is 0.2-0.5 um).
+constexpr double kNuisanceMm = 0.003;
+
+// The median of the values (reordered).
+double Median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// The points the wheel's edge, shifted along `phi` by their distances' median, explains (the
+// median: a droplet pulls the mean).
+std::vector<Vec2> Explained(const WheelSection& wheel, const std::vector<Vec2>& edge, double phi) {
+  const Vec2 u(std::cos(phi), std::sin(phi));
+  std::vector<double> along, off;
+  for (const Vec2& q : edge) {
+    double t = 0;
+    along.push_back(BackToEdge(wheel, q, u, &t) ? t : 1e300);
+  }
+  const double centre = Median(along);
+  for (double t : along) off.push_back(std::abs(t - centre));
+  const double limit = std::max(kNuisanceMm, 4 * 1.4826 * Median(off));
+  std::vector<Vec2> kept;
+  for (size_t k = 0; k < edge.size(); ++k)
+    if (off[k] <= limit) kept.push_back(edge[k]);
+  return kept;
+}
+
 // A shift of the nose explains its arc to the edge's noise (0.3 um): beyond this spread the
 // nose itself changed (worn smaller, or not round) and a circle is fitted instead.
 constexpr double kShiftSpreadMm = 0.001;
@@ -93,6 +122,38 @@ void WornNose(const WheelSection& wheel,
     res->spread_mm = circle.stats.rms;
   } catch (const geometry::GeometryError&) {  // the arc too short: the shift's answer stands
   }
+}
+
+// The wheel's error found from the removed region's edge must agree with what the crossing on
+// C-Mi measured: the error's part along the normal is the material left there (a shift s of
+// the nose leaves s . n + |s x n|^2 / 2R along the normal; a worn nose, its lost radius), to
+// the edge's noise and a share of d for the neglected terms. A droplet or a burr on the edge
+// pulls the fit and not the crossing: 38-253 um at 135-150 deg from the normal where the
+// crossing said 12 um (issue 55's outside renderer). And a nose fitted far from the wheel's
+// radius is not the nose: refused, never compensated.
+constexpr double kAgreeMm = 0.002, kAgreeShare = 0.25;
+constexpr double kMaxNoseChange = 0.05;  // of the radius: a nose worn further is re-dressed
+
+void CheckAgainstCrossing(const PointResult& res, const Vec2& n, double r) {
+  const double along = res.error_mm * res.error_dir.dot(n);
+  const auto um = [](double mm) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.1f", mm * 1e3);
+    return std::string(text);
+  };
+  if (!(std::abs(along - res.d_mm) <= kAgreeMm + kAgreeShare * res.d_mm))
+    Fail("the removed region's edge puts the wheel " + um(res.error_mm) + " um off at " +
+         std::to_string(std::lround(std::acos(std::clamp(res.error_dir.dot(n), -1.0, 1.0)) *
+                                    base::kDegPerRad)) +
+         " deg from the normal, " + um(along) + " um along it, where the contour on C-Mi left " +
+         um(res.d_mm) +
+         " um: something on the edge (a droplet, a burr) that no wheel position "
+         "explains; not compensated");
+  if (res.nose_radius_mm > 0 && !(std::abs(res.nose_radius_mm - r) <= kMaxNoseChange * r))
+    Fail("the removed region's arc fits a nose of radius " + um(res.nose_radius_mm) +
+         " um where the wheel's is " + um(r) +
+         " um: not the nose (a droplet, a burr) or a "
+         "wheel worn beyond 5 % of its radius; not compensated");
 }
 
 // Under-feed: where the wheel really was (seed 001, Fig. 4-6), from the removed region's edge.
@@ -131,12 +192,32 @@ void UnderFeed(const PointInput& in,
         best = phi, best_spread = spread, best_mean = mean;
     }
   };
-  scan(normal - M_PI / 2, normal + M_PI / 2, 0.5 / base::kDegPerRad);
-  const double coarse = best;
-  scan(coarse - 0.5 / base::kDegPerRad, coarse + 0.5 / base::kDegPerRad, 0.01 / base::kDegPerRad);
+  const auto smallest_spread = [&] {
+    best = normal, best_spread = 1e300, best_mean = 0;
+    scan(normal - M_PI / 2, normal + M_PI / 2, 0.5 / base::kDegPerRad);
+    const double coarse = best;
+    scan(coarse - 0.5 / base::kDegPerRad, coarse + 0.5 / base::kDegPerRad, 0.01 / base::kDegPerRad);
+  };
+  smallest_spread();
+  // Nuisances found, not fitted (issue 55): a droplet or burr on the edge makes points no
+  // wheel position explains; at the direction found, the points off the wheel's edge by more
+  // than kNuisanceMm (and 4 robust sigma) leave, and the search runs again, until none leave.
+  // Over a quarter left out: the evidence is spoiled (or the wheel is not the job's), refused.
+  for (int round = 0; round < 3 && best_spread < 1e300; ++round) {
+    const size_t before = edge.size();
+    edge = Explained(wheel, edge, best);
+    if (edge.size() == before) break;
+    res->left_out += static_cast<int>(before - edge.size());
+    if (edge.size() < 10 || 4 * res->left_out > res->edge_points)
+      Fail("over a quarter of the removed region's edge is off any wheel position (" +
+           std::to_string(res->left_out) + " of " + std::to_string(res->edge_points) +
+           " points: a droplet, a burr, or not the job's wheel shape); not compensated");
+    smallest_spread();
+  }
   res->error_dir = Vec2(std::cos(best), std::sin(best));
   res->error_mm = best_mean, res->spread_mm = best_spread;
   if (best_spread > kShiftSpreadMm) WornNose(wheel, edge, n, res);
+  CheckAgainstCrossing(*res, n, wheel.nose_radius_mm());
   res->compensation_mm = -res->error_dir * res->error_mm;
 }
 

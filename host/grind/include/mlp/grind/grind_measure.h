@@ -45,8 +45,11 @@ struct PointResult {
   /// Under-feed: the wheel's error found (unit direction, size); otherwise the normal and d.
   geometry::Vec2 error_dir = geometry::Vec2::UnitY();
   double error_mm = 0.0;
-  bool wheel_cut = true;   ///< under-feed: the stroke removed material (else normal + d)
-  int edge_points = 0;     ///< on the removed region's edge
+  bool wheel_cut = true;  ///< under-feed: the stroke removed material (else normal + d)
+  int edge_points = 0;    ///< on the removed region's edge
+  /// Of those, left out as no wheel position's (a droplet, a burr: over 3 um off the wheel's
+  /// edge at the shift found, and 4 robust sigma); the search then ran again without them.
+  int left_out = 0;
   double spread_mm = 0.0;  ///< their distances' spread at the direction found (or the circle's rms)
   /// The nose's radius when a shift did not explain its arc (spread over 1 um: worn, or not
   /// round) and a circle was fitted through the edge; 0 otherwise.
