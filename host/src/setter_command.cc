@@ -20,6 +20,7 @@ namespace mlp::host {
 namespace {
 
 constexpr int kExitNoResult = 3;
+constexpr double kDiameterToleranceMm = 0.02;  // a dip-width diameter this far off is withdrawn
 constexpr const char* kUsage =
     "usage: mlp setter simulate --out SIGNAL.txt [--rpm R] [--teeth-mm R1,R2,..]\n"
     "                           [--feed-mm-min F] [--gap-mm G] [--leaving] [--duration-s S]\n"
@@ -34,9 +35,12 @@ constexpr const char* kUsage =
     "       mlp setter process --signal SIGNAL.txt (--curve CURVE.json | --no-curve) --rpm R\n"
     "                          --teeth N --feed-mm-min F [--leaving] [--reflective]\n"
     "                          [--threshold-share S] [--width-trigger-ms T] [--rise] [--json]\n"
+    "                          [--nominal-diameter-mm D [--diameter-tolerance-mm T]]\n"
     "  the signal sample by sample as the setter's DSP: the trigger (the skip signal), the edge\n"
     "  it implies, the leading tooth's radius from the dips, each tooth's lag, what was rejected;\n"
     "  --rise: a pin entering, its rise p predicts the crossing (a curve that knows the rise)\n"
+    "  D: the dips' diameter (an estimate) is withdrawn beyond T (0.02 mm) of it; no trigger\n"
+    "  says why (and, when the feed per turn was too high for the curve, the feed that works)\n"
     "exit codes: 0 done (process: triggered), 2 bad arguments or files, 3 no trigger or no\n"
     "calibration (the reason is printed), 1 bug\n";
 
@@ -174,9 +178,11 @@ void PrintProcess(const setter::BeamProcessor& p,
         << t.time_s << " s): " << setter::ToString(t.cause) << " at " << t.threshold_time_s
         << " s; the edge is the latched position less " << std::setprecision(4)
         << t.edge_offset_mm * 1e3 << " um\n";
-  if (std::isfinite(radius))
+  if (std::isfinite(radius) && !j.at("diameter_mm").is_null())
     out << std::fixed << std::setprecision(4) << "  diameter from the dips' widths " << 2 * radius
-        << " mm\n";
+        << " mm (" << j.value("diameter_check", "") << "; the beam's divergence is not modelled)\n";
+  else if (std::isfinite(radius))
+    out << "  diameter from the dips' widths " << j.value("diameter_check", "") << "\n";
   for (int k = 0; k < teeth; ++k)
     if (std::isfinite(p.ToothLagMm(k)) && k != p.LeadingTooth())
       out << std::setprecision(2) << "  tooth " << k << " reaches " << p.ToothLagMm(k) * 1e3
@@ -185,22 +191,48 @@ void PrintProcess(const setter::BeamProcessor& p,
     if (n.get<int>() > 0) out << "  rejected " << n.get<int>() << "x: " << reason << "\n";
 }
 
+// The diameter from the dips' widths is an estimate: the beam's divergence over the dips'
+// flanks is not modelled (issue 56: 142-511 um small on an outside beam simulator, where this
+// project's generator gives 2 um). Against --nominal-diameter-mm beyond the tolerance it is
+// withdrawn with the reason; without a nominal it is marked unchecked. Never a tool table's.
+void CheckDiameter(const Args& f, nlohmann::ordered_json* j) {
+  if (j->at("diameter_mm").is_null()) return;
+  if (!f.Has("--nominal-diameter-mm")) {
+    (*j)["diameter_check"] = "unchecked: no --nominal-diameter-mm";
+    return;
+  }
+  const double nominal = f.Number("--nominal-diameter-mm");
+  const double tolerance = f.Number("--diameter-tolerance-mm", kDiameterToleranceMm);
+  if (!(nominal > 0) || !(tolerance > 0))
+    throw UsageError("--nominal-diameter-mm and --diameter-tolerance-mm must be > 0");
+  const double found = j->at("diameter_mm").get<double>();
+  if (std::abs(found - nominal) <= tolerance) {
+    (*j)["diameter_check"] = "within the tolerance of the nominal";
+    return;
+  }
+  std::ostringstream why;
+  why << std::fixed << std::setprecision(1) << "withdrawn: " << (found - nominal) * 1e3
+      << " um from the nominal " << std::setprecision(4) << nominal << " mm, beyond "
+      << std::setprecision(1) << tolerance * 1e3 << " um";
+  (*j)["diameter_mm"] = nullptr;
+  (*j)["diameter_check"] = why.str();
+}
+
 int Process(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args f(args, {{"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min",
-                       "--threshold-share", "--width-trigger-ms"},
-                      kSwitches});
+  const Args f(args,
+               {{"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min", "--threshold-share",
+                 "--width-trigger-ms", "--nominal-diameter-mm", "--diameter-tolerance-mm"},
+                kSwitches});
   const setter::BeamSignal s = ReadSignal(f.Text("--signal"));
   const setter::ProcessorConfig c = ProcessorConfigFrom(f, s);
   const auto p = std::make_unique<setter::BeamProcessor>(c);
   for (float v : s.volts) p->Push(v);
-  const nlohmann::ordered_json j = ProcessJson(*p, c.teeth);
+  nlohmann::ordered_json j = ProcessJson(*p, c.teeth);
+  if (!p->Triggered()) j["no_trigger"] = p->WhyNoTrigger();
+  CheckDiameter(f, &j);
   const int code = p->Triggered() ? kExitOk : kExitNoResult;
   if (!p->Triggered())
-    err << "mlp setter: no trigger in " << p->Samples() << " samples; the deepest dip left "
-        << std::fixed << std::setprecision(1) << 100 * p->DeepestShare() << " % of the light"
-        << (p->DeepestShare() > c.threshold_share ? " (over the threshold: a tool thinner than the "
-                                                    "beam, or one that never reached it)"
-                                                  : "")
+    err << "mlp setter: no trigger in " << p->Samples() << " samples: " << p->WhyNoTrigger()
         << "\n";
   if (f.Has("--json"))
     out << j.dump() << "\n";

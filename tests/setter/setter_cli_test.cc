@@ -126,4 +126,51 @@ TEST(SetterCli, NoCurveReflectiveAndAThinTool) {
       RunProcess(kMlp + " setter process --signal " + dir + "/tool.txt" + tool_args).exit_code, 2);
 }
 
+// Issue 56: a D10 two-tooth tool at 3000 rpm and a production feed of 60 mm/min (20 um a turn)
+// gives a tooth two minima in the curve's span: no trigger, and the reason says the feed that
+// would work; at that feed the same tool triggers. A dip-width diameter far from the nominal
+// is withdrawn with the reason, near it kept (the project's own generator: the physics of a
+// real beam is issue 56's open part).
+TEST(SetterCli, NoTriggerSaysWhyAndAFarDiameterIsWithdrawn) {
+  const std::string dir = "/tmp/mlp_setter_cli_why";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  ASSERT_EQ(
+      RunProcess(kMlp + " setter simulate --out " + dir + "/pin.txt --gap-mm 0.15 --duration-s 2.5")
+          .exit_code,
+      0);
+  ASSERT_EQ(RunProcess(kMlp + " setter calibrate --signal " + dir +
+                       "/pin.txt --feed-mm-min 6 --out " + dir + "/curve.json")
+                .exit_code,
+            0);
+  const auto simulate = [&](const std::string& name, double feed) {
+    return RunProcess(kMlp + " setter simulate --out " + dir + "/" + name +
+                      " --rpm 3000 --teeth-mm 5.008,5.0 --seed 3 --feed-mm-min " +
+                      std::to_string(feed));
+  };
+  const auto process = [&](const std::string& name, double feed) {
+    return kMlp + " setter process --signal " + dir + "/" + name + " --curve " + dir +
+           "/curve.json --rpm 3000 --teeth 2 --feed-mm-min " + std::to_string(feed);
+  };
+  ASSERT_EQ(simulate("fast.txt", 60).exit_code, 0);
+  const auto fast = RunProcess(process("fast.txt", 60) + " --json");
+  EXPECT_EQ(fast.exit_code, 3);
+  const std::string why = nlohmann::json::parse(fast.out).at("no_trigger");
+  const auto at = why.find("a feed of at most ");
+  ASSERT_NE(at, std::string::npos) << why;
+  const double feed = std::stod(why.substr(at + 18));
+  EXPECT_GT(feed, 6.0);
+  EXPECT_LT(feed, 60.0);
+  ASSERT_EQ(simulate("slower.txt", feed).exit_code, 0);
+  const auto slower = RunProcess(process("slower.txt", feed) + " --json");
+  EXPECT_EQ(slower.exit_code, 0) << slower.err;
+  const auto far = nlohmann::json::parse(
+      RunProcess(process("slower.txt", feed) + " --json --nominal-diameter-mm 10.5").out);
+  EXPECT_TRUE(far.at("diameter_mm").is_null());
+  EXPECT_EQ(far.at("diameter_check").get<std::string>().rfind("withdrawn", 0), 0u);
+  const auto near = nlohmann::json::parse(
+      RunProcess(process("slower.txt", feed) + " --json --nominal-diameter-mm 10.016").out);
+  EXPECT_FALSE(near.at("diameter_mm").is_null()) << near.at("diameter_check");
+}
+
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace mlp::setter {
 namespace {
@@ -519,6 +520,42 @@ double BeamProcessor::ToothLagMm(int k) const {
     return feed_mm_s_ * ((x_threshold_ - f1.a) / f1.b - (x_threshold_ - f0.a) / f0.b);
   const double t = lead.extremes.LastT();
   return (f0.a + f0.b * t) - (f1.a + f1.b * t);
+}
+
+std::string BeamProcessor::WhyNoTrigger() const {
+  if (Triggered()) return "";
+  char text[400];
+  if (deepest_share_ > cfg_.threshold_share) {
+    std::snprintf(text, sizeof text,
+                  "the deepest dip left %.1f %% of the light (over the threshold: a tool thinner "
+                  "than the beam, or one that never reached it; the threshold is %.1f %%)",
+                  100 * deepest_share_, 100 * cfg_.threshold_share);
+    return text;
+  }
+  if (cfg_.rpm <= 0) return "the crossing was not held (a drop?) or came too steep for the feed";
+  const double per_turn_um = 1000 * cfg_.feed_mm_min / cfg_.rpm;
+  if (!cfg_.HasCurve()) {
+    std::snprintf(text, sizeof text,
+                  "at %.1f um a turn too few of a tooth's minima fell between %.0f %% and "
+                  "%.0f %% of the light for its line (%d); a slower feed gives more",
+                  per_turn_um, 100 * cfg_.line_share_hi, 100 * cfg_.line_share_lo, cfg_.fit_min);
+    return text;
+  }
+  const double span_um = 1000 * (cfg_.curve.hi_mm - cfg_.curve.lo_mm);
+  const double minima = span_um / per_turn_um;  // one per tooth per turn
+  if (minima < cfg_.fit_min) {
+    std::snprintf(text, sizeof text,
+                  "at %.1f um a turn only %.1f of a tooth's minima fall in the curve's %.1f um "
+                  "span, its line needs %d: at %.0f rpm a feed of at most %.1f mm/min",
+                  per_turn_um, minima, span_um, cfg_.fit_min, cfg_.rpm,
+                  std::floor(10 * span_um / cfg_.fit_min * cfg_.rpm / 1000) / 10);
+    return text;
+  }
+  std::snprintf(text, sizeof text,
+                "no tooth's minima made a line at the feed within %.1f um (a drop on every "
+                "pass, a speed other than %.0f rpm, or a wrong tooth count)",
+                1000 * cfg_.fit_tol_mm, cfg_.rpm);
+  return text;
 }
 
 }  // namespace mlp::setter

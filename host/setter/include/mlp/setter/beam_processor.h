@@ -148,6 +148,11 @@ class BeamProcessor {
   }
   /// The last 16 rejections, oldest first.
   std::array<Rejection, 16> RecentRejections(int* count) const;
+  /// Why no trigger came, for a person (empty once triggered): the tool never took the light
+  /// under the threshold, or (turning) the feed per turn let fewer than `fit_min` of a
+  /// tooth's minima fall in the curve's span (90 % to 10 % of the light): then the fastest
+  /// feed at this speed that would give them.
+  std::string WhyNoTrigger() const;
 
  private:
   struct Dip {
