@@ -199,6 +199,14 @@ Spread SpreadAboutCommonPlane(const std::vector<Vec3>& points) {
   s.points = static_cast<int>(fit.inliers.size());
   s.outliers = static_cast<int>(points.size() - fit.inliers.size());
   s.rms_mm = s.points > 0 ? std::sqrt(s2 / double(s.points)) : 0.0;
+  s.threshold_mm = fit.threshold_mm;
+  s.plane = fit.fit.shape;
+  double all2 = 0.0;
+  for (const Vec3& p : points) {
+    const double e = std::abs(s.plane.normal.dot(p - s.plane.point));
+    all2 += e * e, s.all_max_mm = std::max(s.all_max_mm, e);
+  }
+  s.all_rms_mm = std::sqrt(all2 / double(points.size()));
   return s;
 }
 

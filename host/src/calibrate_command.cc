@@ -74,7 +74,8 @@ constexpr const char* kUsage =
     "  (formats: docs/CALIBRATION.md)\n"
     "exit codes: 0 done, 2 bad arguments or input, 3 the captures do not determine the\n"
     "            calibration (what would fix it is printed), 4 recheck: a full calibration is\n"
-    "            required, 1 bug; nothing is stored unless the exit code is 0\n";
+    "            required, 5 map: an image is flagged (saturated, or off the others: the\n"
+    "            reason is printed), 1 bug; nothing is stored unless the exit code is 0\n";
 
 struct Command {
   std::string command, captures, store, probe;

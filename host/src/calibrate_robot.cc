@@ -7,6 +7,7 @@
 #include "mlp/calib/line_laser.h"
 #include "mlp/calib/record.h"
 #include "mlp/calib/robot_views.h"
+#include "mlp/host/calibrate_command.h"
 #include "mlp/host/cli.h"
 #include "mlp/probe_fw/cloud_file.h"
 #include "mlp/probe_fw/probe_model.h"
@@ -204,8 +205,22 @@ HandEyeFigures Figures(const calib::RobotViews& v,
 }
 
 json SpreadJson(const calib::Spread& s) {
-  return {
+  json j = {
       {"rms_mm", s.rms_mm}, {"max_mm", s.max_mm}, {"points", s.points}, {"outliers", s.outliers}};
+  if (s.threshold_mm > 0)  // a robust plane: its rule and every point's figures beside
+    j.update({{"left_out_beyond_mm", s.threshold_mm},
+              {"all_points", {{"rms_mm", s.all_rms_mm}, {"max_mm", s.all_max_mm}}}});
+  return j;
+}
+
+// "0.220 mm RMS, 0.601 mm max over 6757 points (381 left out beyond 0.52 mm of the plane:
+// 2.5 robust sigma); all 7138 points: 0.345 mm RMS, 2.57 mm max"
+std::string SpreadText(const calib::Spread& s) {
+  return Fixed(s.rms_mm, 3) + " mm RMS, " + Fixed(s.max_mm, 3) + " mm max over " +
+         std::to_string(s.points) + " points (" + std::to_string(s.outliers) + " left out beyond " +
+         Fixed(s.threshold_mm, 3) + " mm of the plane: 2.5 robust sigma); " + "all " +
+         std::to_string(s.points + s.outliers) + " points: " + Fixed(s.all_rms_mm, 3) +
+         " mm RMS, " + Fixed(s.all_max_mm, 3) + " mm max";
 }
 
 json HandEyeJson(const calib::BoardHandEyeResult& r, const HandEyeFigures& f) {
@@ -257,9 +272,7 @@ void PrintHandEye(std::ostream& out,
       << " mm / " << Fixed(r.robot_sigma_deg, 4) << " deg (1 sigma per axis)\n"
       << "  board corners in the base: " << Fixed(f.corners.rms_mm, 3) << " mm RMS, "
       << Fixed(f.corners.max_mm, 3) << " mm max from their mean\n"
-      << "  laser points about one plane: " << Fixed(f.laser.rms_mm, 3) << " mm RMS, "
-      << Fixed(f.laser.max_mm, 3) << " mm max (" << f.laser.points << " points, "
-      << f.laser.outliers << " off the plane)\n";
+      << "  laser points about one plane: " << SpreadText(f.laser) << "\n";
   out << "  per image: the robot's pose error the fit found [mm, deg]; corners off the solution "
          "through the reported pose [px RMS]; laser points' height above the board [mm RMS / "
          "max] (light beside the board counts)\n";
@@ -317,14 +330,59 @@ int BoardHandEye(const Options& o, std::ostream& out, std::ostream& err) {
 // one light plane) and mapped by F_i X into the robot's base frame.
 std::vector<Vec3> CloudInBase(const calib::ImageFindings& f,
                               const probe_fw::ProbeModel& model,
-                              const Pose3& base_from_probe) {
+                              const Pose3& base_from_probe,
+                              std::vector<float>* quality) {
   std::vector<Vec3> out;
-  for (const auto& px : f.stripe_px) {
+  for (size_t k = 0; k < f.stripe_px.size(); ++k) {
     // A ray in the light plane: no point.
-    if (const auto p = probe_fw::Triangulate(model, px.x(), px.y(), 0.0))
+    const auto& px = f.stripe_px[k];
+    if (const auto p = probe_fw::Triangulate(model, px.x(), px.y(), 0.0)) {
       out.push_back(base_from_probe * *p);
+      quality->push_back(k < f.stripe_quality.size() ? f.stripe_quality[k] : 1.0f);
+    }
   }
   return out;
+}
+
+// Flag rules for an image's cloud against the common plane: most of its stripe saturated (the
+// centres of a clipped stripe are biased), its points as a whole off the plane the others
+// share by more than the left-out threshold (a close-up, a pose error), or any of its points
+// ten thresholds off (stray light: the held-out Blaser im25 has 7 points 46 mm off). Each
+// image gets its figures over all its points; the flagged count is returned.
+constexpr double kSaturatedShareFlag = 0.25;
+constexpr double kFarPointThresholds = 10.0;
+
+int JudgeImages(const calib::Spread& s,
+                const std::vector<std::vector<Vec3>>& clouds,
+                json* images) {
+  int flagged = 0;
+  for (size_t i = 0; i < clouds.size(); ++i) {
+    json& e = (*images)[i];
+    if (e.contains("refused")) continue;
+    double sum = 0, sum2 = 0, worst = 0;
+    int left_out = 0;
+    for (const Vec3& p : clouds[i]) {
+      const double d = s.plane.normal.dot(p - s.plane.point);
+      sum += d, sum2 += d * d, worst = std::max(worst, std::abs(d));
+      left_out += std::abs(d) > s.threshold_mm;
+    }
+    const double n = double(clouds[i].size());
+    e["mean_mm"] = sum / n, e["rms_mm"] = std::sqrt(sum2 / n), e["max_mm"] = worst;
+    e["left_out"] = left_out;
+    std::string why;
+    if (e["saturated_share"].get<double>() > kSaturatedShareFlag)
+      why = Fixed(100 * e["saturated_share"].get<double>(), 0) + " % of the stripe saturated";
+    if (std::abs(sum / n) > s.threshold_mm)
+      why += (why.empty() ? "" : ", ") + std::string("its points ") + Fixed(sum / n, 2) +
+             " mm off the plane the others share";
+    if (worst > kFarPointThresholds * s.threshold_mm)
+      why += (why.empty() ? "" : ", ") + std::string("points up to ") + Fixed(worst, 1) +
+             " mm off the plane (stray light?)";
+    if (why.empty()) continue;
+    e["flag"] = why + ": retake it (less exposure, or check the robot's pose)";
+    ++flagged;
+  }
+  return flagged;
 }
 
 int Map(const Options& o, std::ostream& out, std::ostream& err) {
@@ -341,28 +399,35 @@ int Map(const Options& o, std::ostream& out, std::ostream& err) {
   fs::create_directories(o.out);
   json images = json::array();
   std::vector<Vec3> all;
+  std::vector<std::vector<Vec3>> clouds;  // per entry of `images` (empty: refused)
   for (size_t i = 0; i < found.size(); ++i) {
     json e = {{"name", found[i].name}};
+    clouds.emplace_back();
     if (!found[i].HasLaser()) {
       e["refused"] = found[i].refused.empty() ? "no laser line" : found[i].refused;
       images.push_back(e);
       continue;
     }
     const Pose3& flange = v.images[i].base_from_flange;
-    const auto cloud = CloudInBase(found[i], model, flange * record->flange_from_probe);
+    std::vector<float> quality;
+    const auto cloud = CloudInBase(found[i], model, flange * record->flange_from_probe, &quality);
     std::vector<double> xyz;
     for (const Vec3& p : cloud) xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
     const std::string file =
         (fs::path(o.out) / (fs::path(found[i].name).stem().string() + ".ply")).string();
     probe_fw::CloudFileMeta meta{
         model.serial, record->calibration_id, found[i].name, flange, "base", std::nullopt};
-    probe_fw::WriteCloudPly(file, xyz, std::vector<float>(cloud.size(), 1.0f), meta);
+    probe_fw::WriteCloudPly(file, xyz, quality, meta);
     e["cloud"] = file, e["points"] = cloud.size();
+    const double candidates = double(found[i].stripe_px.size() + found[i].stripe_saturated);
+    e["saturated_share"] = found[i].stripe_saturated / candidates;
     images.push_back(e);
+    clouds.back() = cloud;
     all.insert(all.end(), cloud.begin(), cloud.end());
   }
   if (all.empty()) throw UsageError("no image of " + o.views + " shows the laser line");
   const calib::Spread s = calib::SpreadAboutCommonPlane(all);
+  const int flagged = JudgeImages(s, clouds, &images);
   json j = {{"probe_serial", model.serial},
             {"probe_calibration_id", model.calibration_id},
             {"hand_eye_calibration_id", record->calibration_id},
@@ -370,19 +435,27 @@ int Map(const Options& o, std::ostream& out, std::ostream& err) {
             {"points_about_common_plane", SpreadJson(s)}};
   if (o.json) {
     out << j.dump(2) << "\n";
-    return kExitOk;
+    return flagged > 0 ? int{kExitFlagged} : int{kExitOk};
   }
   out << "laser points of " << found.size() << " images in the robot's base frame ("
       << model.calibration_id << ", hand-eye " << record->calibration_id << ")\n"
-      << "  about one common plane: " << Fixed(s.rms_mm, 3) << " mm RMS, " << Fixed(s.max_mm, 3)
-      << " mm max (" << s.points << " points, " << s.outliers << " off the plane)\n";
-  for (const auto& e : images)
-    out << "    " << e["name"].get<std::string>() << ": "
-        << (e.contains("refused") ? e["refused"].get<std::string>()
-                                  : std::to_string(e["points"].get<size_t>()) + " points")
-        << "\n";
-  out << "  clouds (PLY, base frame) written to " << o.out << "\n";
-  return kExitOk;
+      << "  about one common plane: " << SpreadText(s) << "\n";
+  for (const auto& e : images) {
+    out << "    " << e["name"].get<std::string>() << ": ";
+    if (e.contains("refused")) {
+      out << e["refused"].get<std::string>() << "\n";
+      continue;
+    }
+    out << e["points"].get<size_t>() << " points, "
+        << Fixed(100 * e["saturated_share"].get<double>(), 1) << " % of the stripe saturated, "
+        << Fixed(e["mean_mm"].get<double>(), 3) << " mm off the plane on average, "
+        << Fixed(e["rms_mm"].get<double>(), 3) << " mm RMS, " << Fixed(e["max_mm"].get<double>(), 3)
+        << " mm max, " << e["left_out"].get<int>() << " left out\n";
+    if (e.contains("flag")) out << "      FLAGGED: " << e["flag"].get<std::string>() << "\n";
+  }
+  out << "  clouds (PLY, base frame, quality: the firmware's stripe quality) written to " << o.out
+      << "\n";
+  return flagged > 0 ? int{kExitFlagged} : int{kExitOk};
 }
 
 }  // namespace

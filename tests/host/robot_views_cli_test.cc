@@ -106,12 +106,30 @@ TEST(RobotViewsCli, LineLaserHandEyeAndMapOnHeldOutRealImages) {
   const fs::path clouds = dir / "clouds";
   const auto map = Mlp("map --json --views " + held + " --probe " + refined + " --store " + store +
                        " --out " + clouds.string());
-  ASSERT_EQ(map.exit_code, 0) << map.err;
+  // Exit 5: the clouds are written and an image is flagged. Issue 52: the headline left out
+  // 161 points unsaid; im25 holds 7 of them 46 mm off the board (stray light), now flagged by
+  // name, and every figure is given over all points beside the kept ones.
+  ASSERT_EQ(map.exit_code, 5) << map.err;
   const json m = json::parse(map.out);
   const json& s = m["points_about_common_plane"];
-  std::printf("held out: %d points about one plane %.3f / %.3f mm (%d off)\n",
-              s["points"].get<int>(), s["rms_mm"].get<double>(), s["max_mm"].get<double>(),
-              s["outliers"].get<int>());
+  std::printf(
+      "held out: %d points about one plane %.3f / %.3f mm (%d left out beyond %.3f mm); "
+      "all points %.3f / %.3f mm\n",
+      s["points"].get<int>(), s["rms_mm"].get<double>(), s["max_mm"].get<double>(),
+      s["outliers"].get<int>(), s["left_out_beyond_mm"].get<double>(),
+      s["all_points"]["rms_mm"].get<double>(), s["all_points"]["max_mm"].get<double>());
+  EXPECT_GE(s["all_points"]["max_mm"].get<double>(), s["max_mm"].get<double>());
+  int flagged = 0, left_out = 0;
+  for (const auto& e : m["images"]) {
+    if (e.contains("refused")) continue;
+    left_out += e["left_out"].get<int>();
+    if (!e.contains("flag")) continue;
+    ++flagged;
+    EXPECT_EQ(e["name"], "im25.png") << e.dump();
+    EXPECT_NE(e["flag"].get<std::string>().find("mm off the plane"), std::string::npos);
+  }
+  EXPECT_EQ(flagged, 1);
+  EXPECT_EQ(left_out, s["outliers"].get<int>());  // the images' counts add up to the summary's
   EXPECT_EQ(m["hand_eye_calibration_id"], h["calibration_id"]);
   EXPECT_LT(s["rms_mm"].get<double>(), kHeldOutRmsMm);
   EXPECT_LT(s["max_mm"].get<double>(), kHeldOutMaxMm);

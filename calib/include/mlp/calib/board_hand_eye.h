@@ -90,12 +90,18 @@ std::vector<geometry::Vec3> LaserPointsInBase(const ImageFindings& findings,
 
 /// RMS and largest of distances [mm].
 struct Spread {
-  double rms_mm = 0.0, max_mm = 0.0;
+  double rms_mm = 0.0, max_mm = 0.0;  ///< over the points kept
   int points = 0;
   int outliers = 0;  ///< left out (SpreadAboutCommonPlane)
+  /// SpreadAboutCommonPlane: the rule that left them out (beyond threshold_mm of the plane),
+  /// the same figures over every point, and the plane (for each point's distance).
+  double threshold_mm = 0.0;
+  double all_rms_mm = 0.0, all_max_mm = 0.0;
+  geometry::Plane plane;
 };
 /// How far points lie from their common plane: MSAC + trimming (geometry/robust.h), so laser
-/// light on the table beside the board (another plane) is counted as outliers, not spread.
+/// light on the table beside the board (another plane) is counted as outliers, not spread;
+/// the all-points figures beside them (a summary says what it left out).
 Spread SpreadAboutCommonPlane(const std::vector<geometry::Vec3>& points);
 
 /// Each board corner mapped to the base through each view's own board pose (camera_from_board,
