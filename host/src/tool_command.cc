@@ -76,6 +76,12 @@ constexpr const char* kUsage =
     "  the electrode put back after re-clamping against its texture recorded before (seed 000\n"
     "  example 6): its six degrees of freedom; X, Y, Z, C for the machine, the tilt against\n"
     "  T (0.01 deg: over it, clamp it again)\n"
+    "       mlp tool gauge-setup --masters MASTERS.csv --out SCALE.json [--json]\n"
+    "  the gauge's scale and back-light edge bias from master parts' back-lit images and\n"
+    "  their CMM diameters (lines: image,outer_diameter_mm,inner_diameter_mm)\n"
+    "       mlp tool gauge --image PART.png --scale SCALE.json [--png OUT.png] [--json]\n"
+    "  a round part (a washer's outer and inner circle) from one back-lit image: diameters\n"
+    "  as a CMM's least squares, min / max, roundness, concentricity, what was left out\n"
     "exit codes: 0 done, 2 bad arguments, tool file or images, 3 cannot be planned or\n"
     "measured (the reason is printed), 1 bug\n";
 
@@ -216,9 +222,14 @@ int RunToolCommand(const std::vector<std::string>& args, std::ostream& out, std:
       return tool::RenderTexture({args.begin() + 1, args.end()}, out, err);
     if (!args.empty() && args[0] == "relocate")
       return tool::Relocate({args.begin() + 1, args.end()}, out, err);
+    if (!args.empty() && args[0] == "gauge-setup")
+      return tool::GaugeSetup({args.begin() + 1, args.end()}, out, err);
+    if (!args.empty() && args[0] == "gauge")
+      return tool::GaugeOne({args.begin() + 1, args.end()}, out, err);
     if (args.empty() || (args[0] != "strobe" && args[0] != "render"))
       throw UsageError(
-          "expected: mlp tool strobe, render, calibrate, measure, render-texture or relocate ...");
+          "expected: mlp tool strobe, render, calibrate, measure, render-texture, relocate, "
+          "gauge-setup or gauge ...");
     bool json = false;
     RenderOptions render;
     const bool rendering = args[0] == "render";

@@ -13,5 +13,8 @@ int Calibrate(const std::vector<std::string>& args, std::ostream& out, std::ostr
 /// `mlp tool render-texture ...` and `mlp tool relocate ...` (tool_relocate_command.cc).
 int RenderTexture(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int Relocate(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+/// `mlp tool gauge-setup ...` and `mlp tool gauge ...` (tool_gauge_command.cc).
+int GaugeSetup(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+int GaugeOne(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
 }  // namespace mlp::host::tool

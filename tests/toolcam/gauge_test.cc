@@ -32,6 +32,7 @@ constexpr double kConcentricityCorr = 0.83;
 struct Cmm {
   MasterFigures d;
   double concentricity_mm = 0.0;
+  double outer_roundness_mm = 0.0, inner_roundness_mm = 0.0;
 };
 
 std::vector<Cmm> ReadCmm() {
@@ -44,7 +45,7 @@ std::vector<Cmm> ReadCmm() {
     std::stringstream s(line);
     for (std::string f; std::getline(s, f, ',');) v.push_back(std::stod(f));
     if (v.size() < 10) continue;
-    out.push_back({{v[5], v[1]}, v[9]});
+    out.push_back({{v[5], v[1]}, v[9], v[8], v[4]});
   }
   return out;
 }
@@ -94,6 +95,7 @@ GaugedPart Plain(const cv::Mat& m) {
 struct Scores {
   double outer_rms_um = 0, inner_rms_um = 0, outer_max_um = 0, inner_max_um = 0;
   double concentricity_corr = 0;
+  double roundness_rms_um = 0;  // both circles' roundness against the CMM's
 };
 
 Scores LeaveOneOut(const std::vector<GaugedPart>& parts, const std::vector<Cmm>& cmm) {
@@ -112,8 +114,12 @@ Scores LeaveOneOut(const std::vector<GaugedPart>& parts, const std::vector<Cmm>&
     s.outer_max_um = std::max(s.outer_max_um, std::abs(eo));
     s.inner_max_um = std::max(s.inner_max_um, std::abs(ei));
     found.push_back(f.concentricity_mm), truth.push_back(cmm[j].concentricity_mm);
+    s.roundness_rms_um += (std::pow(f.outer_roundness_mm - cmm[j].outer_roundness_mm, 2) +
+                           std::pow(f.inner_roundness_mm - cmm[j].inner_roundness_mm, 2)) *
+                          1e6 / static_cast<double>(2 * parts.size());
   }
   s.outer_rms_um = std::sqrt(s.outer_rms_um), s.inner_rms_um = std::sqrt(s.inner_rms_um);
+  s.roundness_rms_um = std::sqrt(s.roundness_rms_um);
   const auto n = static_cast<double>(found.size());
   double mf = 0, mt = 0;
   for (size_t i = 0; i < found.size(); ++i) mf += found[i] / n, mt += truth[i] / n;
@@ -143,8 +149,10 @@ TEST(Gauge, TwentyRealWashersAgainstTheirCmmLeaveOneOut) {
   std::vector<MasterFigures> all;
   for (const Cmm& c : cmm) all.push_back(c.d);
   const GaugeScale scale = FitGaugeScale(parts, all);
-  std::printf("scale on all 20: %.6f mm/px, edge bias %.2f um, masters' rms %.2f um\n",
-              scale.mm_per_px, scale.edge_bias_mm * 1e3, scale.rms_mm * 1e3);
+  std::printf(
+      "scale on all 20: %.6f mm/px, edge bias %.2f um, masters' rms %.2f um; "
+      "roundness against the CMM's %.2f um RMS\n",
+      scale.mm_per_px, scale.edge_bias_mm * 1e3, scale.rms_mm * 1e3, ours.roundness_rms_um);
   std::printf(
       "gauge, 20 real parts, leave one out: outer %.2f um RMS (max %.2f), inner %.2f um RMS "
       "(max %.2f), concentricity correlation %.3f; %d edge points left out on the circles, %d "

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "process_run.h"
 #include "test_data.h"
@@ -155,6 +156,51 @@ TEST(ToolCli, RefusesWhatTheImagesDoNotSupport) {
   const auto gap = RunProcess(measure);
   EXPECT_EQ(gap.exit_code, 3) << gap.out;
   EXPECT_NE(gap.err.find("unseen"), std::string::npos) << gap.err;
+}
+
+// Issue 52 through the command: the gauge set from ten real master washers (their CMM
+// diameters), then part 15 (not a master) measured against its CMM; an image without a ring
+// refused with exit 3 and nothing on stdout; a masters file with one part, exit 2.
+TEST(ToolCli, GaugesARealWasherAfterSettingTheScaleOnMasters) {
+  const std::string dir = "/tmp/mlp_tool_cli_gauge";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string data = mlp::test::RepoDataDir() / "backlit-washers";
+  {
+    std::ofstream masters(dir + "/masters.csv");
+    masters << "image,outer_diameter_mm,inner_diameter_mm\n";
+    std::ifstream cmm(data + "/cmm.csv");
+    std::string line;
+    std::getline(cmm, line);
+    for (int part = 1; part <= 10 && std::getline(cmm, line); ++part) {
+      std::vector<std::string> f;
+      std::stringstream s(line);
+      for (std::string x; std::getline(s, x, ',');) f.push_back(x);
+      char name[32];
+      std::snprintf(name, sizeof name, "/part_%02d.png", part);
+      masters << data << name << "," << f[5] << "," << f[1] << "\n";
+    }
+  }
+  const auto setup = RunProcess(kMlp + " tool gauge-setup --masters " + dir +
+                                "/masters.csv --out " + dir + "/scale.json");
+  ASSERT_EQ(setup.exit_code, 0) << setup.err;
+  const auto part = RunProcess(kMlp + " tool gauge --image " + data + "/part_15.png --scale " +
+                               dir + "/scale.json --json --png " + dir + "/part_15.png");
+  ASSERT_EQ(part.exit_code, 0) << part.err;
+  const auto j = nlohmann::json::parse(part.out);
+  constexpr double kOuterTolMm = 0.015, kInnerTolMm = 0.023;  // the gauge test's worst + 1 um
+  EXPECT_NEAR(j.at("outer").at("diameter_mm").get<double>(), 23.664103, kOuterTolMm);
+  EXPECT_NEAR(j.at("inner").at("diameter_mm").get<double>(), 19.005620, kInnerTolMm);
+  EXPECT_TRUE(std::filesystem::exists(dir + "/part_15.png"));
+  const auto none = RunProcess(kMlp + " tool gauge --image " + mlp::test::SourceDir() +
+                               "/samples/tools/README.md --scale " + dir + "/scale.json");
+  EXPECT_EQ(none.exit_code, 2);  // not an image
+  std::ofstream(dir + "/one.csv") << data << "/part_01.png,23.66,19.05\n";
+  EXPECT_EQ(
+      RunProcess(kMlp + " tool gauge-setup --masters " + dir + "/one.csv --out " + dir + "/x.json")
+          .exit_code,
+      2);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/x.json"));
 }
 
 // The camera calibrated with the bladed pin through the command line, then a tool measured

@@ -16,9 +16,10 @@ constexpr int kSectors = 1440;       // 0.25 deg: a CMM's even scan round the ci
 constexpr double kNearPx = 25.0;     // a circle's candidates: within this of it
 constexpr double kLeaveOutPx = 3.0;  // and 4 robust sigma: burrs, hairs, dust
 constexpr int kMinPointsPerCircle = 200;
-constexpr double kMinCoverage = 0.9;   // of 5 deg sectors: the whole circle in view
-constexpr long kCoverageSectors = 72;  // a ring's edge
-                                       // in a gauge image has thousands
+constexpr double kMinCoverage = 0.9;  // of 5 deg sectors: the whole circle in view
+constexpr long kCoverageSectors = 72;
+constexpr size_t kFilterSectors = 15;  // of the 0.25 deg ones: a running median over 3.75 deg  // a
+                                       // ring's edge in a gauge image has thousands
 
 double Median(std::vector<double> v) {
   std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
@@ -46,6 +47,24 @@ double MostCommonRadius(const std::vector<Vec2>& pts,
   if (histogram.empty()) throw GaugeError("gauge: no second circle in the image");
   const auto top = std::max_element(histogram.begin(), histogram.end()) - histogram.begin();
   return 4.0 * (static_cast<double>(top) + 0.5);
+}
+
+// The profile's radii round `centre` through a running median over kFilterSectors (about 50
+// undulations a turn pass, as ISO 12181-2's default filter for a part this size; a hair or a
+// burr a few sectors wide does not): a roundness, a smallest or largest diameter as a CMM's
+// filtered profile gives them, and a circle not pulled by the hairs.
+std::vector<Vec2> Filtered(const std::vector<Vec2>& means, const Vec2& centre) {
+  const size_t n = means.size();
+  std::vector<double> r(n);
+  for (size_t k = 0; k < n; ++k) r[k] = (means[k] - centre).norm();
+  std::vector<Vec2> out(n);
+  constexpr size_t kHalf = kFilterSectors / 2;
+  for (size_t k = 0; k < n; ++k) {
+    std::vector<double> w;
+    for (size_t j = 0; j < 2 * kHalf + 1; ++j) w.push_back(r[(k + n + j - kHalf) % n]);
+    out[k] = centre + (means[k] - centre).normalized() * Median(w);
+  }
+  return out;
 }
 
 // The circle near radius `r0` round `c0`: its points within kNearPx, then least squares with
@@ -107,6 +126,7 @@ GaugedCircle OneCircle(const std::vector<Vec2>& pts,
     throw GaugeError("gauge: a circle seen over " +
                      std::to_string(100 * covered / kCoverageSectors) +
                      " % of its turn; the whole part must be in the image");
+  g.sector_means_px = Filtered(g.sector_means_px, LeastSquares(g.sector_means_px).center);
   const geometry::Circle2 even = LeastSquares(g.sector_means_px);
   g.centre_px = even.center, g.diameter_px = 2 * even.radius;
   double lo = 1e300, hi = 0;
