@@ -104,7 +104,9 @@ void WriteOverlay(const std::string& path,
 void PrintView(const toolcam::FluteView& v, const std::string& indent, std::ostream& out) {
   for (const auto& d : v.findings) {
     out << std::setprecision(3) << indent << (d.buildup ? "build-up" : "wear");
-    if (d.on_end)
+    if (d.corner)
+      out << " at the corner (y " << d.y_mm << " mm, h " << d.h_mm << " mm): ";
+    else if (d.on_end)
       out << " on the end at y " << d.y_mm << " mm, h " << d.h_mm << " mm: ";
     else
       out << " at h " << d.h_mm << " mm: ";

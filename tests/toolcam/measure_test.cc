@@ -27,7 +27,8 @@ constexpr double kEndAcrossTolPx = 0.05;      // the pin's end across the axis
 constexpr double kAlongTolPx = 0.25;          // along the axis: 1 um
 constexpr double kGaugeAcrossTolPx = 1.0;     // 50 mm up an axis known to 0.002 deg: 1.7 um
 constexpr double kRollTolDeg = 0.002;
-constexpr double kDistortionTol = 3e-5;  // k1: 0.02 px at the corner of a 1024 x 768 image
+constexpr double kDistortionTol = 3e-5;       // k1: 0.02 px at the corner of a 1024 x 768 image
+constexpr double kCornerWearFoundMm = 0.010;  // an R 0.04 corner's stretch off a square model
 
 ToolCameraModel SmallCamera(double drops) {
   ToolCameraModel c;
@@ -95,6 +96,30 @@ TEST(ToolMeasure, AMountTurnedAboutXAndYIsMeasuredThroughItsCalibration) {
   ExpectEdgesMatch(runout, run, kCleanTolMm);
   for (const auto& f : run.m.flutes)
     EXPECT_TRUE(f.plus.findings.empty()) << "a finding on a clean edge";
+}
+
+// Issue 51: a square end's corner worn to R 0.04 (16.6 um in along the bisector) is found on
+// every flute as corner wear, where the flank's and the end's stretches off the model were
+// each too short to report; the same tool new shows nothing (the project's renderer).
+TEST(ToolMeasure, AWornSquareCornerIsReported) {
+  const std::string head = R"({"format": "mlprobe-tool/1", "id": "EM8", "diameter_mm": 8.0,
+      "length_mm": 60.0, "flutes": 4, "helix_deg": 30, "flute_length_mm": 16.0)";
+  const ToolDescription nominal = ParseTool(head + "}");
+  const ToolDescription worn = ParseTool(head + R"(, "corner_radius_mm": 0.04})");
+  ToolCameraModel c = SmallCamera(0);
+  c.axis_u_px = 200 - 4.0 / c.mm_per_px;  // the edge (R 4) in the middle of the image
+  const MeasuredRun used = RenderAndMeasure(worn, nominal, c, 51);
+  for (const FluteMeasurement& f : used.m.flutes) {
+    int corners = 0;
+    for (const Finding* d : f.Findings()) {
+      EXPECT_TRUE(d->corner && !d->buildup) << "edge " << f.edge << " h " << d->h_mm;
+      corners += d->corner;
+      EXPECT_GT(d->max_mm, kCornerWearFoundMm);
+    }
+    EXPECT_GE(corners, 1) << "edge " << f.edge;
+  }
+  const MeasuredRun fresh = RenderAndMeasure(nominal, nominal, c, 52);
+  for (const FluteMeasurement& f : fresh.m.flutes) EXPECT_TRUE(f.Findings().empty());
 }
 
 TEST(ToolMeasure, CoolantDropsAreLeftOut) {

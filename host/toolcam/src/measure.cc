@@ -30,6 +30,13 @@ constexpr size_t kMinOutlinePoints = 20;
 constexpr double kMaxRadiusChange = 0.1;
 constexpr double kMaxTipChangeMm = 1.0;
 constexpr double kMaxUncertaintyMm = 0.005;
+// The underside's points within this above the end's shape: a square end's worn corner rises
+// off the end (at 0.7 x a zero corner radius only points below the nominal end were used).
+constexpr double kEndBandMm = 0.05;
+// The flank's rows this close above a square end straddle it (the row's crossing lands
+// anywhere along the partly covered end): not flank points.
+constexpr double kEndRowMm = 0.005;
+constexpr double kCornerReachMm = 0.02;
 
 // Pixel -> tool frame, undoing the lens' radial distortion (the camera's calibration).
 
@@ -238,10 +245,36 @@ double Along(const FitPoint& f) { return f.side ? f.p.y() : f.p.x(); }
 // Off the model beyond the finding limit: out of the reference fit. Also the findings (runs
 // at least finding_length_mm long; outside runs shorter than contamination_length_mm are
 // contamination, not build-up).
+// A worn corner: the flank's lowest run and the end's outermost run inside the model, each
+// too short to be a finding alone (a square corner worn to R 0.04 leaves ~0.02 mm off the
+// model on each side, less the rows and columns that straddle the corner), are one finding
+// at the corner when both are there and together half a finding's length.
+struct CornerRuns {
+  double length = 0, worst = 0, area = 0, h = 0, y = 0;
+  std::vector<size_t> points;
+  bool side = false, end = false;
+};
+
+void AddCornerFinding(const CornerRuns& c,
+                      const MeasureOptions& o,
+                      std::vector<FitPoint>* pts,
+                      std::vector<Finding>* findings) {
+  // Seen on both the flank and the end (contamination and noise are not), half the finding
+  // length together: the rows and columns at the corner itself straddle it and leave.
+  if (!(c.side && c.end) || c.length < 0.5 * o.finding_length_mm || c.worst < o.finding_mm) return;
+  for (size_t i : c.points) (*pts)[i].kind = FluteView::kWear;
+  Finding fd;
+  fd.on_end = true, fd.corner = true;
+  fd.h_mm = c.h, fd.y_mm = c.y;
+  fd.length_mm = c.length, fd.max_mm = c.worst, fd.area_mm2 = c.area;
+  findings->push_back(fd);
+}
+
 std::vector<Finding> Classify(std::vector<FitPoint>* pts, const MeasureOptions& o) {
   for (FitPoint& f : *pts) f.active = true, f.kind = FluteView::kUsed;
   std::vector<Finding> findings;
   const Ordered ord = Order(*pts);
+  CornerRuns corner;
   for (const auto* line : {&ord.side, &ord.bottom}) {
     for (bool outside : {true, false}) {
       const double limit = outside ? o.contamination_mm : o.finding_mm;
@@ -263,6 +296,19 @@ std::vector<Finding> Classify(std::vector<FitPoint>* pts, const MeasureOptions& 
           (*pts)[(*line)[k]].kind = !finding  ? FluteView::kContamination
                                     : outside ? FluteView::kBuildup
                                               : FluteView::kWear;
+        // Reaching the corner: the flank's run from near its lowest point, the end's to near
+        // its outermost (within kCornerReachMm: a few points there may sit on the model).
+        const bool at_corner = *line == ord.side
+                                   ? from - Along((*pts)[line->front()]) < kCornerReachMm
+                                   : Along((*pts)[line->back()]) - to < kCornerReachMm;
+        if (!finding && !outside && at_corner) {
+          (*line == ord.side ? corner.side : corner.end) = true;
+          corner.length += length, corner.area += area;
+          corner.worst = std::max(corner.worst, worst);
+          for (size_t k = a; k < b; ++k) corner.points.push_back((*line)[k]);
+          if (*line == ord.side) corner.h = from;
+          if (*line == ord.bottom) corner.y = to;
+        }
         if (!finding) return;
         Finding fd;
         fd.buildup = outside;
@@ -275,6 +321,7 @@ std::vector<Finding> Classify(std::vector<FitPoint>* pts, const MeasureOptions& 
       });
     }
   }
+  AddCornerFinding(corner, o, pts, &findings);
   return findings;
 }
 
@@ -378,12 +425,12 @@ FluteView MeasureView(const Outline& o,
   const double rc = model.EndHeight();
   std::vector<FitPoint> pts;
   for (const Vec2& p : o.side)  // the flank, above the corner's flat part
-    if (p.y() > 0.6 * rc && p.y() < model.flute_length_mm) pts.push_back({p, true});
+    if (p.y() > 0.6 * rc + kEndRowMm && p.y() < model.flute_length_mm) pts.push_back({p, true});
   // The end and the corner, where the outline is not upright; outside the web, whose end is
   // the longest edge's (a small tool's end shows it, seed 000 example 1): there the facing
   // edge alone makes the underside.
   for (const Vec2& p : o.bottom)
-    if (p.x() > model.core_ratio * r && p.x() < r - 0.1 * rc && p.y() < 0.7 * rc)
+    if (p.x() > model.core_ratio * r && p.x() < r - 0.1 * rc && p.y() < 0.7 * rc + kEndBandMm)
       pts.push_back({p, false});
   if (pts.size() < kMinOutlinePoints)
     Fail(name + ": " + std::to_string(pts.size()) +

@@ -163,7 +163,9 @@ nlohmann::json ViewJson(const FluteView& v) {
   nlohmann::json findings = nlohmann::json::array();
   for (const auto& d : v.findings) {
     nlohmann::json j = {{"kind", d.buildup ? "build-up" : "wear"},
-                        {"on", d.on_end ? "end" : "flank"},
+                        {"on", d.corner   ? "corner"
+                               : d.on_end ? "end"
+                                          : "flank"},
                         {"h_mm", d.h_mm},
                         {"length_mm", d.length_mm},
                         {"max_mm", d.max_mm},

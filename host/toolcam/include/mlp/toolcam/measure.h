@@ -78,6 +78,9 @@ struct Finding {
   /// On the end (the underside's outline: the end face and the corner, found along y), else
   /// on the flank (along h).
   bool on_end = false;
+  /// A worn corner: the flank's lowest stretch and the end's outermost one, each too short
+  /// alone, together (on_end too; h the flank's lowest point, y the end's outermost).
+  bool corner = false;
   double h_mm = 0.0;  ///< its middle's height above the nominal tip
   double y_mm = 0.0;  ///< an end finding's middle across the axis (tool frame), else 0
   double length_mm = 0.0, max_mm = 0.0, area_mm2 = 0.0;
