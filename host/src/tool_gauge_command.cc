@@ -20,7 +20,6 @@ namespace mlp::host::tool {
 namespace {
 
 namespace fs = std::filesystem;
-constexpr int kExitNotGauged = 3;
 
 // A back-lit image, grey; bad input when it cannot be read.
 cv::Mat ReadGrey(const std::string& path) {
