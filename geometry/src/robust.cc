@@ -198,4 +198,11 @@ RobustFitResult<Ellipse3> FitEllipse3Robust(const Points3& p, const RobustOption
       p, 6, 6, [](const Points3& s, const FitOptions& f) { return FitEllipse3(s, f); }, o);
 }
 
+double Median(std::vector<double> values) {
+  if (values.empty()) return std::nan("");
+  const auto mid = values.begin() + static_cast<long>(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  return *mid;
+}
+
 }  // namespace mlp::geometry

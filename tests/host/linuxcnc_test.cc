@@ -382,6 +382,16 @@ void ElectrodeTextures(const Site& site) {
             0);
 }
 
+// The LinuxCNC site with the electrode as tool 30 in its table and its textures rendered: the
+// config folder (the relocate tests beside the controller).
+fs::path ElectrodeLinuxCncSite(const Site& site) {
+  const fs::path config = LinuxCncSite(site);
+  std::ofstream(config / "tool.tbl", std::ios::app)
+      << "T30 P30 X0.01 Z60.0 D11.662 ;EDM electrode\n";
+  ElectrodeTextures(site);
+  return config;
+}
+
 // An EDM electrode re-clamped (seed 000 example 6): the relocate job through M101 finds it
 // from its texture, its subroutine's G10 L1 sets tool 30's X, Y, Z (this machine has no C axis:
 // the job writes what the machine has, the electrode clamped back within 0.01 deg of its turn),
@@ -391,10 +401,7 @@ TEST(LinuxCnc, ARelocatedElectrodesOffsetsMoveTheNextBurn) {
   ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0)
       << "linuxcnc-uspace is not installed: bash scripts/install-deps.sh";
   Site site("linuxcnc_relocate", kRelocatePort);
-  const fs::path config = LinuxCncSite(site);
-  std::ofstream(config / "tool.tbl", std::ios::app)
-      << "T30 P30 X0.01 Z60.0 D11.662 ;EDM electrode\n";
-  ElectrodeTextures(site);
+  const fs::path config = ElectrodeLinuxCncSite(site);
   if (HasFatalFailure()) return;
   std::ofstream(config / "jobs" / "1.json") << test::RelocateJob("after").dump();
   Child hostd({test::kHostd, "--config", (site.dir / "hostd.json").string()},
@@ -506,10 +513,7 @@ TEST(LinuxCnc, KillsOfTheHostInsideM101MoveTheElectrodeOncePerRequest) {
   constexpr int kRounds = 8;
   constexpr double kShiftXMm = -0.03, kRelocateTolMm = 0.0005;  // relocate_test's
   Site site("linuxcnc_kill", kKillPort);
-  const fs::path config = LinuxCncSite(site);
-  std::ofstream(config / "tool.tbl", std::ios::app)
-      << "T30 P30 X0.01 Z60.0 D11.662 ;EDM electrode\n";
-  ElectrodeTextures(site);
+  const fs::path config = ElectrodeLinuxCncSite(site);
   if (HasFatalFailure()) return;
   const fs::path sent = site.dir / "request.sent", client = site.dir / "mlp-marked";
   std::ofstream(client) << "#!/bin/sh\ntouch " << sent.string() << "\nexec " << test::kMlp

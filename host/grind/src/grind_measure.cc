@@ -3,6 +3,7 @@
 #include "mlp/base/units.h"
 #include "mlp/geometry/error.h"
 #include "mlp/geometry/fit.h"
+#include "mlp/geometry/robust.h"
 #include "mlp/grind/contour_search.h"
 
 #include <algorithm>
@@ -71,12 +72,6 @@ bool Along(const WheelSection& wheel,
 // the wheel's: a droplet, a burr, a chip (the edge's own noise is 0.2-0.5 um).
 constexpr double kNuisanceMm = 0.003;
 
-// The median of the values (reordered).
-double Median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
-
 // The points the wheel's edge, shifted along `phi` by their distances' median, explains (the
 // median: a droplet pulls the mean).
 std::vector<Vec2> Explained(const WheelSection& wheel, const std::vector<Vec2>& edge, double phi) {
@@ -86,9 +81,9 @@ std::vector<Vec2> Explained(const WheelSection& wheel, const std::vector<Vec2>& 
     double t = 0;
     along.push_back(BackToEdge(wheel, q, u, &t) ? t : 1e300);
   }
-  const double centre = Median(along);
+  const double centre = geometry::Median(along);
   for (double t : along) off.push_back(std::abs(t - centre));
-  const double limit = std::max(kNuisanceMm, 4 * 1.4826 * Median(off));
+  const double limit = std::max(kNuisanceMm, 4 * 1.4826 * geometry::Median(off));
   std::vector<Vec2> kept;
   for (size_t k = 0; k < edge.size(); ++k)
     if (off[k] <= limit) kept.push_back(edge[k]);

@@ -36,6 +36,12 @@ Vec3 IntoMaterial(const EdgeView& v, const Plane& face) {
   return m.normalized();
 }
 
+// Sample i of kSamplesPerSegment along a segment: the line's fit and its uncertainty use
+// the same ones.
+Vec3 Sample(const EdgeMeasurement::Segment& s, int i) {
+  return s.first_mcs + (s.last_mcs - s.first_mcs) * i / (kSamplesPerSegment - 1.0);
+}
+
 geometry::Line3 LineThrough(const std::vector<EdgeMeasurement::Segment>& segments) {
   if (segments.size() == 1) {
     const auto& s = segments.front();
@@ -46,8 +52,7 @@ geometry::Line3 LineThrough(const std::vector<EdgeMeasurement::Segment>& segment
   geometry::Points3 samples(3, static_cast<Eigen::Index>(kSamplesPerSegment * segments.size()));
   Eigen::Index k = 0;
   for (const auto& s : segments)
-    for (int i = 0; i < kSamplesPerSegment; ++i)
-      samples.col(k++) = s.first_mcs + (s.last_mcs - s.first_mcs) * i / (kSamplesPerSegment - 1.0);
+    for (int i = 0; i < kSamplesPerSegment; ++i) samples.col(k++) = Sample(s, i);
   return geometry::FitLine3(samples).shape;
 }
 
@@ -65,9 +70,7 @@ EdgeU Uncertainty(const EdgeMeasurement& m, double at_mm, double face_height_u_m
   std::vector<double> s;  // every sample's position along the line
   for (const auto& g : m.segments_mcs)
     for (int i = 0; i < kSamplesPerSegment; ++i)
-      s.push_back((g.first_mcs + (g.last_mcs - g.first_mcs) * i / (kSamplesPerSegment - 1.0) -
-                   m.line_mcs.point)
-                      .dot(d));
+      s.push_back((Sample(g, i) - m.line_mcs.point).dot(d));
   double mean = 0, spread = 0;
   for (double x : s) mean += x / static_cast<double>(s.size());
   for (double x : s) spread += (x - mean) * (x - mean);

@@ -1,6 +1,7 @@
 #include "mlp/toolcam/gauge.h"
 
 #include "mlp/geometry/fit.h"
+#include "mlp/geometry/robust.h"
 
 #include <algorithm>
 #include <cmath>
@@ -20,11 +21,6 @@ constexpr double kMinCoverage = 0.9;  // of 5 deg sectors: the whole circle in v
 constexpr long kCoverageSectors = 72;
 constexpr size_t kFilterSectors = 15;  // of the 0.25 deg ones: a running median over 3.75 deg  // a
                                        // ring's edge in a gauge image has thousands
-
-double Median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 geometry::Circle2 LeastSquares(const std::vector<Vec2>& pts) {
   geometry::Points2 m(2, static_cast<Eigen::Index>(pts.size()));
@@ -62,7 +58,7 @@ std::vector<Vec2> Filtered(const std::vector<Vec2>& means, const Vec2& centre) {
   for (size_t k = 0; k < n; ++k) {
     std::vector<double> w;
     for (size_t j = 0; j < 2 * kHalf + 1; ++j) w.push_back(r[(k + n + j - kHalf) % n]);
-    out[k] = centre + (means[k] - centre).normalized() * Median(w);
+    out[k] = centre + (means[k] - centre).normalized() * geometry::Median(w);
   }
   return out;
 }
@@ -87,7 +83,8 @@ GaugedCircle OneCircle(const std::vector<Vec2>& pts,
     std::vector<double> off;
     for (size_t i : near) off.push_back(std::abs((pts[i] - c.center).norm() - c.radius));
     // The first round keeps the whole window: the circle is still the guess.
-    const double limit = round == 0 ? kNearPx : std::max(kLeaveOutPx, 4 * 1.4826 * Median(off));
+    const double limit =
+        round == 0 ? kNearPx : std::max(kLeaveOutPx, 4 * 1.4826 * geometry::Median(off));
     std::vector<size_t> next;
     for (size_t k = 0; k < near.size(); ++k)
       if (off[k] <= limit) next.push_back(near[k]);
@@ -147,7 +144,8 @@ GaugedPart GaugeRing(const geometry::GreyView& image) {
   if (pts.size() < 2 * kMinPointsPerCircle) throw GaugeError("gauge: no part's edge in the image");
   std::vector<double> xs, ys;
   for (const Vec2& p : pts) xs.push_back(p.x()), ys.push_back(p.y());
-  const Vec2 c0(Median(xs), Median(ys));  // dust is a few points; the ring's are thousands
+  const Vec2 c0(geometry::Median(xs),
+                geometry::Median(ys));  // dust is a few points; the ring's are thousands
   // The circle with the most points first (a ring's outer edge is the longer), then the
   // most common radius round its centre among the rest; named by size.
   std::vector<bool> taken(pts.size(), false);

@@ -51,6 +51,10 @@ struct RobustFitResult {
   bool Converged() const { return inliers_settled && fit.stats.converged; }
 };
 
+/// The middle value of `values` (the upper of the two middle ones for an even count), as the
+/// robust fits take their medians; NaN for none.
+double Median(std::vector<double> values);
+
 RobustFitResult<Line3> FitLine3Robust(const Points3& points, const RobustOptions& options = {});
 RobustFitResult<Plane> FitPlaneRobust(const Points3& points, const RobustOptions& options = {});
 RobustFitResult<Circle3> FitCircle3Robust(const Points3& points, const RobustOptions& options = {});
