@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <utility>
@@ -182,36 +183,6 @@ void Mark(Candidate& loser, const Candidate* winner) {
       !winner ? Drop::kUndecided : (winner->rejected ? Drop::kBesideRejected : Drop::kWeaker);
 }
 
-// Marks the losers of every conflict: on the shared lines, the weaker trace's candidates (both
-// traces' in a draw); a trace that lost over many lines is a reflection and goes whole.
-void Decide(std::vector<Candidate>& all, const EpipolarOptions& o) {
-  std::map<int, const Candidate*> lost;  // trace -> a candidate of the trace it lost to
-  std::map<int, int> length;
-  for (const Candidate& c : all) ++length[c.trace];
-  for (const auto& [traces, e] : Conflicts(all, o)) {
-    const int verdict = Judge(e.log_ratios, o);
-    for (const auto& [lo, hi] : e.who) {
-      Candidate& a = all[static_cast<size_t>(lo)];
-      Candidate& b = all[static_cast<size_t>(hi)];
-      if (verdict >= 0) Mark(b, verdict > 0 ? &a : nullptr);
-      if (verdict <= 0) Mark(a, verdict < 0 ? &b : nullptr);
-    }
-    if (verdict == 0) {  // a draw: the shorter trace, more likely a reflection's piece, goes whole
-      const int a = length[traces.first], b = length[traces.second];
-      if (a != b) lost.emplace(a < b ? traces.first : traces.second, nullptr);
-      continue;
-    }
-    if (static_cast<int>(e.log_ratios.size()) < o.min_paired_lines) continue;
-    const auto& [lo, hi] = e.who.front();
-    if (verdict > 0) lost.emplace(traces.second, &all[static_cast<size_t>(lo)]);
-    if (verdict < 0) lost.emplace(traces.first, &all[static_cast<size_t>(hi)]);
-  }
-  for (Candidate& c : all) {
-    const auto it = lost.find(c.trace);
-    if (it != lost.end()) Mark(c, it->second);
-  }
-}
-
 // The candidates linked along the stripe: per trace, its members in line order.
 std::map<int, std::vector<Candidate*>> Traces(std::vector<Candidate>& all,
                                               const EpipolarOptions& o) {
@@ -231,6 +202,98 @@ std::map<int, std::vector<Candidate*>> Traces(std::vector<Candidate>& all,
     });
   }
   return by_trace;
+}
+
+// ln(light) of a trace's members on and within `reach` lines of [first, last] (its own lines).
+std::vector<double> LogLightNear(const std::vector<Candidate*>& members,
+                                 int first,
+                                 int last,
+                                 int reach) {
+  std::vector<double> out;
+  for (const Candidate* m : members) {
+    const int line = m->stripe.Line();
+    if (line >= first - reach && line <= last + reach) out.push_back(std::log(m->light));
+  }
+  return out;
+}
+
+// The verdict on two traces that share too few epipolar lines for the paired test: each one's
+// light on and near the shared lines, an unpaired test with the paired test's margins (the same
+// speckle shared by neighbouring lines). A stripe's and a reflection's pieces often meet on a
+// line or two only (a curve turning along the epipolar lines); two lines' ratio cannot tell a
+// speckle grain from a reflection, the light of the traces about them can. Returns +1 (first
+// direct), -1 (second), 0; *whole: decided on enough light of both to judge the traces whole.
+int JudgeFewLines(const PairEvidence& e,
+                  const std::vector<Candidate>& all,
+                  const std::map<int, std::vector<Candidate*>>& traces,
+                  std::pair<int, int> ids,
+                  const EpipolarOptions& o,
+                  bool* whole) {
+  std::array<std::vector<double>, 2> near;
+  for (int side = 0; side < 2; ++side) {
+    int first = std::numeric_limits<int>::max(), last = std::numeric_limits<int>::min();
+    for (const auto& pair : e.who) {
+      const int line = all[static_cast<size_t>(side == 0 ? pair.first : pair.second)].stripe.Line();
+      first = std::min(first, line), last = std::max(last, line);
+    }
+    near[static_cast<size_t>(side)] =
+        LogLightNear(traces.at(side == 0 ? ids.first : ids.second), first, last, o.few_lines_reach);
+  }
+  *whole = false;
+  if (std::min(near[0].size(), near[1].size()) < static_cast<size_t>(o.min_paired_lines)) {
+    const double n = static_cast<double>(e.log_ratios.size());
+    const double mean = std::accumulate(e.log_ratios.begin(), e.log_ratios.end(), 0.0) / n;
+    if (mean > std::log(o.few_lines_dominance)) return 1;
+    return mean < -std::log(o.few_lines_dominance) ? -1 : 0;
+  }
+  std::array<double, 2> mean{}, var_of_mean{};
+  for (size_t side = 0; side < 2; ++side) {
+    const std::vector<double>& x = near[side];
+    const double n = static_cast<double>(x.size());
+    mean[side] = std::accumulate(x.begin(), x.end(), 0.0) / n;
+    double ss = 0.0;
+    for (double v : x) ss += (v - mean[side]) * (v - mean[side]);
+    var_of_mean[side] = ss / (n - 1.0) / std::max(1.0, n / o.lines_per_independent);
+  }
+  const double d = mean[0] - mean[1];
+  const double needed = std::max(std::log(o.min_dominance),
+                                 o.significance * std::sqrt(var_of_mean[0] + var_of_mean[1]));
+  *whole = std::abs(d) > needed;
+  if (d > needed) return 1;
+  return d < -needed ? -1 : 0;
+}
+
+// Marks the losers of every conflict: on the shared lines, the weaker trace's candidates (both
+// traces' in a draw); a trace that lost over many lines is a reflection and goes whole.
+void Decide(std::vector<Candidate>& all,
+            const std::map<int, std::vector<Candidate*>>& traces,
+            const EpipolarOptions& o) {
+  std::map<int, const Candidate*> lost;  // trace -> a candidate of the trace it lost to
+  for (const auto& [ids, e] : Conflicts(all, o)) {
+    const bool paired = static_cast<int>(e.log_ratios.size()) >= o.min_paired_lines;
+    bool whole = paired;
+    const int verdict =
+        paired ? Judge(e.log_ratios, o) : JudgeFewLines(e, all, traces, ids, o, &whole);
+    for (const auto& [lo, hi] : e.who) {
+      Candidate& a = all[static_cast<size_t>(lo)];
+      Candidate& b = all[static_cast<size_t>(hi)];
+      if (verdict >= 0) Mark(b, verdict > 0 ? &a : nullptr);
+      if (verdict <= 0) Mark(a, verdict < 0 ? &b : nullptr);
+    }
+    if (verdict == 0) {  // a draw: the shorter trace, more likely a reflection's piece, goes whole
+      const size_t a = traces.at(ids.first).size(), b = traces.at(ids.second).size();
+      if (a != b) lost.emplace(a < b ? ids.first : ids.second, nullptr);
+      continue;
+    }
+    if (!whole) continue;
+    const auto& [lo, hi] = e.who.front();
+    if (verdict > 0) lost.emplace(ids.second, &all[static_cast<size_t>(lo)]);
+    if (verdict < 0) lost.emplace(ids.first, &all[static_cast<size_t>(hi)]);
+  }
+  for (Candidate& c : all) {
+    const auto it = lost.find(c.trace);
+    if (it != lost.end()) Mark(c, it->second);
+  }
 }
 
 }  // namespace
@@ -313,7 +376,7 @@ void KeepOneDirectPerEpipolarLine(const ProbeModel& model,
   for (const StripePoint& s : rejected)
     all.push_back({s, index.Of(s), std::max(1.0, s.amplitude_dn), true});
   const auto traces = Traces(all, options);
-  Decide(all, options);
+  Decide(all, traces, options);
   // A trace of a few lines has nothing along the stripe to hold it: a speckle grain, or a
   // reflection's fragment where the stripe is missing.
   for (const auto& [id, members] : traces) {

@@ -38,8 +38,11 @@ struct EpipolarOptions {
   double link_gate_px = 3.0;
   int max_line_gap = 2;
   /// A conflict over at least this many lines is judged by a paired test of the two traces'
-  /// light, line by line; fewer, by the plain ratio `few_lines_dominance`.
+  /// light, line by line; fewer, by each trace's light on and within `few_lines_reach` of its
+  /// shared lines (an unpaired test, each side at least `min_paired_lines` members), or, where a
+  /// trace has fewer there, by the plain ratio `few_lines_dominance`.
   int min_paired_lines = 5;
+  int few_lines_reach = 8;
   /// The stronger trace's light must be at least this many times the weaker's (mean of the
   /// per-line log ratio) and `significance` standard errors clear of equal.
   double min_dominance = 1.1;
