@@ -1,8 +1,13 @@
 #include "mlp/probe_fw/ghost.h"
 
+#include "mlp/probe_fw/triangulate.h"
+
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numeric>
+#include <optional>
+#include <tuple>
 
 namespace mlp::probe_fw {
 namespace {
@@ -210,21 +215,29 @@ std::size_t RejectInRow(std::vector<SweepObservation>* observations,
 
 void DirectMotion(const ProbeModel& model, double* row_sign, double* column_sign) {
   const ProjectorModel& p = model.projector;
-  Vec3 n0, n1;
-  double d0 = 0.0, d1 = 0.0;
-  p.PlaneOf(p.c_px, &n0, &d0);
-  p.PlaneOf(p.c_px + 1.0, &n1, &d1);
   *row_sign = *column_sign = 0.0;
-  if (!(std::abs(n0.z()) > 1e-9)) return;  // the optical axis lies in the sheet: no triangulation
-  const Vec3 p0(0.0, 0.0, d0 / n0.z());    // the central sheet on the optical axis
-  // The next sheet at the same depth: p0 moved within z = p0.z along that sheet's normal.
-  const Vec3 across(n1.x(), n1.y(), 0.0);
-  if (!(p0.z() > 0.0) || !(across.squaredNorm() > 1e-18)) return;
-  const Vec3 p1 = p0 + (d1 - n1.dot(p0)) / n1.dot(across) * across;
-  const Vec2 step = model.camera.Project(p1) - model.camera.Project(p0);
-  const double whole = step.norm();
-  if (std::abs(step.x()) > 0.1 * whole) *row_sign = step.x() > 0.0 ? 1.0 : -1.0;
-  if (std::abs(step.y()) > 0.1 * whole) *column_sign = step.y() > 0.0 ? 1.0 : -1.0;
+  // The central column's sheet first; where it runs parallel to the optical axis (a projector
+  // whose middle column points straight ahead beside the camera: the outside renderers' probes
+  // had no direction at all), the nearest column whose sheet meets the axis in front.
+  for (int k = 0; k <= 16; ++k) {
+    const double column = p.c_px + (k % 2 == 0 ? 1.0 : -1.0) * (k + 1) / 2 * (p.columns / 32.0);
+    Vec3 n0, n1;
+    double d0 = 0.0, d1 = 0.0;
+    p.PlaneOf(column, &n0, &d0);
+    p.PlaneOf(column + 1.0, &n1, &d1);
+    if (!(std::abs(n0.z()) > 1e-9)) continue;  // the optical axis lies in the sheet
+    const Vec3 p0(0.0, 0.0, d0 / n0.z());      // the sheet on the optical axis
+    // The next sheet at the same depth: p0 moved within z = p0.z along that sheet's normal.
+    const Vec3 across(n1.x(), n1.y(), 0.0);
+    if (!(p0.z() > 0.0) || !(across.squaredNorm() > 1e-18)) continue;
+    const Vec3 p1 = p0 + (d1 - n1.dot(p0)) / n1.dot(across) * across;
+    const Vec2 step = model.camera.Project(p1) - model.camera.Project(p0);
+    const double whole = step.norm();
+    if (!(whole > 0.0)) continue;
+    if (std::abs(step.x()) > 0.1 * whole) *row_sign = step.x() > 0.0 ? 1.0 : -1.0;
+    if (std::abs(step.y()) > 0.1 * whole) *column_sign = step.y() > 0.0 ? 1.0 : -1.0;
+    return;
+  }
 }
 
 std::size_t RejectIndirectLight(std::vector<SweepObservation>* observations,
@@ -251,6 +264,101 @@ std::size_t RejectIndirectLight(std::vector<SweepObservation>* observations,
                                        order.begin() + static_cast<std::ptrdiff_t>(end));
     marked += RejectInRow(observations, row, options);
     begin = end;
+  }
+  return marked;
+}
+
+std::size_t RejectRayConflicts(const ProbeModel& model,
+                               const RayOptions& options,
+                               std::vector<SweepObservation>* seen) {
+  struct OnRay {
+    int axis, line, pixel;
+    double depth_mm, tolerance_mm;
+    std::size_t index;
+  };
+  std::vector<OnRay> rays;
+  for (std::size_t i = 0; i < seen->size(); ++i) {
+    const SweepObservation& o = (*seen)[i];
+    if (o.indirect) continue;
+    const StripePoint& s = o.stripe;
+    const std::optional<Vec3> here = Triangulate(model, s.x_px, s.y_px, o.column);
+    const bool row = s.axis == ScanAxis::kRow;
+    const std::optional<Vec3> next =
+        Triangulate(model, s.x_px + (row ? 1.0 : 0.0), s.y_px + (row ? 0.0 : 1.0), o.column);
+    if (!here || !next) continue;
+    const double per_pixel_mm = std::abs(next->z() - here->z());
+    rays.push_back({static_cast<int>(s.axis), s.Line(), static_cast<int>(std::lround(s.Along())),
+                    here->z(), std::max(options.min_depth_mm, options.pixels * per_pixel_mm), i});
+  }
+  std::sort(rays.begin(), rays.end(), [](const OnRay& a, const OnRay& b) {
+    return std::tie(a.axis, a.line, a.pixel) < std::tie(b.axis, b.line, b.pixel);
+  });
+  std::size_t marked = 0;
+  for (std::size_t b = 0; b < rays.size();) {
+    std::size_t e = b + 1;
+    while (e < rays.size() && rays[e].axis == rays[b].axis && rays[e].line == rays[b].line &&
+           rays[e].pixel == rays[b].pixel)
+      ++e;
+    double lo = rays[b].depth_mm, hi = lo, tolerance = 0.0;
+    for (std::size_t k = b; k < e; ++k) {
+      lo = std::min(lo, rays[k].depth_mm), hi = std::max(hi, rays[k].depth_mm);
+      tolerance = std::max(tolerance, rays[k].tolerance_mm);
+    }
+    if (hi - lo > tolerance) {
+      for (std::size_t k = b; k < e; ++k) (*seen)[rays[k].index].indirect = true;
+      marked += e - b;
+    }
+    b = e;
+  }
+  return marked;
+}
+
+std::size_t RejectOutOfOrder(double row_sign,
+                             double column_sign,
+                             double tolerance_px,
+                             std::vector<SweepObservation>* seen) {
+  std::map<std::pair<int, int>, std::vector<std::size_t>> lines;  // (axis, line) -> observations
+  for (std::size_t i = 0; i < seen->size(); ++i) {
+    const SweepObservation& o = (*seen)[i];
+    if (!o.indirect) lines[{static_cast<int>(o.stripe.axis), o.stripe.Line()}].push_back(i);
+  }
+  std::size_t marked = 0;
+  std::vector<double> tails;         // patience sorting: the smallest last value per length
+  std::vector<std::size_t> tail_at;  // which member ends it
+  std::vector<std::ptrdiff_t> before;
+  std::vector<bool> kept;
+  for (auto& [key, members] : lines) {
+    const double sign = key.first == static_cast<int>(ScanAxis::kRow) ? row_sign : column_sign;
+    if (sign == 0.0 || members.size() < 2) continue;
+    const auto value = [&](std::size_t i) { return sign * (*seen)[i].stripe.Along(); };
+    std::sort(members.begin(), members.end(), [&](std::size_t a, std::size_t b) {
+      return std::make_pair((*seen)[a].column, value(a)) <
+             std::make_pair((*seen)[b].column, value(b));
+    });
+    // Longest sequence whose values never fall by more than the tolerance (Fredman's patience
+    // sorting, O(n log n)): a member extends the longest sequence whose end it does not undercut.
+    tails.clear(), tail_at.clear();
+    before.assign(members.size(), -1);
+    for (std::size_t k = 0; k < members.size(); ++k) {
+      const double v = value(members[k]);
+      const auto at = std::upper_bound(tails.begin(), tails.end(), v + tolerance_px);
+      const std::size_t length = static_cast<std::size_t>(at - tails.begin());
+      if (length > 0) before[k] = static_cast<std::ptrdiff_t>(tail_at[length - 1]);
+      if (at == tails.end()) {
+        tails.push_back(v), tail_at.push_back(k);
+      } else {
+        *at = v, tail_at[length] = k;
+      }
+    }
+    kept.assign(members.size(), false);
+    for (std::ptrdiff_t k = static_cast<std::ptrdiff_t>(tail_at.back()); k >= 0;
+         k = before[static_cast<std::size_t>(k)])
+      kept[static_cast<std::size_t>(k)] = true;
+    for (std::size_t k = 0; k < members.size(); ++k) {
+      if (kept[k]) continue;
+      (*seen)[members[k]].indirect = true;
+      ++marked;
+    }
   }
   return marked;
 }

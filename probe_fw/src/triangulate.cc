@@ -76,6 +76,10 @@ std::optional<Vec3> Triangulate(const ProbeModel& model, double x_px, double y_p
   return point;
 }
 
+// Back-steps along a line that the ordering test lets pass [px]: a fine sweep's neighbouring
+// frames light one pixel, and their centres scatter by a tenth of a pixel (more under speckle).
+constexpr double kOrderTolerancePx = 1.0;
+
 std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
                                          const std::vector<Frame>& laser_frames,
                                          const RowMask& mask,
@@ -103,7 +107,9 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
   }
   GhostOptions ghost;
   DirectMotion(model, &ghost.row_motion_sign, &ghost.column_motion_sign);
-  const std::size_t indirect = RejectIndirectLight(&seen, ghost);
+  const std::size_t indirect =
+      RejectIndirectLight(&seen, ghost) + RejectRayConflicts(model, RayOptions{}, &seen) +
+      RejectOutOfOrder(ghost.row_motion_sign, ghost.column_motion_sign, kOrderTolerancePx, &seen);
   counts->indirect += indirect;
   counts->points -= indirect;
   const ReflectanceCounts slope = CorrectReflectanceSlope(&seen, ReflectanceOptions{});

@@ -147,5 +147,77 @@ TEST(DirectMotion, FollowsTheBaseline) {
   EXPECT_NE(column_turned, 0.0);
 }
 
+// The outside renderers' probes: the projector beside the camera with its middle column
+// pointing straight ahead, so the central sheet never meets the optical axis. DirectMotion
+// gave no direction there (both signs 0: every direction rule off); it now takes the nearest
+// sheet that meets the axis in front.
+TEST(DirectMotion, AProjectorWhoseMiddleSheetRunsBesideTheOpticalAxisStillHasADirection) {
+  ProbeModel m = LoadProbeModel(mlp::test::SourceDir() + "/samples/probes/reference_probe.json");
+  m.projector.camera_from_projector = Pose3::Identity();
+  m.projector.camera_from_projector.translation() = Vec3(60.0, 0.0, 0.0);
+  m.projector.c_px = 0.5 * m.projector.columns;
+  m.projector.mirror_cubic_cols = 0.0;
+  double row = 0.0, column = 0.0;
+  DirectMotion(m, &row, &column);
+  EXPECT_NE(row, 0.0);
+  EXPECT_EQ(column, 0.0);
+}
+
+// A coarse sweep (110 px between frames) of a plane on one row, and a reflection lit in the last
+// frame standing between frames 7 and 8: no other candidate on its epipolar line or its pixel,
+// but its column is out of order with the direct light on both sides.
+TEST(RejectOutOfOrder, AReflectionBetweenACoarseSweepsFramesIsOutOfOrder) {
+  std::vector<SweepObservation> obs;
+  AddTrace(&obs, 200, 0, 9, 100.0, 110.0, 0.0, 120.0);  // columns 0, 2, .. 18
+  AddTrace(&obs, 200, 10, 10, 880.0, 0.0, 0.0, 60.0);   // column 20 at 880 px
+  EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &obs), 1u);
+  EXPECT_EQ(Indirect(obs, 60.0), 1u);
+  EXPECT_EQ(Indirect(obs, 120.0), 0u);
+  // A fine sweep whose centres step back by up to the tolerance, and a direction unknown on the
+  // column axis: nothing marked.
+  std::vector<SweepObservation> fine;
+  AddTrace(&fine, 3, 0, 40, 500.0, 0.3, 0.0, 100.0);
+  for (std::size_t i = 0; i < fine.size(); i += 3) fine[i].stripe.x_px -= 0.8;
+  EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &fine), 0u);
+  for (auto& o : fine) o.stripe.axis = ScanAxis::kColumn, std::swap(o.stripe.x_px, o.stripe.y_px);
+  for (std::size_t i = 0; i < fine.size(); i += 2) fine[i].stripe.y_px += 50.0;
+  EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &fine), 0u);
+}
+
+// A reflection standing still in the image while the sweep moves on lights one pixel from
+// sheets millimetres apart along its ray: none of them can be told direct, all go. Neighbouring
+// frames of a fine sweep lighting one pixel of one surface agree on its depth: they stay.
+TEST(RejectRayConflicts, OnePixelLitFromSheetsFarApartLosesAllAndOneSurfaceStays) {
+  const ProbeModel m =
+      LoadProbeModel(mlp::test::SourceDir() + "/samples/probes/reference_probe.json");
+  // The pixel where the sheet of `column` meets a face at z = 120 mm on the image's middle row.
+  const double y = m.camera.cy_px;
+  const auto pixel_of = [&](double column) {
+    Vec3 n;
+    double d = 0.0;
+    m.projector.PlaneOf(column, &n, &d);
+    return m.camera.Project(Vec3((d - n.z() * 120.0) / n.x(), 0.0, 120.0)).x();
+  };
+  std::vector<SweepObservation> obs;
+  const double still_px = pixel_of(1000.0);
+  for (int f = 0; f < 5; ++f) {  // the standing reflection, at columns 600 .. 1400
+    SweepObservation o;
+    o.stripe.x_px = still_px, o.stripe.y_px = y, o.stripe.amplitude_dn = 60.0;
+    o.column = 600.0 + 200.0 * f, o.frame = f;
+    obs.push_back(o);
+  }
+  for (int f = 0; f < 3; ++f) {  // the face lit at columns 2000.0, 2000.1, 2000.2
+    SweepObservation o;
+    o.column = 2000.0 + 0.1 * f;
+    o.stripe.x_px = pixel_of(o.column), o.stripe.y_px = y, o.stripe.amplitude_dn = 120.0;
+    o.frame = 10 + f;
+    obs.push_back(o);
+  }
+  ASSERT_EQ(std::lround(obs[5].stripe.x_px), std::lround(obs[7].stripe.x_px));
+  EXPECT_EQ(RejectRayConflicts(m, RayOptions{}, &obs), 5u);
+  EXPECT_EQ(Indirect(obs, 60.0), 5u);
+  EXPECT_EQ(Indirect(obs, 120.0), 0u);
+}
+
 }  // namespace
 }  // namespace mlp::probe_fw

@@ -68,4 +68,35 @@ void DirectMotion(const ProbeModel& model, double* row_sign, double* column_sign
 std::size_t RejectIndirectLight(std::vector<SweepObservation>* observations,
                                 const GhostOptions& options);
 
+/// A camera ray meets one opaque surface, at one depth, through the whole sweep: observations
+/// of one pixel (scan axis, line, centre rounded) in several frames whose light planes put that
+/// ray's point at depths further apart than `RayOptions` allows cannot all be direct. A
+/// reflection that stands still in the image while the sweep moves on (a stray line off a
+/// fixture), or sits where another frame's stripe passed, lights one pixel from light planes
+/// millimetres apart; trace-based tests see no motion to judge there. Which one is direct the
+/// ray alone cannot tell: all of them are marked `indirect` (a lost pixel costs less than a
+/// wrong one). Returns how many were marked.
+struct RayOptions {
+  /// Depths on one ray further apart than the larger of this [mm] and `pixels` times the depth
+  /// one pixel along the line moves on the observation's own light plane.
+  double min_depth_mm = 0.1;
+  double pixels = 3.0;
+};
+std::size_t RejectRayConflicts(const ProbeModel& model,
+                               const RayOptions& options,
+                               std::vector<SweepObservation>* seen);
+
+/// The ordering constraint over the whole sweep: on one scan line, direct light moves one way
+/// as the column grows (GhostOptions' signs; Baker and Binford, IJCAI 1981), so the line's
+/// direct observations, ordered by column, advance along the line. A reflection standing where
+/// no other frame's stripe passed (a coarse sweep: 100 px between frames) has no competitor on
+/// its epipolar line nor on its pixel, but its column is out of order with the direct light on
+/// both sides of it. Keeps the longest ordered sequence of each line (within `tolerance_px`
+/// back-steps: the centres' noise in a fine sweep) and marks the rest `indirect`. Lines of an
+/// axis whose sign is 0 are left alone. Returns how many were marked.
+std::size_t RejectOutOfOrder(double row_sign,
+                             double column_sign,
+                             double tolerance_px,
+                             std::vector<SweepObservation>* seen);
+
 }  // namespace mlp::probe_fw
