@@ -240,12 +240,9 @@ int JudgeFewLines(const PairEvidence& e,
         LogLightNear(traces.at(side == 0 ? ids.first : ids.second), first, last, o.few_lines_reach);
   }
   *whole = false;
-  if (std::min(near[0].size(), near[1].size()) < static_cast<size_t>(o.min_paired_lines)) {
-    const double n = static_cast<double>(e.log_ratios.size());
-    const double mean = std::accumulate(e.log_ratios.begin(), e.log_ratios.end(), 0.0) / n;
-    if (mean > std::log(o.few_lines_dominance)) return 1;
-    return mean < -std::log(o.few_lines_dominance) ? -1 : 0;
-  }
+  // Too little light near the shared lines: Judge's plain ratio of the shared lines.
+  if (std::min(near[0].size(), near[1].size()) < static_cast<size_t>(o.min_paired_lines))
+    return Judge(e.log_ratios, o);
   std::array<double, 2> mean{}, var_of_mean{};
   for (size_t side = 0; side < 2; ++side) {
     const std::vector<double>& x = near[side];

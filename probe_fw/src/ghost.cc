@@ -220,7 +220,9 @@ void DirectMotion(const ProbeModel& model, double* row_sign, double* column_sign
   // whose middle column points straight ahead beside the camera: the outside renderers' probes
   // had no direction at all), the nearest column whose sheet meets the axis in front.
   for (int k = 0; k <= 16; ++k) {
-    const double column = p.c_px + (k % 2 == 0 ? 1.0 : -1.0) * (k + 1) / 2 * (p.columns / 32.0);
+    // c_px, then c_px -+ 1/32 of the columns, -+ 2/32, ...
+    const int offset = (k + 1) / 2;
+    const double column = p.c_px + (k % 2 == 0 ? offset : -offset) * (p.columns / 32.0);
     Vec3 n0, n1;
     double d0 = 0.0, d1 = 0.0;
     p.PlaneOf(column, &n0, &d0);

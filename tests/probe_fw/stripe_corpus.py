@@ -195,15 +195,16 @@ def band_mask(band, turned):
     return m
 
 
-_incidence = {}
+_incidence = {}  # (points, source) -> the cosine of incidence: one per source and scene
 
 
 def sheet(X, lit_from, n, d, sigma, surf):
     """light of the sheet (n, d) from the source at lit_from on the surface points X"""
     key = (id(X), tuple(np.round(lit_from, 9)))
     if key not in _incidence:
+        if len(_incidence) > 4:
+            _incidence.clear()
         to_src = lit_from - X
-        _incidence.clear() if len(_incidence) > 4 else None
         _incidence[key] = np.sum(surf.normal(X) * to_src, -1) / np.linalg.norm(to_src, axis=-1)
     cos_in = _incidence[key]
     # the source's own shadow: a convex surface (and the plane, its normal turned to the camera)
@@ -335,17 +336,16 @@ def summary(s):
 
 
 def main():
-    args = [a for a in sys.argv[1:]]
-    only, keep, json_out = None, None, None
-    for flag in ("--only", "--keep", "--json"):
-        if flag in args:
-            k = args.index(flag)
-            val = args[k + 1]
-            del args[k:k + 2]
-            only, keep, json_out = (int(val), keep, json_out) if flag == "--only" else (
-                (only, val, json_out) if flag == "--keep" else (only, keep, val))
-    bindir, master = args[0], int(args[1])
-    scenes = int(args[2]) if len(args) > 2 else 200
+    import argparse
+    ap = argparse.ArgumentParser(description="issue 50's frozen corpus (see the module's text)")
+    ap.add_argument("bindir")
+    ap.add_argument("master", type=int)
+    ap.add_argument("scenes", type=int, nargs="?", default=200)
+    ap.add_argument("--only", type=int, help="run scene K only")
+    ap.add_argument("--keep", help="render into DIR and keep it")
+    ap.add_argument("--json", dest="json_out", help="write every scene's figures to FILE")
+    a = ap.parse_args()
+    bindir, master, scenes, only, keep, json_out = a.bindir, a.master, a.scenes, a.only, a.keep, a.json_out
     master_rng = np.random.default_rng(master)
     seeds = master_rng.integers(1, 2 ** 31, scenes)
     results, bad, broken = [], 0, 0
