@@ -2,6 +2,7 @@
 
 #include "mlp/base/check.h"
 #include "mlp/base/raster.h"
+#include "mlp/probe_fw/along_blur.h"
 
 #include <algorithm>
 #include <array>
@@ -35,6 +36,22 @@ struct Scan {
   // longer than a stripe is wide, and around centres left to the other axis. Null: no marking.
   std::vector<std::uint8_t>* wanted = nullptr;
   std::vector<StripePoint>* rejected = nullptr;  // candidates rejected for their shape, if asked
+  // Under smoothing along the stripe: the lines before it and the Gaussian's weights (offsets
+  // -K..K), for the moments along_blur.h takes the smoothing's shift out with.
+  // The frame before that smoothing is read untransposed (the kernel reaches past a column
+  // band's edge): AOI width x height, row-major; the scan's line v is the AOI's line
+  // first_line + v.
+  const std::uint16_t* unsmoothed = nullptr;
+  int width = 0, height = 0, first_line = 0;
+  const std::vector<double>* along_kernel = nullptr;
+
+  // The unsmoothed pixel at u along AOI line `line`.
+  std::uint16_t Unsmoothed(int u, int line) const {
+    const std::size_t at = axis == ScanAxis::kRow ? static_cast<std::size_t>(line) * width + u
+                                                  : static_cast<std::size_t>(u) * width + line;
+    return unsmoothed[at];
+  }
+  int AoiLines() const { return axis == ScanAxis::kRow ? height : width; }
 };
 
 // Marks [begin, end) of the other scan's lines as wanted, widened so that its windows fit.
@@ -226,13 +243,55 @@ double ReCentred(const Span& s,
                  const StripeOptions& o,
                  double* bg,
                  double* mass,
-                 double* variance) {
+                 double* variance,
+                 int* window_centre) {
   const double first = Centroid(s, peak, o.window_half_px, first_bg);
   const int centre = std::clamp(static_cast<int>(std::lround(first)),
                                 s.begin + o.window_half_px + 2, s.end - o.window_half_px - 3);
   *bg = LocalBackground(s, centre, o.window_half_px);
   *mass = 0.0, *variance = 0.0;
+  *window_centre = centre;
   return Centroid(s, centre, o.window_half_px, *bg, mass, variance);
+}
+
+// The scan reads `pixels` (the AOI before smoothing along the stripe) for AlongMoments.
+void WithUnsmoothed(const std::uint16_t* pixels,
+                    const Aoi& aoi,
+                    int first_line,
+                    const std::vector<double>& kernel,
+                    Scan* scan) {
+  scan->unsmoothed = pixels, scan->width = aoi.width, scan->height = aoi.height;
+  scan->first_line = first_line, scan->along_kernel = &kernel;
+}
+
+// Whether smoothing along the stripe read only lines of the AOI for line `v`: within its reach
+// of the AOI's edge it read lines inside again (OpenCV's reflected border), and the stripe's
+// slope times that one-sided reach moves the centre by up to a pixel with nothing beyond the edge
+// to tell by how much. Such a centre is cut, as one whose window the ROI cuts across the stripe.
+bool AlongKernelInside(const Scan& scan, int v) {
+  if (!scan.unsmoothed) return true;
+  const int reach = static_cast<int>(scan.along_kernel->size() / 2);
+  const int line = scan.first_line + v;
+  return line - reach >= 0 && line + reach < scan.AoiLines();
+}
+
+// The smoothed window's light is the kernel's sum of each unsmoothed line's light in the same
+// window (above the same background): the mean line offset M1, weighted so (along_blur.h). The
+// kernel lies inside the AOI (AlongKernelInside).
+void AlongMoments(
+    const Scan& scan, const Span& s, int v, int centre, int half, double bg, StripePoint* p) {
+  const std::vector<double>& kernel = *scan.along_kernel;
+  const int reach = static_cast<int>(kernel.size() / 2);
+  const int x0 = std::max(s.begin, centre - half), x1 = std::min(s.end - 1, centre + half);
+  double light = 0.0, first = 0.0;
+  for (int k = -reach; k <= reach; ++k) {
+    const int line = scan.first_line + v + k;
+    double m = 0.0;
+    for (int x = x0; x <= x1; ++x) m += scan.Unsmoothed(x, line) - bg;
+    const double w = kernel[static_cast<std::size_t>(k + reach)] * m;
+    light += w, first += w * k;
+  }
+  if (light > 0.0) p->blur_m1_lines = first / light;
 }
 
 std::uint16_t ScanSpan(const Span& s,
@@ -262,7 +321,8 @@ std::uint16_t ScanSpan(const Span& s,
       scan.rejected->push_back(MakePoint(scan, peak, v, s.row[peak] - bg, max_level));
     if (!CountVerdict(verdict, counts)) continue;
     double bg2 = 0.0, mass = 0.0, variance = 0.0;
-    const double u = ReCentred(s, peak, bg, o, &bg2, &mass, &variance);
+    int window_centre = peak;
+    const double u = ReCentred(s, peak, bg, o, &bg2, &mass, &variance, &window_centre);
     if (variance < o.min_variance_px2) {
       ++counts->too_narrow;
       if (scan.rejected)
@@ -275,8 +335,14 @@ std::uint16_t ScanSpan(const Span& s,
       Want(scan, at, at + 1, margin);
       continue;
     }
+    if (!AlongKernelInside(scan, v)) {
+      ++counts->cut;
+      continue;
+    }
     out->push_back(MakePoint(scan, u, v, s.row[peak] - bg2, max_level));
     out->back().mass_dn = mass, out->back().variance_px2 = variance;
+    if (scan.unsmoothed)
+      AlongMoments(scan, s, v, window_centre, o.window_half_px, bg2, &out->back());
     ++counts->points;
   }
   return lowest;
@@ -354,6 +420,9 @@ std::vector<std::pair<int, int>> Spans(const std::uint8_t* bits, int length) {
   return spans;
 }
 
+// The smoothing along the stripe reaches 3 sigma each side.
+int AlongKernelSize(double sigma_px) { return 2 * static_cast<int>(std::ceil(3.0 * sigma_px)) + 1; }
+
 // The frame blurred by a Gaussian of sigma_x, sigma_y [px] over `kernel` (0 x 0: OpenCV's size
 // for the sigmas) into *buffer, OpenCV, reflected borders.
 const std::uint16_t* Blurred(const Frame& frame,
@@ -387,7 +456,7 @@ const std::uint16_t* SmoothedAlong(const Frame& frame,
                                    double sigma_px,
                                    bool along_y,
                                    std::vector<std::uint16_t>* buffer) {
-  const int k = 2 * static_cast<int>(std::ceil(3.0 * sigma_px)) + 1;
+  const int k = AlongKernelSize(sigma_px);
   return along_y ? Blurred(frame, 0.0, sigma_px, cv::Size(1, k), buffer)
                  : Blurred(frame, sigma_px, 0.0, cv::Size(k, 1), buffer);
 }
@@ -430,6 +499,11 @@ StripeExtractor::StripeExtractor(const RowMask& mask, const StripeOptions& optio
     : mask_(mask), options_(options) {
   MLP_CHECK_EQ(mask_.rows.size(), static_cast<size_t>(std::max(0, mask_.aoi.height)));
   if (options_.axes != StripeAxes::kRows) column_mask_ = Transposed(mask_);
+  const double along = options_.along_stripe_sigma_px;
+  if (along > 0.0) {
+    const cv::Mat kernel = cv::getGaussianKernel(AlongKernelSize(along), along, CV_64F);
+    along_kernel_.assign(kernel.begin<double>(), kernel.end<double>());
+  }
 }
 
 void StripeExtractor::Extract(const Frame& frame,
@@ -456,11 +530,15 @@ void StripeExtractor::Extract(const Frame& frame,
     Scan rows{{row_pixels, a.width, a.height}, ScanAxis::kRow, a.x0, a.y0, both};
     if (both) rows.wanted = &wanted_;
     rows.rejected = rejected;
+    if (along > 0.0) WithUnsmoothed(pixels, a, 0, along_kernel_, &rows);
+    const std::size_t first = out->size();
     ScanLines(rows, mask_, 0, max_level, options_, out, counts);
+    UndoAlongBlur(out, first, along);
   }
   if (options_.axes == StripeAxes::kRows) return;
   const bool any_column =
       std::find(wanted_.begin(), wanted_.end(), std::uint8_t{1}) != wanted_.end();
+  const std::uint16_t* unsmoothed = pixels;
   if (along > 0.0 && any_column) pixels = SmoothedAlong(frame, along, false, &along_columns_);
   for (int c0 = 0; c0 < a.width;) {
     if (!wanted_[static_cast<size_t>(c0)]) {
@@ -474,7 +552,10 @@ void StripeExtractor::Extract(const Frame& frame,
     Transpose(pixels + c0, a.width, c1 - c0, a.height, transposed_.data());
     Scan columns{{transposed_.data(), a.height, c1 - c0}, ScanAxis::kColumn, a.y0, a.x0 + c0, both};
     columns.rejected = rejected;
+    if (along > 0.0) WithUnsmoothed(unsmoothed, a, c0, along_kernel_, &columns);
+    const std::size_t first = out->size();
     ScanLines(columns, column_mask_, c0, max_level, options_, out, counts);
+    UndoAlongBlur(out, first, along);
     c0 = c1;
   }
 }

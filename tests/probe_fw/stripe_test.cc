@@ -2,6 +2,7 @@
 
 #include "mlp/probe_fw/stripe.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Core>
@@ -180,6 +181,62 @@ TEST(Stripe, TheColumnScanReadsOnlyTheMask) {
   ExtractStripe(f, mask, {}, &points, &counts);
   ASSERT_EQ(points.size(), 20u);
   for (const StripePoint& p : points) EXPECT_LT(p.x_px, f.aoi.x0 + 20);
+}
+
+}  // namespace
+}  // namespace mlp::probe_fw
+
+namespace mlp::probe_fw {
+namespace {
+
+// Smoothing along the stripe (StripeOptions::along_stripe_sigma_px) and its shift taken out
+// (along_blur.h): a stripe crossing the rows at a slope, its light rippling as speckle grains do
+// and fading to nothing as at a sphere's limb. The smoothed centre alone is that of lines M1
+// away (~1 line where the light fades): slope 0.4 px/line moves it 0.4 px there.
+constexpr double kSmoothedCentreTolPx = 0.03;  // noiseless 16-bit: the linear model's error
+constexpr double kSlopePxPerLine = 0.4;
+// Past the stripe's end (line 70) the smoothing still shows light for ~2 sigma with none of the
+// line's own: those centres are extrapolated, 0.3 px off (2.4 px uncorrected; along_blur.h).
+constexpr double kPastTheEndTolPx = 0.35;
+constexpr double kStripeEndLine = 70.0;
+
+Frame FadingSlopedStripe(int width, int height) {
+  Frame f;
+  f.aoi = {0, 0, width, height};
+  f.bit_depth = 16;
+  f.laser_column = 100.0;
+  for (int y = 0; y < height; ++y) {
+    const double centre = 10.0 + kSlopePxPerLine * y;
+    const double fade = std::clamp((kStripeEndLine - y) / 25.0, 0.0, 1.0);
+    const double peak = 20000.0 * fade * (1.0 + 0.3 * std::sin(1.3 * y));
+    for (int x = 0; x < width; ++x)
+      f.pixels.push_back(static_cast<std::uint16_t>(
+          std::round(100.0 + peak * std::exp(-0.5 * (x - centre) * (x - centre)))));
+  }
+  return f;
+}
+
+TEST(Stripe, SmoothingAlongAFadingSlopedStripeLeavesItsCentres) {
+  const Frame f = FadingSlopedStripe(64, 100);
+  StripeOptions o;
+  o.axes = StripeAxes::kRows;
+  o.along_stripe_sigma_px = 3.0;  // kernel 19 lines: lines 0..8 and 91..99 read past the AOI
+  std::vector<StripePoint> points;
+  StripeCounts counts;
+  ExtractStripe(f, RowMask::Full(f.aoi), o, &points, &counts);
+  ASSERT_GT(points.size(), 40u);
+  double largest_m1 = 0.0;
+  for (const StripePoint& p : points) {
+    EXPECT_GE(p.y_px, 9.0) << "the kernel read past the AOI's edge: a cut centre";
+    const bool own_light = p.y_px < kStripeEndLine - 8.0;  // a third of full light or more
+    EXPECT_NEAR(p.x_px, 10.0 + kSlopePxPerLine * p.y_px,
+                own_light ? kSmoothedCentreTolPx : kPastTheEndTolPx)
+        << "line " << p.y_px;
+    if (own_light) largest_m1 = std::max(largest_m1, std::abs(p.blur_m1_lines));
+  }
+  // 0.5 lines at 0.4 px/line: 0.2 px uncorrected, 7 x the tolerance.
+  EXPECT_GT(largest_m1, 0.5) << "the case must exercise the shift it tests";
+  EXPECT_GE(counts.cut, 9u);
 }
 
 }  // namespace

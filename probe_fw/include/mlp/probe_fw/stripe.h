@@ -85,6 +85,9 @@ struct StripePoint {
   /// second moment about the centre [px^2] (reflectance.h uses both).
   double mass_dn = 0.0;
   double variance_px2 = 0.0;
+  /// Under smoothing along the stripe: the light-weighted mean offset of the lines the smoothed
+  /// centre averaged [lines] (along_blur.h); 0 without.
+  double blur_m1_lines = 0.0;
 
   /// The sensor row (row scan) or column (column scan) the centre was found on.
   int Line() const { return static_cast<int>(axis == ScanAxis::kRow ? y_px : x_px); }
@@ -137,6 +140,7 @@ class StripeExtractor {
   std::vector<std::uint16_t> smoothed_;                    ///< the frame after speckle smoothing
   std::vector<std::uint16_t> along_rows_, along_columns_;  ///< smoothed along the stripe
   std::vector<std::uint8_t> wanted_;  ///< per AOI column: the column scan reads it
+  std::vector<double> along_kernel_;  ///< the Gaussian along the stripe, -3 sigma..3 sigma
 };
 
 /// One frame: StripeExtractor(mask, options).Extract(frame, out, counts).
