@@ -5,8 +5,6 @@
 #include <cstdlib>
 #include <map>
 
-#include <Eigen/Dense>
-
 namespace mlp::probe_fw {
 namespace {
 
@@ -64,17 +62,16 @@ bool Slope(const std::vector<Neighbour>& near,
            const std::vector<double>& along,
            std::size_t begin,
            double* slope) {
-  const int n = static_cast<int>(near.size());
-  if (n < 3) return false;
-  Eigen::MatrixXd a(n, 2);
-  Eigen::VectorXd b(n);
-  for (int r = 0; r < n; ++r) {
-    a(r, 0) = 1.0, a(r, 1) = near[static_cast<std::size_t>(r)].offset_lines;
-    b(r) = along[near[static_cast<std::size_t>(r)].index - begin];
+  // The straight line's slope in closed form (two unknowns: no solver needed per centre).
+  if (near.size() < 3) return false;
+  double n = 0.0, sk = 0.0, sx = 0.0, skk = 0.0, skx = 0.0;
+  for (const Neighbour& m : near) {
+    const double k = m.offset_lines, x = along[m.index - begin];
+    n += 1.0, sk += k, sx += x, skk += k * k, skx += k * x;
   }
-  const Eigen::VectorXd x = a.colPivHouseholderQr().solve(b);
-  if (!x.allFinite()) return false;
-  *slope = x(1);
+  const double spread = n * skk - sk * sk;
+  if (!(spread > 0.0)) return false;
+  *slope = (n * skx - sk * sx) / spread;
   return true;
 }
 
