@@ -36,11 +36,10 @@ struct Scan {
   // longer than a stripe is wide, and around centres left to the other axis. Null: no marking.
   std::vector<std::uint8_t>* wanted = nullptr;
   std::vector<StripePoint>* rejected = nullptr;  // candidates rejected for their shape, if asked
-  // Under smoothing along the stripe: the lines before it and the Gaussian's weights (offsets
-  // -K..K), for the moments along_blur.h takes the smoothing's shift out with.
-  // The frame before that smoothing is read untransposed (the kernel reaches past a column
-  // band's edge): AOI width x height, row-major; the scan's line v is the AOI's line
-  // first_line + v.
+  // Under smoothing along the stripe, for the moments along_blur.h takes its shift out with:
+  // the frame before it, read untransposed (the kernel reaches past a column band's edge; AOI
+  // width x height, row-major; the scan's line v is the AOI's line first_line + v), and the
+  // Gaussian's weights (offsets -K..K).
   const std::uint16_t* unsmoothed = nullptr;
   int width = 0, height = 0, first_line = 0;
   const std::vector<double>* along_kernel = nullptr;
