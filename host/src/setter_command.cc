@@ -1,11 +1,13 @@
 #include "mlp/host/setter_command.h"
 
+#include "mlp/base/clock.h"
 #include "mlp/host/cli.h"
 #include "mlp/host/setter_station_args.h"
 #include "mlp/setter/beam_processor.h"
 #include "mlp/setter/beam_signal.h"
 #include "mlp/setter/beam_signal_file.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -20,7 +22,6 @@ namespace mlp::host {
 namespace {
 
 constexpr int kExitNoResult = 3;
-constexpr double kDiameterToleranceMm = 0.02;  // a dip-width diameter this far off is withdrawn
 constexpr const char* kUsage =
     "usage: mlp setter simulate --out SIGNAL.txt [--rpm R] [--teeth-mm R1,R2,..]\n"
     "                           [--feed-mm-min F] [--gap-mm G] [--leaving] [--duration-s S]\n"
@@ -29,18 +30,18 @@ constexpr const char* kUsage =
     "  the receiver's signal while a pin (--rpm 0, one radius) or a turning tool (a radius per\n"
     "  tooth) moves into (or out of) the beam; its truth in SIGNAL.txt.truth.json\n"
     "       mlp setter calibrate --signal PIN.txt --feed-mm-min F [--leaving] [--reflective]\n"
-    "                            --out CURVE.json\n"
-    "                            [--json]\n"
-    "  the calibration curve from a pin's signal (a cubic, mlprobe-beam-curve/1)\n"
+    "                            --out CURVE.json [--pin-diameter-mm D] [--serial S] [--json]\n"
+    "  the calibration curve from a pin's signal (a table over the fall, mlprobe-beam-curve/2)\n"
     "       mlp setter process --signal SIGNAL.txt (--curve CURVE.json | --no-curve) --rpm R\n"
     "                          --teeth N --feed-mm-min F [--leaving] [--reflective]\n"
     "                          [--threshold-share S] [--width-trigger-ms T] [--rise] [--json]\n"
-    "                          [--nominal-diameter-mm D [--diameter-tolerance-mm T]]\n"
+    "                          [--amplifier-hz B]\n"
     "  the signal sample by sample as the setter's DSP: the trigger (the skip signal), the edge\n"
-    "  it implies, the leading tooth's radius from the dips, each tooth's lag, what was rejected;\n"
+    "  it implies and its uncertainty, each tooth's lag, what was rejected; no diameter (the\n"
+    "  dips' widths cannot give one to 5 um: the radius setting's edge along X does);\n"
     "  --rise: a pin entering, its rise p predicts the crossing (a curve that knows the rise)\n"
-    "  D: the dips' diameter (an estimate) is withdrawn beyond T (0.02 mm) of it; no trigger\n"
-    "  says why (and, when the feed per turn was too high for the curve, the feed that works)\n"
+    "  B: the receiver amplifier's bandwidth, its lag undone on the dips; no trigger says why\n"
+    "  (and, when the feed per turn was too high for the curve, the feed that works)\n"
     "exit codes: 0 done (process: triggered), 2 bad arguments or files, 3 no trigger or no\n"
     "calibration (the reason is printed), 1 bug\n";
 
@@ -85,20 +86,26 @@ int Simulate(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int Calibrate(const std::vector<std::string>& args, std::ostream& out) {
-  const Args f(args, {{"--signal", "--feed-mm-min", "--out"}, kSwitches});
+  const Args f(
+      args, {{"--signal", "--feed-mm-min", "--out", "--pin-diameter-mm", "--serial"}, kSwitches});
   const setter::BeamSignal s = ReadSignal(f.Text("--signal"));
-  const setter::CalibrationCurve c =
+  setter::CalibrationCurve c =
       setter::CalibrateFromPin(s.volts, s.sample_rate_hz, f.Number("--feed-mm-min", 0.0),
                                !f.Has("--leaving"), f.Has("--reflective"));
+  c.pin_diameter_mm = f.Number("--pin-diameter-mm", 0.0);
+  if (!(c.pin_diameter_mm >= 0)) throw UsageError("--pin-diameter-mm must be > 0");
+  c.serial = f.Text("--serial", "");
+  c.date_utc = base::UtcNow("%Y-%m-%dT%H:%M:%S", false) + "Z";
   WriteOutputFile(f.Text("--out"), setter::CurveJson(c));
   if (f.Has("--json")) {
     out << nlohmann::json::parse(setter::CurveJson(c)).dump() << "\n";
     return kExitOk;
   }
   out << std::fixed << std::setprecision(4) << "calibration curve: clear " << c.clear_v
-      << " V, a cubic over " << c.lo_mm * 1e3 << " .. " << c.hi_mm * 1e3
-      << " um of intrusion (90 % to 10 %), rms " << c.rms * 100 << " % of clear over " << c.samples
-      << " samples\n  written to " << f.Text("--out") << "\n";
+      << " V, a table over " << c.lo_mm * 1e3 << " .. " << c.hi_mm * 1e3
+      << " um of intrusion (from the clear level after the rise to 2 %), the beam's radius "
+      << c.beam_radius_mm * 1e3 << " um (1/e^2, as a Gaussian's), the half-light point known to +-"
+      << c.half_light_u_mm * 1e3 << " um\n  written to " << f.Text("--out") << "\n";
   return kExitOk;
 }
 
@@ -113,6 +120,7 @@ setter::ProcessorConfig ProcessorConfigFrom(const Args& f, const setter::BeamSig
   c.reflective = f.Has("--reflective");
   c.width_trigger_s = f.Number("--width-trigger-ms", 0.0) / 1000;
   c.rise_predicts = f.Has("--rise");
+  c.amplifier_hz = f.Number("--amplifier-hz", 0.0);
   if (f.Has("--no-curve") == f.Has("--curve"))
     throw UsageError("give --curve CURVE.json, or --no-curve (a line through the minima)");
   if (f.Has("--curve"))
@@ -129,17 +137,26 @@ void RejectionsJson(const setter::BeamProcessor& p, nlohmann::ordered_json* j) {
     rejected.push_back({{"sample", recent[static_cast<size_t>(i)].sample},
                         {"reason", setter::ToString(recent[static_cast<size_t>(i)].reason)}});
   nlohmann::ordered_json counts = nlohmann::ordered_json::object();
-  for (auto r : {setter::Rejected::kOffSchedule, setter::Rejected::kOutsideBand,
-                 setter::Rejected::kTooSteep, setter::Rejected::kNotHeld})
+  for (auto r :
+       {setter::Rejected::kOffSchedule, setter::Rejected::kOutsideBand, setter::Rejected::kTooSteep,
+        setter::Rejected::kNotHeld, setter::Rejected::kDimmed})
     counts[setter::ToString(r)] = p.RejectionCount(r);
   (*j)["rejections"] = counts;
   (*j)["recent_rejections"] = rejected;
 }
 
+// Issue 56: on an outside beam simulator the dips' widths gave diameters 142-511 um small
+// (the beam's divergence over the dips' flanks, the amplifier, the spindle's real speed, the
+// method itself); modelling them to 5 um needs the beam's divergence, which one pin's pass
+// cannot give. A plausible wrong diameter is worse than none: the radius comes from the
+// edge along X (mlp_setter_radius.ngc), as the length does along Z.
+constexpr const char* kNoDiameter =
+    "the dips' widths cannot give a diameter to 5 um (the beam's divergence is not known from "
+    "one pin's pass); set the radius from the edge along X (mlp_setter_radius.ngc)";
+
 nlohmann::ordered_json ProcessJson(const setter::BeamProcessor& p, int teeth) {
   nlohmann::ordered_json j = {{"samples", p.Samples()}, {"triggered", p.Triggered()}};
   const setter::Trigger& t = p.trigger();
-  const double radius = p.ToothRadiusMm();
   if (p.Triggered()) {
     j["trigger_sample"] = t.sample;
     j["trigger_time_s"] = t.time_s;
@@ -148,10 +165,12 @@ nlohmann::ordered_json ProcessJson(const setter::BeamProcessor& p, int teeth) {
     j["tooth"] = t.tooth;
     j["extremes"] = t.extremes;
     j["cause"] = setter::ToString(t.cause);
+    if (std::isfinite(t.edge_sigma_mm)) j["edge_sigma_mm"] = t.edge_sigma_mm;
   }
   if (std::isfinite(p.PredictedCrossingS())) j["predicted_crossing_s"] = p.PredictedCrossingS();
   j["deepest_share"] = p.DeepestShare();
-  j["diameter_mm"] = std::isfinite(radius) ? nlohmann::ordered_json(2 * radius) : nullptr;
+  j["diameter_mm"] = nullptr;
+  j["diameter_refused"] = kNoDiameter;
   nlohmann::ordered_json lags = nlohmann::ordered_json::array();
   for (int k = 0; k < teeth; ++k) {
     const double lag = p.ToothLagMm(k);
@@ -167,22 +186,22 @@ void PrintProcess(const setter::BeamProcessor& p,
                   const nlohmann::ordered_json& j,
                   std::ostream& out) {
   const setter::Trigger& t = p.trigger();
-  const double radius = p.ToothRadiusMm();
   if (p.Triggered() && t.cause == setter::TriggerCause::kLine)
     out << std::fixed << std::setprecision(6) << "trigger at sample " << t.sample << " ("
         << t.time_s << " s): tooth " << t.tooth << "'s line (" << t.extremes
-        << " extremes) crossed at " << t.threshold_time_s << " s; the edge is the latched "
-        << "position less " << std::setprecision(4) << t.edge_offset_mm * 1e3 << " um\n";
+        << " minima) crossed at " << t.threshold_time_s << " s; the edge is the latched "
+        << "position less " << std::setprecision(4) << t.edge_offset_mm * 1e3 << " um"
+        << std::setprecision(2);
+  if (p.Triggered() && t.cause == setter::TriggerCause::kLine && std::isfinite(t.edge_sigma_mm))
+    out << " (+-" << t.edge_sigma_mm * 1e3 << " um, 1 sigma, from its minima)";
+  if (p.Triggered() && t.cause == setter::TriggerCause::kLine)
+    out << "\n";
   else if (p.Triggered())
     out << std::fixed << std::setprecision(6) << "trigger at sample " << t.sample << " ("
         << t.time_s << " s): " << setter::ToString(t.cause) << " at " << t.threshold_time_s
         << " s; the edge is the latched position less " << std::setprecision(4)
         << t.edge_offset_mm * 1e3 << " um\n";
-  if (std::isfinite(radius) && !j.at("diameter_mm").is_null())
-    out << std::fixed << std::setprecision(4) << "  diameter from the dips' widths " << 2 * radius
-        << " mm (" << j.value("diameter_check", "") << "; the beam's divergence is not modelled)\n";
-  else if (std::isfinite(radius))
-    out << "  diameter from the dips' widths " << j.value("diameter_check", "") << "\n";
+  out << "  no diameter: " << kNoDiameter << "\n";
   for (int k = 0; k < teeth; ++k)
     if (std::isfinite(p.ToothLagMm(k)) && k != p.LeadingTooth())
       out << std::setprecision(2) << "  tooth " << k << " reaches " << p.ToothLagMm(k) * 1e3
@@ -191,45 +210,35 @@ void PrintProcess(const setter::BeamProcessor& p,
     if (n.get<int>() > 0) out << "  rejected " << n.get<int>() << "x: " << reason << "\n";
 }
 
-// The diameter from the dips' widths is an estimate: the beam's divergence over the dips'
-// flanks is not modelled (issue 56: 142-511 um small on an outside beam simulator, where this
-// project's generator gives 2 um). Against --nominal-diameter-mm beyond the tolerance it is
-// withdrawn with the reason; without a nominal it is marked unchecked. Never a tool table's.
-void CheckDiameter(const Args& f, nlohmann::ordered_json* j) {
-  if (j->at("diameter_mm").is_null()) return;
-  if (!f.Has("--nominal-diameter-mm")) {
-    (*j)["diameter_check"] = "unchecked: no --nominal-diameter-mm";
-    return;
-  }
-  const double nominal = f.Number("--nominal-diameter-mm");
-  const double tolerance = f.Number("--diameter-tolerance-mm", kDiameterToleranceMm);
-  if (!(nominal > 0) || !(tolerance > 0))
-    throw UsageError("--nominal-diameter-mm and --diameter-tolerance-mm must be > 0");
-  const double found = j->at("diameter_mm").get<double>();
-  if (std::abs(found - nominal) <= tolerance) {
-    (*j)["diameter_check"] = "within the tolerance of the nominal";
-    return;
-  }
-  std::ostringstream why;
-  why << std::fixed << std::setprecision(1) << "withdrawn: " << (found - nominal) * 1e3
-      << " um from the nominal " << std::setprecision(4) << nominal << " mm, beyond "
-      << std::setprecision(1) << tolerance * 1e3 << " um";
-  (*j)["diameter_mm"] = nullptr;
-  (*j)["diameter_check"] = why.str();
+// A file with the axis' positions (mlprobe-beam-signal/2) gives the edge itself: the axis
+// where the threshold was crossed, interpolated between its samples.
+void AxisEdge(const setter::BeamSignal& s,
+              const setter::BeamProcessor& p,
+              nlohmann::ordered_json* j) {
+  if (!p.Triggered() || s.axis_mm.size() != s.volts.size() || s.axis_mm.size() < 2) return;
+  const double at = std::clamp(p.trigger().threshold_time_s * s.sample_rate_hz, 0.0,
+                               static_cast<double>(s.axis_mm.size() - 1));
+  const auto i = std::min(static_cast<size_t>(at), s.axis_mm.size() - 2);
+  const double f = at - static_cast<double>(i);
+  (*j)["edge_axis_mm"] = s.axis_mm[i] + f * (s.axis_mm[i + 1] - s.axis_mm[i]);
 }
 
 int Process(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args f(args,
-               {{"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min", "--threshold-share",
-                 "--width-trigger-ms", "--nominal-diameter-mm", "--diameter-tolerance-mm"},
-                kSwitches});
+  const Args f(args, {{"--signal", "--curve", "--rpm", "--teeth", "--feed-mm-min",
+                       "--threshold-share", "--width-trigger-ms", "--amplifier-hz"},
+                      kSwitches});
   const setter::BeamSignal s = ReadSignal(f.Text("--signal"));
-  const setter::ProcessorConfig c = ProcessorConfigFrom(f, s);
+  if (s.saturated > 0)  // the shares would be clipped: no edge from them
+    throw setter::SetterError(std::to_string(s.saturated) +
+                              " samples at the ADC's full scale: the receiver saturates (lower "
+                              "its gain or the laser's power); no trigger is read from it");
+  setter::ProcessorConfig c = ProcessorConfigFrom(f, s);
+  if (!f.Has("--amplifier-hz")) c.amplifier_hz = s.amplifier_hz;  // the file's, if it has one
   const auto p = std::make_unique<setter::BeamProcessor>(c);
   for (float v : s.volts) p->Push(v);
   nlohmann::ordered_json j = ProcessJson(*p, c.teeth);
+  AxisEdge(s, *p, &j);
   if (!p->Triggered()) j["no_trigger"] = p->WhyNoTrigger();
-  CheckDiameter(f, &j);
   const int code = p->Triggered() ? kExitOk : kExitNoResult;
   if (!p->Triggered())
     err << "mlp setter: no trigger in " << p->Samples() << " samples: " << p->WhyNoTrigger()

@@ -16,16 +16,17 @@
 namespace mlp::setter {
 namespace {
 
-constexpr double kFeedPerRevMm = 0.004;  // 6 mm/min at 1500 rpm: what repeatability must beat
-constexpr double kEdgeTolMm = 0.001;     // each run's edge against the truth
-constexpr double kLagTolMm = 0.001;      // the short tooth's lag against its true 10 um
-constexpr double kRadiusTolMm = 0.015;   // the tooth's radius from the widths (0.5 %)
-constexpr double kClosedForm = 1e-12;    // a closed-form value computed again
-constexpr double kTailShare = 1e-9;      // the beam's Gaussian tail 0.2 mm from its centre
-constexpr double kClearTolV = 0.01;      // the pin's clear level against the 4 V simulated
-constexpr double kShareTol = 0.01;       // the curve's share of clear at the beam's centre
-constexpr double kSpanTolMm = 0.004;     // its 90 % to 10 % span against 0.038 mm
-constexpr double kInverseTol = 1e-9;     // IntrusionAt and Share are each other's inverse
+constexpr double kFeedPerRevMm = 0.004;       // 6 mm/min at 1500 rpm: what repeatability must beat
+constexpr double kEdgeTolMm = 0.001;          // each run's edge against the truth
+constexpr double kLagTolMm = 0.001;           // the short tooth's lag against its true 10 um
+constexpr double kRadiusTolMm = 0.015;        // the tooth's radius from the widths (0.5 %)
+constexpr double kClosedForm = 1e-12;         // a closed-form value computed again
+constexpr double kTailShare = 1e-9;           // the beam's Gaussian tail 0.2 mm from its centre
+constexpr double kClearTolV = 0.01;           // the pin's clear level against the 4 V simulated
+constexpr double kShareTol = 0.01;            // the curve's share of clear at the beam's centre
+constexpr double kInverseTol = 1e-9;          // IntrusionAt and Share are each other's inverse
+constexpr double kTableShareTol = 0.003;      // the table against the generator's transmission
+constexpr double kRadiusFromCurveMm = 0.001;  // the beam's radius from its 10-90 % width
 
 using test::Approach;
 using test::Config;
@@ -49,18 +50,27 @@ TEST(BeamSignal, FollowsTheKnifeEdgeAndTheTeeth) {
   EXPECT_THROW(GenerateSignal(BeamModel(), none, Approach(0.1, 1), 1), SetterInputError);
 }
 
-TEST(BeamCalibration, ThePinGivesACubicThroughTheBeam) {
+// The curve (mlprobe-beam-curve/2) is a table over the whole fall: from the clear level after
+// the rise to 2 % of the light, following the generator's own transmission bin by bin.
+TEST(BeamCalibration, ThePinGivesATableOverTheWholeFall) {
   const CalibrationCurve c = PinCurve();
-  std::printf("curve: clear %.4f V, x %.4f..%.4f mm, rms %.4f, x(50 %%) %+.3f um\n", c.clear_v,
-              c.lo_mm, c.hi_mm, c.rms, c.IntrusionAt(0.5) * 1e3);
+  std::printf("curve: clear %.4f V, x %.4f..%.4f mm, w %.2f um, x(50 %%) %+.3f um +- %.4f\n",
+              c.clear_v, c.lo_mm, c.hi_mm, c.beam_radius_mm * 1e3, c.IntrusionAt(0.5) * 1e3,
+              c.half_light_u_mm * 1e3);
   EXPECT_NEAR(c.clear_v, 4.0, kClearTolV);
   EXPECT_NEAR(c.Share(0.0), 0.5, kShareTol);
-  EXPECT_LT(c.rms, 0.006);  // the cubic through a Gaussian beam's edge, 90 % to 10 %
-  EXPECT_NEAR(c.hi_mm - c.lo_mm, 0.038, kSpanTolMm);  // +-0.64 beam radii
-  for (double share : {0.2, 0.5, 0.8})
+  EXPECT_GT(c.lo_mm, c.rise_mm);              // after the rise's peak,
+  EXPECT_NEAR(c.ShareHi(), 1.0, kShareTol);   // from the clear level
+  EXPECT_NEAR(c.ShareLo(), 0.02, kShareTol);  // to 2 % of the light
+  EXPECT_NEAR(c.beam_radius_mm, BeamModel().beam_radius_mm, kRadiusFromCurveMm);
+  BeamModel model;
+  for (double x = c.lo_mm; x <= c.hi_mm; x += 0.001)
+    EXPECT_NEAR(c.Share(x), Transmission(model, x), kTableShareTol) << "x " << x;
+  for (double share : {0.2, 0.5, 0.8, 0.99})
     EXPECT_NEAR(c.Share(c.IntrusionAt(share)), share, kInverseTol);
   const CalibrationCurve back = ParseCurve(CurveJson(c));
-  EXPECT_NEAR(back.Share(0.01), c.Share(0.01), kClosedForm);
+  EXPECT_EQ(back.table.size(), c.table.size());
+  for (double x = c.lo_mm; x <= c.hi_mm; x += 0.0003) EXPECT_NEAR(back.Share(x), c.Share(x), 1e-12);
   std::vector<float> dark(10000, 0.0f);
   EXPECT_THROW(CalibrateFromPin(dark, 80000, 6, true), SetterError);  // no result: not bad input
   EXPECT_THROW(CalibrateFromPin(dark, 80000, 0, true), SetterInputError);  // no feed

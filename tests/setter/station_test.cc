@@ -63,6 +63,13 @@ Outcome Approach(
       break;
     }
   }
+  // A trigger at the predicted crossing may come a hair before the tooth gets there: the axis
+  // runs on (as it does while motion stops) until the truth is seen, at most 5 um.
+  for (double on = 0; r.triggered && std::isnan(station->TruthEdgeMm()) && on < 0.005;) {
+    const double dt = cycle_s(rng);
+    mm -= kFeedMmS * dt, on += kFeedMmS * dt;
+    station->Advance(dt, mm);
+  }
   r.truth_mm = station->TruthEdgeMm();
   return r;
 }

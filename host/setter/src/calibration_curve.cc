@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
@@ -24,9 +25,30 @@ double Median(std::vector<float> v) {
 
 }  // namespace
 
-double CalibrationCurve::Share(double x) const { return c[0] + x * (c[1] + x * (c[2] + x * c[3])); }
+double CalibrationCurve::Share(double x) const {
+  if (table.empty()) return c[0] + x * (c[1] + x * (c[2] + x * c[3]));
+  const double f =
+      std::clamp((x - table_x0_mm) / table_step_mm, 0.0, static_cast<double>(table.size() - 1));
+  const auto i = std::min(static_cast<size_t>(f), table.size() - 2);
+  return table[i] + (table[i + 1] - table[i]) * (f - static_cast<double>(i));
+}
+
+double CalibrationCurve::Slope(double x) const {
+  if (table.empty()) return c[1] + x * (2 * c[2] + 3 * x * c[3]);
+  const double h = 2 * table_step_mm;  // over four steps: the table's bins are noisy
+  const double a = std::max(lo_mm, x - h), b = std::min(hi_mm, x + h);
+  return (Share(b) - Share(a)) / (b - a);
+}
 
 double CalibrationCurve::IntrusionAt(double share) const {
+  if (!table.empty()) {  // falling strictly: the bins bracketing the share
+    if (share >= table.front()) return lo_mm;
+    if (share <= table.back()) return hi_mm;
+    const auto it = std::lower_bound(table.begin(), table.end(), share, std::greater<double>());
+    const auto i = static_cast<size_t>(it - table.begin());  // table[i] <= share < table[i-1]
+    const double f = (table[i - 1] - share) / (table[i - 1] - table[i]);
+    return table_x0_mm + (static_cast<double>(i - 1) + f) * table_step_mm;
+  }
   // The curve falls over [lo, hi]: bisection, then two Newton steps.
   if (share >= Share(lo_mm)) return lo_mm;
   if (share <= Share(hi_mm)) return hi_mm;
@@ -37,7 +59,7 @@ double CalibrationCurve::IntrusionAt(double share) const {
   }
   double x = (a + b) / 2;
   for (int i = 0; i < 2; ++i) {
-    const double slope = c[1] + x * (2 * c[2] + 3 * x * c[3]);
+    const double slope = Slope(x);
     if (slope < 0) x = std::clamp(x - (Share(x) - share) / slope, lo_mm, hi_mm);
   }
   return x;
@@ -91,6 +113,94 @@ void FitCubic(const std::vector<std::pair<double, double>>& pts, CalibrationCurv
       Fail("the fitted curve is not falling over its span (a drop during the calibration?)");
 }
 
+// Pool-adjacent-violators: the least-squares non-increasing sequence through `y` (weights
+// `n`), written here as no Debian C++ library offers isotonic regression; then strictly
+// falling by a hair, so that every share has one intrusion.
+void MakeFalling(std::vector<double>* y, std::vector<double> n) {
+  std::vector<double> value, weight;
+  std::vector<size_t> count;
+  for (size_t i = 0; i < y->size(); ++i) {
+    value.push_back((*y)[i]), weight.push_back(n[i]), count.push_back(1);
+    while (value.size() > 1 && value[value.size() - 2] < value.back()) {
+      const size_t k = value.size() - 1;
+      value[k - 1] =
+          (value[k - 1] * weight[k - 1] + value[k] * weight[k]) / (weight[k - 1] + weight[k]);
+      weight[k - 1] += weight[k], count[k - 1] += count[k];
+      value.pop_back(), weight.pop_back(), count.pop_back();
+    }
+  }
+  size_t i = 0;
+  for (size_t b = 0; b < value.size(); ++b)
+    for (size_t k = 0; k < count[b]; ++k) (*y)[i++] = value[b];
+  for (size_t k = 1; k < y->size(); ++k) (*y)[k] = std::min((*y)[k], (*y)[k - 1] - 1e-7);
+}
+
+// The table: the raw shares binned by intrusion (bins of 0.25 um, at least 5 samples each)
+// from the rise's peak (without a rise, where the average first falls under 99.5 %) to where
+// it falls under 2 %, each bin's mean, from the last at 100 % on, made falling.
+void FillTable(const std::vector<double>& share,
+               const std::vector<double>& avg,
+               size_t clear_n,
+               size_t cross,
+               double t50,
+               double mm_per_sample,
+               CalibrationCurve* cur) {
+  size_t start = cross;
+  if (cur->rise_share > 0)  // from the rise's peak (RiseFinder's, not the noisy average's)
+    start = static_cast<size_t>(
+        std::clamp(t50 + cur->rise_mm / mm_per_sample, static_cast<double>(clear_n), t50));
+  else  // no rise above the noise: the wing from 99.5 %
+    while (start > clear_n && avg[start - 1] < 0.995) --start;
+  size_t end = cross;
+  while (end + 1 < avg.size() && avg[end + 1] > 0.02) ++end;
+  const double step = std::max(0.00025, 5 * mm_per_sample);
+  const double x0 = (static_cast<double>(start) - t50) * mm_per_sample;
+  const auto bins =
+      static_cast<size_t>(std::floor((static_cast<double>(end - start) * mm_per_sample) / step));
+  if (bins < 8) Fail("fewer than 8 table bins over the fall: the feed was too fast for the beam");
+  std::vector<double> sum(bins, 0.0), n(bins, 0.0);
+  for (size_t i = start; i <= end; ++i) {
+    const auto b = static_cast<size_t>(
+        std::floor(((static_cast<double>(i) - t50) * mm_per_sample - x0) / step));
+    if (b < bins) sum[b] += share[i], n[b] += 1;
+  }
+  for (size_t b = 0; b < bins; ++b) {
+    if (n[b] == 0) Fail("an empty bin in the table (samples missing?)");
+    sum[b] /= n[b];
+  }
+  // Above the clear level the rise's ripple is not one-to-one: the table starts at the last
+  // bin at 100 % or more before half the light (the wing from there down).
+  size_t first = 0;
+  for (size_t b = 0; b < bins && sum[b] > 0.5; ++b)
+    if (sum[b] >= 1.0) first = b;
+  sum.erase(sum.begin(), sum.begin() + static_cast<std::ptrdiff_t>(first));
+  n.erase(n.begin(), n.begin() + static_cast<std::ptrdiff_t>(first));
+  if (sum.size() < 8) Fail("fewer than 8 table bins below the clear level");
+  MakeFalling(&sum, n);
+  cur->table = sum;
+  cur->table_step_mm = step;
+  cur->table_x0_mm = x0 + step * (static_cast<double>(first) + 0.5);  // bins' centres
+  cur->lo_mm = cur->table_x0_mm;
+  cur->hi_mm = cur->table_x0_mm + step * static_cast<double>(sum.size() - 1);
+}
+
+// The beam's 1/e^2 radius as a Gaussian's from the 90 % and 10 % crossings (2 x 0.6408 w
+// apart), and the half-light point's standard uncertainty: the clear level's noise over the
+// slope there, averaged over the samples within one step of it.
+void Describe(double noise_share, double mm_per_sample, CalibrationCurve* cur) {
+  cur->beam_radius_mm = (cur->IntrusionAt(0.1) - cur->IntrusionAt(0.9)) / 1.2816;
+  const double slope = std::abs(cur->Slope(cur->IntrusionAt(0.5)));
+  const double samples = std::max(1.0, cur->table_step_mm / mm_per_sample);
+  cur->half_light_u_mm = slope > 0 ? noise_share / slope / std::sqrt(samples) : 0.0;
+}
+
+double NoiseShare(const std::vector<double>& share, size_t clear_n) {
+  double sum = 0, sum2 = 0;
+  for (size_t i = 0; i < clear_n; ++i) sum += share[i], sum2 += share[i] * share[i];
+  const double n = static_cast<double>(clear_n), mean = sum / n;
+  return std::sqrt(std::max(0.0, sum2 / n - mean * mean));
+}
+
 }  // namespace
 
 CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
@@ -139,10 +249,38 @@ CalibrationCurve CalibrateFromPin(const std::vector<float>& volts,
     if (share[i] <= kShareHi && share[i] >= kShareLo)
       pts.emplace_back((static_cast<double>(i) - t50) * mm_per_sample, share[i]);
   FitCubic(pts, &cur);
+  cur.feed_mm_min = feed_mm_min, cur.sample_rate_hz = fs;
+  FillTable(share, avg, clear_n, cross, t50, mm_per_sample, &cur);
+  Describe(NoiseShare(share, clear_n), mm_per_sample, &cur);
   return cur;
 }
 
 std::string CurveJson(const CalibrationCurve& c) {
+  if (!c.table.empty()) {
+    const nlohmann::ordered_json j = {
+        {"format", "mlprobe-beam-curve/2"},
+        {"clear_v", c.clear_v},
+        {"lo_mm", c.lo_mm},
+        {"hi_mm", c.hi_mm},
+        {"table_x0_mm", c.table_x0_mm},
+        {"table_step_mm", c.table_step_mm},
+        {"table_share", c.table},
+        {"cubic", {c.c[0], c.c[1], c.c[2], c.c[3]}},
+        {"rms_share", c.rms},
+        {"samples", c.samples},
+        {"rise_share", c.rise_share},
+        {"rise_mm", c.rise_mm},
+        {"feed_mm_min", c.feed_mm_min},
+        {"sample_rate_hz", c.sample_rate_hz},
+        {"filter", "9-sample average for the crossing; raw samples binned"},
+        {"pin_diameter_mm", c.pin_diameter_mm},
+        {"beam_radius_mm", c.beam_radius_mm},
+        {"divergence", "unknown: one pass of the pin measures the beam at one place"},
+        {"half_light_u_mm", c.half_light_u_mm},
+        {"date_utc", c.date_utc},
+        {"serial", c.serial}};
+    return j.dump(1) + "\n";
+  }
   const nlohmann::ordered_json j = {{"format", "mlprobe-beam-curve/1"},
                                     {"clear_v", c.clear_v},
                                     {"lo_mm", c.lo_mm},
@@ -155,10 +293,44 @@ std::string CurveJson(const CalibrationCurve& c) {
   return j.dump(1) + "\n";
 }
 
+namespace {
+
+// The /2 table and what it was made from; the table must fall strictly over lo..hi.
+void ParseTable(const nlohmann::json& j, const std::string& where, CalibrationCurve* c) {
+  namespace jf = base::json_fields;
+  using E = SetterInputError;
+  c->table_x0_mm = jf::Number<E>(j, "table_x0_mm", where);
+  c->table_step_mm = jf::Number<E>(j, "table_step_mm", where);
+  if (!j.contains("table_share") || !j.at("table_share").is_array())
+    throw E(where + ": table_share must be an array of numbers");
+  for (const auto& v : j.at("table_share")) {
+    if (!v.is_number() || !std::isfinite(v.get<double>()))
+      throw E(where + ": table_share must be an array of numbers");
+    c->table.push_back(v.get<double>());
+  }
+  if (c->table.size() < 8 || !(c->table_step_mm > 0) ||
+      std::adjacent_find(c->table.begin(), c->table.end(), std::less_equal<double>()) !=
+          c->table.end())
+    throw E(where + ": table_share must hold 8 or more shares, falling strictly, step > 0");
+  const double end = c->table_x0_mm + c->table_step_mm * static_cast<double>(c->table.size() - 1);
+  if (std::abs(c->lo_mm - c->table_x0_mm) > 1e-9 || std::abs(c->hi_mm - end) > 1e-9)
+    throw E(where + ": lo_mm and hi_mm must be the table's first and last intrusion");
+  c->feed_mm_min = jf::NumberOr<E>(j, "feed_mm_min", 0.0, where);
+  c->sample_rate_hz = jf::NumberOr<E>(j, "sample_rate_hz", 0.0, where);
+  c->pin_diameter_mm = jf::NumberOr<E>(j, "pin_diameter_mm", 0.0, where);
+  c->beam_radius_mm = jf::NumberOr<E>(j, "beam_radius_mm", 0.0, where);
+  c->half_light_u_mm = jf::NumberOr<E>(j, "half_light_u_mm", 0.0, where);
+  if (j.contains("date_utc") && j.at("date_utc").is_string()) c->date_utc = j.at("date_utc");
+  if (j.contains("serial") && j.at("serial").is_string()) c->serial = j.at("serial");
+}
+
+}  // namespace
+
 CalibrationCurve ParseCurve(const std::string& text, const std::string& where) {
   namespace jf = base::json_fields;
   using E = SetterInputError;
-  const auto j = jf::ParseDocument<E>(text, "mlprobe-beam-curve/1", where);
+  const auto j =
+      jf::ParseDocument<E>(text, {"mlprobe-beam-curve/2", "mlprobe-beam-curve/1"}, where);
   CalibrationCurve c;
   c.clear_v = jf::Number<E>(j, "clear_v", where);
   c.lo_mm = jf::Number<E>(j, "lo_mm", where);
@@ -176,6 +348,7 @@ CalibrationCurve ParseCurve(const std::string& text, const std::string& where) {
   if (!(c.rise_share >= 0 && c.rise_share < 0.2) || !(std::abs(c.rise_mm) < 1))
     throw E(where + ": rise_share 0..0.2, |rise_mm| < 1");
   if (!(c.clear_v > 0) || !(c.hi_mm > c.lo_mm)) throw E(where + ": clear_v > 0, hi > lo");
+  if (j.at("format") == "mlprobe-beam-curve/2") ParseTable(j, where, &c);
   return c;
 }
 

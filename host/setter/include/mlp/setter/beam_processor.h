@@ -8,15 +8,27 @@
 /// - on the teeth's schedule: at least two of the last 8 dips lie whole tooth periods before
 ///   it (a coolant drop comes at random; the supporting dips are confirmed with it);
 /// - in its tooth's band: once a tooth has 3 extremes, a new one within `band_mm` of its line.
-/// Each tooth's minima, turned into intrusions through the calibration curve, lie on a line in
-/// time (the feed). Once a tooth has `fit_min` of them within `fit_tol_mm`, moving at the
-/// feed, its line says when it blocks `threshold_share` of the light; the leading tooth's
-/// crossing (the longest tooth entering, the last leaving) fires the trigger, as soon as it
-/// is due (at the predicted crossing, or at once if the line shows it already past; the
-/// trigger then says how far the axis moved since, to subtract from the position latched).
-/// The dips' widths grow as the tool goes in: with the tooth's tip crossing the width's
-/// intrusion x_w at turn angles +-phi, cos(phi) = (x_w - axis) / r falls linearly with the
-/// axis: its rate against the feed is the tooth's radius.
+/// A dip's deepest point is read from the raw samples round the average's minimum (the
+/// average's minimum is biased by the dip's curvature: 0.66 um on a D10 at 3000 rpm, 50 kHz):
+/// each sample's share, the amplifier's lag undone when its bandwidth is known
+/// (u = y + tau dy/dt), through the curve into intrusion, a least-squares parabola through those
+/// near the deepest, its vertex.
+/// With a curve, each tooth's minima lie on a line in time whose slope is the feed, known: each
+/// minimum alone says where its tooth is (its intercept a = x - feed t). A tooth's intercept is
+/// the weighted mean of its minima that agree within `band_mm` (weights: the share's noise
+/// through the curve's slope, and the curve's scale uncertainty times the distance to the
+/// threshold, which an extrapolation carries); the leading tooth (the largest intercept: the
+/// longest entering, the last leaving) fires once it has as many minima as the feed per turn
+/// lets into the curve's span (1 at 20 um a turn on a 22 um beam, up to `fit_min`), one of
+/// them within `confirm_share` of the threshold or past it, and every other tooth is on the
+/// curve or has passed the beam since (a tooth unseen in the span then reaches less); one minimum
+/// fewer once the leader's next pass has come and gone without one (a drop spoiled it, or the tool
+/// left the beam). A dip whose shoulders (a quarter of a tooth period either side) are dimmed lies
+/// in a coolant drop: rejected. The trigger fires when its crossing is due, or at once if already
+/// past, saying how far the axis moved since. The clear level is followed between the dips (the
+/// laser's power drifts from the calibration's). The dips' widths grow as the tool goes in: with
+/// the tooth's tip crossing the width's intrusion x_w at turn angles +-phi, cos(phi) = (x_w - axis)
+/// / r falls linearly with the axis: its rate against the feed is the tooth's radius.
 ///
 /// A tool not turning (a pin): the signal crossing the threshold share, its slope matching
 /// the calibration curve at the feed (a drop falls far faster) and held there `hold_s` (a drop
@@ -79,6 +91,9 @@ struct ProcessorConfig {
   double z_band = 0.05;         ///< a tooth's next minimum this close to its line in z (~1 um)
   double line_share_hi = 0.85;  ///< minima on a line only between these shares
   double line_share_lo = 0.1;
+  /// The receiver amplifier's -3 dB bandwidth [Hz] (first order); 0: unknown, not undone.
+  double amplifier_hz = 0.0;
+  double scale_uncertainty = 0.01;  ///< the curve's x scale against the tool's beam (a share)
   bool HasCurve() const { return curve.clear_v > 0; }
   void Validate() const;  ///< throws SetterInputError naming the field
 };
@@ -100,9 +115,12 @@ struct Trigger {
   TriggerCause cause = TriggerCause::kLine;
   /// A pin with rise_predicts: when the rise said the crossing was due (NaN: no rise seen).
   double predicted_time_s = std::numeric_limits<double>::quiet_NaN();
+  /// A tooth's crossing predicted with the feed's slope: the edge's standard uncertainty from
+  /// its minima [mm] (NaN otherwise).
+  double edge_sigma_mm = std::numeric_limits<double>::quiet_NaN();
 };
 
-enum class Rejected { kOffSchedule, kOutsideBand, kTooSteep, kNotHeld };
+enum class Rejected { kOffSchedule, kOutsideBand, kTooSteep, kNotHeld, kDimmed };
 const char* ToString(Rejected r);
 
 struct Rejection {
@@ -116,6 +134,9 @@ class BeamProcessor {
   static constexpr int kRing = 8;        ///< dips kept for the schedule, extremes per tooth
   static constexpr int kSmooth = 9;      ///< the running average's length
   static constexpr int kSlopeMax = 512;  ///< samples in the pin's slope window (1 ms)
+  /// Raw samples kept for a dip's deepest point and its shoulders (3/4 of a tooth period: 2000
+  /// rpm, 2 teeth at 96 kHz).
+  static constexpr int kRaw = 4096;
 
   /// Throws SetterInputError for a configuration out of range.
   explicit BeamProcessor(const ProcessorConfig& config);
@@ -158,6 +179,8 @@ class BeamProcessor {
   struct Dip {
     double t = 0, share = 1, width_s = -1;
     bool confirmed = false;
+    double x = std::numeric_limits<double>::quiet_NaN();  // from the raw samples' parabola
+    double x_sigma = 0;                                   // its standard uncertainty
   };
   struct Fit {
     double a = 0, b = 0, rms = 0;  // x = a + b t
@@ -176,16 +199,28 @@ class BeamProcessor {
     Ring widths;    // (t, cos of half the dip's angle), for the band of the next width
     double st = 0, sy = 0, stt = 0, sty = 0;  // all the widths' regression sums
     int width_count = 0;
-    double deep_t = -1e300;  // its last dip deeper than the curve's span
+    double deep_t = -1e300;               // its last dip deeper than the curve's span
+    std::array<double, kRing> x_sigma{};  // the extremes' uncertainties, as `extremes`
+  };
+  struct Intercept {  // a tooth's: where its line is at t = 0, and how well known
+    double a = 0, sigma = 0, latest_t = 0, latest_x = 0;
+    int inliers = 0;
   };
 
   void Smoothed(double share, double t);  // the extreme follower
+  bool TurningTrigger(double now);        // true when it fired
   double RawCross(double level, bool falling, double smoothed_t) const;
   void FinishDip();
   void Schedule(const Dip& d);
   void AddToTooth(const Dip& d);
   void AddWidth(Tooth* th, const Dip& d);
   void UpdatePrediction();
+  void UpdateFeedPrediction();  // with a curve: the feed's known slope
+  bool ToothIntercept(const Tooth& th, Intercept* out) const;
+  int MinimaNeeded() const;
+  void DeepestPoint(Dip* d) const;
+  void FollowClear(double y, double t);
+  bool Dimmed(const Dip& d) const;
   void PinStep(double share, double t);
   bool RiseConfirms(double cross_t) const;
   void Reject(Rejected r, long sample);
@@ -203,6 +238,12 @@ class BeamProcessor {
   double period_s_ = 0, x_threshold_ = 0, x_confirm_ = 0, feed_mm_s_ = 0, dir_ = 1;
   long n_ = 0;
   std::array<double, kSmooth> smooth_{};
+  std::array<float, kRaw> raw_{};  // the last kRaw samples' volts
+  double noise_share_ = 0.002;     // per sample: the clear level's scatter
+  // The clear level followed between dips: a window after each dip, its mean.
+  double clear_win_start_ = -1, clear_win_end_ = -1, clear_win_sum_ = 0, clear_win_sum2_ = 0;
+  double clear_win_min_ = 2, clear_win_max_ = 0;
+  long clear_win_n_ = 0;
   double smooth_sum_ = 0;
   // The extreme follower on the averaged signal.
   bool seeking_min_ = false;
@@ -217,6 +258,9 @@ class BeamProcessor {
   double t_ref_ = std::numeric_limits<double>::quiet_NaN();
   std::array<Tooth, kMaxTeeth> teeth_{};
   double due_t_ = std::numeric_limits<double>::quiet_NaN();
+  double not_before_t_ = 0;  // every other tooth has passed the beam since the leader's minimum
+  long next_review_ = 0;     // the sample at which the prediction is looked at again
+  double due_sigma_mm_ = std::numeric_limits<double>::quiet_NaN();
   int due_tooth_ = -1, due_extremes_ = 0;
   Trigger trigger_;
   // Not turning: the slope window and the hold.
@@ -227,7 +271,7 @@ class BeamProcessor {
   RiseFinder rise_;
   double predicted_cross_t_ = std::numeric_limits<double>::quiet_NaN();
   bool rise_confirmed_ = false;
-  std::array<int, 4> rejection_count_{};
+  std::array<int, 5> rejection_count_{};
   std::array<Rejection, 16> recent_{};
   int recent_n_ = 0;
 };

@@ -80,6 +80,12 @@ struct Motion {
 struct BeamSignal {
   double sample_rate_hz = 0.0;
   std::vector<float> volts;
+  /// From a real setter's file (`mlprobe-beam-signal/2`); empty or 0 when it has none.
+  double amplifier_hz = 0.0;    ///< the receiver amplifier's -3 dB bandwidth (first order)
+  std::vector<double> axis_mm;  ///< the axis position at each sample (the approach's axis)
+  std::vector<char> latch;      ///< the skip/latch channel at each sample (0/1)
+  std::vector<char> index;      ///< the spindle's index pulse at each sample (0/1)
+  int saturated = 0;            ///< samples at the ADC's full scale
   /// Truth: the axis position at sample i, and where it is when the longest tooth's reach
   /// meets the beam's centre (the edge position the skip signal should give).
   double axis_start_mm = 0.0, axis_feed_mm_per_sample = 0.0, axis_at_edge_mm = 0.0;

@@ -3,6 +3,11 @@
 /// `mlprobe-beam-signal/1` is a header line `# mlprobe-beam-signal/1 sample_rate_hz=H`, then
 /// one voltage a line (`#` lines are comments); a generated signal's truth goes beside it as
 /// `mlprobe-beam-truth/1` JSON.
+/// `mlprobe-beam-signal/2` is what a real setter's logger writes: a header line
+/// `# mlprobe-beam-signal/2 sample_rate_hz=H adc_bits=B full_scale_v=V [amplifier_hz=A]`,
+/// a line `# columns: ...` naming the columns (from t_s, code, volts, axis_mm, latch, index;
+/// code or volts required), then one sample a line. Timestamps must step by 1/H (within 2 %):
+/// a lost sample is refused, never closed up; codes must fit the ADC's bits.
 
 #include "mlp/setter/beam_signal.h"
 
