@@ -55,18 +55,19 @@ void LineCrossings(
 
 }  // namespace
 
-double HalfLevel(const GreyView& im) {
+double GreyPercentile(const GreyView& im, double share) {
   std::array<long, 256> histogram{};
   for (int v = 0; v < im.height; ++v)
     for (int u = 0; u < im.width; ++u) ++histogram[static_cast<size_t>(im.At(u, v))];
   const double total = static_cast<double>(im.width) * im.height;
-  const auto percentile = [&](double share) {
-    long seen = 0;
-    for (int g = 0; g < 256; ++g)
-      if (static_cast<double>(seen += histogram[static_cast<size_t>(g)]) >= share * total) return g;
-    return 255;
-  };
-  return (percentile(0.02) + percentile(0.98)) / 2.0;
+  long seen = 0;
+  for (int g = 0; g < 256; ++g)
+    if (static_cast<double>(seen += histogram[static_cast<size_t>(g)]) >= share * total) return g;
+  return 255;
+}
+
+double HalfLevel(const GreyView& im) {
+  return (GreyPercentile(im, 0.02) + GreyPercentile(im, 0.98)) / 2.0;
 }
 
 GreyView GreyView::Window(int u0, int v0, int w, int h) const {

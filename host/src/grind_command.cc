@@ -4,6 +4,7 @@
 #include "mlp/grind/grind_job.h"
 #include "mlp/host/cli.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -33,7 +34,8 @@ constexpr const char* kUsage =
     "  per cutting point: good / under-feed / over-feed, d = |Mr - Mi|, the wheel's error and\n"
     "  the compensation vector for the motion controller; the picture: the nominal, each\n"
     "  point's actual contour, its error and compensation (x20)\n"
-    "exit codes: 0 done, 2 bad arguments or files, 3 a point could not be measured (why), 1 bug\n";
+    "exit codes: 0 done, 2 bad arguments or files, 3 a point could not be measured (each\n"
+    "point still reported: the others measured, that one with why), 1 bug\n";
 
 nlohmann::json Pair(const Vec2& v) { return {v.x(), v.y()}; }
 
@@ -112,6 +114,7 @@ void Picture(const std::string& path,
   const cv::Scalar colour[] = {{120, 120, 120}, {200, 80, 0}, {0, 0, 220}};  // good, under, over
   for (size_t i = 0; i < results.size(); ++i) {
     const auto& r = results[i];
+    if (!r.refused.empty()) continue;  // no contour, no vector: the text says why
     for (const Vec2& q : r.contour_mm) cv::circle(img, px(q), 0, cv::Scalar(40, 40, 40), -1);
     const Vec2 mi = job.points[i].mi_mm;
     const cv::Scalar col = colour[static_cast<int>(r.feed)];
@@ -141,8 +144,13 @@ std::vector<grind::PointResult> MeasurePoints(const grind::GrindJob& job,
                                   {after.data(), job.camera.width_px, job.camera.height_px},
                                   pt.c_mm,
                                   pt.mi_mm};
-    results.push_back(
-        grind::MeasurePoint(input, p, job.camera, job.wheel_radius_mm, job.limit_mm, job.bevel));
+    try {  // a point refused is said, and the job's other points are still measured
+      results.push_back(
+          grind::MeasurePoint(input, p, job.camera, job.wheel_radius_mm, job.limit_mm, job.bevel));
+    } catch (const grind::GrindError& e) {
+      results.emplace_back();
+      results.back().refused = e.what();
+    }
   }
   return results;
 }
@@ -150,6 +158,10 @@ std::vector<grind::PointResult> MeasurePoints(const grind::GrindJob& job,
 nlohmann::ordered_json PointsJson(const std::vector<grind::PointResult>& results) {
   nlohmann::ordered_json points = nlohmann::ordered_json::array();
   for (const auto& r : results) {
+    if (!r.refused.empty()) {
+      points.push_back({{"refused", r.refused}});
+      continue;
+    }
     points.push_back({{"feed", grind::ToString(r.feed)},
                       {"d_mm", r.d_mm},
                       {"mr_mm", Pair(r.mr_mm)},
@@ -159,7 +171,13 @@ nlohmann::ordered_json PointsJson(const std::vector<grind::PointResult>& results
                       {"error_mm", r.error_mm},
                       {"wheel_cut", r.wheel_cut},
                       {"edge_points", r.edge_points},
+                      {"left_out", r.left_out},
                       {"nose_radius_mm", r.nose_radius_mm},
+                      {"local_edge", r.local_edge},
+                      {"direction_determined", r.direction_determined},
+                      {"direction_sigma_deg", r.direction_sigma_deg},
+                      {"seed_error_dir", Pair(r.seed_error_dir)},
+                      {"seed_error_mm", r.seed_error_mm},
                       {"compensation_mm", Pair(r.compensation_mm)}});
   }
   return points;
@@ -169,18 +187,25 @@ void PrintPoints(const grind::GrindJob& job,
                  const std::vector<grind::PointResult>& results,
                  std::ostream& out) {
   std::map<std::string, int> counts;
-  for (const auto& r : results) ++counts[grind::ToString(r.feed)];
+  for (const auto& r : results) ++counts[r.refused.empty() ? grind::ToString(r.feed) : "refused"];
   out << std::fixed << "limit e " << std::setprecision(1) << job.limit_mm * 1e3 << " um; "
       << results.size() << " points: " << counts["good"] << " good, " << counts["under-feed"]
-      << " under-feed, " << counts["over-feed"] << " over-feed\n";
+      << " under-feed, " << counts["over-feed"] << " over-feed, " << counts["refused"]
+      << " refused\n";
   for (size_t i = 0; i < results.size(); ++i) {
     const auto& r = results[i];
+    if (!r.refused.empty()) {
+      out << "  " << std::setw(2) << i << "    refused  " << r.refused << "\n";
+      continue;
+    }
     out << "  " << std::setw(2) << i << " " << std::setw(10) << grind::ToString(r.feed) << "  d "
         << std::setw(6) << std::setprecision(2) << r.d_mm * 1e3 << " um";
     if (r.feed == grind::Feed::kUnderFeed)
       out << "  wheel off by " << r.error_mm * 1e3 << " um at "
           << std::atan2(r.error_dir.y(), r.error_dir.x()) * base::kDegPerRad << " deg"
-          << (r.wheel_cut ? "" : " (did not cut)");
+          << (r.wheel_cut ? "" : " (did not cut)")
+          << (r.direction_determined ? ""
+                                     : " (direction not determined to 5 deg: along the normal)");
     if (r.compensation_mm.norm() > 0)
       out << "  compensation (" << r.compensation_mm.x() * 1e3 << ", "
           << r.compensation_mm.y() * 1e3 << ") um";
@@ -196,15 +221,19 @@ int Measure(const std::vector<std::string>& args, std::ostream& out) {
   const std::vector<grind::PointResult> results =
       MeasurePoints(job, p, fs::path(f.Text("--job")).parent_path());
   if (f.Has("--png")) Picture(f.Text("--png"), job, p, results);
+  const bool any_refused =
+      std::any_of(results.begin(), results.end(),
+                  [](const grind::PointResult& r) { return !r.refused.empty(); });
+  const int code = any_refused ? kExitCannotMeasure : kExitOk;
   if (f.Has("--json")) {
     out << nlohmann::ordered_json{{"limit_mm", job.limit_mm}, {"points", PointsJson(results)}}
                .dump()
         << "\n";
-    return kExitOk;
+    return code;
   }
   PrintPoints(job, results, out);
   if (f.Has("--png")) out << "  picture: " << f.Text("--png") << "\n";
-  return kExitOk;
+  return code;
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace mlp::grind {
 namespace {
@@ -38,6 +39,71 @@ double Bilinear(const geometry::GreyView& im, const Vec2& px) {
   const double fu = px.x() - u, fv = px.y() - v;
   return (1 - fv) * ((1 - fu) * im.At(u, v) + fu * im.At(u + 1, v)) +
          fv * ((1 - fu) * im.At(u, v + 1) + fu * im.At(u + 1, v + 1));
+}
+
+// The material's edge along a line by its local contrast (issue 55): the seed's cell takes its
+// frames with the wheel 8 mm above focus, and the nose's blurred shadow dims the back light over
+// the freshly cut surface to about half (an outside renderer: 97 grey where the frame's half
+// level is 108.5), so no global level finds that edge; its step is still sharp. Along
+// p(t) = a + t u (mm, t in [t_from, t_to], material beyond the edge), sampled every quarter
+// pixel: the steepest fall (the difference over +-1 px), the levels either side as straight lines
+// through 3-10 px away from it evaluated there (the shadow's slope), the crossing of their mean
+// nearest it. NaN without a fall of `min_contrast` grey or with the line leaving the image.
+struct LineEdge {
+  double t_mm = std::numeric_limits<double>::quiet_NaN();
+  double contrast = 0.0;  ///< grey levels between the two sides at the edge
+};
+
+LineEdge EdgeAlongLine(const geometry::GreyView& im,
+                       const GrindCamera& cam,
+                       const Vec2& a,
+                       const Vec2& u,
+                       double t_from,
+                       double t_to,
+                       double min_contrast) {
+  const double step = cam.mm_per_px / 4;
+  const int n = static_cast<int>(std::floor((t_to - t_from) / step)) + 1;
+  std::vector<double> g(static_cast<size_t>(std::max(n, 0)));
+  for (int i = 0; i < n; ++i) {
+    const Vec2 px = cam.ToPx(a + (t_from + i * step) * u);
+    if (px.x() < 0 || px.y() < 0 || px.x() >= cam.width_px - 1 || px.y() >= cam.height_px - 1)
+      return {};
+    g[static_cast<size_t>(i)] = Bilinear(im, px);
+  }
+  constexpr int kQ = 4;  // samples a pixel
+  if (n < 2 * 10 * kQ + 1) return {};
+  const auto at = [&g](int i) { return g[static_cast<size_t>(i)]; };
+  int best = -1;
+  double steepest = 0;
+  for (int i = 10 * kQ; i < n - 10 * kQ; ++i) {
+    const double fall = at(i - kQ) - at(i + kQ);  // bright to dark
+    if (fall > steepest) steepest = fall, best = i;
+  }
+  if (best < 0) return {};
+  // A side's level at the edge: a straight line through its samples 3..10 px away.
+  const auto side = [&](int sign) {
+    double st = 0, sg = 0, stt = 0, stg = 0, m = 0;
+    for (int k = 3 * kQ; k <= 10 * kQ; ++k) {
+      const double t = sign * k, v = at(best + sign * k);
+      st += t, sg += v, stt += t * t, stg += t * v, ++m;
+    }
+    const double slope = (m * stg - st * sg) / (m * stt - st * st);
+    return (sg - slope * st) / m;  // at the edge (t = 0)
+  };
+  const double bright = side(-1), dark = side(+1);
+  LineEdge out;
+  out.contrast = bright - dark;
+  if (!(out.contrast >= min_contrast)) return out;
+  const double level = (bright + dark) / 2;
+  double found = std::numeric_limits<double>::quiet_NaN(), nearest = 1e300;
+  for (int i = best - 3 * kQ; i < best + 3 * kQ; ++i) {
+    const double y0 = at(i), y1 = at(i + 1);
+    if (!(y0 >= level && y1 < level)) continue;
+    const double cross = i + (y0 - level) / (y0 - y1);
+    if (std::abs(cross - best) < nearest) nearest = std::abs(cross - best), found = cross;
+  }
+  out.t_mm = t_from + found * step;
+  return out;
 }
 
 // Distance t along u from a (relative to C) back to the wheel's theoretical edge (a - t u on
@@ -119,6 +185,58 @@ void WornNose(const WheelSection& wheel,
   }
 }
 
+// The wheel's shift by least squares over the removed region's edge (issue 55): each point's
+// signed distance to the wheel's edge moved by the shift o is its residual; Gauss-Newton from
+// the smallest spread's shift (numerical gradient of the section's distance), the covariance
+// from the residuals. The seed's smallest spread leans to the normal once the edge carries
+// 0.2-0.5 um of noise (3-15 deg on an outside renderer); least squares does not, but a short
+// arc leaves the shift's part across the normal loose: where its direction's 2-sigma exceeds
+// 5 deg the direction is not determined, and the error is taken along the normal at the size
+// the crossing on C-Mi measured, said so (`direction_determined`).
+constexpr double kDirectionLimitDeg = 5.0;
+
+void ShiftByLeastSquares(const WheelSection& wheel,
+                         const std::vector<Vec2>& edge,
+                         const Vec2& n,
+                         PointResult* res) {
+  Vec2 o = res->error_dir * res->error_mm;
+  constexpr double kH = 1e-5;  // mm, for the gradient
+  Eigen::Matrix2d jtj = Eigen::Matrix2d::Zero();
+  double ss = 0;
+  for (int iter = 0; iter < 6; ++iter) {
+    jtj.setZero();
+    Eigen::Vector2d jtr = Eigen::Vector2d::Zero();
+    ss = 0;
+    for (const Vec2& q : edge) {
+      const Vec2 p = q - o;
+      const double r = wheel.SignedDistanceMm(p);
+      const Vec2 grad(
+          (wheel.SignedDistanceMm(p + Vec2(kH, 0)) - wheel.SignedDistanceMm(p - Vec2(kH, 0))) /
+              (2 * kH),
+          (wheel.SignedDistanceMm(p + Vec2(0, kH)) - wheel.SignedDistanceMm(p - Vec2(0, kH))) /
+              (2 * kH));
+      const Eigen::Vector2d jac = -grad;  // d r / d o
+      jtj += jac * jac.transpose(), jtr += jac * r, ss += r * r;
+    }
+    const Eigen::Vector2d step = jtj.ldlt().solve(-jtr);
+    if (!step.allFinite()) return;  // the smallest spread's answer stands
+    o += step;
+    if (step.norm() < 1e-7) break;
+  }
+  const double dof = std::max(1.0, static_cast<double>(edge.size()) - 2);
+  const Eigen::Matrix2d cov = jtj.inverse() * (ss / dof);
+  const double size = o.norm();
+  if (!(size > 0) || !cov.allFinite()) return;
+  const Vec2 across(-o.y() / size, o.x() / size);
+  res->direction_sigma_deg = std::sqrt(across.dot(cov * across)) / size * base::kDegPerRad;
+  if (2 * res->direction_sigma_deg <= kDirectionLimitDeg) {
+    res->error_dir = o / size, res->error_mm = size;
+    return;
+  }
+  res->direction_determined = false;
+  res->error_dir = n, res->error_mm = res->d_mm;
+}
+
 // The wheel's error found from the removed region's edge must agree with what the crossing on
 // C-Mi measured: the error's part along the normal is the material left there (a shift s of
 // the nose leaves s . n + |s x n|^2 / 2R along the normal; a worn nose, its lost radius), to
@@ -151,30 +269,102 @@ void CheckAgainstCrossing(const PointResult& res, const Vec2& n, double r) {
          "wheel worn beyond 5 % of its radius; not compensated");
 }
 
+// A step of a fifth of the frame's grey range is an edge (the outside renderer's shadowed one
+// is about 40 %, the noise 2-5 grey). Along C-Mi the edge is looked for from this far before
+// Mi (material left: the previous pass's stock and more) to this far beyond it (an over-cut).
+constexpr double kMinContrastShare = 0.2;
+constexpr double kBeforeMiMm = 0.4, kBeyondMiMm = 0.4;
+
+// The material's edge round the nose by local contrast (issue 55, as Mr): rays from C a pixel
+// apart at the nose, within +-1 rad of C-Mi, each searched round where it meets the theoretical
+// wheel's edge, in the after frame and the before; a ray whose edges are not both found is left
+// out.
+struct Ray {
+  Vec2 dir;
+  double after_mm = 0, before_mm = 0;  // from C to the edge
+};
+
+std::vector<Ray> EdgeRays(const PointInput& in,
+                          const GrindCamera& cam,
+                          const WheelSection& wheel,
+                          double min_contrast) {
+  const double toward = std::atan2(in.mi_mm.y() - in.c_mm.y(), in.mi_mm.x() - in.c_mm.x());
+  const double dphi = cam.mm_per_px / wheel.nose_radius_mm();
+  std::vector<Ray> rays;
+  for (double k = -std::floor(1.0 / dphi); k <= std::floor(1.0 / dphi); ++k) {
+    const Vec2 dir(std::cos(toward + k * dphi), std::sin(toward + k * dphi));
+    const std::vector<double> rim = wheel.Crossings(Vec2::Zero(), dir);  // C is inside it
+    if (rim.empty() || !(rim.back() > 0)) continue;
+    const double from = std::max(12 * cam.mm_per_px, rim.back() - kBeforeMiMm);
+    const double to = rim.back() + kBeyondMiMm;
+    const LineEdge after = EdgeAlongLine(in.after, cam, in.c_mm, dir, from, to, min_contrast);
+    const LineEdge before = EdgeAlongLine(in.before, cam, in.c_mm, dir, from, to, min_contrast);
+    if (std::isfinite(after.t_mm) && std::isfinite(before.t_mm))
+      rays.push_back({dir, after.t_mm, before.t_mm});
+  }
+  return rays;
+}
+
+// A droplet or a burr on the edge round the point (issue 55: found, not fitted). Along the rays
+// the after edge is the first material from C: smooth pieces (the stock, each stroke's arc)
+// meeting at corners, the cusps between strokes pointing at the wheel. A cusp is where the
+// pieces either side meet; a droplet (10-30 um: 4-12 rays) or a feather burr (1-3 rays, 60-120
+// um high) stands nearer C than both. So a ray whose edge lies over kBumpMm nearer C than the
+// lines through the rays 8-20 either side both put it shows something on the edge (the edge's
+// noise is 0.2-0.5 um); two such rays, or one over 4 kBumpMm: the point's evidence is
+// spoiled, refused with the reason, never compensated.
+constexpr double kBumpMm = 0.003;
+
+// The straight line through rays [from, to] of `t` (by index), evaluated at `at`.
+double LineAt(const std::vector<double>& t, long from, long to, long at) {
+  double s = 0, sx = 0, sxx = 0, sy = 0, sxy = 0;
+  for (long i = from; i <= to; ++i) {
+    const double x = static_cast<double>(i - at), y = t[static_cast<size_t>(i)];
+    s += 1, sx += x, sxx += x * x, sy += y, sxy += x * y;
+  }
+  const double slope = (s * sxy - sx * sy) / (s * sxx - sx * sx);
+  return (sy - slope * sx) / s;
+}
+
+void RefuseBumps(const std::vector<Ray>& rays) {
+  constexpr long kGap = 8, kFar = 20;
+  std::vector<double> t;
+  t.reserve(rays.size());
+  for (const Ray& r : rays) t.push_back(r.after_mm);
+  int bumped = 0;
+  double worst = 0;
+  for (long i = kFar; i + kFar < static_cast<long>(t.size()); ++i) {
+    const double sides =
+        std::min(LineAt(t, i - kFar, i - kGap, i), LineAt(t, i + kGap, i + kFar, i));
+    const double dip = sides - t[static_cast<size_t>(i)];
+    if (dip > kBumpMm) ++bumped, worst = std::max(worst, dip);
+  }
+  if (bumped >= 2 || worst > 4 * kBumpMm)  // a feather burr is one ray wide, and tall
+    Fail("something stands on the edge round the point (" + std::to_string(bumped) +
+         " rays, up to " + std::to_string(std::lround(worst * 1e3)) +
+         " um nearer the wheel than the contour either side: a droplet or a burr); not "
+         "measured, not compensated");
+}
+
 // Under-feed: where the wheel really was (seed 001, Fig. 4-6), from the removed region's edge.
-void UnderFeed(const PointInput& in,
+void UnderFeed(const std::vector<Ray>& rays,
                const GrindCamera& cam,
                const WheelSection& wheel,
-               const std::vector<Vec2>& pts,
                const Vec2& n,
                double e,
                PointResult* res) {
-  // The removed region's edge: contour points after that were material before: the before
-  // frame there (bilinear, at the point itself) darker than its level by 40 % of the grey
-  // range, about 0.8 px inside the old edge (a point on the untouched stock reads the level).
-  const double before_level = geometry::HalfLevel(in.before) - 0.4 * (cam.bright - cam.dark);
+  // The removed region's edge: where the after frame's edge lies over half a pixel further
+  // from C than the before frame's, the stroke removed material there (near the theoretical
+  // wheel's edge).
   std::vector<Vec2> edge;
-  for (const Vec2& q : pts) {
-    const Vec2 px = cam.ToPx(q);
-    if (px.x() < 0 || px.y() < 0 || px.x() >= cam.width_px - 1 || px.y() >= cam.height_px - 1)
-      continue;
-    if (Bilinear(in.before, px) < before_level &&
-        wheel.SignedDistanceMm(q - in.c_mm) < 4 * e + res->d_mm)
-      edge.push_back(q - in.c_mm);
+  for (const Ray& ray : rays) {
+    if (!(ray.after_mm > ray.before_mm + 0.5 * cam.mm_per_px)) continue;
+    const Vec2 q = ray.dir * ray.after_mm;  // relative to C
+    if (wheel.SignedDistanceMm(q) < 4 * e + res->d_mm) edge.push_back(q);
   }
   res->edge_points = static_cast<int>(edge.size());
-  if (edge.size() < 10) {  // the wheel did not cut: the normal and the excess
-    res->wheel_cut = false;
+  if (edge.size() < 10) {  // the wheel did not cut: the normal and the excess, said so
+    res->wheel_cut = false, res->direction_determined = false;
     res->compensation_mm = -n * res->d_mm;
     return;
   }
@@ -211,7 +401,12 @@ void UnderFeed(const PointInput& in,
   }
   res->error_dir = Vec2(std::cos(best), std::sin(best));
   res->error_mm = best_mean, res->spread_mm = best_spread;
-  if (best_spread > kShiftSpreadMm) WornNose(wheel, edge, n, res);
+  res->seed_error_dir = res->error_dir, res->seed_error_mm = res->error_mm;
+  if (best_spread > kShiftSpreadMm) {
+    WornNose(wheel, edge, n, res);
+  } else {
+    ShiftByLeastSquares(wheel, edge, n, res);
+  }
   CheckAgainstCrossing(*res, n, wheel.nose_radius_mm());
   res->compensation_mm = -res->error_dir * res->error_mm;
 }
@@ -246,20 +441,39 @@ PointResult MeasurePoint(const PointInput& in,
   const Vec2 n = nominal.Closest(in.mi_mm).normal;
   // Within two nose radii: the search reaches a radius beyond C (the seed's cases 1 and 4).
   const std::vector<Vec2> pts = Contour(in.after, cam, in.mi_mm, 2 * r);
-  if (pts.size() < 10) Fail("no contour near Mi");
   PointResult res;
   res.contour_mm = pts;
-  const LineCrossing crossing = FindContourOnLine(pts, in.c_mm, in.mi_mm, cam.mm_per_px);
-  res.search_case = crossing.seed_case, res.search_by_rows = crossing.by_rows;
-  const double t = crossing.t_mm;
   const double ti = (in.mi_mm - in.c_mm).norm();
+  // Mr: the material's edge on C-Mi by its local contrast (a shadowed frame, a steep flank whose
+  // rows cross the other flank: issue 55); the seed's search on the half-level contour gives its
+  // case, and Mr where the line shows no step.
+  const double min_contrast = kMinContrastShare * (geometry::GreyPercentile(in.after, 0.98) -
+                                                   geometry::GreyPercentile(in.after, 0.02));
+  LineEdge on_line =
+      EdgeAlongLine(in.after, cam, in.c_mm, u, std::max(12 * cam.mm_per_px, ti - kBeforeMiMm),
+                    ti + kBeyondMiMm, min_contrast);
+  if (!std::isfinite(on_line.t_mm))  // the whole line, beyond C too (the seed's case 1)
+    on_line = EdgeAlongLine(in.after, cam, in.c_mm, u, -ti, ti + kBeyondMiMm, min_contrast);
+  double t = on_line.t_mm;
+  try {
+    if (pts.size() < 10) Fail("no contour near Mi");
+    const LineCrossing crossing = FindContourOnLine(pts, in.c_mm, in.mi_mm, cam.mm_per_px);
+    res.search_case = crossing.seed_case, res.search_by_rows = crossing.by_rows;
+    if (!std::isfinite(t)) t = crossing.t_mm;
+  } catch (const GrindError&) {
+    if (!std::isfinite(t)) throw;
+    res.search_case = -1;  // the seed's search found nothing: the local edge alone
+  }
+  res.local_edge = std::isfinite(on_line.t_mm);
   res.mr_mm = in.c_mm + t * u;
   res.d_mm = std::abs(t - ti);
   res.feed = res.d_mm <= e ? Feed::kGood : t < ti ? Feed::kUnderFeed : Feed::kOverFeed;
   res.error_dir = n, res.error_mm = res.d_mm;
+  const std::vector<Ray> rays = EdgeRays(in, cam, wheel, min_contrast);
+  RefuseBumps(rays);
   if (res.feed == Feed::kOverFeed) res.compensation_mm = n * (res.d_mm + 2 * e);
   if (res.feed != Feed::kUnderFeed) return res;
-  UnderFeed(in, cam, wheel, pts, n, e, &res);
+  UnderFeed(rays, cam, wheel, n, e, &res);
   return res;
 }
 

@@ -36,6 +36,8 @@ struct GreyView {
 /// percentile grey (a light source ages and a camera's gain drifts, so the level comes from
 /// the image itself, not a constant).
 double HalfLevel(const GreyView& image);
+/// The grey level at or under which `share` of the image's pixels lie (0..255).
+double GreyPercentile(const GreyView& image, double share);
 
 /// Each row's first crossing from below `level` to at or above it, scanning from the left
 /// (column 0): (u, v) with u sub-pixel; a row with no crossing adds nothing. `falling`: the

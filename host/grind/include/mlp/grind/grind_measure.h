@@ -40,7 +40,11 @@ struct PointResult {
   Feed feed = Feed::kGood;
   geometry::Vec2 mr_mm = geometry::Vec2::Zero();  ///< the actual contour on C-Mi
   double d_mm = 0.0;                              ///< |Mr - Mi|
-  int search_case = 0;          ///< the seed's case that found Mr (1..6; 0: one column)
+  /// The seed's case on the half-level contour (1..6; 0: one column; -1: it found nothing, a
+  /// frame whose back light is shadowed there).
+  int search_case = 0;
+  /// Mr from the edge's local contrast along C-Mi (issue 55); false: the seed's search's.
+  bool local_edge = false;
   bool search_by_rows = false;  ///< the rows played the columns' part (a steep contour)
   /// Under-feed: the wheel's error found (unit direction, size); otherwise the normal and d.
   geometry::Vec2 error_dir = geometry::Vec2::UnitY();
@@ -54,8 +58,18 @@ struct PointResult {
   /// The nose's radius when a shift did not explain its arc (spread over 1 um: worn, or not
   /// round) and a circle was fitted through the edge; 0 otherwise.
   double nose_radius_mm = 0.0;
+  /// Under-feed with a shift explaining the arc: the seed's smallest-spread answer (error_dir
+  /// and error_mm are least squares' over the same edge, or the normal and d when that cannot
+  /// fix the direction to 5 deg at 2 sigma: direction_determined false).
+  geometry::Vec2 seed_error_dir = geometry::Vec2::UnitY();
+  double seed_error_mm = 0.0;
+  double direction_sigma_deg = 0.0;  ///< least squares' direction, 1 sigma
+  bool direction_determined = true;
   geometry::Vec2 compensation_mm = geometry::Vec2::Zero();  ///< for the motion controller
   std::vector<geometry::Vec2> contour_mm;  ///< the actual contour near Mi (for pictures)
+  /// Not measured: why (a job's other points still are; set by the job's caller, never by
+  /// MeasurePoint, which throws GrindError).
+  std::string refused;
 };
 
 struct PointInput {
