@@ -15,7 +15,10 @@ measure` is judged on frames it was not tuned to.
   shadow is the nose's disc seen through a cone of light (a disc-pillbox overlap), passing
   `shadow_pass` of the light at the disc's own edge region.
 - Nuisances: a droplet thrown off somewhere in the after frame, a droplet on the freshly cut
-  arc, a feather burr at the end of the cut arc (truth marks the point spoiled).
+  arc, a feather burr standing on the edge near the cut arc's end (truth marks the point
+  spoiled). At first the burr was put on the wheel's arc, which floated it above the contour
+  where the arc did not reach the material (seeds 5500-5523 and 8800-8823 were rendered so, at
+  4e5cf5a); 8830-8853 are the fresh seeds of the mended renderer.
 
 Truth per point: the actual contour on the line C-Mi (first material along it from C), d, the
 class against e, and for under-feed the wheel's error (direction, size).
@@ -248,7 +251,8 @@ def render_case(seed, out_dir):
         extra = None
         spoiled = False
         if j == nuisance_point:
-            extra, spoiled = nuisance(nuisance_kind, rng, c_real, r - wear, mi, n)
+            extra, spoiled = nuisance(nuisance_kind, rng, c_real, r - wear, mi, n,
+                                      (stock_curve, discs))
         b_shadow = wheel_shadow(*(prev_c if prev_c is not None else c_real - 0.1 * t_hat), r, k["cone_r"]) \
             if k["top_of_stroke"] else None
         a_shadow = wheel_shadow(c_real[0], c_real[1], r, k["cone_r"]) if k["top_of_stroke"] else None
@@ -282,7 +286,7 @@ def render_case(seed, out_dir):
                    "profile": cam.parameters, "points": truth}, f, indent=1)
 
 
-def nuisance(kind, rng, c_real, r_real, mi, n):
+def nuisance(kind, rng, c_real, r_real, mi, n, surface):
     """A droplet or a burr in the after frame: (extra for coverage, whether it spoils the point)."""
     if kind == "droplet_off":  # thrown off between frames, somewhere away from the point
         cx, cy = rng.uniform(0.5, W * PX - 0.5), rng.uniform(H * PX * 0.6, H * PX - 0.3)
@@ -295,10 +299,17 @@ def nuisance(kind, rng, c_real, r_real, mi, n):
         rad = rng.uniform(0.01, 0.03)
         cx, cy = p[0] + 0.7 * rad * n[0], p[1] + 0.7 * rad * n[1]
         spoils = True
-    else:  # a feather burr: a 7 um sliver standing off the cut arc's end, 60-120 um long
+    else:  # a feather burr: a 7 um sliver standing on the cut edge near the arc's end, 60-120 um
         ang = 0.12 + rng.uniform(0, 0.05)
         t_hat = np.array([n[1], -n[0]])
-        base = c_real - r_real * (math.cos(ang) * n + math.sin(ang) * t_hat)
+        # Its foot on the material's edge (the first material from the wheel's centre that way),
+        # 1 um into it so that the sliver joins the edge.
+        way = -(math.cos(ang) * n + math.sin(ang) * t_hat)
+        t = np.arange(0.0, r_real + 0.6, 2e-4)
+        xs, ys = c_real[0] + t * way[0], c_real[1] + t * way[1]
+        inside = material(xs, ys, surface[0], surface[1])
+        foot = t[np.argmax(inside)] if inside.any() else r_real
+        base = c_real + (foot + 0.001) * way
         length, thick = rng.uniform(0.06, 0.12), 0.007
 
         def near_b(xs, ys):
