@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <map>
+#include <sstream>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -132,6 +133,20 @@ void Picture(const std::string& path,
   if (!cv::imwrite(path, img)) throw UsageError("cannot write " + path);
 }
 
+// An under-feed larger than the stock the previous pass left (the job's stock_mm) is not this
+// stroke's contour (the outside renderer: 199-462 um at a gouged corner, where no material lay
+// on the line): refused, never compensated.
+void RefuseMoreThanTheStock(const grind::GrindJob& job, grind::PointResult* r) {
+  if (r->feed != grind::Feed::kUnderFeed || !(r->d_mm > job.stock_mm)) return;
+  std::ostringstream why;
+  why << std::fixed << std::setprecision(1) << "grind point: under-feed of " << r->d_mm * 1e3
+      << " um, more than the " << job.stock_mm * 1e3
+      << " um of stock the previous pass left (stock_mm): not this stroke's contour; not "
+         "compensated";
+  *r = grind::PointResult{};
+  r->refused = why.str();
+}
+
 // Each point's before / after images (beside the job file) through the measurement.
 std::vector<grind::PointResult> MeasurePoints(const grind::GrindJob& job,
                                               const geometry::Profile2& p,
@@ -147,6 +162,7 @@ std::vector<grind::PointResult> MeasurePoints(const grind::GrindJob& job,
     try {  // a point refused is said, and the job's other points are still measured
       results.push_back(
           grind::MeasurePoint(input, p, job.camera, job.wheel_radius_mm, job.limit_mm, job.bevel));
+      RefuseMoreThanTheStock(job, &results.back());
     } catch (const grind::GrindError& e) {
       results.emplace_back();
       results.back().refused = e.what();

@@ -465,6 +465,13 @@ PointResult MeasurePoint(const PointInput& in,
     res.search_case = -1;  // the seed's search found nothing: the local edge alone
   }
   res.local_edge = std::isfinite(on_line.t_mm);
+  // Past the window beyond Mi only the whole line's search or the seed's can find an edge, and
+  // on the outside renderer those were not the gouge's (a wheel driven into a sharp corner:
+  // 462 um "under-feed" where no material lay within 0.6 mm): refused, never compensated.
+  if (t > ti + kBeyondMiMm)
+    Fail("the contour on C-Mi lies " + std::to_string(std::lround((t - ti) * 1e3)) +
+         " um beyond Mi, past the " + std::to_string(std::lround(kBeyondMiMm * 1e3)) +
+         " um searched: a gouge deeper than that is not measured; not compensated");
   res.mr_mm = in.c_mm + t * u;
   res.d_mm = std::abs(t - ti);
   res.feed = res.d_mm <= e ? Feed::kGood : t < ti ? Feed::kUnderFeed : Feed::kOverFeed;

@@ -265,8 +265,11 @@ def render_case(seed, out_dir):
         t_mr = first_material_on_line(c, mi, stock_curve, discs,
                                       extra["apply"] if extra is not None else None)
         ti = r
-        d = abs(t_mr - ti)
-        feed = "good" if d <= k["e"] else ("under-feed" if t_mr < ti else "over-feed")
+        if t_mr is None:  # gouged past the search (a sharp concave corner): nothing to measure
+            t_mr, d, feed = ti, float("nan"), "none"
+        else:
+            d = abs(t_mr - ti)
+            feed = "good" if d <= k["e"] else ("under-feed" if t_mr < ti else "over-feed")
         err = c_real - c
         points.append({"before": names[0], "after": names[1], "c_mm": c.tolist(), "mi_mm": mi.tolist()})
         truth.append({"kind": kind, "feed": feed, "d_mm": d, "mr_mm": (c + t_mr * (mi - c) / ti).tolist(),

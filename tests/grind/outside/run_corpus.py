@@ -82,6 +82,10 @@ def one_case(mlp, seed, work):
         got = json.loads(p.stdout)["points"]
     rows = []
     for k, (t, g, pt) in enumerate(zip(truth["points"], got, job["points"])):
+        if t["feed"] == "none":  # no material within 0.6 mm of Mi on C-Mi: refusal expected
+            rows.append({"seed": seed, "point": k, "no_material": True,
+                         "refused_as_expected": "refused" in g})
+            continue
         row = {"seed": seed, "point": k, "truth_feed": t["feed"], "truth_d_um": t["d_mm"] * 1e3,
                "kind": t["kind"], "spoiled": t["spoiled"], "nuisance": t["nuisance"],
                "top_of_stroke": truth["top_of_stroke"], "wheel_r": truth["wheel_radius_mm"]}
@@ -107,6 +111,8 @@ def one_case(mlp, seed, work):
 
 
 def summarise(rows):
+    none = [r for r in rows if r.get("no_material")]
+    rows = [r for r in rows if not r.get("no_material")]
     pts = [r for r in rows if "error" not in r]
     measured = [r for r in pts if "refused" not in r]
     clean = [r for r in measured if not r["spoiled"]]
@@ -132,13 +138,17 @@ def summarise(rows):
         "under-feed directions not determined (along the normal, said): %d" % sum(
             1 for r in clean if r.get("direction_refused")),
         "compensated on a spoiled point: %d" % len(spoiled_comp),
+        "points with no material within 0.6 mm on C-Mi (gouged): %d, refused %d" % (
+            len(none), sum(r["refused_as_expected"] for r in none)),
         "plain baseline (clean points): d error max %.1f um, %d beyond %.1f, %d not found; classes right %d of %d" % (
             base_d.max() if len(base_d) else float("nan"), int((base_d > D_TOL_UM).sum()), D_TOL_UM,
             sum(r["baseline_d_um"] is None for r in base), sum(r["baseline_class_ok"] for r in base), len(base)),
     ]
     measured_ok = (not (d_err > D_TOL_UM).any() and classes_ok == len(clean)
                    and not (dirs > DIR_TOL_DEG).any() and not (sizes > SIZE_TOL_UM).any())
-    return lines, measured_ok, measured_ok and not refused_clean and not spoiled_comp
+    gouged_ok = all(r["refused_as_expected"] for r in none)
+    return lines, measured_ok and gouged_ok, measured_ok and gouged_ok and not refused_clean \
+        and not spoiled_comp
 
 
 def main(argv):
