@@ -237,13 +237,15 @@ TEST(ToolKinds, AChippedCornerIsAnEndFindingWithItsPlace) {
   chipped.edges[1].defects.push_back(chip);
   const MeasuredRun run = RenderAndMeasure(chipped, nominal, FlankCamera(5.0), 45);
   ExpectEdges(chipped, run, 1.5, kEdgeTolMm);
-  // The truth: the dent over the corner's slope (dr/dh), its largest; the arc at the middle.
+  // The truth: the dent normal to the corner's arc (the radial dent over sqrt(1 + (dr/dh)^2);
+  // an end finding's depth is normal to the underside since issue 51, along h it was the
+  // dent over the slope), its largest; the arc at the middle.
   const double h_mid = chip.h_mm + chip.length_mm / 2;
   double deepest_mm = 0;
   for (double h = chip.h_mm; h < chip.h_mm + chip.length_mm; h += 0.0005) {
     const double dent = nominal.EdgeRadius(1, h) - chipped.EdgeRadius(1, h);
     const double slope = (nominal.EdgeRadius(1, h + 1e-4) - nominal.EdgeRadius(1, h - 1e-4)) / 2e-4;
-    deepest_mm = std::max(deepest_mm, dent / slope);
+    deepest_mm = std::max(deepest_mm, dent / std::sqrt(1 + slope * slope));
   }
   int found = 0;
   for (const FluteMeasurement& f : run.m.flutes)
@@ -254,7 +256,7 @@ TEST(ToolKinds, AChippedCornerIsAnEndFindingWithItsPlace) {
       const double y_mid =
           nominal.EdgeRadius(1, h_mid) * std::sin(nominal.EdgeAngle(1, h_mid, turn));
       std::printf(
-          "  end finding at y %.3f (true %.3f), h %.3f mm: %.1f um (dent over slope %.1f)\n",
+          "  end finding at y %.3f (true %.3f), h %.3f mm: %.1f um (dent normal to the arc %.1f)\n",
           d->y_mm, y_mid, d->h_mm, d->max_mm * 1e3, deepest_mm * 1e3);
       EXPECT_TRUE(d->on_end);
       EXPECT_FALSE(d->buildup);

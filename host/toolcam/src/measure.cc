@@ -37,6 +37,12 @@ constexpr double kEndBandMm = 0.05;
 // anywhere along the partly covered end): not flank points.
 constexpr double kEndRowMm = 0.005;
 constexpr double kCornerReachMm = 0.02;
+// A shadow this tall above a column's crossing is the tool's (the largest drop drawn or met
+// in the corpora is 0.08 mm across).
+constexpr double kEndRunMm = 0.12;
+// The underside is fitted this far beyond where the other edges shade it (the fitted turn
+// differs from the first guess by a few tenths of a degree).
+constexpr double kOwnMarginMm = 0.01;
 
 // Pixel -> tool frame, undoing the lens' radial distortion (the camera's calibration).
 
@@ -78,6 +84,7 @@ Outline Mirrored(const Outline& o) {
   Outline m;
   for (const Vec2& p : o.side_neg) m.side.emplace_back(-p.x(), p.y());
   for (const Vec2& p : o.bottom) m.bottom.emplace_back(-p.x(), p.y());
+  for (const Vec2& p : o.bottom_open) m.bottom_open.emplace_back(-p.x(), p.y());
   return m;
 }
 
@@ -132,6 +139,15 @@ struct Model {
       const double t = y[i] > y[i - 1] ? (yq - y[i - 1]) / (y[i] - y[i - 1]) : 1.0;
       return h[i - 1] + t * (h[i] - h[i - 1]);
     }
+    // A height's distance from the underside at y times this is its distance normal to it:
+    // cos of the underside's slope. Along h a steep stretch (a corner's arc turning upright,
+    // the knee where another edge's corner takes over the silhouette) multiplied a few um
+    // across into tens along h: a new torus cutter's end read as 50 um worn.
+    double Normal(double yq) const {
+      constexpr double kSpanMm = 0.002;
+      const double dh_dy = (At(yq + kSpanMm) - At(yq - kSpanMm)) / (2 * kSpanMm);
+      return 1.0 / std::sqrt(1.0 + dh_dy * dh_dy);
+    }
   };
 
   Underside Tabulate(double turn) const {
@@ -155,7 +171,7 @@ struct Model {
       if (f.side)
         f.residual = f.p.x() - (Flank(f.p.y() - x(1), turn) + x(0));
       else
-        f.residual = (under.At(f.p.x() - x(0)) + x(1)) - f.p.y();
+        f.residual = under.Normal(f.p.x() - x(0)) * ((under.At(f.p.x() - x(0)) + x(1)) - f.p.y());
     }
   }
 };
@@ -402,23 +418,29 @@ void Refuse(const FluteView& v,
          ", u(tip) " + um(v.tip_u_mm) + ", limit " + um(kMaxUncertaintyMm) + ")");
 }
 
-// One edge in one principal image against `model`'s edge `edge` (facing the view's side at
-// the reference height when the tool has turned turn0); `o` mirrored for the -y side.
-FluteView MeasureView(const Outline& o,
-                      const ToolDescription& model,
-                      int edge,
-                      double turn0,
-                      int side,
-                      const MeasureOptions& opt,
-                      double pitch_deg,
-                      const std::string& name) {
-  Model m;
-  m.tool = model;
-  m.turn0 = turn0;
-  m.side = side;
-  m.blur = opt.blur_rad;
-  m.tan_pitch = std::tan(pitch_deg / base::kDegPerRad);
-  m.fit_turn = model.helix_deg >= 5.0;  // a straight flute's turn trades with its radius
+// How far across the view's side the other edges (and the web) shade the end's band up to
+// `top_mm` with the tool turned `turn`: beyond it the underside is edge `edge`'s alone.
+double OthersReach(const ToolDescription& model,
+                   int edge,
+                   double turn,
+                   int side,
+                   double top_mm,
+                   double tan_pitch) {
+  ToolDescription others = model;
+  others.edges[static_cast<size_t>(edge)].radial_offset_mm = -2 * model.Radius();  // nowhere
+  double reach = 0;
+  constexpr int kSteps = 8;
+  for (int i = 0; i <= kSteps; ++i) {
+    const ShadowSpans s = others.Shadow(top_mm * i / kSteps, turn, tan_pitch);
+    if (s.count > 0) reach = std::max(reach, side > 0 ? s.hi[s.count - 1] : -s.lo[0]);
+  }
+  return reach;
+}
+
+// The outline's points the view fits: the flank above the end's shape, the underside in the
+// end's band (`open_end`: with the columns light at the top, Outline::bottom_open).
+std::vector<FitPoint> ViewPoints(
+    const Outline& o, const ToolDescription& model, int edge, const Model& m, bool open_end) {
   const double r = model.Radius();
   // Where the end is rounded or pointed the outline is neither upright nor level: the flank
   // above it, the underside below it.
@@ -429,9 +451,39 @@ FluteView MeasureView(const Outline& o,
   // The end and the corner, where the outline is not upright; outside the web, whose end is
   // the longest edge's (a small tool's end shows it, seed 000 example 1): there the facing
   // edge alone makes the underside.
-  for (const Vec2& p : o.bottom)
-    if (p.x() > model.core_ratio * r && p.x() < r - 0.1 * rc && p.y() < 0.7 * rc + kEndBandMm)
-      pts.push_back({p, false});
+  // Nor where another edge shades the end's band: there the longest edge's end is the
+  // underside (a neighbour 6 um longer was read as 5 um of build-up on a new tool).
+  const double band_mm = 0.7 * rc + kEndBandMm;
+  const double own_from =
+      std::max(model.core_ratio * r,
+               OthersReach(model, edge, m.turn0, m.side, band_mm, m.tan_pitch) + kOwnMarginMm);
+  std::vector<const std::vector<Vec2>*> bottoms = {&o.bottom};
+  if (open_end) bottoms.push_back(&o.bottom_open);
+  for (const auto* bottom : bottoms)
+    for (const Vec2& p : *bottom)
+      if (p.x() > own_from && p.x() < r - 0.1 * rc && p.y() < band_mm) pts.push_back({p, false});
+  return pts;
+}
+
+// One edge in one principal image against `model`'s edge `edge` (facing the view's side at
+// the reference height when the tool has turned turn0); `o` mirrored for the -y side.
+FluteView MeasureView(const Outline& o,
+                      const ToolDescription& model,
+                      int edge,
+                      double turn0,
+                      int side,
+                      const MeasureOptions& opt,
+                      double pitch_deg,
+                      const std::string& name,
+                      bool open_end = false) {
+  Model m;
+  m.tool = model;
+  m.turn0 = turn0;
+  m.side = side;
+  m.blur = opt.blur_rad;
+  m.tan_pitch = std::tan(pitch_deg / base::kDegPerRad);
+  m.fit_turn = model.helix_deg >= 5.0;  // a straight flute's turn trades with its radius
+  std::vector<FitPoint> pts = ViewPoints(o, model, edge, m, open_end);
   if (pts.size() < kMinOutlinePoints)
     Fail(name + ": " + std::to_string(pts.size()) +
          " outline points where the model expects the flank and end, under " +
@@ -444,7 +496,7 @@ FluteView MeasureView(const Outline& o,
     v.findings = Classify(&pts, opt);
   }
   const CuttingEdge& e = model.edges[static_cast<size_t>(edge)];
-  v.radius_mm = r + e.radial_offset_mm + x(0);
+  v.radius_mm = model.Radius() + e.radial_offset_mm + x(0);
   v.tip_h_mm = model.TipH(edge) + x(1);
   double ss = 0;
   for (const FitPoint& f : pts) {
@@ -465,7 +517,7 @@ FluteView MeasureView(const Outline& o,
   v.profile = Profile(pts, model, edge);
   // The fitted model's outline: the flank down to the corner, then the underside inwards.
   const double turn = m.turn0 + x(2);
-  for (double h = opt.h_ref_mm + 1.0; h >= 0.3 * rc; h -= 0.01)
+  for (double h = opt.h_ref_mm + 1.0; h >= 0.3 * model.EndHeight(); h -= 0.01)
     v.model_yh.emplace_back(side * (m.Flank(h, turn) + x(0)), h + x(1));
   const auto under = m.Tabulate(turn);
   for (size_t i = under.h.size(); i-- > 0;)
@@ -675,18 +727,87 @@ FluteView PrincipalView(const IndexedImages& x,
   if (k == x.order.size())
     Fail("no image near edge " + std::to_string(e + 1) + " on the " + (side > 0 ? "+y" : "-y") +
          " flank");
-  const size_t i0 = x.order[k];
-  const double offset_deg = PeakOffsetDeg(x, side, k);
-  // The image's turn: the edge at the side (+y: 90 deg, -y: -90 deg) at the reference height.
-  const double turn0 =
-      side * M_PI / 2 - model.EdgeAngle(e, opt.h_ref_mm, 0.0) - offset_deg / base::kDegPerRad;
+  const double peak_deg = x.angle_deg[x.order[k]] + PeakOffsetDeg(x, side, k);
   const std::string name =
       "edge " + std::to_string(e + 1) + " on the " + (side > 0 ? "+y" : "-y") + " flank";
-  FluteView v =
-      MeasureView(x.outlines[SideIndex(side)][i0], model, e, turn0, side, opt, pitch_deg, name);
-  v.frame = static_cast<int>(i0);
-  v.angle_deg = x.angle_deg[i0] + offset_deg;
-  return v;
+  // The principal image, else its neighbours nearest the peak first: a coolant drop or chip
+  // on the edge in one image (the virtual camera's 1.5 a frame put a D1 drill's principal
+  // image 13 of 412 points on the model) leaves the next image, 1/positions of a turn on,
+  // showing the same edge. Only when none of the three fits is the edge refused (the first
+  // image's reason).
+  const size_t n = x.order.size();
+  const double before = base::WrapDeg(peak_deg - x.angle_deg[x.order[(k + n - 1) % n]]);
+  const double after = base::WrapDeg(x.angle_deg[x.order[(k + 1) % n]] - peak_deg);
+  const std::array<size_t, 3> tries = {k, before <= after ? (k + n - 1) % n : (k + 1) % n,
+                                       before <= after ? (k + 1) % n : (k + n - 1) % n};
+  std::string first_reason;
+  for (const size_t kk : tries) {
+    const size_t i0 = x.order[kk];
+    const double offset_deg = base::WrapDeg(peak_deg - x.angle_deg[i0]);
+    // The image's turn: the edge at the side (+y: 90 deg, -y: -90 deg) at the reference height.
+    const double turn0 =
+        side * M_PI / 2 - model.EdgeAngle(e, opt.h_ref_mm, 0.0) - offset_deg / base::kDegPerRad;
+    try {
+      FluteView v =
+          MeasureView(x.outlines[SideIndex(side)][i0], model, e, turn0, side, opt, pitch_deg, name);
+      v.frame = static_cast<int>(i0);
+      v.angle_deg = peak_deg;
+      v.principal = kk == k;
+      return v;
+    } catch (const ToolError& refused) {
+      if (first_reason.empty()) first_reason = refused.what();
+    }
+  }
+  throw ToolError(first_reason);
+}
+
+// A helical flute's end faces the side in another image than its reference height does: the
+// helix turns it h_ref tan(helix) / r on. A worn corner shows only there: in the principal
+// image the end's silhouette is the tooth's back, whose corner the wear has not reached (the
+// outside renderer's D12, 45 deg helix, corner worn to R 0.05: no finding). That image's
+// corner findings join the view's; its fit gives nothing else. Pointed and straight tools
+// show their end in the principal image.
+void AddEndCornerFindings(const IndexedImages& x,
+                          const ToolDescription& model,
+                          int e,
+                          const MeasureOptions& opt,
+                          double pitch_deg,
+                          FluteView* v) {
+  if (model.point_angle_deg > 0 || model.helix_deg < 5.0) return;
+  const double end_deg = v->angle_deg + opt.h_ref_mm * model.HelixTurnPerMm() * base::kDegPerRad;
+  size_t nearest = x.order.front();
+  for (const size_t i : x.order)
+    if (std::abs(base::WrapDeg(x.angle_deg[i] - end_deg)) <
+        std::abs(base::WrapDeg(x.angle_deg[nearest] - end_deg)))
+      nearest = i;
+  if (static_cast<int>(nearest) == v->frame) return;
+  const double turn0 = v->side * M_PI / 2 - model.EdgeAngle(e, opt.h_ref_mm, 0.0) -
+                       base::WrapDeg(v->angle_deg - x.angle_deg[nearest]) / base::kDegPerRad;
+  try {
+    const FluteView end = MeasureView(x.outlines[SideIndex(v->side)][nearest], model, e, turn0,
+                                      v->side, opt, pitch_deg, "the end", true);
+    // Its findings at the corner: the corner's own, or wear long enough to be a finding on
+    // the flank or the end alone that reaches the corner (a corner worn to R 0.06 leaves 0.04
+    // mm of the flank 4 um in).
+    const double reach_mm = kCornerReachMm + kEndRowMm + 0.6 * model.EndHeight();
+    for (Finding fd : end.findings) {
+      const double near_end = fd.h_mm - fd.length_mm / 2 - end.tip_h_mm;
+      const double near_side = end.radius_mm - (std::abs(fd.y_mm) + fd.length_mm / 2);
+      if (!fd.corner && (fd.buildup || (fd.on_end ? near_side : near_end) > reach_mm)) continue;
+      fd.corner = fd.on_end = true;
+      if (fd.y_mm == 0) fd.y_mm = v->side * end.radius_mm;
+      // One place, one finding: a rounded corner's chip the principal image showed already.
+      const auto same_place = [&](const Finding& seen) {
+        return seen.on_end && std::hypot(seen.y_mm - fd.y_mm, seen.h_mm - fd.h_mm) <
+                                  (seen.length_mm + fd.length_mm) / 2;
+      };
+      if (std::none_of(v->findings.begin(), v->findings.end(), same_place))
+        v->findings.push_back(fd);
+    }
+    v->end_frame = static_cast<int>(nearest);
+  } catch (const ToolError&) {
+    v->end_frame = -1;  // a drop there: the corner not examined (said in the view)
+  }
 }
 
 // Flute f (further round from the highest peak) faces a side after edge j0: (j0 - f) mod n.
@@ -721,8 +842,12 @@ std::vector<FluteMeasurement> MeasureFlutes(const IndexedImages& x,
   for (const int e : edges) {
     const double want = x.angle_deg[x.top[0]] + PeakAfterDeg(model, edges[0], e);
     FluteView plus = PrincipalView(x, model, e, 1, want, opt, pitch_deg);
+    AddEndCornerFindings(x, model, e, opt, pitch_deg, &plus);
     std::optional<FluteView> minus;
-    if (x.both) minus = PrincipalView(x, model, e, -1, plus.angle_deg + 180.0, opt, pitch_deg);
+    if (x.both) {
+      minus = PrincipalView(x, model, e, -1, plus.angle_deg + 180.0, opt, pitch_deg);
+      AddEndCornerFindings(x, model, e, opt, pitch_deg, &*minus);
+    }
     flutes.push_back(FromViews(std::move(plus), std::move(minus), e));
   }
   return flutes;
@@ -888,10 +1013,22 @@ Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCamera
   if (axis_u(0) >= 0 || axis_u(c.height_px - 1) >= 0)  // the axis in view: the -y flank too
     for (const Vec2& p : FlankFromAxis(g, level, -1, axis_u))
       o.side_neg.push_back(ToolFromImage(p, c));
+  // The end: each column's first rise out of the shadow from the top. Columns light at the
+  // top apart (Outline::bottom_open), when the shadow above the crossing is at least kEndRunMm
+  // tall: where a helix turns the flank in above the end, the columns under the end's
+  // outermost part are light at the top (a helical tool's worn corner was unseen).
   const geometry::Points2 cols = geometry::ColumnCrossings(g, level);
-  for (Eigen::Index i = 0; i < cols.cols(); ++i)
-    if (g.At(static_cast<int>(cols(0, i)), 0) < level)
+  const int min_run_px = static_cast<int>(std::ceil(kEndRunMm / c.mm_per_px));
+  for (Eigen::Index i = 0; i < cols.cols(); ++i) {
+    const int u = static_cast<int>(cols(0, i));
+    int run = 0;
+    if (g.At(u, 0) >= level)
+      for (int v = static_cast<int>(cols(1, i)); v >= 0 && g.At(u, v) < level; --v) ++run;
+    if (g.At(u, 0) < level)
       o.bottom.push_back(ToolFromImage(cols.col(i), c));
+    else if (run >= min_run_px)
+      o.bottom_open.push_back(ToolFromImage(cols.col(i), c));
+  }
   return o;
 }
 

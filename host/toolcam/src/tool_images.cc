@@ -39,6 +39,12 @@ ToolImages ParseToolImages(const std::string& text, const std::string& where) {
     const auto& s = jf::Object<ToolInputError>(j, "spindle", where);
     im.shift.y_mm = jf::NumberOr<ToolInputError>(s, "y_mm", 0.0, "spindle");
     im.shift.z_mm = jf::NumberOr<ToolInputError>(s, "z_mm", 0.0, "spindle");
+    if (s.contains("direction")) {
+      const std::string d = jf::Text<ToolInputError>(s, "direction", "spindle");
+      if (d != "M3" && d != "M4")
+        throw ToolInputError(where + ": spindle.direction must be M3 or M4");
+      im.m4 = d == "M4";
+    }
   }
   const auto& strobe = jf::Object<ToolInputError>(j, "strobe", where);
   im.positions = jf::Integer<ToolInputError>(strobe, "positions", "strobe");
@@ -50,6 +56,11 @@ ToolImages ParseToolImages(const std::string& text, const std::string& where) {
     im.files.push_back(jf::Text<ToolInputError>(e, "file", "image"));
     im.position.push_back(jf::Integer<ToolInputError>(e, "position", "image"));
   }
+  // The measurement counts the turn clockwise seen from the spindle (M3's way): under M4 the
+  // strobe's position p is the turn's N - p (a position out of range is left to be refused).
+  if (im.m4)
+    for (int& p : im.position)
+      if (p > 0 && p < im.positions) p = im.positions - p;
   return im;
 }
 
@@ -66,7 +77,7 @@ std::string ToolImagesJson(const ToolCameraModel& c,
       {"camera", CameraJson(c)},
       {"strobe",
        {{"rpm", plan.rpm}, {"positions", plan.positions}, {"pulse_width_us", plan.pulse_width_us}}},
-      {"spindle", {{"y_mm", shift.y_mm}, {"z_mm", shift.z_mm}}},
+      {"spindle", {{"y_mm", shift.y_mm}, {"z_mm", shift.z_mm}, {"direction", "M3"}}},
       {"images", images}};
   return manifest.dump(1) + "\n";
 }

@@ -175,6 +175,10 @@ nlohmann::json ViewJson(const FluteView& v) {
   }
   return {{"side", v.side > 0 ? "+y" : "-y"},
           {"image", v.frame},
+          {"principal_image", v.principal},
+          {"end_image", v.end_frame == -2   ? nlohmann::json(v.frame)
+                        : v.end_frame == -1 ? nlohmann::json(nullptr)
+                                            : nlohmann::json(v.end_frame)},
           {"angle_deg", v.angle_deg},
           {"radius_mm", v.radius_mm},
           {"tip_h_mm", v.tip_h_mm},

@@ -72,7 +72,107 @@ void ElectrodeFromSection(const json& j, ToolDescription* t) {
     Fail("an electrode has 4 corners (flutes)");
 }
 
+// The largest y = r sin(t0 + sigma psi) over psi in [0, len], r = r0 - b psi (b >= 0): a piece
+// of a tooth's back. At the piece's ends or inside where dy/dpsi = 0, which lies within
+// atan(b / r) of where a circle's top would (t = pi/2): Newton from there. In closed form no
+// library gives it; four steps reach 1e-12 rad for reliefs under 45 deg.
+double PieceMaxY(double t0, double sigma, double len, double r0, double b) {
+  const auto y = [&](double psi) { return (r0 - b * psi) * std::sin(t0 + sigma * psi); };
+  double best = std::max(y(0.0), y(len));
+  double top = std::remainder(sigma * (M_PI / 2 - t0), 2 * M_PI);  // in [-pi, pi]
+  for (double psi : {top, top + 2 * M_PI}) {
+    if (psi < -1.0 || psi > len + 1.0) continue;
+    for (int i = 0; i < 4; ++i) {
+      const double t = t0 + sigma * psi, r = r0 - b * psi;
+      const double g = sigma * r * std::cos(t) - b * std::sin(t);
+      const double dg = -2 * sigma * b * std::cos(t) - r * std::sin(t);
+      if (dg >= 0) break;  // not near a maximum
+      psi -= g / dg;
+    }
+    if (psi > 0 && psi < len) best = std::max(best, y(psi));
+  }
+  return best;
+}
+
+// Whether sin reaches above `level` anywhere between angles a and a + sigma len.
+bool SinMayExceed(double a, double sigma, double len, double level) {
+  if (level >= 1) return false;
+  const double to_top = std::remainder(sigma * (M_PI / 2 - a), 2 * M_PI);
+  const double top = to_top < 0 ? to_top + 2 * M_PI : to_top;
+  return top <= len || std::sin(a) > level || std::sin(a + sigma * len) > level;
+}
+
+// "right" (the default) or "left": true for left.
+bool Hand(const json& j, const char* field) {
+  if (!j.contains(field)) return false;
+  const std::string hand = jf::Text<ToolInputError>(j, field, "tool");
+  if (hand != "right" && hand != "left") Fail(std::string(field) + " must be right or left");
+  return hand == "left";
+}
+
+// A tooth's back: each field in range, none without a land.
+void ValidateBack(const ToolDescription& t) {
+  if (!(t.land_width_mm >= 0 && t.land_width_mm < t.Radius()) ||
+      !(t.land_relief_deg >= 0 && t.land_relief_deg < 30) ||
+      !(t.clearance_relief_deg >= 0 && t.clearance_relief_deg < 45) ||
+      !(t.body_clearance_mm >= 0 && t.body_clearance_mm < 0.2 * t.Radius()) ||
+      !(t.heel_deg >= 0 && t.heel_deg <= 180 &&
+        (t.heel_deg > 0 ? t.heel_deg : 180.0 / t.flutes) / base::kDegPerRad * t.Radius() >=
+            t.land_width_mm))
+    Fail(
+        "a tooth's back needs land_width_mm in [0, radius), land_relief_deg in [0, 30), "
+        "clearance_relief_deg in [0, 45), body_clearance_mm in [0, 20 % of the radius), heel_deg "
+        "in [0, 180] and past the land");
+  if (t.land_width_mm == 0 &&
+      (t.land_relief_deg != 0 || t.body_clearance_mm != 0 || t.heel_deg != 0))
+    Fail("a tooth's back (relief, body clearance, heel) needs its land_width_mm");
+}
+
 }  // namespace
+
+double ToolDescription::HelixTurnPerMm() const {
+  const double per_mm = std::tan(helix_deg / base::kDegPerRad) / Radius();
+  return left_hand_helix ? per_mm : -per_mm;
+}
+
+void ToolDescription::BackSpan(
+    int k, double edge_rad, double r_edge, double* lo, double* hi) const {
+  const double r_k = Radius() + edges[static_cast<size_t>(k)].radial_offset_mm;
+  const double sigma = left_hand_cut ? 1.0 : -1.0;  // the back trails the edge's motion
+  const double heel = (heel_deg > 0 ? heel_deg : 0.5 * 360.0 / flutes) / base::kDegPerRad;
+  const double top = std::max(r_k, r_edge);
+  const bool up = SinMayExceed(edge_rad, sigma, heel, *hi / top);
+  const bool down = SinMayExceed(edge_rad + M_PI, sigma, heel, -*lo / top);
+  if (!up && !down) return;
+  // The back's radius below r_k: the land (from 0, b = R tan a1), then the body (flat, c) or
+  // the clearance relief; never above the edge's own radius at this height (the end's shape).
+  const double land = std::min(land_width_mm / Radius(), heel);
+  const double a1 = std::tan(land_relief_deg / base::kDegPerRad) * Radius();
+  struct Piece {
+    double from, to, drop, b;
+  };
+  std::array<Piece, 2> pieces{{{0, land, 0, a1}, {land, heel, land * a1, 0}}};
+  if (body_clearance_mm > 0)
+    pieces[1].drop = body_clearance_mm;
+  else
+    pieces[1].b = std::tan(clearance_relief_deg / base::kDegPerRad) * Radius();
+  const double cap_drop = r_k - r_edge;  // drops under this are capped at r_edge
+  for (const Piece& p : pieces) {
+    if (!(p.to > p.from)) continue;
+    // split where r_k - drop meets r_edge: before it the end's shape holds the back at r_edge
+    double split = p.from;
+    if (cap_drop > p.drop)
+      split = p.b > 0 ? std::min(p.to, p.from + (cap_drop - p.drop) / p.b) : p.to;
+    const auto add = [&](double from, double to, double r0, double b) {
+      if (!(to > from) || r0 <= 0) return;
+      const double a = edge_rad + sigma * from;
+      if (up) *hi = std::max(*hi, PieceMaxY(a, sigma, to - from, r0, b));
+      if (down) *lo = std::min(*lo, -PieceMaxY(a + M_PI, sigma, to - from, r0, b));
+    };
+    add(p.from, split, r_edge, 0.0);
+    add(split, p.to, r_k - p.drop - p.b * (split - p.from), p.b);
+  }
+}
 
 double ToolDescription::TipH(int k) const { return -edges[static_cast<size_t>(k)].axial_offset_mm; }
 
@@ -87,7 +187,7 @@ double ToolDescription::EdgeRadius(int k, double h) const {
     r = r_edge - corner_radius_mm + std::sqrt(corner_radius_mm * corner_radius_mm - d * d);
   }
   if (thread_pitch_mm > 0)
-    r -= ThreadDepth(above_tip - thread_pitch_mm * FluteAngle(k) / (2 * M_PI));
+    r -= ThreadDepth(above_tip + thread_pitch_mm * FluteAngle(k) / (2 * M_PI));
   if (point_angle_deg > 0)  // the point's cone, moved with the edge: its radius grows with the
     r = std::min(r, tip_diameter_mm / 2 + e.radial_offset_mm +  // height above the apex
                         above_tip * std::tan(point_angle_deg / 2 / base::kDegPerRad));
@@ -116,7 +216,7 @@ double ToolDescription::EndHeight() const {
 }
 
 double ToolDescription::EdgeAngle(int k, double h, double turn_rad) const {
-  return turn_rad + FluteAngle(k) + h * std::tan(helix_deg / base::kDegPerRad) / Radius();
+  return turn_rad + FluteAngle(k) + h * HelixTurnPerMm();
 }
 
 double ToolDescription::ThreadDepth(double h) const {
@@ -157,6 +257,7 @@ ShadowSpans ToolDescription::Shadow(double h, double turn, double tan_pitch) con
       widest = std::max(widest, r);
       const double y = r * s;
       lo = std::min(lo, y), hi = std::max(hi, y);
+      if (HasBack()) BackSpan(k, EdgeAngle(k, h, turn), r, &lo, &hi);
       any = true;
     }
     const double s_next = s * cs + c * ss;
@@ -247,6 +348,7 @@ void ToolDescription::Validate() const {
     Fail(
         "reference_height_mm must be 0 (the default, 1.5 mm) or above the end's shape and "
         "below flute_length_mm");
+  ValidateBack(*this);
   if (!flute_angles_deg.empty()) {
     if (static_cast<int>(flute_angles_deg.size()) != flutes || flute_angles_deg[0] != 0)
       Fail("flute_angles_deg must list one angle per flute, the first 0");
@@ -299,6 +401,14 @@ ToolDescription ParseTool(const std::string& text) {
   t.thread_pitch_mm = jf::NumberOr<ToolInputError>(j, "thread_pitch_mm", 0.0, "tool");
   t.wear_limit_mm = jf::NumberOr<ToolInputError>(j, "wear_limit_mm", 0.0, "tool");
   t.reference_height_mm = jf::NumberOr<ToolInputError>(j, "reference_height_mm", 0.0, "tool");
+  t.left_hand_helix = Hand(j, "helix_hand");
+  t.left_hand_cut = Hand(j, "cut");
+  t.land_width_mm = jf::NumberOr<ToolInputError>(j, "land_width_mm", 0.0, "tool");
+  t.land_relief_deg = jf::NumberOr<ToolInputError>(j, "land_relief_deg", 0.0, "tool");
+  t.clearance_relief_deg =
+      jf::NumberOr<ToolInputError>(j, "clearance_relief_deg", t.clearance_relief_deg, "tool");
+  t.body_clearance_mm = jf::NumberOr<ToolInputError>(j, "body_clearance_mm", 0.0, "tool");
+  t.heel_deg = jf::NumberOr<ToolInputError>(j, "heel_deg", 0.0, "tool");
   if (j.contains("flute_angles_deg") && !electrode) {
     if (!j.at("flute_angles_deg").is_array()) Fail("flute_angles_deg must be an array");
     for (const json& a : j.at("flute_angles_deg")) {
@@ -364,6 +474,16 @@ std::string ToJson(const ToolDescription& t) {
   if (t.thread_pitch_mm > 0) with["thread_pitch_mm"] = t.thread_pitch_mm;
   if (t.wear_limit_mm > 0) with["wear_limit_mm"] = t.wear_limit_mm;
   if (t.reference_height_mm > 0) with["reference_height_mm"] = t.reference_height_mm;
+  if (t.left_hand_helix) with["helix_hand"] = "left";
+  if (t.left_hand_cut) with["cut"] = "left";
+  if (t.HasBack()) {
+    with["land_width_mm"] = t.land_width_mm, with["land_relief_deg"] = t.land_relief_deg;
+    if (t.body_clearance_mm > 0)
+      with["body_clearance_mm"] = t.body_clearance_mm;
+    else
+      with["clearance_relief_deg"] = t.clearance_relief_deg;
+    if (t.heel_deg > 0) with["heel_deg"] = t.heel_deg;
+  }
   if (!t.flute_angles_deg.empty() && !t.electrode) with["flute_angles_deg"] = t.flute_angles_deg;
   if (t.electrode) with["section_mm"] = {t.section_mm[0], t.section_mm[1]};
   if (!t.blades.empty()) {

@@ -26,6 +26,10 @@ namespace mlp::toolcam {
 /// the columns (the end).
 struct Outline {
   std::vector<geometry::Vec2> side, side_neg, bottom;
+  /// The end under columns light at the top, below a shadow at least 0.12 mm tall: where a
+  /// helix turns the flank in above the end (a helical flute's corner, examined in the image
+  /// where the end faces the side). Apart: a drop on the flank makes such columns too.
+  std::vector<geometry::Vec2> bottom_open;
 };
 
 /// Sub-pixel outline of one frame, undistorted and mapped with the camera's calibration.
@@ -90,7 +94,13 @@ struct Finding {
 /// spindle axis in view, on the -y flank (-1; measured mirrored, figures as the edge's own).
 struct FluteView {
   int side = 1;
-  int frame = 0;           ///< the image (index into the frames given)
+  int frame = 0;  ///< the image (index into the frames given)
+  /// Measured in the image nearest the edge's peak; false: in a neighbour, the nearest refused
+  /// (a drop or chip on the edge there).
+  bool principal = true;
+  /// A helical flute's end examined for corner wear in this image (where the end faces the
+  /// side); -1: that image refused (the corner not examined); -2: its own image.
+  int end_frame = -2;
   double angle_deg = 0.0;  ///< where its extreme lies in the images' angular order
   double radius_mm = 0.0;  ///< the edge's distance from the calibrated axis
   double tip_h_mm = 0.0;   ///< its tip above the nominal tip (negative: longer)

@@ -15,6 +15,9 @@ struct ToolImages {
   ToolCameraModel camera;
   bool calibrated = false;  ///< the manifest holds the camera's calibration (axis and tip)
   SpindleShift shift;
+  /// The spindle turned M4 (counterclockwise seen from the spindle) for the images; `position`
+  /// is then already counted the measurement's way (M3's: N - p).
+  bool m4 = false;
   int positions = 0;               ///< strobe positions per turn
   double blur_rad = 0;             ///< the tool's turn during a pulse
   std::vector<std::string> files;  ///< relative to the manifest's folder

@@ -82,6 +82,22 @@ struct ToolDescription {
   /// its flute angle / 360 of a pitch higher than edge 0's. 0: no thread.
   double thread_pitch_mm = 0.0;
   double helix_deg = 0.0;
+  /// The helix' hand (`helix_hand`): right, the usual (an edge winds counterclockwise seen
+  /// from the spindle as it rises, as a right-hand thread), or left.
+  bool left_hand_helix = false;
+  /// The cutting hand (`cut`): right, the usual (cuts turning M3, clockwise seen from the
+  /// spindle: each tooth's back trails its edge counterclockwise), or left.
+  bool left_hand_cut = false;
+  /// Each tooth's back, trailing its cutting edge (issue 51; what a silhouette shows beside the
+  /// edge as the tool turns): a land of this width along the circle at its relief angle below
+  /// the edge's circle, then a body clearance (a drill's body behind its margin, this far
+  /// under the radius, flat) or a clearance relief at its angle, to the heel this far round
+  /// from the edge; then the flute to the web. land_width_mm 0: a blade (no back drawn).
+  double land_width_mm = 0.0;
+  double land_relief_deg = 0.0;
+  double clearance_relief_deg = 20.0;
+  double body_clearance_mm = 0.0;
+  double heel_deg = 0.0;  ///< 0: half the smallest pitch
   double flute_length_mm = 0.0;
   /// The web between the flutes: a cylinder of this share of the radius.
   double core_ratio = 0.55;
@@ -117,6 +133,10 @@ struct ToolDescription {
   double reference_height_mm = 0.0;
 
   double Radius() const { return diameter_mm / 2; }
+  bool HasBack() const { return land_width_mm > 0; }
+  /// The helix' turn per mm of height in the model's angle (clockwise seen from the spindle:
+  /// the way M3 turns the tool) [rad/mm].
+  double HelixTurnPerMm() const;
   /// Flute k's angle about z from flute 0 [rad].
   double FluteAngle(int k) const;
   bool EqualPitch() const { return flute_angles_deg.empty(); }
@@ -144,6 +164,9 @@ struct ToolDescription {
 
  private:
   double ThreadDepth(double h_mm) const;  ///< below the crest, h from edge 0's crest
+  /// Edge k's back at angle `edge_rad` with the edge's radius `r_edge` at this height: widens
+  /// [lo, hi] to what the back shades.
+  void BackSpan(int k, double edge_rad, double r_edge, double* lo, double* hi) const;
   double PinHalfWidth(double h_mm, double tan_pitch) const;
   double StylusHalfWidth(double h_mm) const;
   ShadowSpans PinShadow(double h_mm, double turn_rad, double tan_pitch) const;
