@@ -3,6 +3,7 @@
 // back's outline; the hands of helix and cut and the spindle's direction as the files state
 // them; the files' checks.
 
+#include "mlp/toolcam/measure.h"
 #include "mlp/toolcam/tool_images.h"
 #include "mlp/toolcam/tool_model.h"
 
@@ -10,6 +11,8 @@
 #include <cmath>
 #include <string>
 
+#include "test_data.h"
+#include "tool_runs.h"
 #include <gtest/gtest.h>
 
 namespace mlp::toolcam {
@@ -117,6 +120,26 @@ TEST(ToolBack, HelixHandAndSpindleDirectionAsTheFilesSayThem) {
   std::string bad = manifest;
   bad.replace(bad.find("M4"), 2, "CW");
   EXPECT_THROW(ParseToolImages(bad, "test"), ToolInputError);
+}
+
+// The winding the images show against the hand the tool file states: a right-hand D10 (helix
+// 30 deg) said to be left-hand, or its series said to turn M4, is refused as bad input; as
+// stated it is measured. (A wrong hand left radius and length alone; it sent the end's corner
+// examination to the wrong image.)
+TEST(ToolBack, AHelixStatedTheWrongWayIsRefused) {
+  ToolDescription tool =
+      LoadTool(mlp::test::SourceDir() + "/samples/tools/endmill_d10_z4_new.json");
+  const test::RenderedSeries s = test::RenderSeries(tool, test::FlankCamera(5.0), 11);
+  const auto measure = [&](const ToolDescription& nominal, const std::vector<int>& positions) {
+    return MeasureTool(s.frames, positions, s.position_count, nominal, test::FlankCamera(5.0));
+  };
+  EXPECT_NO_THROW(measure(tool, s.positions));
+  ToolDescription said_left = tool;
+  said_left.left_hand_helix = true;
+  EXPECT_THROW(measure(said_left, s.positions), ToolInputError);
+  std::vector<int> as_m4 = s.positions;  // what ParseToolImages makes of "direction": "M4"
+  for (int& p : as_m4) p = (s.position_count - p) % s.position_count;
+  EXPECT_THROW(measure(tool, as_m4), ToolInputError);
 }
 
 TEST(ToolBack, TheFilesChecksNameTheField) {

@@ -7,8 +7,10 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <iomanip>
 #include <limits>
 #include <map>
+#include <sstream>
 
 #include <Eigen/Dense>
 
@@ -43,6 +45,8 @@ constexpr double kEndRunMm = 0.12;
 // The underside is fitted this far beyond where the other edges shade it (the fitted turn
 // differs from the first guess by a few tenths of a degree).
 constexpr double kOwnMarginMm = 0.01;
+// How far above (else below) the reference height the helix' winding is checked.
+constexpr double kWindingRiseMm = 0.6;
 
 // Pixel -> tool frame, undoing the lens' radial distortion (the camera's calibration).
 
@@ -1042,6 +1046,66 @@ double SmallestPitchDeg(const ToolDescription& t) {
   return t.flutes > 1 ? pitch : 360.0;
 }
 
+// Where the +y flank's highest peak lies in `ref` (an extreme per image) [deg]: the best image
+// within `half_deg` of `near_deg` (any: NaN) and a parabola through it and its neighbours.
+double PeakDeg(const IndexedImages& x,
+               const std::vector<double>& ref,
+               double near_deg,
+               double half_deg) {
+  const size_t n = x.order.size();
+  size_t best = n;
+  for (size_t k = 0; k < n; ++k) {
+    const size_t i = x.order[k];
+    if (std::isfinite(ref[i]) &&
+        (std::isnan(near_deg) || std::abs(base::WrapDeg(x.angle_deg[i] - near_deg)) <= half_deg) &&
+        (best == n || ref[i] > ref[x.order[best]]))
+      best = k;
+  }
+  if (best == n) return std::nan("");
+  const double ym = ref[x.order[(best + n - 1) % n]], y0 = ref[x.order[best]],
+               yp = ref[x.order[(best + 1) % n]];
+  const double curve = ym - 2 * y0 + yp;
+  const double offset =
+      std::isfinite(curve) && curve < 0 ? x.step_deg * (ym - yp) / (2 * curve) : 0.0;
+  return x.angle_deg[x.order[best]] + offset;
+}
+
+// The helix' winding in the images against what the files say (`helix_hand`, and the series'
+// `spindle.direction` through the positions): an edge facing +y at the reference height faces
+// it at h + dh a turn of -dh k later (k: HelixTurnPerMm). A peak that moves the other way by at
+// least half that is a hand or a direction stated wrong, which the flank's fit does not show
+// (on the outside corpus a wrong hand left radius and length within 0.3 um) but sends the
+// end's corner examination to the wrong image: refused as bad input. Under 2 deg of expected
+// move, or no second height in view, not checked.
+void CheckHelixWinding(const IndexedImages& x, const ToolDescription& tool, MeasureOptions opt) {
+  if (tool.helix_deg < 5.0 || tool.electrode || tool.pin || tool.stylus) return;
+  const double k = tool.HelixTurnPerMm(), h0 = opt.h_ref_mm;
+  const double peak0 = PeakDeg(x, x.ref[0], std::nan(""), 0.0);
+  const double half_deg = 0.5 * SmallestPitchDeg(tool);
+  // a rise that turns the edge ~14 deg at most: a small drill's helix turns it 40 deg in 0.6 mm
+  const double rise = std::min(kWindingRiseMm, 0.25 / std::abs(k));
+  for (const double dh : {rise, -rise}) {
+    if (h0 + dh < tool.EndHeight() + opt.band_mm || h0 + dh > tool.flute_length_mm - opt.band_mm)
+      continue;
+    const double expected_deg = -dh * k * base::kDegPerRad;
+    if (std::abs(expected_deg) < 2.0) return;
+    opt.h_ref_mm = h0 + dh;
+    std::vector<double> ref;
+    for (const Outline& o : x.outlines[0]) ref.push_back(ReferenceY(o.side, opt));
+    const double moved_deg = base::WrapDeg(PeakDeg(x, ref, peak0, half_deg) - peak0);
+    if (!std::isfinite(moved_deg)) continue;  // the second height out of view
+    if (moved_deg * expected_deg < 0 && std::abs(moved_deg) >= 0.5 * std::abs(expected_deg)) {
+      std::ostringstream msg;
+      msg << std::fixed << std::setprecision(1) << "the flutes wind the other way in the images "
+          << "than the tool's helix_hand (" << (tool.left_hand_helix ? "left" : "right")
+          << ") and the series' spindle.direction say: the +y flank's peak moves " << moved_deg
+          << " deg from h " << h0 << " to " << h0 + dh << " mm, " << expected_deg << " expected";
+      Bad(msg.str());
+    }
+    return;
+  }
+}
+
 // A series that can index every flute: 3 images a flute, positions within the plan, no gap in
 // the turn wider than half the smallest pitch (else a flute's peak may fall where no image
 // is, and the nearest image's flank is measured as the edge's); and a reference height above
@@ -1126,6 +1190,7 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
   // named an electrode's corners).
   t.flutes =
       MeasureFlutes(x, Ground(nominal), EdgesFrom(j_pitch, nominal.flutes), opt, camera.pitch_deg);
+  CheckHelixWinding(x, nominal, opt);  // once the images show the tool's flutes
   const bool chuck_named = nominal.electrode && opt.start_turn_deg.has_value();
   if (IsReference(nominal))
     t.flutes = MeasureFlutes(
