@@ -599,10 +599,12 @@ double HalfPitchDeg(const ToolDescription& t, int e) {
   return 0.5 * std::min(PeakAfterDeg(t, (e + 1) % n, e), PeakAfterDeg(t, e, (e + n - 1) % n));
 }
 
-// The image (position k in angular order) with the highest reference extreme of `side` within
-// `half_deg` of `want_deg`; order.size() when there is none.
-size_t PeakImage(const IndexedImages& x, int side, double want_deg, double half_deg) {
-  const std::vector<double>& ref = x.ref[SideIndex(side)];
+// The image (position k in angular order) with the highest extreme in `ref` (one per image)
+// within `half_deg` of `want_deg`; order.size() when there is none.
+size_t PeakImage(const IndexedImages& x,
+                 const std::vector<double>& ref,
+                 double want_deg,
+                 double half_deg) {
   size_t k_best = x.order.size();
   for (size_t k = 0; k < x.order.size(); ++k) {
     const size_t i = x.order[k];
@@ -613,14 +615,26 @@ size_t PeakImage(const IndexedImages& x, int side, double want_deg, double half_
   return k_best;
 }
 
-// The extreme's offset from image k (in angular order) on `side` [deg]: a parabola through
-// it and its neighbours places the peak between images.
-double PeakOffsetDeg(const IndexedImages& x, int side, size_t k) {
-  const std::vector<double>& ref = x.ref[SideIndex(side)];
+// The extreme's offset from image k (in angular order) in `ref` [deg]: a parabola through it
+// and its neighbours places the peak between images.
+double PeakOffsetDeg(const IndexedImages& x, const std::vector<double>& ref, size_t k) {
   const size_t n = x.order.size();
   const double ym = ref[x.order[(k + n - 1) % n]], yp = ref[x.order[(k + 1) % n]];
   const double curve = ym - 2 * ref[x.order[k]] + yp;
   return std::isfinite(curve) && curve < 0 ? x.step_deg * (ym - yp) / (2 * curve) : 0.0;
+}
+
+// The edge's turn in image i when its extreme on `side` lies at `peak_deg`: the edge at the
+// side (+y: 90 deg, -y: -90 deg) at the reference height.
+double TurnInImage(const IndexedImages& x,
+                   const ToolDescription& model,
+                   int e,
+                   int side,
+                   const MeasureOptions& opt,
+                   double peak_deg,
+                   size_t i) {
+  return side * M_PI / 2 - model.EdgeAngle(e, opt.h_ref_mm, 0.0) -
+         base::WrapDeg(peak_deg - x.angle_deg[i]) / base::kDegPerRad;
 }
 
 // Which edge faces `side` at its highest peak: with unequal pitch the one whose pitches, laid
@@ -632,7 +646,7 @@ int TopEdge(const IndexedImages& x, const ToolDescription& t, int side) {
   const size_t top = x.top[SideIndex(side)];
   size_t k_top = 0;
   while (x.order[k_top] != top) ++k_top;
-  const double top_deg = x.angle_deg[top] + PeakOffsetDeg(x, side, k_top);
+  const double top_deg = x.angle_deg[top] + PeakOffsetDeg(x, x.ref[SideIndex(side)], k_top);
   int best_j = 0;
   double best = 1e300;
   for (int j = 0; j < n; ++j) {
@@ -640,10 +654,10 @@ int TopEdge(const IndexedImages& x, const ToolDescription& t, int side) {
     for (int f = 0; f < n; ++f) {
       const int e = ((j - f) % n + n) % n;
       const double want = top_deg + PeakAfterDeg(t, j, e);
-      const size_t k = PeakImage(x, side, want, HalfPitchDeg(t, e));
-      const double found = k < x.order.size()
-                               ? x.angle_deg[x.order[k]] + PeakOffsetDeg(x, side, k)
-                               : want + HalfPitchDeg(t, e);  // none: as far as it may be
+      const size_t k = PeakImage(x, x.ref[SideIndex(side)], want, HalfPitchDeg(t, e));
+      const double found =
+          k < x.order.size() ? x.angle_deg[x.order[k]] + PeakOffsetDeg(x, x.ref[SideIndex(side)], k)
+                             : want + HalfPitchDeg(t, e);  // none: as far as it may be
       cost += std::pow(base::WrapDeg(found - want), 2);
     }
     if (cost < best) best = cost, best_j = j;
@@ -727,11 +741,11 @@ FluteView PrincipalView(const IndexedImages& x,
                         double want_deg,
                         const MeasureOptions& opt,
                         double pitch_deg) {
-  const size_t k = PeakImage(x, side, want_deg, HalfPitchDeg(model, e));
+  const size_t k = PeakImage(x, x.ref[SideIndex(side)], want_deg, HalfPitchDeg(model, e));
   if (k == x.order.size())
     Fail("no image near edge " + std::to_string(e + 1) + " on the " + (side > 0 ? "+y" : "-y") +
          " flank");
-  const double peak_deg = x.angle_deg[x.order[k]] + PeakOffsetDeg(x, side, k);
+  const double peak_deg = x.angle_deg[x.order[k]] + PeakOffsetDeg(x, x.ref[SideIndex(side)], k);
   const std::string name =
       "edge " + std::to_string(e + 1) + " on the " + (side > 0 ? "+y" : "-y") + " flank";
   // The principal image, else its neighbours nearest the peak first: a coolant drop or chip
@@ -747,10 +761,7 @@ FluteView PrincipalView(const IndexedImages& x,
   std::string first_reason;
   for (const size_t kk : tries) {
     const size_t i0 = x.order[kk];
-    const double offset_deg = base::WrapDeg(peak_deg - x.angle_deg[i0]);
-    // The image's turn: the edge at the side (+y: 90 deg, -y: -90 deg) at the reference height.
-    const double turn0 =
-        side * M_PI / 2 - model.EdgeAngle(e, opt.h_ref_mm, 0.0) - offset_deg / base::kDegPerRad;
+    const double turn0 = TurnInImage(x, model, e, side, opt, peak_deg, i0);
     try {
       FluteView v =
           MeasureView(x.outlines[SideIndex(side)][i0], model, e, turn0, side, opt, pitch_deg, name);
@@ -785,8 +796,7 @@ void AddEndCornerFindings(const IndexedImages& x,
         std::abs(base::WrapDeg(x.angle_deg[nearest] - end_deg)))
       nearest = i;
   if (static_cast<int>(nearest) == v->frame) return;
-  const double turn0 = v->side * M_PI / 2 - model.EdgeAngle(e, opt.h_ref_mm, 0.0) -
-                       base::WrapDeg(v->angle_deg - x.angle_deg[nearest]) / base::kDegPerRad;
+  const double turn0 = TurnInImage(x, model, e, v->side, opt, v->angle_deg, nearest);
   try {
     const FluteView end = MeasureView(x.outlines[SideIndex(v->side)][nearest], model, e, turn0,
                                       v->side, opt, pitch_deg, "the end", true);
@@ -1046,28 +1056,14 @@ double SmallestPitchDeg(const ToolDescription& t) {
   return t.flutes > 1 ? pitch : 360.0;
 }
 
-// Where the +y flank's highest peak lies in `ref` (an extreme per image) [deg]: the best image
-// within `half_deg` of `near_deg` (any: NaN) and a parabola through it and its neighbours.
+// Where the highest peak in `ref` (an extreme per image) lies within `half_deg` of
+// `near_deg` [deg], between images; NaN: none.
 double PeakDeg(const IndexedImages& x,
                const std::vector<double>& ref,
                double near_deg,
                double half_deg) {
-  const size_t n = x.order.size();
-  size_t best = n;
-  for (size_t k = 0; k < n; ++k) {
-    const size_t i = x.order[k];
-    if (std::isfinite(ref[i]) &&
-        (std::isnan(near_deg) || std::abs(base::WrapDeg(x.angle_deg[i] - near_deg)) <= half_deg) &&
-        (best == n || ref[i] > ref[x.order[best]]))
-      best = k;
-  }
-  if (best == n) return std::nan("");
-  const double ym = ref[x.order[(best + n - 1) % n]], y0 = ref[x.order[best]],
-               yp = ref[x.order[(best + 1) % n]];
-  const double curve = ym - 2 * y0 + yp;
-  const double offset =
-      std::isfinite(curve) && curve < 0 ? x.step_deg * (ym - yp) / (2 * curve) : 0.0;
-  return x.angle_deg[x.order[best]] + offset;
+  const size_t k = PeakImage(x, ref, near_deg, half_deg);
+  return k == x.order.size() ? std::nan("") : x.angle_deg[x.order[k]] + PeakOffsetDeg(x, ref, k);
 }
 
 // The helix' winding in the images against what the files say (`helix_hand`, and the series'
@@ -1080,7 +1076,7 @@ double PeakDeg(const IndexedImages& x,
 void CheckHelixWinding(const IndexedImages& x, const ToolDescription& tool, MeasureOptions opt) {
   if (tool.helix_deg < 5.0 || tool.electrode || tool.pin || tool.stylus) return;
   const double k = tool.HelixTurnPerMm(), h0 = opt.h_ref_mm;
-  const double peak0 = PeakDeg(x, x.ref[0], std::nan(""), 0.0);
+  const double peak0 = PeakDeg(x, x.ref[0], 0.0, 180.0);  // anywhere
   const double half_deg = 0.5 * SmallestPitchDeg(tool);
   // a rise that turns the edge ~14 deg at most: a small drill's helix turns it 40 deg in 0.6 mm
   const double rise = std::min(kWindingRiseMm, 0.25 / std::abs(k));
