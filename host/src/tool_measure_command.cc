@@ -35,12 +35,8 @@ constexpr double kPitchWarnDeg = 0.5;
 // Tool frame -> pixel, through the lens' distortion (the inverse of the measurement's mapping
 // to first order: enough to draw).
 cv::Point2d ToPixel(const geometry::Vec2& yh, const toolcam::ToolCameraModel& c) {
-  const geometry::Vec2 ideal = c.PixelFromTool(yh);
-  const double u = ideal.x(), v = ideal.y();
-  const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
-  const double rho2 = ((u - cx) * (u - cx) + (v - cy) * (v - cy)) / (cx * cx + cy * cy);
-  return {cx + (u - cx) * (1 + c.distortion_k1 * rho2),
-          cy + (v - cy) * (1 + c.distortion_k1 * rho2)};
+  const geometry::Vec2 px = c.Distorted(c.PixelFromTool(yh));
+  return {px.x(), px.y()};
 }
 
 // One view's tile: its image, the fitted model in green, contamination yellow, wear blue,
@@ -198,7 +194,8 @@ int MeasureTwoViews(const Args& f,
   for (size_t k = before; k < warnings->size(); ++k)
     err << "mlp tool: warning: " << (*warnings)[k] << "\n";
   const toolcam::ToolIn3d t = toolcam::MeasureToolFromTwoViews(
-      a, {im.pixels, im.position, im.positions, camera}, tool, mount, options);
+      a, {im.pixels, im.position, im.positions, camera, &im.angle_deg, &im.image_blur_rad}, tool,
+      mount, options);
   if (!f.Text("--overlay", "").empty())
     WriteOverlay(f.Text("--overlay", ""), {a.frames, a.camera}, {a.frames, a.camera}, t.a);
   if (f.Has("--json")) {
@@ -251,16 +248,16 @@ int Measure(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (!(std::abs(*options.start_turn_deg) <= 360))
       throw UsageError("--start-turn-deg must be in [-360, 360]");
   }
-  if (f.Has("--second-view"))
-    return MeasureTwoViews(f, tool, {im.pixels, im.position, im.positions, camera}, options,
-                           &warnings, out, err);
+  const toolcam::ToolSeries series{im.pixels, im.position,   im.positions,
+                                   camera,    &im.angle_deg, &im.image_blur_rad};
+  if (f.Has("--second-view")) return MeasureTwoViews(f, tool, series, options, &warnings, out, err);
   const toolcam::ToolMeasurement m =
-      other.empty()
-          ? toolcam::MeasureTool(im.pixels, im.position, im.positions, tool, camera, options)
-          : toolcam::MeasureToolBothSides(
-                {im.pixels, im.position, im.positions, camera},
-                {im_other.pixels, im_other.position, im_other.positions, camera_other}, tool,
-                options);
+      other.empty() ? toolcam::MeasureTool(series, tool, options)
+                    : toolcam::MeasureToolBothSides(
+                          series,
+                          {im_other.pixels, im_other.position, im_other.positions, camera_other,
+                           &im_other.angle_deg, &im_other.image_blur_rad},
+                          tool, options);
   if (!f.Text("--overlay", "").empty())
     WriteOverlay(f.Text("--overlay", ""), {im.pixels, camera},
                  other.empty() ? Shown{im.pixels, camera} : Shown{im_other.pixels, camera_other},

@@ -295,6 +295,8 @@ TEST(ToolKinds, DescriptionsRoundTripAndBadOnesAreRefusedByField) {
       {R"("tip_diameter_mm": 0.5)", "tip_diameter_mm"},
       {R"("point_angle_deg": 30, "tip_diameter_mm": 2)", "tip_diameter_mm"},
       {R"("thread_pitch_mm": -0.4)", "thread_pitch_mm"},
+      // a tap's land carries its thread round the back: not modelled, refused (issue 51)
+      {R"("thread_pitch_mm": 0.4, "land_width_mm": 0.3)", "tap's land"},
       {R"("wear_limit_mm": 0.5)", "wear_limit_mm"}};
   for (const auto& [fields, named] : bad) {
     try {

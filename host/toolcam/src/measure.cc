@@ -553,12 +553,27 @@ struct IndexedImages {
   std::vector<double> ref[2];
   std::vector<size_t> order;
   std::vector<double> angle_deg;
+  std::vector<double> blur_rad;  ///< each image's pulse
   size_t top[2] = {0, 0};
-  double step_deg = 0;
   bool both = false;  ///< the -y flank shows at the reference height in enough images
 };
 
 int SideIndex(int side) { return side > 0 ? 0 : 1; }
+
+// Each frame's angle [deg]: measured where the series has it, else its strobe position's.
+std::vector<double> SeriesAnglesDeg(const ToolSeries& s) {
+  if (s.angle_deg != nullptr && !s.angle_deg->empty()) return *s.angle_deg;
+  std::vector<double> deg;
+  for (int p : s.positions) deg.push_back(p * 360.0 / s.position_count);
+  return deg;
+}
+
+// The options for a view in image i: its own pulse.
+MeasureOptions InImage(const IndexedImages& x, size_t i, const MeasureOptions& opt) {
+  MeasureOptions o = opt;
+  o.blur_rad = x.blur_rad[i];
+  return o;
+}
 
 IndexedImages IndexImages(const ToolSeries& series, const MeasureOptions& opt) {
   IndexedImages x;
@@ -573,10 +588,11 @@ IndexedImages IndexImages(const ToolSeries& series, const MeasureOptions& opt) {
   x.both = 2 * neg > static_cast<int>(series.frames.size());
   x.order.resize(series.frames.size());
   for (size_t i = 0; i < x.order.size(); ++i) x.order[i] = i;
+  x.angle_deg = SeriesAnglesDeg(series);
   std::sort(x.order.begin(), x.order.end(),
-            [&](size_t a, size_t b) { return series.positions[a] < series.positions[b]; });
-  x.step_deg = 360.0 / series.position_count;
-  for (int p : series.positions) x.angle_deg.push_back(p * x.step_deg);
+            [&](size_t a, size_t b) { return x.angle_deg[a] < x.angle_deg[b]; });
+  const bool pulses = series.blur_rad != nullptr && !series.blur_rad->empty();
+  x.blur_rad = pulses ? *series.blur_rad : std::vector<double>(series.frames.size(), opt.blur_rad);
   for (int s = 0; s < 2; ++s) {
     const std::vector<double>& ref = x.ref[s];
     x.top[s] = ref.size();
@@ -616,12 +632,16 @@ size_t PeakImage(const IndexedImages& x,
 }
 
 // The extreme's offset from image k (in angular order) in `ref` [deg]: a parabola through it
-// and its neighbours places the peak between images.
+// and its neighbours at their angles (measured ones need not be evenly spaced) places the
+// peak between images.
 double PeakOffsetDeg(const IndexedImages& x, const std::vector<double>& ref, size_t k) {
-  const size_t n = x.order.size();
-  const double ym = ref[x.order[(k + n - 1) % n]], yp = ref[x.order[(k + 1) % n]];
-  const double curve = ym - 2 * ref[x.order[k]] + yp;
-  return std::isfinite(curve) && curve < 0 ? x.step_deg * (ym - yp) / (2 * curve) : 0.0;
+  const size_t n = x.order.size(), im = x.order[(k + n - 1) % n], ip = x.order[(k + 1) % n];
+  const double a0 = x.angle_deg[x.order[k]];
+  const double am = base::WrapDeg(x.angle_deg[im] - a0), ap = base::WrapDeg(x.angle_deg[ip] - a0);
+  if (!(am < 0 && ap > 0)) return 0.0;
+  const double y0 = ref[x.order[k]], sm = (ref[im] - y0) / am, sp = (ref[ip] - y0) / ap;
+  const double c2 = (sp - sm) / (ap - am), c1 = sp - c2 * ap;  // y - y0 = c1 t + c2 t^2
+  return std::isfinite(c2) && c2 < 0 ? -c1 / (2 * c2) : 0.0;
 }
 
 // The edge's turn in image i when its extreme on `side` lies at `peak_deg`: the edge at the
@@ -763,8 +783,8 @@ FluteView PrincipalView(const IndexedImages& x,
     const size_t i0 = x.order[kk];
     const double turn0 = TurnInImage(x, model, e, side, opt, peak_deg, i0);
     try {
-      FluteView v =
-          MeasureView(x.outlines[SideIndex(side)][i0], model, e, turn0, side, opt, pitch_deg, name);
+      FluteView v = MeasureView(x.outlines[SideIndex(side)][i0], model, e, turn0, side,
+                                InImage(x, i0, opt), pitch_deg, name);
       v.frame = static_cast<int>(i0);
       v.angle_deg = peak_deg;
       v.principal = kk == k;
@@ -798,8 +818,9 @@ void AddEndCornerFindings(const IndexedImages& x,
   if (static_cast<int>(nearest) == v->frame) return;
   const double turn0 = TurnInImage(x, model, e, v->side, opt, v->angle_deg, nearest);
   try {
-    const FluteView end = MeasureView(x.outlines[SideIndex(v->side)][nearest], model, e, turn0,
-                                      v->side, opt, pitch_deg, "the end", true);
+    const FluteView end =
+        MeasureView(x.outlines[SideIndex(v->side)][nearest], model, e, turn0, v->side,
+                    InImage(x, nearest, opt), pitch_deg, "the end", true);
     // Its findings at the corner: the corner's own, or wear long enough to be a finding on
     // the flank or the end alone that reaches the corner (a corner worn to R 0.06 leaves 0.04
     // mm of the flank 4 um in).
@@ -961,12 +982,7 @@ Vec2 ToolFromImage(const Vec2& px, const ToolCameraModel& c) {
   return c.ToolFromPixel(Undistort(px, c));
 }
 
-Vec2 Undistort(const Vec2& px, const ToolCameraModel& c) {
-  const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
-  const double corner2 = cx * cx + cy * cy;
-  const Vec2 d(px.x() - cx, px.y() - cy);
-  return Vec2(cx, cy) + d / (1 + c.distortion_k1 * d.squaredNorm() / corner2);
-}
+Vec2 Undistort(const Vec2& px, const ToolCameraModel& c) { return c.Undistorted(px); }
 
 double ShadowLevel(const std::vector<std::uint8_t>& pixels) {
   // The whole frame as one row: the level only counts the greys.
@@ -1111,13 +1127,21 @@ void CheckSeries(const ToolSeries& s, const ToolDescription& tool, const Measure
   if (s.frames.size() != s.positions.size() || s.position_count < 3 * flutes ||
       s.frames.size() < 3 * static_cast<size_t>(flutes))
     Bad("at least 3 images per flute, each with its angular position, are needed");
-  std::vector<int> at = s.positions;
+  if (s.angle_deg != nullptr && !s.angle_deg->empty() && s.angle_deg->size() != s.frames.size())
+    Bad("a measured angle for every image, or none");
+  if (s.blur_rad != nullptr && !s.blur_rad->empty() && s.blur_rad->size() != s.frames.size())
+    Bad("a pulse for every image, or none");
+  for (const int p : s.positions)
+    if (p < 0 || p >= s.position_count)
+      Bad("an image's angular position is outside 0.." + std::to_string(s.position_count - 1));
+  std::vector<double> at = SeriesAnglesDeg(s);
+  for (double& a : at) {
+    if (!std::isfinite(a)) Bad("an image's measured angle is not a number");
+    a -= 360.0 * std::floor(a / 360.0);
+  }
   std::sort(at.begin(), at.end());
-  if (at.front() < 0 || at.back() >= s.position_count)
-    Bad("an image's angular position is outside 0.." + std::to_string(s.position_count - 1));
-  int widest = at.front() + s.position_count - at.back();
-  for (size_t i = 1; i < at.size(); ++i) widest = std::max(widest, at[i] - at[i - 1]);
-  const double gap_deg = widest * 360.0 / s.position_count;
+  double gap_deg = at.front() + 360.0 - at.back();
+  for (size_t i = 1; i < at.size(); ++i) gap_deg = std::max(gap_deg, at[i] - at[i - 1]);
   if (gap_deg > SmallestPitchDeg(tool) / 2)
     Fail("the images leave " + std::to_string(std::lround(gap_deg)) +
          " deg of the turn unseen, over half the smallest pitch (" +
@@ -1172,7 +1196,14 @@ ToolMeasurement MeasureTool(const std::vector<std::vector<std::uint8_t>>& frames
                             const ToolDescription& nominal,
                             const ToolCameraModel& camera,
                             const MeasureOptions& opt) {
-  const ToolSeries series{frames, positions, position_count, camera};
+  return MeasureTool(ToolSeries{frames, positions, position_count, camera}, nominal, opt);
+}
+
+ToolMeasurement MeasureTool(const ToolSeries& series,
+                            const ToolDescription& nominal,
+                            const MeasureOptions& opt) {
+  const std::vector<std::vector<std::uint8_t>>& frames = series.frames;
+  const ToolCameraModel& camera = series.camera;
   CheckSeries(series, nominal, opt);
   // The images in angular order; the flutes are the maxima of the reference height's extreme.
   const IndexedImages x = IndexImages(series, opt);

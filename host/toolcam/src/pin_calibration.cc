@@ -9,6 +9,7 @@
 #include <cmath>
 #include <map>
 
+#include "camera_json.h"
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 
@@ -254,8 +255,13 @@ bool DistortionFromFlanks(const std::vector<std::vector<std::uint8_t>>& frames,
   double v_lo = 1e300, v_hi = -1e300;
   for (const Vec2& p : left) v_lo = std::min(v_lo, p.y()), v_hi = std::max(v_hi, p.y());
   if (left.size() < 100 || v_hi - v_lo < c.height_px / 4.0) return false;
-  const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
-  const double corner2 = cx * cx + cy * cy;
+  // About the lens' centre, its tangential terms (given, as the principal point) taken out:
+  // raw's k1 is 0.
+  for (auto* side : {&left, &right})
+    for (Vec2& p : *side) p = raw.Undistorted(p);
+  const double cx = raw.LensCentre().x(), cy = raw.LensCentre().y();
+  const double half_w = (c.width_px - 1) / 2.0, half_h = (c.height_px - 1) / 2.0;
+  const double corner2 = half_w * half_w + half_h * half_h;
   double k = 0;
   for (int round = 0; round < 2; ++round) {
     const auto n = static_cast<Eigen::Index>(left.size());
@@ -420,24 +426,25 @@ ToolCameraModel PinCalibration::CameraFor(const ToolCameraModel& base,
 std::string CameraCalibrationJson(const PinCalibration& p,
                                   const ToolCameraModel& base,
                                   const std::string& pin_id) {
-  const nlohmann::ordered_json j = {{"format", "mlprobe-tool-camera/1"},
-                                    {"pin", pin_id},
-                                    {"width_px", base.width_px},
-                                    {"height_px", base.height_px},
-                                    {"distortion_k1", p.distortion_k1},
-                                    {"distortion_measured", p.distortion_measured},
-                                    {"mm_per_px", p.mm_per_px},
-                                    {"roll_deg", p.roll_deg},
-                                    {"pitch_deg", p.pitch_deg},
-                                    {"pitch_measured", p.pitch_measured},
-                                    {"gauge_u_px", p.gauge_u_px},
-                                    {"gauge_v_px", p.gauge_v_px},
-                                    {"end_u_px", p.end_u_px},
-                                    {"end_v_px", p.end_v_px},
-                                    {"width_rms_px", p.width_rms_px},
-                                    {"blade_rms_um", p.blade_rms_um},
-                                    {"rows", p.rows},
-                                    {"blade_images", p.blade_images}};
+  nlohmann::ordered_json j = {{"format", "mlprobe-tool-camera/1"},
+                              {"pin", pin_id},
+                              {"width_px", base.width_px},
+                              {"height_px", base.height_px},
+                              {"distortion_k1", p.distortion_k1},
+                              {"distortion_measured", p.distortion_measured},
+                              {"mm_per_px", p.mm_per_px},
+                              {"roll_deg", p.roll_deg},
+                              {"pitch_deg", p.pitch_deg},
+                              {"pitch_measured", p.pitch_measured},
+                              {"gauge_u_px", p.gauge_u_px},
+                              {"gauge_v_px", p.gauge_v_px},
+                              {"end_u_px", p.end_u_px},
+                              {"end_v_px", p.end_v_px},
+                              {"width_rms_px", p.width_rms_px},
+                              {"blade_rms_um", p.blade_rms_um},
+                              {"rows", p.rows},
+                              {"blade_images", p.blade_images}};
+  AddLensJson(base, &j);
   return j.dump(1) + "\n";
 }
 
@@ -449,7 +456,7 @@ PinCalibration ParseCameraCalibration(const std::string& text,
   const std::string& w = where;
   base->width_px = jf::Integer<ToolInputError>(j, "width_px", w);
   base->height_px = jf::Integer<ToolInputError>(j, "height_px", w);
-  base->distortion_k1 = jf::NumberOr<ToolInputError>(j, "distortion_k1", 0.0, w);
+  ReadLensJson(j, w, base);
   PinCalibration p;
   p.mm_per_px = jf::Number<ToolInputError>(j, "mm_per_px", w);
   p.roll_deg = jf::Number<ToolInputError>(j, "roll_deg", w);

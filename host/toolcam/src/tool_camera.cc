@@ -139,20 +139,16 @@ std::array<double, 4> CubicWeights(double f) {
 }
 
 // The image from the canvas (square to the spindle, `margin` pixels wider on every side):
-// each pixel's ideal position (radial distortion about the image's centre: the pixel at
-// distance rho, in corner units, shows what the ideal lens puts at rho / (1 + k1 rho^2)), its
-// tool point with the camera's roll, that point's canvas pixel, cubic interpolation.
+// each pixel's ideal position (ToolCameraModel::Undistorted: the measurement's own lens
+// model), its tool point with the camera's roll, that point's canvas pixel, cubic interpolation.
 std::vector<double> Resample(const std::vector<double>& canvas,
                              const ToolCameraModel& c,
                              int margin) {
   const int w = c.width_px, h = c.height_px, cw = w + 2 * margin, ch = h + 2 * margin;
-  const double cx = (w - 1) / 2.0, cy = (h - 1) / 2.0, corner2 = cx * cx + cy * cy;
   std::vector<double> out(base::RasterSize(w, h));
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      const double dx = x - cx, dy = y - cy,
-                   s = 1 / (1 + c.distortion_k1 * (dx * dx + dy * dy) / corner2);
-      const geometry::Vec2 yh = c.ToolFromPixel({cx + dx * s, cy + dy * s});
+      const geometry::Vec2 yh = c.ToolFromPixel(c.Undistorted({x, y}));
       const double sx = std::clamp(yh.x() / c.mm_per_px + c.axis_u_px + margin, 1.0, cw - 3.001);
       const double sy = std::clamp(c.tip_v_px - yh.y() / c.mm_per_px + margin, 1.0, ch - 3.001);
       const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
@@ -169,6 +165,42 @@ std::vector<double> Resample(const std::vector<double>& canvas,
 }
 
 }  // namespace
+
+namespace {
+
+// The image's half-diagonal squared [px^2]: the unit the distortion's terms are given in.
+double Corner2(const ToolCameraModel& c) {
+  const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
+  return cx * cx + cy * cy;
+}
+
+// Brown's tangential shift at offset d from the lens' centre [px].
+geometry::Vec2 TangentialShift(const ToolCameraModel& c, const geometry::Vec2& d) {
+  const double corner = std::sqrt(Corner2(c)), x = d.x() / corner, y = d.y() / corner;
+  const double rho2 = x * x + y * y, p1 = c.distortion_p1, p2 = c.distortion_p2;
+  return corner * geometry::Vec2(2 * p1 * x * y + p2 * (rho2 + 2 * x * x),
+                                 p1 * (rho2 + 2 * y * y) + 2 * p2 * x * y);
+}
+
+}  // namespace
+
+geometry::Vec2 ToolCameraModel::LensCentre() const {
+  return {principal_u_px.value_or((width_px - 1) / 2.0),
+          principal_v_px.value_or((height_px - 1) / 2.0)};
+}
+
+geometry::Vec2 ToolCameraModel::Undistorted(const geometry::Vec2& px) const {
+  const geometry::Vec2 centre = LensCentre(), d = px - centre;
+  return centre +
+         (d - TangentialShift(*this, d)) / (1 + distortion_k1 * d.squaredNorm() / Corner2(*this));
+}
+
+geometry::Vec2 ToolCameraModel::Distorted(const geometry::Vec2& ideal_px) const {
+  // Undistorted's inverse by fixed-point steps (each gains the distortion's share, < 1e-2).
+  geometry::Vec2 px = ideal_px;
+  for (int i = 0; i < 6; ++i) px += ideal_px - Undistorted(px);
+  return px;
+}
 
 geometry::Vec2 ToolCameraModel::ToolFromPixel(const geometry::Vec2& px) const {
   const double a = roll_deg / base::kDegPerRad, du = (px.x() - axis_u_px) * mm_per_px,
@@ -191,6 +223,12 @@ void ToolCameraModel::Validate() const {
   if (!(noise_sigma >= 0) || !(psf_sigma_px >= 0) || !(drops_per_frame >= 0))
     Bad("noise, blur and drops must be >= 0");
   if (!(std::abs(distortion_k1) < 0.05)) Bad("distortion_k1 must be under 5 %");
+  if (!(std::abs(distortion_p1) < 0.01) || !(std::abs(distortion_p2) < 0.01))
+    Bad("distortion_p1 and distortion_p2 must be under 1 %");
+  const geometry::Vec2 centre = LensCentre();
+  if (!(centre.x() >= 0 && centre.x() <= width_px - 1 && centre.y() >= 0 &&
+        centre.y() <= height_px - 1))
+    Bad("principal_u_px and principal_v_px must lie in the image");
   if (!(std::abs(roll_deg) <= 5) || !(std::abs(pitch_deg) <= 5))
     Bad("roll_deg and pitch_deg must be within 5 deg");
 }

@@ -128,6 +128,27 @@ void ValidateBack(const ToolDescription& t) {
     Fail("a tooth's back (relief, body clearance, heel) needs its land_width_mm");
 }
 
+// A point's angle and tip, a thread's pitch; a tap's land not modelled.
+void ValidatePointAndThread(const ToolDescription& t) {
+  if (!(t.point_angle_deg == 0 || (t.point_angle_deg >= 10 && t.point_angle_deg < 180)))
+    Fail("point_angle_deg must be 0 (a flat end) or in [10, 180)");
+  if (t.point_angle_deg > 0 && t.corner_radius_mm > 0)
+    Fail("a pointed tool has no corner_radius_mm");
+  if (!(t.tip_diameter_mm >= 0 && t.tip_diameter_mm < t.diameter_mm) ||
+      (t.tip_diameter_mm > 0 && t.point_angle_deg == 0))
+    Fail("tip_diameter_mm must be in [0, diameter_mm), with a point_angle_deg");
+  if (!(t.thread_pitch_mm >= 0 && t.thread_pitch_mm <= 0.5 * t.diameter_mm))
+    Fail("thread_pitch_mm must be in [0, diameter / 2]");
+  // A tap's land carries its thread round the back, each point's crests P / 2 pi a radian on:
+  // its silhouette fills the roots the edge alone shows (the outside renderer's M8 tap with
+  // 2 mm lands read 38 um small with build-up and wear on every flank). Not modelled: refused
+  // rather than measured against the edge's thread alone.
+  if (t.thread_pitch_mm > 0 && t.land_width_mm > 0)
+    Fail(
+        "a tap's land (its thread round the tooth's back) is not modelled: thread_pitch_mm "
+        "with land_width_mm cannot be measured yet");
+}
+
 }  // namespace
 
 double ToolDescription::HelixTurnPerMm() const {
@@ -333,14 +354,7 @@ void ToolDescription::Validate() const {
   if (!(flute_length_mm > 0 && flute_length_mm <= length_mm))
     Fail("flute_length_mm must be in (0, length_mm]");
   if (!(core_ratio > 0 && core_ratio < 1)) Fail("core_ratio must be in (0, 1)");
-  if (!(point_angle_deg == 0 || (point_angle_deg >= 10 && point_angle_deg < 180)))
-    Fail("point_angle_deg must be 0 (a flat end) or in [10, 180)");
-  if (point_angle_deg > 0 && corner_radius_mm > 0) Fail("a pointed tool has no corner_radius_mm");
-  if (!(tip_diameter_mm >= 0 && tip_diameter_mm < diameter_mm) ||
-      (tip_diameter_mm > 0 && point_angle_deg == 0))
-    Fail("tip_diameter_mm must be in [0, diameter_mm), with a point_angle_deg");
-  if (!(thread_pitch_mm >= 0 && thread_pitch_mm <= 0.5 * diameter_mm))
-    Fail("thread_pitch_mm must be in [0, diameter / 2]");
+  ValidatePointAndThread(*this);
   if (!(wear_limit_mm >= 0 && wear_limit_mm <= 0.1 * Radius()))
     Fail("wear_limit_mm must be in [0, 10 % of the radius]");
   if (!(reference_height_mm == 0 ||

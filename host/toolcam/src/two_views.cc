@@ -75,8 +75,8 @@ ToolIn3d MeasureToolFromTwoViews(const ToolSeries& a,
     throw ToolInputError("two views: the mount's tolerance must be in (0, half the pitch)");
   CheckSamePulses(a, b);
   ToolIn3d t;
-  t.a = MeasureTool(a.frames, a.positions, a.position_count, nominal, a.camera, options);
-  t.b = MeasureTool(b.frames, b.positions, b.position_count, nominal, b.camera, options);
+  t.a = MeasureTool(a, nominal, options);
+  t.b = MeasureTool(b, nominal, options);
   if (!t.a.both_flanks || !t.b.both_flanks)
     throw ToolError(std::string("two views: camera ") + (t.a.both_flanks ? "B" : "A") +
                     " does not show both flanks, so it cannot place the spindle axis");

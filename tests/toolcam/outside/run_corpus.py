@@ -5,12 +5,14 @@ the shadow's rightmost half-grey crossing on the rows 0.3-1.5 mm above the tip, 
 over the series the radius (through the manifest's axis and scale), the lowest row's crossing
 under the axis' neighbourhood the tip.
 
-run_corpus.py MLP FIRST_SEED COUNT [--work DIR] [--json OUT] [--legacy] [--check]
+run_corpus.py MLP FIRST_SEED COUNT [--work DIR] [--json OUT] [--legacy] [--no-angles] [--check]
 MLP: `mlp` or `mlp-tool`. --legacy: the tool file and manifest without the fields issue 51
 added (what main before it could be told). --check: exit 1 unless the issue's figures hold
 on every tool measured (radii within 1 um for D >= 3, 2 um smaller; length within 3 um;
 runout within 2 um; no finding on a new tool; a worn corner >= 20 um reported; no chip in the
-edge) and no tool refused that the corpus does not mark as unmeasurable.
+edge) and no tool refused that the corpus does not mark as unmeasurable; one it marks (a
+tap with lands) must be refused with a typed error (exit 2 or 3), not measured.
+--no-angles: the second corpus (seeds 20000..) without its images' measured angles.
 The corpus is frozen: seeds 5100.. tuned on, 9100.. reported fresh (docs/TOOLCAM.md).
 """
 import argparse
@@ -45,7 +47,8 @@ def baseline(folder):
     r = tool["diameter_mm"] / 2
     end = tool.get("corner_radius_mm", 0.0)
     if tool.get("point_angle_deg", 0) > 0:
-        end = r / math.tan(math.radians(tool["point_angle_deg"] / 2))
+        end = ((r - tool.get("tip_diameter_mm", 0.0) / 2) /
+               math.tan(math.radians(tool["point_angle_deg"] / 2)))
     best_r, lowest = -1.0, 1e9
     for im in man["images"]:
         g = read_pgm(os.path.join(folder, im["file"]))
@@ -83,7 +86,19 @@ def match_radii(measured, true):
     return best
 
 
-def run_case(mlp, seed, work, legacy):
+def _variant(folder, name, manifest):
+    """The case's images linked into folder/name beside a changed manifest."""
+    images = os.path.join(folder, name)
+    os.makedirs(images, exist_ok=True)
+    for im in manifest["images"]:
+        dst = os.path.join(images, im["file"])
+        if not os.path.exists(dst):
+            os.link(os.path.join(folder, im["file"]), dst)
+    json.dump(manifest, open(os.path.join(images, "images.json"), "w"))
+    return images
+
+
+def run_case(mlp, seed, work, legacy, no_angles=False):
     spec = tool_outside.make_spec(seed)
     folder = os.path.join(work, "tool_%d" % seed)
     if not os.path.exists(os.path.join(folder, "truth.json")):
@@ -91,6 +106,11 @@ def run_case(mlp, seed, work, legacy):
     truth = json.load(open(os.path.join(folder, "truth.json")))
     tool_file = os.path.join(folder, "tool.json")
     images = folder
+    if no_angles:  # the second corpus' images as if their measured angles were not given
+        man = json.load(open(os.path.join(folder, "images.json")))
+        for im in man["images"]:
+            im.pop("angle_deg", None), im.pop("time_us", None)
+        images = _variant(folder, "no_angles", man)
     if legacy:
         tool = json.load(open(tool_file))
         for k in NEW_TOOL_FIELDS:
@@ -99,13 +119,7 @@ def run_case(mlp, seed, work, legacy):
         json.dump(tool, open(tool_file, "w"))
         man = json.load(open(os.path.join(folder, "images.json")))
         man["spindle"].pop("direction", None)
-        images = os.path.join(folder, "legacy")
-        os.makedirs(images, exist_ok=True)
-        for im in man["images"]:
-            dst = os.path.join(images, im["file"])
-            if not os.path.exists(dst):
-                os.link(os.path.join(folder, im["file"]), dst)
-        json.dump(man, open(os.path.join(images, "images.json"), "w"))
+        images = _variant(folder, "legacy", man)
     cmd = [mlp] + (["tool"] if os.path.basename(mlp) == "mlp" else []) + [
         "measure", "--images", images, "--tool", tool_file, "--json"]
     p = subprocess.run(cmd, capture_output=True, text=True)
@@ -114,6 +128,7 @@ def run_case(mlp, seed, work, legacy):
     b_r, b_tip = baseline(folder)
     row["base_r_um"] = (b_r - max(truth["radii_mm"])) * 1e3
     row["base_len_um"] = (-b_tip + min(truth["tips_mm"])) * 1e3  # a lower tip: longer tool
+    row["unmeasurable"] = truth.get("unmeasurable")
     if p.returncode != 0:
         row["refused"] = (p.stderr.strip().splitlines() or ["?"])[-1][:160]
         return row
@@ -139,6 +154,10 @@ def run_case(mlp, seed, work, legacy):
 def verdict(row):
     """What the issue asks of this tool; a list of what failed."""
     bad = []
+    if row.get("unmeasurable"):  # the product must say it cannot, with a typed refusal
+        if "refused" in row and row["rc"] in (2, 3):
+            return []
+        return ["measured what it cannot (%s)" % row["unmeasurable"]]
     if "refused" in row:
         return ["refused: " + row["refused"]]
     tol = 1.0 if row["d_mm"] >= 3 else 2.0
@@ -169,11 +188,13 @@ def main():
     ap.add_argument("--json")
     ap.add_argument("--legacy", action="store_true")
     ap.add_argument("--check", action="store_true")
+    ap.add_argument("--no-angles", action="store_true",
+                    help="leave out the images' measured angles (the second corpus)")
     a = ap.parse_args()
     work = a.work or tempfile.mkdtemp(prefix="tool_outside_")
     rows, failed = [], 0
     for seed in range(a.first, a.first + a.count):
-        row = run_case(a.mlp, seed, work, a.legacy)
+        row = run_case(a.mlp, seed, work, a.legacy, a.no_angles)
         row["bad"] = verdict(row)
         failed += bool(row["bad"])
         rows.append(row)

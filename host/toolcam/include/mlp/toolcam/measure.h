@@ -187,7 +187,18 @@ struct ToolSeries {
   const std::vector<int>& positions;
   int position_count = 0;
   const ToolCameraModel& camera;
+  /// Each frame's angle as measured (an encoder, the strobe's timestamp) [deg], counted as the
+  /// positions are: used in their place (ToolImages::angle_deg). Null or empty: the positions.
+  const std::vector<double>* angle_deg = nullptr;
+  /// Each frame's pulse as the tool's turn during it [rad] (ToolImages::image_blur_rad). Null or
+  /// empty: MeasureOptions::blur_rad for all.
+  const std::vector<double>* blur_rad = nullptr;
 };
+
+/// MeasureTool on one series whose frames may carry measured angles and their own pulses.
+ToolMeasurement MeasureTool(const ToolSeries& series,
+                            const ToolDescription& nominal,
+                            const MeasureOptions& options = {});
 
 /// A tool wider than the field on both its sides (seed 000 examples 2 and 3): `plus` shows its
 /// +y flank; then the NC moved the spindle across by about its diameter and `minus` shows its

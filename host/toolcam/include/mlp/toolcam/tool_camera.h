@@ -37,6 +37,11 @@ struct ToolCameraModel {
   /// Radial distortion: a point at the image's corner moves by this share of its distance
   /// from the centre (telecentric lenses: under 0.1 %).
   double distortion_k1 = 0.0005;
+  /// Tangential (decentring) distortion, Brown's p1 and p2 in the same corner units (Brown,
+  /// "Decentering distortion of lenses", 1966): a lens whose elements are not quite centred.
+  double distortion_p1 = 0.0, distortion_p2 = 0.0;
+  /// The centre of the distortion (the lens' principal point) [px]; unset: the image's centre.
+  std::optional<double> principal_u_px, principal_v_px;
   double psf_sigma_px = 0.7;               ///< the optics' blur
   double bright = 210, dark = 25;          ///< grey levels of the back-light and the shadow
   double noise_sigma = 2.0;                ///< grey levels, Gaussian
@@ -51,6 +56,15 @@ struct ToolCameraModel {
   /// it; absent: none.
   std::optional<double> glass_side_y_mm;
   /// Tool frame (y, h) [mm] of an ideal (undistorted) pixel position, and back.
+  /// Where the distortion is centred [px]: the principal point, or the image's centre.
+  geometry::Vec2 LensCentre() const;
+  /// A pixel's ideal position, the lens' distortion undone: about the lens' centre, at rho
+  /// corner units from it, (d - t(d)) / (1 + k1 rho^2) with t Brown's tangential shift. The
+  /// tangential terms taken at the distorted point: exact to first order in p (their square,
+  /// 1e-8 of the distance, is far under a micrometre).
+  geometry::Vec2 Undistorted(const geometry::Vec2& px) const;
+  /// Its inverse (for drawing on the image).
+  geometry::Vec2 Distorted(const geometry::Vec2& ideal_px) const;
   geometry::Vec2 ToolFromPixel(const geometry::Vec2& px) const;
   geometry::Vec2 PixelFromTool(const geometry::Vec2& yh) const;
   void Validate() const;  ///< throws ToolInputError naming the field

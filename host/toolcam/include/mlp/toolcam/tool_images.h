@@ -22,6 +22,14 @@ struct ToolImages {
   double blur_rad = 0;             ///< the tool's turn during a pulse
   std::vector<std::string> files;  ///< relative to the manifest's folder
   std::vector<int> position;       ///< each image's strobe position
+  /// Each image's angle as measured where the strobe gives it (`angle_deg` from an encoder, or
+  /// `time_us` since the spindle's index pulse at the strobe's rpm) [deg], counted the
+  /// measurement's way as `position` is; empty when the manifest gives none (the plan's
+  /// positions stand). `position` is then the nearest strobe position.
+  std::vector<double> angle_deg;
+  /// Each image's own pulse (`pulse_width_us` per image: the exposure a strobe reports) as the
+  /// tool's turn during it [rad]; empty: `blur_rad` for all.
+  std::vector<double> image_blur_rad;
 };
 
 /// Reads `images.json` text; throws ToolInputError naming `where` and the field.
