@@ -32,10 +32,9 @@ namespace fs = std::filesystem;
 // the far side of a D20 tool then leaves a 0.2 mm depth of field's middle by over 0.1 mm.
 constexpr double kPitchWarnDeg = 0.5;
 
-// Tool frame -> pixel, through the lens' distortion (the inverse of the measurement's mapping
-// to first order: enough to draw).
+// Tool frame -> pixel, through the lens' distortion (the measurement's mapping inverted).
 cv::Point2d ToPixel(const geometry::Vec2& yh, const toolcam::ToolCameraModel& c) {
-  const geometry::Vec2 px = c.Distorted(c.PixelFromTool(yh));
+  const geometry::Vec2 px = c.Distort(c.PixelFromTool(yh));
   return {px.x(), px.y()};
 }
 

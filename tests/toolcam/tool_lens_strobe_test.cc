@@ -22,7 +22,7 @@ namespace {
 using test::EdgeFacing;
 using test::WholeToolCamera;
 
-constexpr double kRoundTripPx = 1e-6;  // Undistorted(Distorted(p)): its fixed point
+constexpr double kRoundTripPx = 1e-6;  // Undistort(Distort(p)): its fixed point
 constexpr double kEdgeTolMm = 0.001;   // issue 7's figure: each edge within 1 um
 constexpr double kAngleTolDeg = 0.1;   // a flute's angle with the images' angles measured
 constexpr double kLateDeg = 0.8;       // the strobe's lateness, RMS (a free-running camera)
@@ -42,13 +42,13 @@ ToolCameraModel DecentredLens() {
   return c;
 }
 
-TEST(ToolLens, DistortedAndUndistortedAreInverse) {
+TEST(ToolLens, DistortAndUndistortAreInverse) {
   const ToolCameraModel c = DecentredLens();
   for (const geometry::Vec2& p : {geometry::Vec2(0, 0), geometry::Vec2(639, 0),
                                   geometry::Vec2(320, 280), geometry::Vec2(10, 550)})
-    EXPECT_LT((c.Undistorted(c.Distorted(p)) - p).norm(), kRoundTripPx) << p.transpose();
+    EXPECT_LT((c.Undistort(c.Distort(p)) - p).norm(), kRoundTripPx) << p.transpose();
   // What the terms move at the corner (the test below means something): over 1 px.
-  EXPECT_GT((c.Undistorted({0, 0}) - geometry::Vec2(0, 0)).norm(), 1.0);
+  EXPECT_GT((c.Undistort({0, 0}) - geometry::Vec2(0, 0)).norm(), 1.0);
 }
 
 // Each edge's radius within 1 um through the decentred lens given whole; without its

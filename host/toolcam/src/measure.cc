@@ -423,7 +423,6 @@ void Refuse(const FluteView& v,
     Fail(name + ": radius " + um(x(0)) + " from the model's, beyond 10 % of the radius");
   if (std::abs(x(1)) > kMaxTipChangeMm)
     Fail(name + ": tip " + um(x(1)) + " from the model's, beyond 1 mm");
-
   if (!(v.radius_u_mm <= kMaxUncertaintyMm && v.tip_u_mm <= kMaxUncertaintyMm))
     Fail(name + ": the outline does not determine the edge (u(radius) " + um(v.radius_u_mm) +
          ", u(tip) " + um(v.tip_u_mm) + ", limit " + um(kMaxUncertaintyMm) + ")");
@@ -991,10 +990,8 @@ MeasureOptions ForTool(const ToolDescription& tool) {
 }
 
 Vec2 ToolFromImage(const Vec2& px, const ToolCameraModel& c) {
-  return c.ToolFromPixel(Undistort(px, c));
+  return c.ToolFromPixel(c.Undistort(px));
 }
-
-Vec2 Undistort(const Vec2& px, const ToolCameraModel& c) { return c.Undistorted(px); }
 
 double ShadowLevel(const std::vector<std::uint8_t>& pixels) {
   // The whole frame as one row: the level only counts the greys.

@@ -52,12 +52,12 @@ Flanks FindFlanks(const geometry::GreyView& g, double level, const ToolCameraMod
   const geometry::Points2 right = geometry::RowCrossings(g, level, false);
   std::map<int, Vec2> left_at;
   for (Eigen::Index i = 0; i < left.cols(); ++i)
-    left_at[static_cast<int>(left(1, i))] = Undistort(left.col(i), c);
+    left_at[static_cast<int>(left(1, i))] = c.Undistort(left.col(i));
   Flanks f;
   for (Eigen::Index i = 0; i < right.cols(); ++i) {
     const auto it = left_at.find(static_cast<int>(right(1, i)));
     if (it == left_at.end()) continue;
-    f.left.push_back(it->second), f.right.push_back(Undistort(right.col(i), c));
+    f.left.push_back(it->second), f.right.push_back(c.Undistort(right.col(i)));
   }
   if (f.left.size() < 50) Fail("an image shows both of the pin's flanks on fewer than 50 rows");
   double lo_u = 1e300, hi_u = -1e300;
@@ -69,7 +69,7 @@ Flanks FindFlanks(const geometry::GreyView& g, double level, const ToolCameraMod
   for (Eigen::Index i = 0; i < cols.cols(); ++i)
     if (cols(0, i) > lo_u + inset && cols(0, i) < hi_u - inset &&
         g.At(static_cast<int>(cols(0, i)), 0) < level)
-      end_v.push_back(Undistort(cols.col(i), c).y());
+      end_v.push_back(c.Undistort(cols.col(i)).y());
   f.end_v = EndRow(end_v);
   return f;
 }
@@ -123,7 +123,7 @@ bool MeasureBlade(const geometry::GreyView& g,
     const auto it = left_u.find(static_cast<int>(r(1, i)));
     if (it == left_u.end()) continue;
     const Vec2 mid((it->second + r(0, i)) / 2 + u0, r(1, i) + v_top);
-    const Vec2 yh = cam.ToolFromPixel(Undistort(mid, cam));
+    const Vec2 yh = cam.ToolFromPixel(cam.Undistort(mid));
     if (yh.y() < band_lo_h || yh.y() > band_hi_h) continue;
     sum_y += yh.x(), sum_u += mid.x(), ++n;
   }
@@ -138,7 +138,7 @@ bool MeasureBlade(const geometry::GreyView& g,
   double sum_h = 0, sum_chord = 0;
   int m = 0;
   for (Eigen::Index i = 0; i < ends.cols(); ++i) {
-    const Vec2 yh = cam.ToolFromPixel(Undistort(Vec2(ends(0, i) + c0, ends(1, i) + top), cam));
+    const Vec2 yh = cam.ToolFromPixel(cam.Undistort(Vec2(ends(0, i) + c0, ends(1, i) + top)));
     const double d = (yh.x() - out->y) / radius_mm;
     if (std::abs(d) > 2 * kTipShare) continue;
     sum_h += yh.y(), sum_chord += std::sqrt(1 - d * d), ++m;
@@ -258,10 +258,8 @@ bool DistortionFromFlanks(const std::vector<std::vector<std::uint8_t>>& frames,
   // About the lens' centre, its tangential terms (given, as the principal point) taken out:
   // raw's k1 is 0.
   for (auto* side : {&left, &right})
-    for (Vec2& p : *side) p = raw.Undistorted(p);
-  const double cx = raw.LensCentre().x(), cy = raw.LensCentre().y();
-  const double half_w = (c.width_px - 1) / 2.0, half_h = (c.height_px - 1) / 2.0;
-  const double corner2 = half_w * half_w + half_h * half_h;
+    for (Vec2& p : *side) p = raw.Undistort(p);
+  const double cx = raw.LensCentre().x(), cy = raw.LensCentre().y(), corner2 = c.Corner2();
   double k = 0;
   for (int round = 0; round < 2; ++round) {
     const auto n = static_cast<Eigen::Index>(left.size());

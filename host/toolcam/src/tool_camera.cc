@@ -139,7 +139,7 @@ std::array<double, 4> CubicWeights(double f) {
 }
 
 // The image from the canvas (square to the spindle, `margin` pixels wider on every side):
-// each pixel's ideal position (ToolCameraModel::Undistorted: the measurement's own lens
+// each pixel's ideal position (ToolCameraModel::Undistort: the measurement's own lens
 // model), its tool point with the camera's roll, that point's canvas pixel, cubic interpolation.
 std::vector<double> Resample(const std::vector<double>& canvas,
                              const ToolCameraModel& c,
@@ -148,7 +148,7 @@ std::vector<double> Resample(const std::vector<double>& canvas,
   std::vector<double> out(base::RasterSize(w, h));
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      const geometry::Vec2 yh = c.ToolFromPixel(c.Undistorted({x, y}));
+      const geometry::Vec2 yh = c.ToolFromPixel(c.Undistort({x, y}));
       const double sx = std::clamp(yh.x() / c.mm_per_px + c.axis_u_px + margin, 1.0, cw - 3.001);
       const double sy = std::clamp(c.tip_v_px - yh.y() / c.mm_per_px + margin, 1.0, ch - 3.001);
       const int x0 = static_cast<int>(sx), y0 = static_cast<int>(sy);
@@ -168,15 +168,9 @@ std::vector<double> Resample(const std::vector<double>& canvas,
 
 namespace {
 
-// The image's half-diagonal squared [px^2]: the unit the distortion's terms are given in.
-double Corner2(const ToolCameraModel& c) {
-  const double cx = (c.width_px - 1) / 2.0, cy = (c.height_px - 1) / 2.0;
-  return cx * cx + cy * cy;
-}
-
 // Brown's tangential shift at offset d from the lens' centre [px].
 geometry::Vec2 TangentialShift(const ToolCameraModel& c, const geometry::Vec2& d) {
-  const double corner = std::sqrt(Corner2(c)), x = d.x() / corner, y = d.y() / corner;
+  const double corner = std::sqrt(c.Corner2()), x = d.x() / corner, y = d.y() / corner;
   const double rho2 = x * x + y * y, p1 = c.distortion_p1, p2 = c.distortion_p2;
   return corner * geometry::Vec2(2 * p1 * x * y + p2 * (rho2 + 2 * x * x),
                                  p1 * (rho2 + 2 * y * y) + 2 * p2 * x * y);
@@ -184,21 +178,26 @@ geometry::Vec2 TangentialShift(const ToolCameraModel& c, const geometry::Vec2& d
 
 }  // namespace
 
+double ToolCameraModel::Corner2() const {
+  const double cx = (width_px - 1) / 2.0, cy = (height_px - 1) / 2.0;
+  return cx * cx + cy * cy;
+}
+
 geometry::Vec2 ToolCameraModel::LensCentre() const {
   return {principal_u_px.value_or((width_px - 1) / 2.0),
           principal_v_px.value_or((height_px - 1) / 2.0)};
 }
 
-geometry::Vec2 ToolCameraModel::Undistorted(const geometry::Vec2& px) const {
+geometry::Vec2 ToolCameraModel::Undistort(const geometry::Vec2& px) const {
   const geometry::Vec2 centre = LensCentre(), d = px - centre;
   return centre +
-         (d - TangentialShift(*this, d)) / (1 + distortion_k1 * d.squaredNorm() / Corner2(*this));
+         (d - TangentialShift(*this, d)) / (1 + distortion_k1 * d.squaredNorm() / Corner2());
 }
 
-geometry::Vec2 ToolCameraModel::Distorted(const geometry::Vec2& ideal_px) const {
-  // Undistorted's inverse by fixed-point steps (each gains the distortion's share, < 1e-2).
+geometry::Vec2 ToolCameraModel::Distort(const geometry::Vec2& ideal_px) const {
+  // Undistort's inverse by fixed-point steps (each gains the distortion's share, < 1e-2).
   geometry::Vec2 px = ideal_px;
-  for (int i = 0; i < 6; ++i) px += ideal_px - Undistorted(px);
+  for (int i = 0; i < 6; ++i) px += ideal_px - Undistort(px);
   return px;
 }
 

@@ -37,8 +37,6 @@ Outline ExtractOutline(const std::vector<std::uint8_t>& pixels, const ToolCamera
 /// Half way between a frame's shadow and back-light grey (its 2nd and 98th percentiles: a real
 /// light source ages, so the level comes from the image itself).
 double ShadowLevel(const std::vector<std::uint8_t>& pixels);
-/// A pixel position with the lens' radial distortion undone (the camera's calibration).
-geometry::Vec2 Undistort(const geometry::Vec2& pixel, const ToolCameraModel& camera);
 /// A pixel position in the tool frame (y, h) [mm]: undistorted, then the camera's calibration.
 geometry::Vec2 ToolFromImage(const geometry::Vec2& pixel, const ToolCameraModel& camera);
 

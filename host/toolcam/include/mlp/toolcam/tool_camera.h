@@ -55,16 +55,18 @@ struct ToolCameraModel {
   /// the tool frame [mm] (dark beyond it, away from the axis): a stylus moved sideways against
   /// it; absent: none.
   std::optional<double> glass_side_y_mm;
-  /// Tool frame (y, h) [mm] of an ideal (undistorted) pixel position, and back.
   /// Where the distortion is centred [px]: the principal point, or the image's centre.
   geometry::Vec2 LensCentre() const;
   /// A pixel's ideal position, the lens' distortion undone: about the lens' centre, at rho
   /// corner units from it, (d - t(d)) / (1 + k1 rho^2) with t Brown's tangential shift. The
   /// tangential terms taken at the distorted point: exact to first order in p (their square,
   /// 1e-8 of the distance, is far under a micrometre).
-  geometry::Vec2 Undistorted(const geometry::Vec2& px) const;
+  geometry::Vec2 Undistort(const geometry::Vec2& px) const;
   /// Its inverse (for drawing on the image).
-  geometry::Vec2 Distorted(const geometry::Vec2& ideal_px) const;
+  geometry::Vec2 Distort(const geometry::Vec2& ideal_px) const;
+  /// The image's half-diagonal squared [px^2]: the unit the distortion's terms are given in.
+  double Corner2() const;
+  /// Tool frame (y, h) [mm] of an ideal (undistorted) pixel position, and back.
   geometry::Vec2 ToolFromPixel(const geometry::Vec2& px) const;
   geometry::Vec2 PixelFromTool(const geometry::Vec2& yh) const;
   void Validate() const;  ///< throws ToolInputError naming the field
