@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <limits>
 #include <vector>
 
 namespace mlp::geometry {
@@ -68,6 +70,38 @@ double GreyPercentile(const GreyView& im, double share) {
 
 double HalfLevel(const GreyView& im) {
   return (GreyPercentile(im, 0.02) + GreyPercentile(im, 0.98)) / 2.0;
+}
+
+double Bilinear(const GreyView& im, const Vec2& px) {
+  const int u = static_cast<int>(px.x()), v = static_cast<int>(px.y());
+  const double fu = px.x() - u, fv = px.y() - v;
+  return (1 - fv) * ((1 - fu) * im.At(u, v) + fu * im.At(u + 1, v)) +
+         fv * ((1 - fu) * im.At(u, v + 1) + fu * im.At(u + 1, v + 1));
+}
+
+double CrossingAlongLine(const GreyView& im,
+                         double level,
+                         const Vec2& a,
+                         const Vec2& u,
+                         double t_from,
+                         double t_to,
+                         double t_near) {
+  constexpr double kStepPx = 0.25;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const auto inside = [&im](const Vec2& p) {
+    return p.x() >= 0 && p.y() >= 0 && p.x() < im.width - 1 && p.y() < im.height - 1;
+  };
+  if (!(t_to > t_from) || !inside(a + t_from * u) || !inside(a + t_to * u)) return nan;
+  double found = nan, prev = Bilinear(im, a + t_from * u);
+  for (double t = t_from + kStepPx; t <= t_to; t += kStepPx) {
+    const double g = Bilinear(im, a + t * u);
+    if ((prev < level) != (g < level)) {
+      const double cross = t - kStepPx + kStepPx * (level - prev) / (g - prev);
+      if (!(std::abs(cross - t_near) >= std::abs(found - t_near))) found = cross;
+    }
+    prev = g;
+  }
+  return found;
 }
 
 GreyView GreyView::Window(int u0, int v0, int w, int h) const {

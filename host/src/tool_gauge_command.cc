@@ -77,6 +77,9 @@ toolcam::GaugeScale ReadScale(const std::string& path) {
     s.edge_bias_mm = j.at("edge_bias_mm").get<double>();
     s.rms_mm = j.value("masters_rms_mm", 0.0);
     s.masters = j.value("masters", 0);
+    s.mm_per_px_u = j.value("mm_per_px_u", 0.0);
+    s.edge_bias_u_mm = j.value("edge_bias_u_mm", 0.0);
+    s.correlation = j.value("correlation", 0.0);
     if (!(s.mm_per_px > 0) || !std::isfinite(s.edge_bias_mm)) throw std::invalid_argument("range");
     return s;
   } catch (const std::exception&) {
@@ -115,9 +118,10 @@ void Picture(const std::string& path,
 }
 
 nlohmann::ordered_json CircleJson(
-    const toolcam::GaugedCircle& c, double d, double lo, double hi, double roundness) {
-  return {{"diameter_mm", d},          {"min_diameter_mm", lo}, {"max_diameter_mm", hi},
-          {"roundness_mm", roundness}, {"points", c.points},    {"left_out", c.left_out}};
+    const toolcam::GaugedCircle& c, double d, double u, double lo, double hi, double roundness) {
+  return {{"diameter_mm", d},      {"diameter_u_mm", u},        {"min_diameter_mm", lo},
+          {"max_diameter_mm", hi}, {"roundness_mm", roundness}, {"points", c.points},
+          {"left_out", c.left_out}};
 }
 
 }  // namespace
@@ -139,7 +143,10 @@ int GaugeSetup(const std::vector<std::string>& args, std::ostream& out, std::ost
                                     {"mm_per_px", s.mm_per_px},
                                     {"edge_bias_mm", s.edge_bias_mm},
                                     {"masters_rms_mm", s.rms_mm},
-                                    {"masters", s.masters}};
+                                    {"masters", s.masters},
+                                    {"mm_per_px_u", s.mm_per_px_u},
+                                    {"edge_bias_u_mm", s.edge_bias_u_mm},
+                                    {"correlation", s.correlation}};
   WriteOutputFile(f.Text("--out", ""), j.dump(1) + "\n");
   if (f.Has("--json")) {
     out << j.dump() << "\n";
@@ -147,8 +154,10 @@ int GaugeSetup(const std::vector<std::string>& args, std::ostream& out, std::ost
   }
   out << std::fixed << std::setprecision(7) << "gauge scale from " << s.masters
       << " masters: " << s.mm_per_px << " mm/px, edge bias " << std::setprecision(2)
-      << s.edge_bias_mm * 1e3 << " um; the masters' diameters about it " << s.rms_mm * 1e3
-      << " um RMS\n  written to " << f.Text("--out", "") << "\n";
+      << s.edge_bias_mm * 1e3 << " um (u " << s.edge_bias_u_mm * 1e3
+      << " um); the masters' diameters about it " << s.rms_mm * 1e3
+      << " um RMS: a part's diameter is known to about that (k = 1)\n  written to "
+      << f.Text("--out", "") << "\n";
   return kExitOk;
 }
 
@@ -168,11 +177,13 @@ int GaugeOne(const std::vector<std::string>& args, std::ostream& out, std::ostre
   if (!f.Text("--png", "").empty()) Picture(f.Text("--png", ""), grey, p, m);
   const nlohmann::ordered_json j = {
       {"image", f.Text("--image", "")},
-      {"outer", CircleJson(p.outer, m.outer_diameter_mm, m.outer_min_mm, m.outer_max_mm,
-                           m.outer_roundness_mm)},
-      {"inner", CircleJson(p.inner, m.inner_diameter_mm, m.inner_min_mm, m.inner_max_mm,
-                           m.inner_roundness_mm)},
+      {"outer", CircleJson(p.outer, m.outer_diameter_mm, m.outer_diameter_u_mm, m.outer_min_mm,
+                           m.outer_max_mm, m.outer_roundness_mm)},
+      {"inner", CircleJson(p.inner, m.inner_diameter_mm, m.inner_diameter_u_mm, m.inner_min_mm,
+                           m.inner_max_mm, m.inner_roundness_mm)},
       {"concentricity_mm", m.concentricity_mm},
+      {"concentricity_rule", "ISO 1101: the zone's diameter, twice the centres' distance"},
+      {"centre_distance_mm", m.centre_distance_mm},
       {"stray_points", p.stray_points},
       {"left_out_rule", "edge points over 3 px (and 4 robust sigma) off their circle"}};
   if (f.Has("--json")) {
@@ -180,12 +191,15 @@ int GaugeOne(const std::vector<std::string>& args, std::ostream& out, std::ostre
     return kExitOk;
   }
   out << std::fixed << std::setprecision(4) << f.Text("--image", "") << ": outer "
-      << m.outer_diameter_mm << " mm (" << m.outer_min_mm << " .. " << m.outer_max_mm
+      << m.outer_diameter_mm << " mm +-" << std::setprecision(1) << 2e3 * m.outer_diameter_u_mm
+      << " um (k = 2; " << std::setprecision(4) << m.outer_min_mm << " .. " << m.outer_max_mm
       << ", roundness " << std::setprecision(1) << m.outer_roundness_mm * 1e3 << " um), inner "
-      << std::setprecision(4) << m.inner_diameter_mm << " mm (" << m.inner_min_mm << " .. "
-      << m.inner_max_mm << ", roundness " << std::setprecision(1) << m.inner_roundness_mm * 1e3
-      << " um), concentricity " << m.concentricity_mm * 1e3
-      << " um\n  edge points: " << p.outer.points << " + " << p.inner.points << " used, "
+      << std::setprecision(4) << m.inner_diameter_mm << " mm +-" << std::setprecision(1)
+      << 2e3 * m.inner_diameter_u_mm << " um (k = 2; " << std::setprecision(4) << m.inner_min_mm
+      << " .. " << m.inner_max_mm << ", roundness " << std::setprecision(1)
+      << m.inner_roundness_mm * 1e3 << " um), concentricity " << m.concentricity_mm * 1e3
+      << " um (ISO 1101 zone diameter; centres " << m.centre_distance_mm * 1e3
+      << " um apart)\n  edge points: " << p.outer.points << " + " << p.inner.points << " used, "
       << p.outer.left_out << " + " << p.inner.left_out
       << " left out (over 3 px and 4 robust sigma off the circle), " << p.stray_points
       << " stray (dust off the part)\n";

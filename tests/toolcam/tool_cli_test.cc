@@ -191,6 +191,14 @@ TEST(ToolCli, GaugesARealWasherAfterSettingTheScaleOnMasters) {
   constexpr double kOuterTolMm = 0.015, kInnerTolMm = 0.023;  // the gauge test's worst + 1 um
   EXPECT_NEAR(j.at("outer").at("diameter_mm").get<double>(), 23.664103, kOuterTolMm);
   EXPECT_NEAR(j.at("inner").at("diameter_mm").get<double>(), 19.005620, kInnerTolMm);
+  // Concentricity as the CMM reports it (ISO 1101's zone diameter, 27.9 um for this part).
+  constexpr double kConcentricityTolMm = 0.006;  // the gauge test's RMS + 15 %
+  EXPECT_NEAR(j.at("concentricity_mm").get<double>(), 0.027913, kConcentricityTolMm);
+  EXPECT_DOUBLE_EQ(j.at("concentricity_mm").get<double>(),
+                   2 * j.at("centre_distance_mm").get<double>());
+  // Its uncertainty: the masters' scatter about the scale (6.5 um) dominates.
+  EXPECT_GT(j.at("outer").at("diameter_u_mm").get<double>(), 0.004);
+  EXPECT_LT(j.at("outer").at("diameter_u_mm").get<double>(), 0.010);
   EXPECT_TRUE(std::filesystem::exists(dir + "/part_15.png"));
   const auto none = RunProcess(kMlp + " tool gauge --image " + mlp::test::SourceDir() +
                                "/samples/tools/README.md --scale " + dir + "/scale.json");

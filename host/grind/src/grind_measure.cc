@@ -34,13 +34,6 @@ std::vector<Vec2> Contour(const geometry::GreyView& im,
   return out;
 }
 
-double Bilinear(const geometry::GreyView& im, const Vec2& px) {
-  const int u = static_cast<int>(px.x()), v = static_cast<int>(px.y());
-  const double fu = px.x() - u, fv = px.y() - v;
-  return (1 - fv) * ((1 - fu) * im.At(u, v) + fu * im.At(u + 1, v)) +
-         fv * ((1 - fu) * im.At(u, v + 1) + fu * im.At(u + 1, v + 1));
-}
-
 // The material's edge along a line by its local contrast (issue 55): the seed's cell takes its
 // frames with the wheel 8 mm above focus, and the nose's blurred shadow dims the back light over
 // the freshly cut surface to about half (an outside renderer: 97 grey where the frame's half
@@ -68,7 +61,7 @@ LineEdge EdgeAlongLine(const geometry::GreyView& im,
     const Vec2 px = cam.ToPx(a + (t_from + i * step) * u);
     if (px.x() < 0 || px.y() < 0 || px.x() >= cam.width_px - 1 || px.y() >= cam.height_px - 1)
       return {};
-    g[static_cast<size_t>(i)] = Bilinear(im, px);
+    g[static_cast<size_t>(i)] = geometry::Bilinear(im, px);
   }
   constexpr int kQ = 4;  // samples a pixel
   if (n < 2 * 10 * kQ + 1) return {};

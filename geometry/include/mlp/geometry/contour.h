@@ -52,4 +52,22 @@ Points2 ColumnCrossings(const GreyView& image, double level);
 /// both a row and a column.
 Points2 AllCrossings(const GreyView& image, double level);
 
+/// The grey level at a sub-pixel point by bilinear interpolation; `px` must lie at least a
+/// pixel inside the image's right and bottom sides.
+double Bilinear(const GreyView& image, const Vec2& px);
+
+/// Where the grey along the line p(t) = a + t u (px, u a unit vector) crosses `level` either
+/// way, for t in [t_from, t_to] sampled every quarter pixel (bilinear): the crossing nearest
+/// `t_near`, by linear interpolation between samples; NaN with none or with the line leaving the
+/// image. A crossing along the edge's normal, as a CMM probes a feature: rows and columns cross
+/// a circle's edge obliquely everywhere but at four points, and an edge whose grey profile is
+/// not symmetric (a saturated back light) moves by a different amount along each.
+double CrossingAlongLine(const GreyView& image,
+                         double level,
+                         const Vec2& a,
+                         const Vec2& u,
+                         double t_from,
+                         double t_to,
+                         double t_near);
+
 }  // namespace mlp::geometry

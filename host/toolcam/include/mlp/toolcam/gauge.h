@@ -6,13 +6,13 @@
 /// Pixels become millimetres through a scale and the back light's edge bias found from master
 /// parts with known CMM figures (FitGaugeScale), as a shop sets a gauge with a master.
 ///
-/// The edges are the silhouette's sub-pixel crossings of its half grey level
-/// (geometry/contour.h, the tool camera's and the grinding cell's edge code). Dust off the part,
+/// The circles are found from the silhouette's sub-pixel crossings of its half grey level along
+/// rows and columns (geometry/contour.h, the tool camera's and the grinding cell's edge code),
+/// then their edges crossed again along 2,880 normals (as a CMM scans). Dust off the part,
 /// burrs and hairs on its edges are left out and counted: points more than 3 px (and 4 robust
 /// sigma) off the circle, refitted until none leave; then the kept points are averaged in
 /// 0.25 deg sectors round the centre and the circle fitted through the sectors' means, so each
-/// direction weighs alike as a CMM's even scan (rows and columns find 1.4 x more points at
-/// 45 deg than along the axes).
+/// direction weighs alike as a CMM's even scan.
 
 #include "mlp/geometry/contour.h"
 #include "mlp/geometry/types.h"
@@ -56,6 +56,9 @@ struct GaugeScale {
   double mm_per_px = 0.0, edge_bias_mm = 0.0;
   double rms_mm = 0.0;  ///< the masters' diameters about the fit
   int masters = 0;
+  /// Standard uncertainties of the two (the fit's covariance, its residuals' variance over
+  /// 2 n - 2 degrees of freedom) and their correlation.
+  double mm_per_px_u = 0.0, edge_bias_u_mm = 0.0, correlation = 0.0;
 };
 
 /// A master part's CMM figures: least-squares diameters [mm].
@@ -73,7 +76,15 @@ struct PartFigures {
   double outer_diameter_mm = 0.0, inner_diameter_mm = 0.0;
   double outer_min_mm = 0.0, outer_max_mm = 0.0, inner_min_mm = 0.0, inner_max_mm = 0.0;
   double outer_roundness_mm = 0.0, inner_roundness_mm = 0.0;
-  double concentricity_mm = 0.0;  ///< the centres' distance
+  /// Standard uncertainty of each diameter (k = 1): the scale's and bias' uncertainty at this
+  /// size and the masters' scatter about the fit, which is what a silhouette cannot see of a
+  /// part (its sections, burrs under the edge, the CMM's own) and dominates.
+  double outer_diameter_u_mm = 0.0, inner_diameter_u_mm = 0.0;
+  /// Concentricity as ISO 1101 tolerances it and a CMM reports it: the diameter of the zone
+  /// round the outer circle's centre that holds the hole's, twice the centres' distance (the
+  /// 20 washers' CMM figures are 2.0x the distance in the median).
+  double concentricity_mm = 0.0;
+  double centre_distance_mm = 0.0;
 };
 PartFigures ToMillimetres(const GaugedPart& part, const GaugeScale& scale);
 
