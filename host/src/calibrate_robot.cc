@@ -371,7 +371,8 @@ int JudgeImages(const calib::Spread& s,
     e["left_out"] = left_out;
     std::string why;
     if (e["saturated_share"].get<double>() > kSaturatedShareFlag)
-      why = Fixed(100 * e["saturated_share"].get<double>(), 0) + " % of the stripe saturated";
+      why = Fixed(100 * e["saturated_share"].get<double>(), 0) +
+            " % of the stripe saturated (those rows give no point)";
     if (std::abs(sum / n) > s.threshold_mm)
       why += (why.empty() ? "" : ", ") + std::string("its points ") + Fixed(sum / n, 2) +
              " mm off the plane the others share";

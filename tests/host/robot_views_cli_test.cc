@@ -17,6 +17,8 @@
 #include "test_data.h"
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 namespace mlp {
 namespace {
@@ -38,6 +40,35 @@ constexpr double kHeldOutMaxMm = 1.06;  // measured 0.880 mm
 
 test::ProcessRun Mlp(const std::string& args) {
   return test::RunProcess(mlp::test::Program("mlp") + " calibrate " + args);
+}
+
+// The held-out manifest with one more image: im20 (a held-out laser close-up) exposed 3x as
+// long (each channel x3, clipped at 255), at im20's pose, under the name im20_x3.png; the
+// images linked into `dir`.
+std::string OverExposedManifest(const fs::path& dir, const std::string& held_out) {
+  const fs::path data = test::SharedDataDir() / "blaser-line-laser", images = dir / "images";
+  fs::create_directories(images);
+  for (const auto& e : fs::directory_iterator(data))
+    if (e.path().extension() == ".png" && !fs::exists(images / e.path().filename()))
+      fs::create_symlink(fs::absolute(e.path()), images / e.path().filename());
+  cv::Mat bright;
+  cv::imread((data / "im20.png").string(), cv::IMREAD_COLOR).convertTo(bright, -1, 3.0);
+  cv::imwrite((images / "im20_x3.png").string(), bright);
+  std::ifstream in(data / "data.txt");
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);)
+    if (line.find_first_not_of(" \t\r") != std::string::npos) lines.push_back(line);
+  std::ifstream held(held_out);
+  json m = json::parse(held);
+  std::ofstream poses(dir / "over_exposed.txt");
+  std::ifstream held_poses(m["poses"]["file"].get<std::string>());
+  poses << held_poses.rdbuf();
+  for (size_t i = 0; i + 2 < lines.size(); i += 3)
+    if (lines[i + 2] == "im20.png") poses << lines[i] << "\n" << lines[i + 1] << "\nim20_x3.png\n";
+  m["images"] = images.string();
+  m["poses"]["file"] = (dir / "over_exposed.txt").string();
+  std::ofstream(dir / "over_exposed.json") << m.dump(1);
+  return (dir / "over_exposed.json").string();
 }
 
 // A poses file of the images whose number satisfies `keep`, and a manifest for it.
@@ -119,16 +150,24 @@ TEST(RobotViewsCli, LineLaserHandEyeAndMapOnHeldOutRealImages) {
       s["outliers"].get<int>(), s["left_out_beyond_mm"].get<double>(),
       s["all_points"]["rms_mm"].get<double>(), s["all_points"]["max_mm"].get<double>());
   EXPECT_GE(s["all_points"]["max_mm"].get<double>(), s["max_mm"].get<double>());
+  // im10's stripe is 41 % saturated (its red channel clipped on 884 pixels): flagged since the
+  // firmware names a clipped flat top saturated before it calls it a double peak (it said 0 %).
   int flagged = 0, left_out = 0;
   for (const auto& e : m["images"]) {
     if (e.contains("refused")) continue;
     left_out += e["left_out"].get<int>();
     if (!e.contains("flag")) continue;
     ++flagged;
+    const std::string why = e["flag"];
+    if (e["name"] == "im10.png") {
+      EXPECT_NE(why.find("% of the stripe saturated"), std::string::npos) << why;
+      EXPECT_GT(e["saturated_share"].get<double>(), 0.25);
+      continue;
+    }
     EXPECT_EQ(e["name"], "im25.png") << e.dump();
-    EXPECT_NE(e["flag"].get<std::string>().find("mm off the plane"), std::string::npos);
+    EXPECT_NE(why.find("mm off the plane"), std::string::npos);
   }
-  EXPECT_EQ(flagged, 1);
+  EXPECT_EQ(flagged, 2);
   EXPECT_EQ(left_out, s["outliers"].get<int>());  // the images' counts add up to the summary's
   EXPECT_EQ(m["hand_eye_calibration_id"], h["calibration_id"]);
   EXPECT_LT(s["rms_mm"].get<double>(), kHeldOutRmsMm);
@@ -145,6 +184,22 @@ TEST(RobotViewsCli, LineLaserHandEyeAndMapOnHeldOutRealImages) {
     EXPECT_EQ(cloud.xyz.size(), 3 * e["points"].get<size_t>());
     EXPECT_TRUE(cloud.meta.mcs_from_flange.has_value());
   }
+  // Issue 52: an over-exposed image (made: im20 at 3x its exposure) is flagged by name as
+  // saturated, with the words an operator needs; the others' figures do not change.
+  const auto over = Mlp("map --json --views " + OverExposedManifest(dir, held) + " --probe " +
+                        refined + " --store " + store + " --out " + (dir / "over").string());
+  ASSERT_EQ(over.exit_code, 5) << over.err;
+  const json o = json::parse(over.out);
+  bool saturated_flagged = false;
+  for (const auto& e : o["images"]) {
+    if (e["name"] != "im20_x3.png") continue;
+    std::printf("im20 at 3x exposure: %s\n", e.dump().c_str());
+    ASSERT_TRUE(e.contains("flag") || e.contains("refused")) << e.dump();
+    const std::string why = e.contains("flag") ? e["flag"] : e["refused"];
+    saturated_flagged = why.find("% of the stripe saturated") != std::string::npos;
+    EXPECT_GT(e["saturated_share"].get<double>(), 0.5);
+  }
+  EXPECT_TRUE(saturated_flagged);
   // The clouds are never overwritten, and a MEMS probe's model is not a line laser.
   const auto twice = Mlp("map --views " + held + " --probe " + refined + " --store " + store +
                          " --out " + clouds.string());
