@@ -584,4 +584,75 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
   return r;
 }
 
+namespace {
+
+constexpr double kLaserBeyondSigmas = 2.5, kMinLaserBeyondMm = 0.1;
+
+// Heights [mm] of `points_in_base` above the board at `base_from_board`: mean, RMS, largest.
+void Heights(const std::vector<Vec3>& points_in_base,
+             const Pose3& base_from_board,
+             double* mean,
+             double* rms,
+             double* max) {
+  const Pose3 board_from_base = base_from_board.inverse();
+  double sum = 0.0, s2 = 0.0;
+  for (const Vec3& p : points_in_base) {
+    const double h = (board_from_base * p).z();
+    sum += h, s2 += h * h, *max = std::max(*max, std::abs(h));
+  }
+  const auto n = static_cast<double>(std::max<size_t>(points_in_base.size(), 1));
+  *mean = sum / n, *rms = std::sqrt(s2 / n);
+}
+
+}  // namespace
+
+BoardImageCheck CheckBoardImage(const ImageFindings& f,
+                                const Pose3& base_from_flange,
+                                const Intrinsics& camera,
+                                const geometry::Plane& plane_in_camera,
+                                const Pose3& flange_from_camera,
+                                const Pose3& base_from_board,
+                                const ChessboardSpec& board) {
+  if (!f.HasBoard())
+    throw CameraCalibError(f.name + ": no board found in the image; the check needs the board");
+  BoardImageCheck c;
+  const CameraCalibration seen = BoardPosesWithCamera({f.corners}, board, camera);
+  c.camera_from_board_seen = seen.camera_from_board.at(0);
+  c.seen_corner_rms_px = seen.view_rms_px.at(0);
+  const std::vector<Vec3> corners = BoardCorners(board);
+  const Pose3 base_from_camera = base_from_flange * flange_from_camera;
+  BoardHandEyeResult expected;
+  expected.flange_from_camera = flange_from_camera, expected.base_from_board = base_from_board;
+  c.expected_corner_rms_px =
+      std::sqrt(CornerSquares(f, base_from_flange, expected, camera, corners) /
+                static_cast<double>(corners.size()));
+  const Vec3 middle = 0.5 * (corners.front() + corners.back());
+  const Pose3 base_from_board_seen = base_from_camera * c.camera_from_board_seen;
+  c.board_offset_mm = (base_from_board_seen * middle - base_from_board * middle).norm();
+  c.board_turn_deg =
+      Eigen::AngleAxisd(base_from_board_seen.linear() * base_from_board.linear().transpose())
+          .angle() *
+      180.0 / M_PI;
+  // The points near the seen board's plane by a robust rule; the rest fell beside the board.
+  const std::vector<Vec3> all =
+      LaserPointsInBase(f, base_from_flange, camera, plane_in_camera, flange_from_camera);
+  double unused = 0.0;
+  Heights(all, base_from_board_seen, &unused, &c.laser_all_rms_mm, &c.laser_all_max_mm);
+  const Pose3 board_seen_from_base = base_from_board_seen.inverse();
+  std::vector<double> h;
+  h.reserve(all.size());
+  for (const Vec3& p : all) h.push_back((board_seen_from_base * p).z());
+  c.laser_left_out_beyond_mm =
+      h.empty() ? 0.0 : std::max(kMinLaserBeyondMm, kLaserBeyondSigmas * RobustSigma(h));
+  std::vector<Vec3> laser;
+  for (size_t k = 0; k < all.size(); ++k)
+    if (std::abs(h[k]) <= c.laser_left_out_beyond_mm) laser.push_back(all[k]);
+  c.laser_left_out = static_cast<int>(all.size() - laser.size());
+  c.laser_points = static_cast<int>(laser.size());
+  Heights(laser, base_from_board_seen, &unused, &c.laser_seen_rms_mm, &c.laser_seen_max_mm);
+  Heights(laser, base_from_board, &c.laser_expected_mean_mm, &c.laser_expected_rms_mm,
+          &c.laser_expected_max_mm);
+  return c;
+}
+
 }  // namespace mlp::calib

@@ -42,6 +42,8 @@ constexpr const char* kUsage =
     "                                [--lever-mm 100] [--dry-run] [--json]\n"
     "       mlp calibrate map --views ROBOT_VIEWS --probe PROBE_FILE --store DIR --out DIR\n"
     "                         [--calibration ID] [--json]\n"
+    "       mlp calibrate board-pose --views ROBOT_VIEWS --probe PROBE_FILE --store DIR\n"
+    "                         [--calibration ID] [--json]\n"
     "       mlp calibrate hand-eye --captures MANIFEST --store DIR [--dry-run] [--json]\n"
     "                              [--estimate scale_x,scale_y,scale_z,incidence_bias]\n"
     "       mlp calibrate recheck  --captures MANIFEST --store DIR [--sphere-moved] [--json]\n"
@@ -58,6 +60,9 @@ constexpr const char* kUsage =
     "  map       every image's laser points (the firmware's triangulation) in the robot's base\n"
     "            frame, one PLY per image; their spread about one common plane (a check on\n"
     "            images the calibration was not fitted to)\n"
+    "  board-pose  each image's board pose with the calibration held fixed, against where the\n"
+    "            calibration puts the board, and the laser's heights above both (a check a\n"
+    "            user runs on a new image; exit 5 when an image disagrees)\n"
     "  --views ROBOT_VIEWS  JSON \"mlprobe-robot-views/1\": images, board, channels, pose file\n"
     "  hand-eye  sphere hand-eye: M (probe -> flange) and the sphere centre from clouds of the\n"
     "            reference sphere at known flange poses; stored as a new calibration\n"
@@ -279,8 +284,8 @@ int RunCalibrateCommand(const std::vector<std::string>& args,
   try {
     if (!args.empty() && (args[0] == "camera" || args[0] == "projector"))
       return RunCameraProjectorCommand(args, out, err);
-    if (!args.empty() &&
-        (args[0] == "line-laser" || args[0] == "board-hand-eye" || args[0] == "map"))
+    if (!args.empty() && (args[0] == "line-laser" || args[0] == "board-hand-eye" ||
+                          args[0] == "map" || args[0] == "board-pose"))
       return RunRobotViewsCommand(args, out, err);
     const Command a = ParseArgs(args);
     if (a.command == "hand-eye") return HandEye(a, out, err);

@@ -88,6 +88,38 @@ std::vector<geometry::Vec3> LaserPointsInBase(const ImageFindings& findings,
                                               const geometry::Plane& plane_in_camera,
                                               const geometry::Pose3& flange_from_camera);
 
+/// One image checked against a calibration held fixed (issue 52: a check a user runs on a new
+/// image): the board's pose as the image shows it (PnP with the calibration's camera) against
+/// the pose the calibration expects (B seen through F_i X), and the laser points' heights above
+/// each. Above the seen board they test the camera and the light plane alone (no robot pose,
+/// no hand-eye); above the expected one, the whole chain.
+struct BoardImageCheck {
+  geometry::Pose3 camera_from_board_seen = geometry::Pose3::Identity();
+  double seen_corner_rms_px = 0.0;      ///< the corners through the seen pose
+  double expected_corner_rms_px = 0.0;  ///< the corners through F_i X and B
+  /// The seen board's middle against the expected one's, in the base [mm], and the turn
+  /// between the two poses [deg]: the robot's pose error, or a moved board, or a stale X.
+  double board_offset_mm = 0.0, board_turn_deg = 0.0;
+  /// Laser points kept: within 2.5 robust sigma (and 0.1 mm) of the seen board's plane; those
+  /// beyond (light beside the board, on the table or the clamp) are left out and counted, and
+  /// the heights over all points given beside.
+  int laser_points = 0, laser_left_out = 0;
+  double laser_left_out_beyond_mm = 0.0;
+  double laser_all_rms_mm = 0.0, laser_all_max_mm = 0.0;    ///< above the seen board, all
+  double laser_seen_rms_mm = 0.0, laser_seen_max_mm = 0.0;  ///< heights above the seen board
+  double laser_expected_mean_mm = 0.0, laser_expected_rms_mm = 0.0,
+         laser_expected_max_mm = 0.0;  ///< heights above B
+};
+
+/// Throws CameraCalibError when the image shows no board.
+BoardImageCheck CheckBoardImage(const ImageFindings& findings,
+                                const geometry::Pose3& base_from_flange,
+                                const Intrinsics& camera,
+                                const geometry::Plane& plane_in_camera,
+                                const geometry::Pose3& flange_from_camera,
+                                const geometry::Pose3& base_from_board,
+                                const ChessboardSpec& board);
+
 /// RMS and largest of distances [mm].
 struct Spread {
   double rms_mm = 0.0, max_mm = 0.0;  ///< over the points kept

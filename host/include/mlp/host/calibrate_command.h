@@ -14,7 +14,8 @@ namespace mlp::host {
 enum CalibrateExit : int {
   kExitUnderDetermined = 3,  ///< the captures do not determine the calibration; nothing stored
   kExitFullCalibrationRequired = 4,  ///< recheck: the change is too large for a quick fix
-  kExitFlagged = 5,  ///< map: the clouds are written, an image is flagged (retake it)
+  kExitFlagged = 5,  ///< map: the clouds are written, an image is flagged (retake it);
+                     ///< board-pose: an image disagrees with the calibration
 };
 
 /// Runs `mlp calibrate ARGS...` (args exclude "calibrate").
