@@ -329,20 +329,25 @@ int BoardHandEye(const Options& o, std::ostream& out, std::ostream& err) {
 }
 
 // The image's stripe centres triangulated by the firmware with the probe model (column 0: the
-// one light plane) and mapped by F_i X into the robot's base frame.
+// one light plane) and mapped by F_i X into the robot's base frame; the points' mean distance
+// along the camera's axis in *mean_depth_mm (a near-range bias shows against it).
 std::vector<Vec3> CloudInBase(const calib::ImageFindings& f,
                               const probe_fw::ProbeModel& model,
                               const Pose3& base_from_probe,
-                              std::vector<float>* quality) {
+                              std::vector<float>* quality,
+                              double* mean_depth_mm) {
   std::vector<Vec3> out;
+  double depth = 0.0;
   for (size_t k = 0; k < f.stripe_px.size(); ++k) {
     // A ray in the light plane: no point.
     const auto& px = f.stripe_px[k];
     if (const auto p = probe_fw::Triangulate(model, px.x(), px.y(), 0.0)) {
       out.push_back(base_from_probe * *p);
+      depth += p->z();
       quality->push_back(k < f.stripe_quality.size() ? f.stripe_quality[k] : 1.0f);
     }
   }
+  *mean_depth_mm = out.empty() ? 0.0 : depth / static_cast<double>(out.size());
   return out;
 }
 
@@ -434,7 +439,9 @@ int Map(const Options& o, std::ostream& out, std::ostream& err) {
     }
     const Pose3& flange = v.images[i].base_from_flange;
     std::vector<float> quality;
-    const auto cloud = CloudInBase(found[i], model, flange * record.flange_from_probe, &quality);
+    double depth_mm = 0.0;
+    const auto cloud =
+        CloudInBase(found[i], model, flange * record.flange_from_probe, &quality, &depth_mm);
     std::vector<double> xyz;
     for (const Vec3& p : cloud) xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
     const std::string file =
@@ -442,7 +449,7 @@ int Map(const Options& o, std::ostream& out, std::ostream& err) {
     probe_fw::CloudFileMeta meta{model.serial, record.calibration_id, found[i].name, flange,
                                  "base",       std::nullopt};
     probe_fw::WriteCloudPly(file, xyz, quality, meta);
-    e["cloud"] = file, e["points"] = cloud.size();
+    e["cloud"] = file, e["points"] = cloud.size(), e["depth_mm"] = depth_mm;
     const double candidates = double(found[i].stripe_px.size() + found[i].stripe_saturated);
     e["saturated_share"] = found[i].stripe_saturated / candidates;
     images.push_back(e);
