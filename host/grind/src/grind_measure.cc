@@ -272,10 +272,26 @@ constexpr double kBeforeMiMm = 0.4, kBeyondMiMm = 0.4;
 // apart at the nose, within +-1 rad of C-Mi, each searched round where it meets the theoretical
 // wheel's edge, in the after frame and the before; a ray whose edges are not both found is left
 // out.
+// Along each ray, the light side of the after edge is sampled every 2 px from 2 to 24 px before
+// it (a feather burr stands 60-120 um on the edge) in both frames: before - after there is new
+// dark, material the stroke cannot have made.
+constexpr int kNewDarkSamples = 12;
+constexpr double kNewDarkStepPx = 2.0;
+
 struct Ray {
   Vec2 dir;
-  double after_mm = 0, before_mm = 0;  // from C to the edge
+  double after_mm = 0, before_mm = 0;              // from C to the edge
+  double contrast = 0;                             // the after edge's
+  std::array<double, kNewDarkSamples> new_dark{};  // before - after grey, light side
 };
+
+// Grey at `mm` in `im`, or NaN outside it.
+double GreyAt(const geometry::GreyView& im, const GrindCamera& cam, const Vec2& mm) {
+  const Vec2 px = cam.ToPx(mm);
+  if (px.x() < 0 || px.y() < 0 || px.x() >= cam.width_px - 1 || px.y() >= cam.height_px - 1)
+    return std::numeric_limits<double>::quiet_NaN();
+  return geometry::Bilinear(im, px);
+}
 
 std::vector<Ray> EdgeRays(const PointInput& in,
                           const GrindCamera& cam,
@@ -292,8 +308,15 @@ std::vector<Ray> EdgeRays(const PointInput& in,
     const double to = rim.back() + kBeyondMiMm;
     const LineEdge after = EdgeAlongLine(in.after, cam, in.c_mm, dir, from, to, min_contrast);
     const LineEdge before = EdgeAlongLine(in.before, cam, in.c_mm, dir, from, to, min_contrast);
-    if (std::isfinite(after.t_mm) && std::isfinite(before.t_mm))
-      rays.push_back({dir, after.t_mm, before.t_mm});
+    if (!std::isfinite(after.t_mm) || !std::isfinite(before.t_mm)) continue;
+    Ray ray{dir, after.t_mm, before.t_mm, after.contrast, {}};
+    for (int j = 0; j < kNewDarkSamples; ++j) {
+      const Vec2 at = in.c_mm + (after.t_mm - (j + 1) * kNewDarkStepPx * cam.mm_per_px) * dir;
+      // Only darker counts: lighter is the stock the stroke took (or its edge's blur).
+      ray.new_dark[static_cast<size_t>(j)] =
+          std::max(0.0, GreyAt(in.before, cam, at) - GreyAt(in.after, cam, at));
+    }
+    rays.push_back(ray);
   }
   return rays;
 }
@@ -337,6 +360,54 @@ void RefuseBumps(const std::vector<Ray>& rays) {
          " rays, up to " + std::to_string(std::lround(worst * 1e3)) +
          " um nearer the wheel than the contour either side: a droplet or a burr); not "
          "measured, not compensated");
+}
+
+// Something new on the light side of the after edge (issue 55: a feather burr, 7 um thick,
+// standing on the edge): the after frame darker than the before where the stroke can only
+// have taken material away. Against the same sample of the rays 4-10 either side (a shadow's
+// shift between the frames, the back light's drift change slowly along the arc), a ray darker
+// by over kNewDarkShare of its edge's contrast shows something; two such rays side by side, or
+// one by twice that: refused with the reason, never compensated.
+constexpr double kNewDarkShare = 0.25;
+
+constexpr long kNewDarkNear = 4, kNewDarkFar = 10;
+
+// The median of sample j over rays i + sign [kNewDarkNear, kNewDarkFar]; NaN with under 3.
+double SideLevel(const std::vector<Ray>& rays, long i, long sign, size_t j) {
+  std::vector<double> side;
+  for (long k = kNewDarkNear; k <= kNewDarkFar; ++k) {
+    const double v = rays[static_cast<size_t>(i + sign * k)].new_dark[j];
+    if (std::isfinite(v)) side.push_back(v);
+  }
+  return side.size() < 3 ? std::numeric_limits<double>::quiet_NaN() : geometry::Median(side);
+}
+
+// How far ray i's new dark stands above both sides' (a step along the arc, where the removed
+// region ends or a shadow's edge lies, stands above one side only), as a share of its edge's
+// contrast: the most over its samples.
+double NewDarkShare(const std::vector<Ray>& rays, long i) {
+  double worst = 0;
+  for (size_t j = 0; j < static_cast<size_t>(kNewDarkSamples); ++j) {
+    const double left = SideLevel(rays, i, -1, j), right = SideLevel(rays, i, +1, j);
+    const double v = rays[static_cast<size_t>(i)].new_dark[j];
+    if (!std::isfinite(left) || !std::isfinite(right) || !std::isfinite(v)) continue;
+    worst = std::max(worst, (v - std::max(left, right)) / rays[static_cast<size_t>(i)].contrast);
+  }
+  return worst;
+}
+
+void RefuseNewDark(const std::vector<Ray>& rays) {
+  const auto n = static_cast<long>(rays.size());
+  bool previous = false;
+  for (long i = kNewDarkFar; i + kNewDarkFar < n; ++i) {
+    const double share = NewDarkShare(rays, i);
+    if (share > 2 * kNewDarkShare || (share > kNewDarkShare && previous))
+      Fail("something new stands on the edge round the point (the after frame " +
+           std::to_string(std::lround(100 * share)) +
+           " % of the edge's contrast darker than the before, where the stroke only takes "
+           "material away: a burr or a droplet); not measured, not compensated");
+    previous = share > kNewDarkShare;
+  }
 }
 
 // Under-feed: where the wheel really was (seed 001, Fig. 4-6), from the removed region's edge.
@@ -471,6 +542,7 @@ PointResult MeasurePoint(const PointInput& in,
   res.error_dir = n, res.error_mm = res.d_mm;
   const std::vector<Ray> rays = EdgeRays(in, cam, wheel, min_contrast);
   RefuseBumps(rays);
+  RefuseNewDark(rays);
   if (res.feed == Feed::kOverFeed) res.compensation_mm = n * (res.d_mm + 2 * e);
   if (res.feed != Feed::kUnderFeed) return res;
   UnderFeed(rays, cam, wheel, n, e, &res);
