@@ -498,19 +498,32 @@ double CornerSquares(const ImageFindings& f,
 }
 
 // Image i's laser points' heights above the solved board [mm].
+// Heights [mm] of `points_in_base` above the board at `base_from_board`: mean, RMS, largest.
+void Heights(const std::vector<Vec3>& points_in_base,
+             const Pose3& base_from_board,
+             double* mean,
+             double* rms,
+             double* max) {
+  const Pose3 board_from_base = base_from_board.inverse();
+  double sum = 0.0, s2 = 0.0;
+  for (const Vec3& p : points_in_base) {
+    const double h = (board_from_base * p).z();
+    sum += h, s2 += h * h, *max = std::max(*max, std::abs(h));
+  }
+  const auto n = static_cast<double>(std::max<size_t>(points_in_base.size(), 1));
+  *mean = sum / n, *rms = std::sqrt(s2 / n);
+}
+
 void LaserHeights(const ImageFindings& f,
                   const Pose3& base_from_flange,
                   const BoardHandEyeResult& r,
                   const Intrinsics& k,
                   BoardHandEyeImage* im) {
-  const Pose3 board_from_base = r.base_from_board.inverse();
-  double s2 = 0.0;
-  for (const Vec3& point :
-       LaserPointsInBase(f, base_from_flange, k, r.plane, r.flange_from_camera)) {
-    const double h = (board_from_base * point).z();
-    s2 += h * h, im->laser_max_mm = std::max(im->laser_max_mm, std::abs(h)), ++im->laser_points;
-  }
-  im->laser_rms_mm = im->laser_points > 0 ? std::sqrt(s2 / im->laser_points) : 0.0;
+  const std::vector<Vec3> points =
+      LaserPointsInBase(f, base_from_flange, k, r.plane, r.flange_from_camera);
+  double mean = 0.0;
+  Heights(points, r.base_from_board, &mean, &im->laser_rms_mm, &im->laser_max_mm);
+  im->laser_points = static_cast<int>(points.size());
 }
 
 // Per image: the robot error found, corners through the solution, laser heights above the board.
@@ -587,22 +600,6 @@ BoardHandEyeResult SolveBoardHandEye(const std::vector<ImageFindings>& findings,
 namespace {
 
 constexpr double kLaserBeyondSigmas = 2.5, kMinLaserBeyondMm = 0.1;
-
-// Heights [mm] of `points_in_base` above the board at `base_from_board`: mean, RMS, largest.
-void Heights(const std::vector<Vec3>& points_in_base,
-             const Pose3& base_from_board,
-             double* mean,
-             double* rms,
-             double* max) {
-  const Pose3 board_from_base = base_from_board.inverse();
-  double sum = 0.0, s2 = 0.0;
-  for (const Vec3& p : points_in_base) {
-    const double h = (board_from_base * p).z();
-    sum += h, s2 += h * h, *max = std::max(*max, std::abs(h));
-  }
-  const auto n = static_cast<double>(std::max<size_t>(points_in_base.size(), 1));
-  *mean = sum / n, *rms = std::sqrt(s2 / n);
-}
 
 }  // namespace
 

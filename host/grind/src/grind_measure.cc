@@ -34,6 +34,14 @@ std::vector<Vec2> Contour(const geometry::GreyView& im,
   return out;
 }
 
+// Grey at `mm` in `im`, or NaN outside it.
+double GreyAt(const geometry::GreyView& im, const GrindCamera& cam, const Vec2& mm) {
+  const Vec2 px = cam.ToPx(mm);
+  if (px.x() < 0 || px.y() < 0 || px.x() >= cam.width_px - 1 || px.y() >= cam.height_px - 1)
+    return std::numeric_limits<double>::quiet_NaN();
+  return geometry::Bilinear(im, px);
+}
+
 // The material's edge along a line by its local contrast (issue 55): the seed's cell takes its
 // frames with the wheel 8 mm above focus, and the nose's blurred shadow dims the back light over
 // the freshly cut surface to about half (an outside renderer: 97 grey where the frame's half
@@ -58,10 +66,8 @@ LineEdge EdgeAlongLine(const geometry::GreyView& im,
   const int n = static_cast<int>(std::floor((t_to - t_from) / step)) + 1;
   std::vector<double> g(static_cast<size_t>(std::max(n, 0)));
   for (int i = 0; i < n; ++i) {
-    const Vec2 px = cam.ToPx(a + (t_from + i * step) * u);
-    if (px.x() < 0 || px.y() < 0 || px.x() >= cam.width_px - 1 || px.y() >= cam.height_px - 1)
-      return {};
-    g[static_cast<size_t>(i)] = geometry::Bilinear(im, px);
+    g[static_cast<size_t>(i)] = GreyAt(im, cam, a + (t_from + i * step) * u);
+    if (!std::isfinite(g[static_cast<size_t>(i)])) return {};
   }
   constexpr int kQ = 4;  // samples a pixel
   if (n < 2 * 10 * kQ + 1) return {};
@@ -311,14 +317,6 @@ struct Ray {
   double contrast = 0;                             // the after edge's
   std::array<double, kNewDarkSamples> new_dark{};  // before - after grey, light side
 };
-
-// Grey at `mm` in `im`, or NaN outside it.
-double GreyAt(const geometry::GreyView& im, const GrindCamera& cam, const Vec2& mm) {
-  const Vec2 px = cam.ToPx(mm);
-  if (px.x() < 0 || px.y() < 0 || px.x() >= cam.width_px - 1 || px.y() >= cam.height_px - 1)
-    return std::numeric_limits<double>::quiet_NaN();
-  return geometry::Bilinear(im, px);
-}
 
 std::vector<Ray> EdgeRays(const PointInput& in,
                           const GrindCamera& cam,
