@@ -315,15 +315,26 @@ std::size_t RejectRayConflicts(const ProbeModel& model,
   return marked;
 }
 
+namespace {
+
+// The observations not yet marked, by scan line: (axis, line) -> indices.
+std::map<std::pair<int, int>, std::vector<std::size_t>> DirectByLine(
+    const std::vector<SweepObservation>& seen) {
+  std::map<std::pair<int, int>, std::vector<std::size_t>> lines;
+  for (std::size_t i = 0; i < seen.size(); ++i) {
+    const SweepObservation& o = seen[i];
+    if (!o.indirect) lines[{static_cast<int>(o.stripe.axis), o.stripe.Line()}].push_back(i);
+  }
+  return lines;
+}
+
+}  // namespace
+
 std::size_t RejectOutOfOrder(double row_sign,
                              double column_sign,
                              double tolerance_px,
                              std::vector<SweepObservation>* seen) {
-  std::map<std::pair<int, int>, std::vector<std::size_t>> lines;  // (axis, line) -> observations
-  for (std::size_t i = 0; i < seen->size(); ++i) {
-    const SweepObservation& o = (*seen)[i];
-    if (!o.indirect) lines[{static_cast<int>(o.stripe.axis), o.stripe.Line()}].push_back(i);
-  }
+  auto lines = DirectByLine(*seen);
   std::size_t marked = 0;
   std::vector<double> tails;         // patience sorting: the smallest last value per length
   std::vector<std::size_t> tail_at;  // which member ends it
@@ -361,6 +372,144 @@ std::size_t RejectOutOfOrder(double row_sign,
       (*seen)[members[k]].indirect = true;
       ++marked;
     }
+  }
+  return marked;
+}
+
+std::size_t RejectBackwardRuns(double row_sign,
+                               double column_sign,
+                               double tolerance_px,
+                               int min_steps,
+                               int max_sheet_gap,
+                               std::vector<SweepObservation>* seen) {
+  // The sweep's sheets in column order (frames may sweep either way, or out of order).
+  std::vector<double> sheets;
+  for (const SweepObservation& o : *seen) sheets.push_back(o.column);
+  std::sort(sheets.begin(), sheets.end());
+  sheets.erase(std::unique(sheets.begin(), sheets.end()), sheets.end());
+  const auto sheet = [&](const SweepObservation& o) {
+    return std::lower_bound(sheets.begin(), sheets.end(), o.column) - sheets.begin();
+  };
+  auto lines = DirectByLine(*seen);
+  std::vector<std::size_t> marked;
+  for (auto& [key, members] : lines) {
+    const double sign = key.first == static_cast<int>(ScanAxis::kRow) ? row_sign : column_sign;
+    if (sign == 0.0 || members.size() < 2) continue;
+    std::sort(members.begin(), members.end(),
+              [&](std::size_t a, std::size_t b) { return (*seen)[a].column < (*seen)[b].column; });
+    std::size_t run_from = 0;  // the first member of the current run of back-steps
+    for (std::size_t k = 1; k <= members.size(); ++k) {
+      bool back = false;
+      if (k < members.size()) {
+        const SweepObservation &a = (*seen)[members[k - 1]], &b = (*seen)[members[k]];
+        back = sheet(b) - sheet(a) <= max_sheet_gap &&
+               sign * (b.stripe.Along() - a.stripe.Along()) < -tolerance_px;
+      }
+      if (back) continue;
+      if (k - 1 - run_from >= static_cast<std::size_t>(min_steps))
+        for (std::size_t j = run_from; j < k; ++j) marked.push_back(members[j]);
+      run_from = k;
+    }
+  }
+  for (std::size_t i : marked) (*seen)[i].indirect = true;
+  return marked.size();
+}
+
+namespace {
+
+std::size_t Root(std::vector<std::size_t>* parent, std::size_t i) {
+  while ((*parent)[i] != i) i = (*parent)[i] = (*parent)[(*parent)[i]];
+  return i;
+}
+
+}  // namespace
+
+std::size_t SpreadAlongStripes(double link_gate_px,
+                               int max_line_gap,
+                               double share,
+                               std::vector<SweepObservation>* seen) {
+  // (frame, axis) -> observations by line; linked into stripes by union-find.
+  std::map<std::pair<int, int>, std::vector<std::size_t>> frames;
+  for (std::size_t i = 0; i < seen->size(); ++i)
+    frames[{(*seen)[i].frame, static_cast<int>((*seen)[i].stripe.axis)}].push_back(i);
+  std::vector<std::size_t> parent(seen->size());
+  std::iota(parent.begin(), parent.end(), std::size_t{0});
+  for (auto& [key, members] : frames) {
+    const auto line = [&](std::size_t i) { return (*seen)[i].stripe.Line(); };
+    std::sort(members.begin(), members.end(),
+              [&](std::size_t a, std::size_t b) { return line(a) < line(b); });
+    for (std::size_t a = 0; a < members.size(); ++a) {
+      for (std::size_t b = a + 1; b < members.size(); ++b) {
+        if (line(members[b]) - line(members[a]) > max_line_gap) break;
+        if (line(members[b]) == line(members[a])) continue;
+        const double apart =
+            std::abs((*seen)[members[b]].stripe.Along() - (*seen)[members[a]].stripe.Along());
+        if (apart <= link_gate_px) parent[Root(&parent, members[b])] = Root(&parent, members[a]);
+      }
+    }
+  }
+  std::map<std::size_t, std::pair<std::size_t, std::size_t>> stripes;  // root -> (marked, all)
+  for (std::size_t i = 0; i < seen->size(); ++i) {
+    auto& [marked, all] = stripes[Root(&parent, i)];
+    marked += (*seen)[i].indirect, ++all;
+  }
+  std::size_t spread = 0;
+  for (std::size_t i = 0; i < seen->size(); ++i) {
+    const auto& [marked, all] = stripes[Root(&parent, i)];
+    if ((*seen)[i].indirect || !(static_cast<double>(marked) > share * static_cast<double>(all)))
+      continue;
+    (*seen)[i].indirect = true;
+    ++spread;
+  }
+  return spread;
+}
+
+namespace {
+
+// Which epipolar line a pixel is on, and where along it, whichever scan found it (a cross
+// scan's observation lies on the epipolar line through its pixel, at its own line's index).
+double EpipolarLineOf(const StripePoint& s, ScanAxis epipolar) {
+  return epipolar == ScanAxis::kRow ? s.y_px : s.x_px;
+}
+
+double AlongEpipolar(const StripePoint& s, ScanAxis epipolar) {
+  return epipolar == ScanAxis::kRow ? s.x_px : s.y_px;
+}
+
+}  // namespace
+
+std::size_t RejectAcrossOrder(double row_sign,
+                              double column_sign,
+                              double tolerance_px,
+                              std::vector<SweepObservation>* seen) {
+  if ((row_sign == 0.0) == (column_sign == 0.0)) return 0;
+  const ScanAxis epipolar = row_sign != 0.0 ? ScanAxis::kRow : ScanAxis::kColumn;
+  const double sign = row_sign != 0.0 ? row_sign : column_sign;
+  // Each epipolar line's direct observations, as (column, signed position) sorted by column.
+  std::map<int, std::vector<std::pair<double, double>>> lines;
+  for (const SweepObservation& o : *seen) {
+    if (o.indirect || o.stripe.axis != epipolar) continue;
+    lines[o.stripe.Line()].emplace_back(o.column, sign * o.stripe.Along());
+  }
+  for (auto& [line, members] : lines) std::sort(members.begin(), members.end());
+  std::size_t marked = 0;
+  for (SweepObservation& o : *seen) {
+    if (o.indirect || o.stripe.axis == epipolar) continue;
+    const auto it = lines.find(static_cast<int>(std::lround(EpipolarLineOf(o.stripe, epipolar))));
+    if (it == lines.end()) continue;
+    const auto& members = it->second;
+    const double at = sign * AlongEpipolar(o.stripe, epipolar);
+    // Neighbours by column from other frames (the same frame's stripe may bend onto the line).
+    const auto above = std::upper_bound(members.begin(), members.end(), o.column,
+                                        [](double c, const auto& m) { return c < m.first; });
+    const auto below = std::lower_bound(members.begin(), members.end(), o.column,
+                                        [](const auto& m, double c) { return m.first < c; });
+    const bool after_below =
+        below == members.begin() || at >= std::prev(below)->second - tolerance_px;
+    const bool before_above = above == members.end() || at <= above->second + tolerance_px;
+    if (after_below && before_above) continue;
+    o.indirect = true;
+    ++marked;
   }
   return marked;
 }

@@ -79,6 +79,9 @@ std::optional<Vec3> Triangulate(const ProbeModel& model, double x_px, double y_p
 // Back-steps along a line that the ordering test lets pass [px]: a fine sweep's neighbouring
 // frames light one pixel, and their centres scatter by a tenth of a pixel (more under speckle).
 constexpr double kOrderTolerancePx = 1.0;
+// A back-step a reflection's run makes between frames [px]: several times the centres' scatter
+// under speckle (0.1-0.5 px), so a fine sweep's noise never strings two together.
+constexpr double kBackStepPx = 2.0;
 
 std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
                                          const std::vector<Frame>& laser_frames,
@@ -107,9 +110,15 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
   }
   GhostOptions ghost;
   DirectMotion(model, &ghost.row_motion_sign, &ghost.column_motion_sign);
-  const std::size_t indirect =
-      RejectIndirectLight(&seen, ghost) + RejectRayConflicts(model, RayOptions{}, &seen) +
-      RejectOutOfOrder(ghost.row_motion_sign, ghost.column_motion_sign, kOrderTolerancePx, &seen);
+  // In this order, one statement each (each test reads what the one before marked).
+  const double rows = ghost.row_motion_sign, columns = ghost.column_motion_sign;
+  std::size_t indirect = RejectIndirectLight(&seen, ghost);
+  indirect += RejectRayConflicts(model, RayOptions{}, &seen);
+  indirect += RejectBackwardRuns(rows, columns, kBackStepPx, 2, 2, &seen);
+  indirect += RejectOutOfOrder(rows, columns, kOrderTolerancePx, &seen);
+  indirect += RejectAcrossOrder(rows, columns, kOrderTolerancePx, &seen);
+  indirect += SpreadAlongStripes(EpipolarOptions{}.link_gate_px, EpipolarOptions{}.max_line_gap,
+                                 0.5, &seen);
   counts->indirect += indirect;
   counts->points -= indirect;
   const ReflectanceCounts slope = CorrectReflectanceSlope(&seen, ReflectanceOptions{});

@@ -184,6 +184,96 @@ TEST(RejectOutOfOrder, AReflectionBetweenACoarseSweepsFramesIsOutOfOrder) {
   EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &fine), 0u);
 }
 
+// A coarse sweep of a cylinder on row 200 (frames 5-9, about 100 px between them) and a mirror
+// reflection walking back through frames 0-3 (corpus 7171, scene 41: 620, 525, 444, 384 px),
+// whose last frame falls into order with the direct light: the whole run goes, the direct
+// light stays. A fine sweep's noise (back-steps of up to 0.8 px) strings no run together, and a
+// single back-step (an occluding edge) is no run.
+TEST(RejectBackwardRuns, AReflectionWalkingBackThroughACoarseSweepGoesWhole) {
+  std::vector<SweepObservation> obs;
+  const double reflection[] = {620.0, 525.0, 444.0, 384.0};
+  for (int f = 0; f < 4; ++f) AddTrace(&obs, 200, f, f, reflection[f], 0.0, 0.0, 60.0);
+  const double direct[] = {562.0, 674.0, 767.0, 840.0, 900.0};
+  for (int f = 5; f < 10; ++f) AddTrace(&obs, 200, f, f, direct[f - 5], 0.0, 0.0, 120.0);
+  EXPECT_EQ(RejectBackwardRuns(+1.0, 0.0, 2.0, 2, 2, &obs), 4u);
+  EXPECT_EQ(Indirect(obs, 60.0), 4u);
+  EXPECT_EQ(Indirect(obs, 120.0), 0u);
+  // Then the ordering test has nothing left to misjudge.
+  EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &obs), 0u);
+  // Runs are judged in the sweep's column order, whichever way the frames swept (the outside
+  // renderer's frames sweep down the columns): the same sweep taken in reverse.
+  for (auto& o : obs) o.indirect = false, o.frame = 9 - o.frame;
+  EXPECT_EQ(RejectBackwardRuns(+1.0, 0.0, 2.0, 2, 2, &obs), 4u);
+  EXPECT_EQ(Indirect(obs, 60.0), 4u);
+
+  std::vector<SweepObservation> fine;
+  AddTrace(&fine, 3, 0, 40, 500.0, 0.3, 0.0, 100.0);
+  for (std::size_t i = 0; i < fine.size(); i += 2) fine[i].stripe.x_px -= 0.8;
+  EXPECT_EQ(RejectBackwardRuns(+1.0, 0.0, 2.0, 2, 2, &fine), 0u);
+  std::vector<SweepObservation> edge;  // a face, then a pin in front of it, then the face on
+  AddTrace(&edge, 9, 0, 3, 300.0, 100.0, 0.0, 100.0);
+  edge[2].stripe.x_px = 250.0;
+  EXPECT_EQ(RejectBackwardRuns(+1.0, 0.0, 2.0, 2, 2, &edge), 0u);
+  // The axis without a direction is left alone.
+  for (auto& o : obs) o.indirect = false, o.stripe.axis = ScanAxis::kColumn;
+  EXPECT_EQ(RejectBackwardRuns(+1.0, 0.0, 2.0, 2, 2, &obs), 0u);
+}
+
+// One frame's reflection down rows 30-60, found indirect on all but its two ends, and a direct
+// stripe of the same frame beside it with a few of its own marked (a conflict's pixels): the
+// reflection goes whole, the stripe keeps the rest.
+TEST(SpreadAlongStripes, AStripeMostlyFoundIndirectIsIndirectWhole) {
+  std::vector<SweepObservation> obs;
+  const auto add = [&](int y, double x, double amplitude, bool indirect) {
+    SweepObservation o;
+    o.stripe.x_px = x, o.stripe.y_px = y, o.stripe.amplitude_dn = amplitude;
+    o.frame = 3, o.column = 6.0, o.indirect = indirect;
+    obs.push_back(o);
+  };
+  for (int y = 30; y <= 60; ++y) add(y, 384.0 + 0.1 * (y - 30), 60.0, y > 31 && y < 59);
+  for (int y = 30; y <= 60; ++y) add(y, 700.0 - 0.2 * (y - 30), 120.0, y % 10 == 0);
+  EXPECT_EQ(SpreadAlongStripes(3.0, 2, 0.5, &obs), 4u);
+  EXPECT_EQ(Indirect(obs, 60.0), 31u);
+  EXPECT_EQ(Indirect(obs, 120.0), 4u);
+}
+
+// A coarse sweep over rows 200-209 (110 px between frames, columns 0, 2, .. 18), and a
+// reflection that runs along the rows, lit in frame 0 (corpus 5050, scene 130: a mirror image of
+// the projector lights the part with a stripe along the rows, which the column scan finds and
+// which triangulates 30-50 mm in front of it): on every row it crosses, it sits between frames 7
+// and 8 at frame 0's column. A face the light grazes, found by the column scan between the same
+// frames at a column between theirs, fits the order and stays.
+TEST(RejectAcrossOrder, AReflectionAlongTheRowsIsOutOfOrderWithTheRowsDirectLight) {
+  std::vector<SweepObservation> obs;
+  for (int y = 200; y <= 209; ++y) AddTrace(&obs, y, 0, 9, 100.0, 110.0, 0.0, 120.0);
+  const auto cross = [&](double x, double y, double column, double amplitude) {
+    SweepObservation o;
+    o.stripe.axis = ScanAxis::kColumn;
+    o.stripe.x_px = x, o.stripe.y_px = y, o.stripe.amplitude_dn = amplitude;
+    o.column = column;
+    obs.push_back(o);
+  };
+  for (int x = 880; x < 940; ++x) cross(x, 204.3 + 0.05 * (x - 880), 0.0, 60.0);  // reflection
+  for (int x = 880; x < 900; ++x) cross(x, 206.4, 14.5, 90.0);                    // grazing face
+  cross(300.0, 250.0, 0.0, 70.0);  // on a row without direct light: nothing to judge by
+  EXPECT_EQ(RejectAcrossOrder(+1.0, 0.0, 1.0, &obs), 60u);
+  EXPECT_EQ(Indirect(obs, 60.0), 60u);
+  EXPECT_EQ(Indirect(obs, 90.0), 0u);
+  EXPECT_EQ(Indirect(obs, 70.0), 0u);
+  EXPECT_EQ(Indirect(obs, 120.0), 0u);  // the rows' own order is RejectOutOfOrder's
+  // Direction known on both axes or on none: no epipolar axis to order against.
+  for (auto& o : obs) o.indirect = false;
+  EXPECT_EQ(RejectAcrossOrder(+1.0, -1.0, 1.0, &obs), 0u);
+  EXPECT_EQ(RejectAcrossOrder(0.0, 0.0, 1.0, &obs), 0u);
+  // The probe turned: the columns are the epipolar lines, the row scan's finds are the cross ones.
+  for (auto& o : obs) {
+    std::swap(o.stripe.x_px, o.stripe.y_px);
+    o.stripe.axis = o.stripe.axis == ScanAxis::kRow ? ScanAxis::kColumn : ScanAxis::kRow;
+  }
+  EXPECT_EQ(RejectAcrossOrder(0.0, +1.0, 1.0, &obs), 60u);
+  EXPECT_EQ(Indirect(obs, 60.0), 60u);
+}
+
 // A reflection standing still in the image while the sweep moves on lights one pixel from
 // sheets millimetres apart along its ray: none of them can be told direct, all go. Neighbouring
 // frames of a fine sweep lighting one pixel of one surface agree on its depth: they stay.

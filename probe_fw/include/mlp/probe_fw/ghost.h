@@ -99,4 +99,49 @@ std::size_t RejectOutOfOrder(double row_sign,
                              double tolerance_px,
                              std::vector<SweepObservation>* seen);
 
+/// A reflection off a flat face comes from the projector's mirror image, so it moves against
+/// direct light's way (GhostOptions' signs). In a fine sweep the trace test links its centres
+/// and sees that; in a coarse one (50-150 px between frames) nothing links, and the ordering test
+/// keeps the longest ordered sequence of a line, which may end with the reflection's last frame
+/// where it falls into order with the direct light beyond it (issue 50: corpus 7171, scene 41: a
+/// reflection walking back 95, 80, 61 px through frames 0-3, its last frame kept 12 mm in front
+/// of a cylinder). Direct light never steps back on a line (Baker and Binford, IJCAI 1981; only
+/// an occluding edge in front of a face can, once): a run of at least `min_steps` back-steps
+/// of over `tolerance_px` between sheets at most `max_sheet_gap` apart in the sweep's column
+/// order (frames may sweep either way) is indirect, all of it.
+/// Lines of an axis whose sign is 0 are left alone. Returns how many were marked.
+std::size_t RejectBackwardRuns(double row_sign,
+                               double column_sign,
+                               double tolerance_px,
+                               int min_steps,
+                               int max_sheet_gap,
+                               std::vector<SweepObservation>* seen);
+
+/// A reflection is a whole stripe of its own: where the sweep's tests found most of one frame's
+/// stripe indirect, its few members left (where it fades out at the ends of the lit band, where
+/// the frame before lost it) are the same light. Within each frame and scan axis, centres on
+/// lines at most `max_line_gap` apart whose positions differ by at most `link_gate_px` are one
+/// stripe; a stripe of which more than `share` is marked is marked whole. Returns how many more
+/// were marked (issue 50: corpus 7171, scene 41, the 4 points left of a reflection 11-44 mm off).
+std::size_t SpreadAlongStripes(double link_gate_px,
+                               int max_line_gap,
+                               double share,
+                               std::vector<SweepObservation>* seen);
+
+/// The ordering constraint across the scan axes. Where the stripe runs along the epipolar lines
+/// (a face the light grazes) the other axis' scan finds it, and those observations have no line
+/// of their own to be ordered on: RejectOutOfOrder cannot see them. Each lies on an epipolar line
+/// all the same (the line through its pixel), where the epipolar scan's direct observations
+/// order position against column; a direct observation fits between the line's neighbours by
+/// column (within `tolerance_px` along the line). A reflection lit from the projector's mirror
+/// image, running along the rows, triangulates tens of millimetres in front of the part it lies
+/// on and breaks that order (issue 50: corpus 5050, scene 130). Only the cross observations are
+/// marked: the epipolar lines' own order was settled by RejectOutOfOrder. Nothing happens unless
+/// exactly one axis has a sign (the probe's baseline along the rows or along the columns).
+/// Returns how many were marked.
+std::size_t RejectAcrossOrder(double row_sign,
+                              double column_sign,
+                              double tolerance_px,
+                              std::vector<SweepObservation>* seen);
+
 }  // namespace mlp::probe_fw
