@@ -49,7 +49,8 @@ double GreyAt(const geometry::GreyView& im, const GrindCamera& cam, const Vec2& 
 // p(t) = a + t u (mm, t in [t_from, t_to], material beyond the edge), sampled every quarter
 // pixel: the steepest fall (the difference over +-1 px), the levels either side as straight lines
 // through 3-10 px away from it evaluated there (the shadow's slope), the crossing of their mean
-// nearest it. NaN without a fall of `min_contrast` grey or with the line leaving the image.
+// nearest it, on the part of the line inside the image. NaN without a fall of `min_contrast`
+// grey or with under 21 px of the line inside the image.
 struct LineEdge {
   double t_mm = std::numeric_limits<double>::quiet_NaN();
   double contrast = 0.0;  ///< grey levels between the two sides at the edge
@@ -63,12 +64,23 @@ LineEdge EdgeAlongLine(const geometry::GreyView& im,
                        double t_to,
                        double min_contrast) {
   const double step = cam.mm_per_px / 4;
-  const int n = static_cast<int>(std::floor((t_to - t_from) / step)) + 1;
-  std::vector<double> g(static_cast<size_t>(std::max(n, 0)));
-  for (int i = 0; i < n; ++i) {
-    g[static_cast<size_t>(i)] = GreyAt(im, cam, a + (t_from + i * step) * u);
-    if (!std::isfinite(g[static_cast<size_t>(i)])) return {};
+  const int whole = static_cast<int>(std::floor((t_to - t_from) / step)) + 1;
+  std::vector<double> g;
+  g.reserve(static_cast<size_t>(std::max(whole, 0)));
+  // The part of the line inside the image (one piece: the image is convex): a point near the
+  // frame's border keeps the edges whose search reaches beyond it (seed 9022: a burr where the
+  // frame ends was on rays that were dropped whole).
+  double t_first = t_from;  // where the piece inside begins
+  for (int i = 0; i < whole; ++i) {
+    const double grey = GreyAt(im, cam, a + (t_from + i * step) * u);
+    if (std::isfinite(grey)) {
+      if (g.empty()) t_first = t_from + i * step;
+      g.push_back(grey);
+    } else if (!g.empty()) {
+      break;
+    }
   }
+  const int n = static_cast<int>(g.size());
   constexpr int kQ = 4;  // samples a pixel
   if (n < 2 * 10 * kQ + 1) return {};
   const auto at = [&g](int i) { return g[static_cast<size_t>(i)]; };
@@ -101,7 +113,7 @@ LineEdge EdgeAlongLine(const geometry::GreyView& im,
     const double cross = i + (y0 - level) / (y0 - y1);
     if (std::abs(cross - best) < nearest) nearest = std::abs(cross - best), found = cross;
   }
-  out.t_mm = t_from + found * step;
+  out.t_mm = t_first + found * step;
   return out;
 }
 
@@ -311,12 +323,33 @@ constexpr double kBeforeMiMm = 0.4, kBeyondMiMm = 0.4;
 constexpr int kNewDarkSamples = 12;
 constexpr double kNewDarkStepPx = 2.0;
 
+using LightSide = std::array<double, kNewDarkSamples>;
+
 struct Ray {
   Vec2 dir;
-  double after_mm = 0, before_mm = 0;              // from C to the edge
-  double contrast = 0;                             // the after edge's
-  std::array<double, kNewDarkSamples> new_dark{};  // before - after grey, light side
+  double after_mm = 0, before_mm = 0;  // from C to the edge
+  double contrast = 0;                 // the after edge's
+  LightSide new_dark{};                // before - after grey, light side
+  LightSide after_dark{};              // minus the after frame's grey, light side
 };
+
+// The before frame's edge along the ray, or the window's start where the before frame is
+// material all along it (the stroke took more than the window holds: an R6 wheel's corner far
+// from Mi, seed 9022): there the light side of the after edge, 3 px before it, is over half the
+// edge's contrast darker in the before frame. NaN otherwise.
+double BeforeEdgeMm(const PointInput& in,
+                    const GrindCamera& cam,
+                    const Vec2& dir,
+                    double from,
+                    double to,
+                    const LineEdge& after,
+                    double min_contrast) {
+  const LineEdge before = EdgeAlongLine(in.before, cam, in.c_mm, dir, from, to, min_contrast);
+  if (std::isfinite(before.t_mm)) return before.t_mm;
+  const Vec2 light = in.c_mm + (after.t_mm - 3 * cam.mm_per_px) * dir;
+  const double darker = GreyAt(in.after, cam, light) - GreyAt(in.before, cam, light);
+  return darker > after.contrast / 2 ? from : std::numeric_limits<double>::quiet_NaN();
+}
 
 std::vector<Ray> EdgeRays(const PointInput& in,
                           const GrindCamera& cam,
@@ -332,14 +365,21 @@ std::vector<Ray> EdgeRays(const PointInput& in,
     const double from = std::max(12 * cam.mm_per_px, rim.back() - kBeforeMiMm);
     const double to = rim.back() + kBeyondMiMm;
     const LineEdge after = EdgeAlongLine(in.after, cam, in.c_mm, dir, from, to, min_contrast);
-    const LineEdge before = EdgeAlongLine(in.before, cam, in.c_mm, dir, from, to, min_contrast);
-    if (!std::isfinite(after.t_mm) || !std::isfinite(before.t_mm)) continue;
-    Ray ray{dir, after.t_mm, before.t_mm, after.contrast, {}};
+    if (!std::isfinite(after.t_mm)) continue;
+    const double before_mm = BeforeEdgeMm(in, cam, dir, from, to, after, min_contrast);
+    if (!std::isfinite(before_mm)) continue;
+    Ray ray{dir, after.t_mm, before_mm, after.contrast, {}, {}};
     for (int j = 0; j < kNewDarkSamples; ++j) {
       const Vec2 at = in.c_mm + (after.t_mm - (j + 1) * kNewDarkStepPx * cam.mm_per_px) * dir;
+      const double grey = GreyAt(in.after, cam, at);
       // Only darker counts: lighter is the stock the stroke took (or its edge's blur).
-      ray.new_dark[static_cast<size_t>(j)] =
-          std::max(0.0, GreyAt(in.before, cam, at) - GreyAt(in.after, cam, at));
+      ray.new_dark[static_cast<size_t>(j)] = std::max(0.0, GreyAt(in.before, cam, at) - grey);
+      // In the region the stroke removed (beyond the before edge) only: elsewhere the light side
+      // may graze a contour both frames share (a step at a cut's end, seed 5535).
+      const bool removed =
+          after.t_mm - (j + 1) * kNewDarkStepPx * cam.mm_per_px > before_mm + cam.mm_per_px;
+      ray.after_dark[static_cast<size_t>(j)] =
+          removed ? -grey : std::numeric_limits<double>::quiet_NaN();
     }
     rays.push_back(ray);
   }
@@ -397,11 +437,14 @@ constexpr double kNewDarkShare = 0.25;
 
 constexpr long kNewDarkNear = 4, kNewDarkFar = 10;
 
+// Which of a ray's light-side samples a test reads.
+using Darkness = LightSide Ray::*;
+
 // The median of sample j over rays i + sign [kNewDarkNear, kNewDarkFar]; NaN with under 3.
-double SideLevel(const std::vector<Ray>& rays, long i, long sign, size_t j) {
+double SideLevel(const std::vector<Ray>& rays, Darkness dark, long i, long sign, size_t j) {
   std::vector<double> side;
   for (long k = kNewDarkNear; k <= kNewDarkFar; ++k) {
-    const double v = rays[static_cast<size_t>(i + sign * k)].new_dark[j];
+    const double v = (rays[static_cast<size_t>(i + sign * k)].*dark)[j];
     if (std::isfinite(v)) side.push_back(v);
   }
   return side.size() < 3 ? std::numeric_limits<double>::quiet_NaN() : geometry::Median(side);
@@ -410,29 +453,45 @@ double SideLevel(const std::vector<Ray>& rays, long i, long sign, size_t j) {
 // How far ray i's new dark stands above both sides' (a step along the arc, where the removed
 // region ends or a shadow's edge lies, stands above one side only), as a share of its edge's
 // contrast: the most over its samples.
-double NewDarkShare(const std::vector<Ray>& rays, long i) {
+double DarkShare(const std::vector<Ray>& rays, Darkness dark, long i) {
   double worst = 0;
   for (size_t j = 0; j < static_cast<size_t>(kNewDarkSamples); ++j) {
-    const double left = SideLevel(rays, i, -1, j), right = SideLevel(rays, i, +1, j);
-    const double v = rays[static_cast<size_t>(i)].new_dark[j];
+    const double left = SideLevel(rays, dark, i, -1, j), right = SideLevel(rays, dark, i, +1, j);
+    const double v = (rays[static_cast<size_t>(i)].*dark)[j];
     if (!std::isfinite(left) || !std::isfinite(right) || !std::isfinite(v)) continue;
     worst = std::max(worst, (v - std::max(left, right)) / rays[static_cast<size_t>(i)].contrast);
   }
   return worst;
 }
 
-void RefuseNewDark(const std::vector<Ray>& rays) {
+// The most any ray's darkness stands above both sides' (DarkShare), where it does so by over
+// kNewDarkShare on two rays side by side or by twice that on one; 0 where none does.
+double DarkStandingOut(const std::vector<Ray>& rays, Darkness dark) {
   const auto n = static_cast<long>(rays.size());
   bool previous = false;
   for (long i = kNewDarkFar; i + kNewDarkFar < n; ++i) {
-    const double share = NewDarkShare(rays, i);
-    if (share > 2 * kNewDarkShare || (share > kNewDarkShare && previous))
-      Fail("something new stands on the edge round the point (the after frame " +
-           std::to_string(std::lround(100 * share)) +
-           " % of the edge's contrast darker than the before, where the stroke only takes "
-           "material away: a burr or a droplet); not measured, not compensated");
+    const double share = DarkShare(rays, dark, i);
+    if (share > 2 * kNewDarkShare || (share > kNewDarkShare && previous)) return share;
     previous = share > kNewDarkShare;
   }
+  return 0.0;
+}
+
+// The same test on the after frame alone: a burr standing where the stroke removed material
+// (the before frame was dark there too, so before - after shows nothing: seed 8966 of the
+// outside renderer, an R1 wheel's over-cut) is still a thin dark line crossing the light beside
+// the new edge, darker than the same sample of the rays either side (the defocused wheel's
+// shadow changes slowly along the arc).
+void RefuseNewDark(const std::vector<Ray>& rays) {
+  const auto refuse = [](double share, const std::string& against) {
+    Fail("something stands in the light beside the edge round the point (the after frame " +
+         std::to_string(std::lround(100 * share)) + " % of the edge's contrast darker than " +
+         against + ": a burr or a droplet); not measured, not compensated");
+  };
+  const double new_dark = DarkStandingOut(rays, &Ray::new_dark);
+  if (new_dark > 0) refuse(new_dark, "the before, where the stroke only takes material away");
+  const double standing = DarkStandingOut(rays, &Ray::after_dark);
+  if (standing > 0) refuse(standing, "beside it along the edge, where the stroke removed material");
 }
 
 // Under-feed: where the wheel really was (seed 001, Fig. 4-6), from the removed region's edge.
