@@ -494,6 +494,33 @@ void RefuseNewDark(const std::vector<Ray>& rays) {
   if (standing > 0) refuse(standing, "beside it along the edge, where the stroke removed material");
 }
 
+// The part is solid beyond its edge: along C-Mi the after frame stays darker than the edge's
+// half level for kSolidMm past the edge found (3 px on: the edge's blur). Light again within it,
+// the first dark on the line is a speck in the light: a droplet thrown onto the line or a chip
+// floating off the contour (10-60 um across), not the part; measured, it was an "under-feed"
+// of 47 um where the wheel had gouged 443 um (outside renderer, seed 9166: an R1.5 wheel in a
+// corner, a droplet on its circle in the light). Refused, never compensated.
+constexpr double kSolidMm = 0.15;
+
+void RefuseSpeck(const geometry::GreyView& after,
+                 const GrindCamera& cam,
+                 const Vec2& edge,
+                 const Vec2& u) {
+  const double px = cam.mm_per_px;
+  const double light = GreyAt(after, cam, edge - 3 * px * u);
+  const double dark = GreyAt(after, cam, edge + 3 * px * u);
+  if (!std::isfinite(light) || !std::isfinite(dark)) return;  // the frame's border: not judged
+  const double level = (light + dark) / 2;
+  for (double s = 3 * px; s <= kSolidMm; s += px / 2) {
+    const double grey = GreyAt(after, cam, edge + s * u);
+    if (std::isfinite(grey) && grey > level)
+      Fail("the first material on C-Mi is a speck, light again " +
+           std::to_string(std::lround(s * 1e3)) +
+           " um beyond its edge (a droplet or a chip off the contour, not the part); not "
+           "measured, not compensated");
+  }
+}
+
 // Under-feed: where the wheel really was (seed 001, Fig. 4-6), from the removed region's edge.
 // Whether the stroke took nothing along `u` (C to Mi): the ray nearest it (within kNearestRad)
 // has its after edge within half a pixel of its before edge.
@@ -632,6 +659,7 @@ PointResult MeasurePoint(const PointInput& in,
     Fail("the contour on C-Mi lies " + std::to_string(std::lround((t - ti) * 1e3)) +
          " um beyond Mi, past the " + std::to_string(std::lround(kBeyondMiMm * 1e3)) +
          " um searched: a gouge deeper than that is not measured; not compensated");
+  RefuseSpeck(in.after, cam, in.c_mm + t * u, u);
   res.mr_mm = in.c_mm + t * u;
   res.d_mm = std::abs(t - ti);
   res.feed = res.d_mm <= e ? Feed::kGood : t < ti ? Feed::kUnderFeed : Feed::kOverFeed;
