@@ -448,7 +448,8 @@ std::size_t SpreadAlongStripes(double link_gate_px,
       }
     }
   }
-  std::map<std::size_t, std::pair<std::size_t, std::size_t>> stripes;  // root -> (marked, all)
+  // Per root: (marked, all). Indexed by the root itself: no map on the firmware's hot path.
+  std::vector<std::pair<std::size_t, std::size_t>> stripes(seen->size());
   for (std::size_t i = 0; i < seen->size(); ++i) {
     auto& [marked, all] = stripes[Root(&parent, i)];
     marked += (*seen)[i].indirect, ++all;
