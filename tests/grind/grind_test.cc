@@ -302,6 +302,27 @@ TEST(Grind, ASteepWallIsSearchedAlongTheRows) {
   EXPECT_LT((r.mr_mm - (f.point + kStockMm * f.normal)).norm(), kDTolMm);
 }
 
+// A point whose Mi the camera does not see is refused as that, with the side and how far, not
+// as a part without contour (outside renderer seed 9237: Mi 2-79 px beyond the right edge).
+TEST(Grind, SaysWhenMiIsOutsideTheFrame) {
+  GrindJob job;
+  job.profile = DemoProfile();
+  const geometry::Profile2 p(job.profile);
+  const GrindCamera& cam = job.camera;
+  std::vector<std::uint8_t> light(static_cast<size_t>(cam.width_px * cam.height_px), 210);
+  const geometry::GreyView blank{light.data(), cam.width_px, cam.height_px};
+  constexpr double kBeyondPx = 30;
+  const Vec2 mi = cam.ToMm(Vec2(cam.width_px - 1 + kBeyondPx, cam.height_px / 2.0));
+  try {
+    MeasurePoint({blank, blank, mi + Vec2(-1, 0), mi}, p, cam, 1.0, 0.01);
+    ADD_FAILURE() << "a point outside the frame was measured";
+  } catch (const GrindError& e) {
+    EXPECT_NE(std::string(e.what()).find("Mi lies 30 px beyond the frame's right edge"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Grind, RefusesWhatItCannotMeasure) {
   GrindJob job;
   job.profile = DemoProfile();

@@ -598,6 +598,22 @@ void UnderFeed(const std::vector<Ray>& rays,
   res->compensation_mm = -res->error_dir * res->error_mm;
 }
 
+// Where no edge was found on C-Mi and Mi itself lies outside the frame, that is why: the
+// operator learns the point is not in the camera's view (a job's point list or the camera's
+// placement to check), not that the part has no contour there (outside renderer seed 9237:
+// 7 points 2-79 px beyond the frame's right edge, each refused as "no contour on C-Mi").
+void RefuseOutOfFrame(const GrindCamera& cam, const Vec2& mi_mm) {
+  const Vec2 px = cam.ToPx(mi_mm);
+  const std::array<double, 4> beyond = {-px.x(), px.x() - (cam.width_px - 1), -px.y(),
+                                        px.y() - (cam.height_px - 1)};
+  constexpr std::array<const char*, 4> kSide = {"left", "right", "top", "bottom"};
+  const auto worst = std::max_element(beyond.begin(), beyond.end());
+  if (!(*worst > 0)) return;
+  Fail(std::string("Mi lies ") + std::to_string(std::lround(*worst)) + " px beyond the frame's " +
+       kSide[static_cast<std::size_t>(worst - beyond.begin())] +
+       " edge: the point is outside the camera's view, not measured");
+}
+
 }  // namespace
 
 const char* ToString(Feed f) {
@@ -648,7 +664,10 @@ PointResult MeasurePoint(const PointInput& in,
     res.search_case = crossing.seed_case, res.search_by_rows = crossing.by_rows;
     if (!std::isfinite(t)) t = crossing.t_mm;
   } catch (const GrindError&) {
-    if (!std::isfinite(t)) throw;
+    if (!std::isfinite(t)) {
+      RefuseOutOfFrame(cam, in.mi_mm);
+      throw;
+    }
     res.search_case = -1;  // the seed's search found nothing: the local edge alone
   }
   res.local_edge = std::isfinite(on_line.t_mm);
