@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <optional>
@@ -413,6 +414,102 @@ std::size_t RejectBackwardRuns(double row_sign,
   }
   for (std::size_t i : marked) (*seen)[i].indirect = true;
   return marked.size();
+}
+
+namespace {
+
+// The sweep's sheets in column order: rank of each observation's column among all of them.
+class SheetRanks {
+ public:
+  SheetRanks(const std::vector<SweepObservation>& a, const std::vector<SweepObservation>& b) {
+    for (const auto* v : {&a, &b})
+      for (const SweepObservation& o : *v) columns_.push_back(o.column);
+    std::sort(columns_.begin(), columns_.end());
+    columns_.erase(std::unique(columns_.begin(), columns_.end()), columns_.end());
+  }
+  int operator()(const SweepObservation& o) const {
+    return static_cast<int>(std::lower_bound(columns_.begin(), columns_.end(), o.column) -
+                            columns_.begin());
+  }
+
+ private:
+  std::vector<double> columns_;
+};
+
+// What one line's pixels were swept by: per pixel the earliest sheet a stretch over it ended at
+// and the latest sheet one began at (a pixel nobody swept keeps INT_MAX / INT_MIN).
+struct SweptLine {
+  std::vector<int> earliest_end, latest_begin;
+  void Reset(std::size_t pixels) {
+    earliest_end.assign(pixels, std::numeric_limits<int>::max());
+    latest_begin.assign(pixels, std::numeric_limits<int>::min());
+  }
+  void Sweep(double from_px, double to_px, int begin_sheet, int end_sheet) {
+    const auto n = static_cast<long>(earliest_end.size());
+    const long first = std::max(0L, static_cast<long>(std::ceil(from_px)));
+    const long last = std::min(n - 1, static_cast<long>(std::floor(to_px)));
+    for (long x = first; x <= last; ++x) {
+      const auto i = static_cast<std::size_t>(x);
+      earliest_end[i] = std::min(earliest_end[i], end_sheet);
+      latest_begin[i] = std::max(latest_begin[i], begin_sheet);
+    }
+  }
+};
+
+}  // namespace
+
+std::size_t RejectSweptTwice(double row_sign,
+                             double column_sign,
+                             const std::vector<SweepObservation>& evidence,
+                             const SweptOptions& o,
+                             std::vector<SweepObservation>* seen) {
+  const SheetRanks sheet(*seen, evidence);
+  struct Claim {
+    int sheet;
+    double along;
+  };
+  std::map<std::pair<int, int>, std::vector<Claim>> claims;  // (axis, line) -> who swept it
+  const auto add = [&](const SweepObservation& s) {
+    claims[{static_cast<int>(s.stripe.axis), s.stripe.Line()}].push_back(
+        {sheet(s), s.stripe.Along()});
+  };
+  for (const SweepObservation& s : *seen)
+    if (!s.indirect) add(s);
+  for (const SweepObservation& s : evidence) add(s);
+  std::size_t marked = 0;
+  SweptLine swept;
+  for (auto& [key, members] : DirectByLine(*seen)) {
+    const double sign = key.first == static_cast<int>(ScanAxis::kRow) ? row_sign : column_sign;
+    if (sign == 0.0) continue;
+    std::vector<Claim>& by = claims[key];
+    std::sort(by.begin(), by.end(),
+              [](const Claim& a, const Claim& b) { return a.sheet < b.sheet; });
+    double longest = 0.0;
+    for (const Claim& c : by) longest = std::max(longest, c.along);
+    swept.Reset(static_cast<std::size_t>(longest) + 2);
+    for (std::size_t a = 0; a < by.size(); ++a) {
+      for (std::size_t b = a + 1; b < by.size() && by[b].sheet - by[a].sheet <= o.max_sheet_gap;
+           ++b) {
+        if (by[b].sheet == by[a].sheet || std::abs(by[b].along - by[a].along) > o.max_step_px)
+          continue;
+        const auto [lo, hi] = std::minmax(by[a].along, by[b].along);
+        swept.Sweep(lo + o.margin_px, hi - o.margin_px, by[a].sheet, by[b].sheet);
+      }
+    }
+    for (std::size_t i : members) {
+      SweepObservation& s = (*seen)[i];
+      const long at = std::lround(s.stripe.Along());
+      if (at < 0 || at >= static_cast<long>(swept.earliest_end.size())) continue;
+      const auto px = static_cast<std::size_t>(at);
+      const int own = sheet(s);
+      if (swept.earliest_end[px] >= own - o.max_sheet_gap &&
+          swept.latest_begin[px] <= own + o.max_sheet_gap)
+        continue;
+      s.indirect = true;
+      ++marked;
+    }
+  }
+  return marked;
 }
 
 namespace {

@@ -212,6 +212,19 @@ bool NextRun(const Span& s, int threshold, int* x, int* begin, int* end, int* pe
   return true;
 }
 
+// An over-exposed stripe's top is a plateau at full scale, and the brightest pixel NextRun
+// gives is its first: the background window (5-6 px either side) then lay on the far flank, an
+// over-exposed stripe's light came out below a dimmer reflection's beside it, and the epipolar
+// test kept the reflection (issue 50: corpus 7272 scene 133, a copy at 0.7 standing 49 px beside
+// an over-exposed stripe: light 196-202 DN against the reflection's 230-234, 1,265 points up to
+// 5.8 mm off). The plateau's middle instead; a peak below full scale is left where it is.
+int PlateauMiddle(const Span& s, int peak, int run_end, int max_level) {
+  if (s.row[peak] < max_level) return peak;
+  int last = peak;
+  while (last + 1 < run_end && s.row[last + 1] >= max_level) ++last;
+  return peak + (last - peak) / 2;
+}
+
 // Counts a candidate the judge rejected; true when it is a point.
 bool CountVerdict(Verdict v, StripeCounts* counts) {
   switch (v) {
@@ -310,6 +323,7 @@ std::uint16_t ScanSpan(const Span& s,
   const int threshold = static_cast<int>(std::ceil(threshold_dn));
   int x = s.begin, run_begin = 0, run_end = 0, peak = 0;
   while (NextRun(s, threshold, &x, &run_begin, &run_end, &peak)) {
+    peak = PlateauMiddle(s, peak, run_end, max_level);
     // A run longer than a stripe is wide may be a stripe running along the line: the column
     // scan is wanted there, with room for its windows (centroid and direction).
     const int margin = 2 * (o.window_half_px + 2);

@@ -89,7 +89,7 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
                                          const StripeOptions& options,
                                          StripeCounts* counts) {
   // The whole sweep's stripe centres first: indirect light is told by the sweep, not a frame.
-  std::vector<SweepObservation> seen;
+  std::vector<SweepObservation> seen, evidence;
   std::vector<StripePoint> stripe, rejected;
   EpipolarOptions epipolar;
   StripeExtractor extractor(mask, WithSpeckleSmoothing(laser_frames, mask, options, &epipolar));
@@ -106,6 +106,7 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
     counts->isolated += held.isolated;
     counts->points -= held.second_on_line + held.undecided + held.beside_rejected + held.isolated;
     for (const StripePoint& s : stripe) seen.push_back({s, frame.laser_column, index, false});
+    for (const StripePoint& s : rejected) evidence.push_back({s, frame.laser_column, index, true});
     ++index;
   }
   GhostOptions ghost;
@@ -116,6 +117,7 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
   indirect += RejectRayConflicts(model, RayOptions{}, &seen);
   indirect += RejectBackwardRuns(rows, columns, kBackStepPx, 2, 2, &seen);
   indirect += RejectOutOfOrder(rows, columns, kOrderTolerancePx, &seen);
+  indirect += RejectSweptTwice(rows, columns, evidence, SweptOptions{}, &seen);
   indirect += RejectAcrossOrder(rows, columns, kOrderTolerancePx, &seen);
   indirect += SpreadAlongStripes(EpipolarOptions{}.link_gate_px, EpipolarOptions{}.max_line_gap,
                                  0.5, &seen);

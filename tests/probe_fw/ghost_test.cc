@@ -277,6 +277,46 @@ TEST(RejectAcrossOrder, AReflectionAlongTheRowsIsOutOfOrderWithTheRowsDirectLigh
 // A reflection standing still in the image while the sweep moves on lights one pixel from
 // sheets millimetres apart along its ray: none of them can be told direct, all go. Neighbouring
 // frames of a fine sweep lighting one pixel of one surface agree on its depth: they stay.
+// Corpus 7272 scene 19 in small: a reflection lights a row alone through frames 0-4 (the sheet
+// has not reached the part), then the direct stripe, over-exposed and so only evidence, sweeps
+// the same pixels in frames 10-13 and is measured beyond them. The reflection goes; the direct
+// points beyond stay; evidence is never marked (it is no point).
+TEST(RejectSweptTwice, ALineLitAloneByAReflectionThatTheStripeSweptLaterGoes) {
+  constexpr double kReflection = 60.0, kDirect = 120.0, kClipped = 247.0, kElsewhere = 100.0;
+  std::vector<SweepObservation> obs, evidence;
+  AddTrace(&obs, 100, 0, 16, 300.0, 30.0, 0.0, kElsewhere);  // every frame's sheet lit somewhere
+  AddTrace(&obs, 200, 0, 4, 470.0, 8.0, 0.0, kReflection);   // 470 .. 502 px
+  for (const double x : {440.0, 490.0, 530.0, 566.0}) {      // frames 10-13
+    AddTrace(&evidence, 200, 10 + static_cast<int>(evidence.size()),
+             10 + static_cast<int>(evidence.size()), x, 0.0, 0.0, kClipped);
+  }
+  AddTrace(&obs, 200, 14, 16, 596.0, 30.0, 0.0, kDirect);
+  EXPECT_EQ(RejectSweptTwice(+1.0, 0.0, evidence, SweptOptions{}, &obs), 5u);
+  EXPECT_EQ(Indirect(obs, kReflection), 5u);
+  EXPECT_EQ(Indirect(obs, kDirect) + Indirect(obs, kElsewhere), 0u);
+  // The scan axis without a direction is not judged.
+  for (auto& o : obs) o.indirect = false;
+  EXPECT_EQ(RejectSweptTwice(0.0, +1.0, evidence, SweptOptions{}, &obs), 0u);
+  // Sheets further apart on the line than max_step_px sweep nothing between them.
+  const SweptOptions o;
+  std::vector<SweepObservation> coarse;
+  AddTrace(&coarse, 200, 10, 13, 300.0, o.max_step_px + 10.0, 0.0, kClipped);
+  EXPECT_EQ(RejectSweptTwice(+1.0, 0.0, coarse, o, &obs), 0u);
+}
+
+// A fine sweep (0.3 px a frame, centres scattering +-0.4 px) lights each pixel in several
+// neighbouring frames, and a face beside a pin jumps once: nothing was lit twice.
+TEST(RejectSweptTwice, AFineSweepAndAnOccludingEdgeAreLitOnce) {
+  std::vector<SweepObservation> fine;
+  AddTrace(&fine, 3, 0, 60, 500.0, 0.3, 0.0, 100.0);
+  for (std::size_t i = 0; i < fine.size(); i += 2) fine[i].stripe.x_px -= 0.8;
+  EXPECT_EQ(RejectSweptTwice(+1.0, 0.0, {}, SweptOptions{}, &fine), 0u);
+  std::vector<SweepObservation> edge;
+  AddTrace(&edge, 9, 0, 9, 300.0, 12.0, 0.0, 100.0);
+  for (std::size_t i = 5; i < edge.size(); ++i) edge[i].stripe.x_px += 30.0;
+  EXPECT_EQ(RejectSweptTwice(+1.0, 0.0, {}, SweptOptions{}, &edge), 0u);
+}
+
 TEST(RejectRayConflicts, OnePixelLitFromSheetsFarApartLosesAllAndOneSurfaceStays) {
   const ProbeModel m =
       LoadProbeModel(mlp::test::SourceDir() + "/samples/probes/reference_probe.json");
