@@ -512,6 +512,43 @@ std::size_t RejectSweptTwice(double row_sign,
   return marked;
 }
 
+std::size_t RejectBehindClippedLight(double row_sign,
+                                     double column_sign,
+                                     const std::vector<SweepObservation>& evidence,
+                                     double tolerance_px,
+                                     std::vector<SweepObservation>* seen) {
+  const SheetRanks sheet(*seen, evidence);
+  // (axis, line) -> the clipped stripes on it: (sheet, signed position along the line).
+  std::map<std::pair<int, int>, std::vector<std::pair<int, double>>> clipped;
+  for (const SweepObservation& e : evidence) {
+    if (!e.stripe.full_scale) continue;
+    const double sign = e.stripe.axis == ScanAxis::kRow ? row_sign : column_sign;
+    if (sign != 0.0)
+      clipped[{static_cast<int>(e.stripe.axis), e.stripe.Line()}].emplace_back(
+          sheet(e), sign * e.stripe.Along());
+  }
+  std::size_t marked = 0;
+  for (auto& [key, members] : DirectByLine(*seen)) {
+    const auto it = clipped.find(key);
+    if (it == clipped.end()) continue;
+    const double sign = key.first == static_cast<int>(ScanAxis::kRow) ? row_sign : column_sign;
+    for (std::size_t i : members) {
+      SweepObservation& s = (*seen)[i];
+      const int own = sheet(s);
+      const double at = sign * s.stripe.Along();
+      const bool out_of_order =
+          std::any_of(it->second.begin(), it->second.end(), [&](const auto& c) {
+            return (c.first < own && c.second > at + tolerance_px) ||
+                   (c.first > own && c.second < at - tolerance_px);
+          });
+      if (!out_of_order) continue;
+      s.indirect = true;
+      ++marked;
+    }
+  }
+  return marked;
+}
+
 namespace {
 
 std::size_t Root(std::vector<std::size_t>* parent, std::size_t i) {

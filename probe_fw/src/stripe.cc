@@ -179,7 +179,8 @@ bool AcrossThisScan(const Scan& scan, double u, int v, int half_px) {
   return scan.axis == ScanAxis::kRow ? across_u >= across_v : across_u > across_v;
 }
 
-StripePoint MakePoint(const Scan& scan, double u, int v, double amplitude, int max_level) {
+StripePoint MakePoint(
+    const Scan& scan, double u, int v, double amplitude, int peak_level, int max_level) {
   StripePoint p;
   p.axis = scan.axis;
   const double along = u + scan.u0, line = v + scan.v0;
@@ -187,6 +188,7 @@ StripePoint MakePoint(const Scan& scan, double u, int v, double amplitude, int m
   p.y_px = scan.axis == ScanAxis::kRow ? line : along;
   p.amplitude_dn = amplitude;
   p.quality = std::clamp(amplitude / (0.5 * max_level), 0.0, 1.0);
+  p.full_scale = peak_level >= max_level;
   return p;
 }
 
@@ -334,7 +336,7 @@ std::uint16_t ScanSpan(const Span& s,
     const bool evidence = verdict == Verdict::kSaturated || verdict == Verdict::kDoublePeak ||
                           verdict == Verdict::kTooWide;
     if (evidence && scan.rejected)
-      scan.rejected->push_back(MakePoint(scan, peak, v, s.row[peak] - bg, max_level));
+      scan.rejected->push_back(MakePoint(scan, peak, v, s.row[peak] - bg, s.row[peak], max_level));
     if (!CountVerdict(verdict, counts)) continue;
     double bg2 = 0.0, mass = 0.0, variance = 0.0;
     int window_centre = peak;
@@ -342,7 +344,7 @@ std::uint16_t ScanSpan(const Span& s,
     if (variance < o.min_variance_px2) {
       ++counts->too_narrow;
       if (scan.rejected)
-        scan.rejected->push_back(MakePoint(scan, u, v, s.row[peak] - bg2, max_level));
+        scan.rejected->push_back(MakePoint(scan, u, v, s.row[peak] - bg2, s.row[peak], max_level));
       continue;
     }
     if (scan.other_axis_too && !AcrossThisScan(scan, u, v, o.window_half_px + 2)) {
@@ -355,7 +357,7 @@ std::uint16_t ScanSpan(const Span& s,
       ++counts->cut;
       continue;
     }
-    out->push_back(MakePoint(scan, u, v, s.row[peak] - bg2, max_level));
+    out->push_back(MakePoint(scan, u, v, s.row[peak] - bg2, s.row[peak], max_level));
     out->back().mass_dn = mass, out->back().variance_px2 = variance;
     if (scan.unsmoothed)
       AlongMoments(scan, s, v, window_centre, o.window_half_px, bg2, &out->back());

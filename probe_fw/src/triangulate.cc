@@ -118,6 +118,7 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
   indirect += RejectBackwardRuns(rows, columns, kBackStepPx, 2, 2, &seen);
   indirect += RejectOutOfOrder(rows, columns, kOrderTolerancePx, &seen);
   indirect += RejectSweptTwice(rows, columns, evidence, SweptOptions{}, &seen);
+  indirect += RejectBehindClippedLight(rows, columns, evidence, kOrderTolerancePx, &seen);
   indirect += RejectAcrossOrder(rows, columns, kOrderTolerancePx, &seen);
   indirect += SpreadAlongStripes(EpipolarOptions{}.link_gate_px, EpipolarOptions{}.max_line_gap,
                                  0.5, &seen);

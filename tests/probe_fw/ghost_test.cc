@@ -304,6 +304,32 @@ TEST(RejectSweptTwice, ALineLitAloneByAReflectionThatTheStripeSweptLaterGoes) {
   EXPECT_EQ(RejectSweptTwice(+1.0, 0.0, coarse, o, &obs), 0u);
 }
 
+// Corpus 7373 scene 182 in small: the over-exposed stripe (evidence at full scale) crosses the
+// row in frames 3-4 and leaves the part; a reflection walks back through frames 7-8 where nothing
+// held orders it. Behind the clipped stripe's last place, it goes; a direct point ahead stays;
+// evidence not at full scale (a one-pixel spike far along the line) orders nothing.
+TEST(RejectBehindClippedLight, APointBehindWhereTheClippedStripeWasGoes) {
+  constexpr double kReflection = 60.0, kDirect = 120.0, kClipped = 247.0;
+  std::vector<SweepObservation> obs, evidence;
+  AddTrace(&evidence, 450, 3, 4, 600.0, 117.0, 0.0, kClipped);  // 600, 717 px
+  for (auto& e : evidence) e.stripe.full_scale = true;
+  AddTrace(&obs, 450, 7, 8, 541.0, -82.0, 0.0, kReflection);  // 541, 459 px
+  AddTrace(&obs, 450, 5, 5, 760.0, 0.0, 0.0, kDirect);
+  EXPECT_EQ(RejectBehindClippedLight(+1.0, 0.0, evidence, 1.0, &obs), 2u);
+  EXPECT_EQ(Indirect(obs, kReflection), 2u);
+  EXPECT_EQ(Indirect(obs, kDirect), 0u);
+  // The sheets numbered the other way round (the light moves against the column): the same.
+  for (auto& o : obs) o.indirect = false, o.column = -o.column;
+  for (auto& e : evidence) e.column = -e.column;
+  EXPECT_EQ(RejectBehindClippedLight(-1.0, 0.0, evidence, 1.0, &obs), 2u);
+  EXPECT_EQ(Indirect(obs, kReflection), 2u);
+  // A spike not at full scale orders nothing.
+  for (auto& o : obs) o.indirect = false;
+  std::vector<SweepObservation> spike;
+  AddTrace(&spike, 450, 0, 0, 1000.0, 0.0, 0.0, kClipped);
+  EXPECT_EQ(RejectBehindClippedLight(+1.0, 0.0, spike, 1.0, &obs), 0u);
+}
+
 // A fine sweep (0.3 px a frame, centres scattering +-0.4 px) lights each pixel in several
 // neighbouring frames, and a face beside a pin jumps once: nothing was lit twice.
 TEST(RejectSweptTwice, AFineSweepAndAnOccludingEdgeAreLitOnce) {

@@ -142,6 +142,24 @@ std::size_t RejectSweptTwice(double row_sign,
                              const SweptOptions& options,
                              std::vector<SweepObservation>* seen);
 
+/// The ordering constraint against the light the firmware refused. A stripe at full scale is
+/// dropped (its centre is not measured) but it is the brightest light of its frame, most likely
+/// the direct stripe; direct light never steps back along a line as the sheets go on, so a
+/// point held at a later sheet behind where an earlier sheet's clipped stripe already was (by
+/// more than `tolerance_px`, the line's sign as in RejectOutOfOrder), or at an earlier sheet
+/// beyond a later one's, is not direct. Issue 50, corpus 7373 scene 182: an over-exposed
+/// cylinder whose clipped stripe left the part after frame 4, and a 0.3 mirror reflection walking
+/// back through frames 7-8 with nothing to order it against: its last frame was kept, 517
+/// points up to 289 mm off. Evidence not at full scale (a double peak, a one-pixel spike) is
+/// not used: a hot pixel would order a whole line. A clipped reflection costs direct points
+/// behind it, never keeps one. Only the epipolar scan's lines are judged. Returns how many were
+/// marked.
+std::size_t RejectBehindClippedLight(double row_sign,
+                                     double column_sign,
+                                     const std::vector<SweepObservation>& evidence,
+                                     double tolerance_px,
+                                     std::vector<SweepObservation>* seen);
+
 /// A reflection is a whole stripe of its own: where the sweep's tests found most of one frame's
 /// stripe indirect, its few members left (where it fades out at the ends of the lit band, where
 /// the frame before lost it) are the same light. Within each frame and scan axis, centres on

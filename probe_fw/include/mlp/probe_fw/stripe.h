@@ -88,6 +88,8 @@ struct StripePoint {
   /// Under smoothing along the stripe: the light-weighted mean offset of the lines the smoothed
   /// centre averaged [lines] (along_blur.h); 0 without.
   double blur_m1_lines = 0.0;
+  /// Its brightest pixel at the sensor's full scale: its light is known only from below.
+  bool full_scale = false;
 
   /// The sensor row (row scan) or column (column scan) the centre was found on.
   int Line() const { return static_cast<int>(axis == ScanAxis::kRow ? y_px : x_px); }
