@@ -331,16 +331,35 @@ std::map<std::pair<int, int>, std::vector<std::size_t>> DirectByLine(
 
 }  // namespace
 
+namespace {
+
+// For each member of `values` (in sequence order), the length of the longest sequence ending at
+// it whose values never fall by more than `tolerance` from one member to the next (Fredman's
+// patience sorting, O(n log n)).
+std::vector<int> ChainLengths(const std::vector<double>& values, double tolerance) {
+  std::vector<double> tails;  // the smallest last value of a sequence of each length
+  std::vector<int> lengths(values.size());
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    const auto at = std::upper_bound(tails.begin(), tails.end(), values[k] + tolerance);
+    lengths[k] = static_cast<int>(at - tails.begin()) + 1;
+    if (at == tails.end()) {
+      tails.push_back(values[k]);
+    } else {
+      *at = values[k];
+    }
+  }
+  return lengths;
+}
+
+}  // namespace
+
 std::size_t RejectOutOfOrder(double row_sign,
                              double column_sign,
                              double tolerance_px,
                              std::vector<SweepObservation>* seen) {
   auto lines = DirectByLine(*seen);
   std::size_t marked = 0;
-  std::vector<double> tails;         // patience sorting: the smallest last value per length
-  std::vector<std::size_t> tail_at;  // which member ends it
-  std::vector<std::ptrdiff_t> before;
-  std::vector<bool> kept;
+  std::vector<double> forward, backward;
   for (auto& [key, members] : lines) {
     const double sign = key.first == static_cast<int>(ScanAxis::kRow) ? row_sign : column_sign;
     if (sign == 0.0 || members.size() < 2) continue;
@@ -349,27 +368,29 @@ std::size_t RejectOutOfOrder(double row_sign,
       return std::make_pair((*seen)[a].column, value(a)) <
              std::make_pair((*seen)[b].column, value(b));
     });
-    // Longest sequence whose values never fall by more than the tolerance (Fredman's patience
-    // sorting, O(n log n)): a member extends the longest sequence whose end it does not undercut.
-    tails.clear(), tail_at.clear();
-    before.assign(members.size(), -1);
-    for (std::size_t k = 0; k < members.size(); ++k) {
-      const double v = value(members[k]);
-      const auto at = std::upper_bound(tails.begin(), tails.end(), v + tolerance_px);
-      const std::size_t length = static_cast<std::size_t>(at - tails.begin());
-      if (length > 0) before[k] = static_cast<std::ptrdiff_t>(tail_at[length - 1]);
-      if (at == tails.end()) {
-        tails.push_back(v), tail_at.push_back(k);
-      } else {
-        *at = v, tail_at[length] = k;
-      }
+    // A member is kept only when every longest ordered sequence holds it: where two members
+    // could take the same place (a reflection just behind the last direct centre: corpus 7474
+    // scene 47), the sequence cannot tell which is direct, and keeping the later one kept the
+    // reflection. Lengths of the sequences ending at each member and, run backwards on the
+    // negated values, starting at it; on some longest sequence when they add up to its length,
+    // on every one when no other such member stands at the same place.
+    const std::size_t n = members.size();
+    forward.resize(n), backward.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      forward[k] = value(members[k]);
+      backward[k] = -value(members[n - 1 - k]);
     }
-    kept.assign(members.size(), false);
-    for (std::ptrdiff_t k = static_cast<std::ptrdiff_t>(tail_at.back()); k >= 0;
-         k = before[static_cast<std::size_t>(k)])
-      kept[static_cast<std::size_t>(k)] = true;
-    for (std::size_t k = 0; k < members.size(); ++k) {
-      if (kept[k]) continue;
+    const std::vector<int> ending = ChainLengths(forward, tolerance_px);
+    const std::vector<int> starting_reversed = ChainLengths(backward, tolerance_px);
+    const int longest = *std::max_element(ending.begin(), ending.end());
+    std::vector<int> at_place(static_cast<std::size_t>(longest) + 1, 0);
+    std::vector<bool> on_longest(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      on_longest[k] = ending[k] + starting_reversed[n - 1 - k] - 1 == longest;
+      if (on_longest[k]) ++at_place[static_cast<std::size_t>(ending[k])];
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      if (on_longest[k] && at_place[static_cast<std::size_t>(ending[k])] == 1) continue;
       (*seen)[members[k]].indirect = true;
       ++marked;
     }

@@ -184,6 +184,21 @@ TEST(RejectOutOfOrder, AReflectionBetweenACoarseSweepsFramesIsOutOfOrder) {
   EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &fine), 0u);
 }
 
+// Corpus 7474 scene 47 in small: the direct stripe's last centre on the line (frame 8) and, a
+// frame later, a reflection just behind it (the direct stripe has left the image). Either could
+// end the longest ordered sequence: neither is kept (the longest sequence's tie went to the later
+// one, the reflection, 8 mm off in that scene). The direct centres before them stay.
+TEST(RejectOutOfOrder, TwoThatCouldTakeTheSamePlaceAreBothDropped) {
+  constexpr double kDirect = 120.0, kReflection = 60.0;
+  std::vector<SweepObservation> obs;
+  AddTrace(&obs, 1200, 0, 8, 100.0, 100.0, 0.0, kDirect);  // 100 .. 900 px
+  AddTrace(&obs, 1200, 9, 9, 867.0, 0.0, 0.0, kReflection);
+  EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &obs), 2u);
+  EXPECT_EQ(Indirect(obs, kReflection), 1u);
+  EXPECT_EQ(Indirect(obs, kDirect), 1u);
+  EXPECT_TRUE(obs[8].indirect);  // the frame-8 centre, the one the reflection could replace
+}
+
 // A coarse sweep of a cylinder on row 200 (frames 5-9, about 100 px between them) and a mirror
 // reflection walking back through frames 0-3 (corpus 7171, scene 41: 620, 525, 444, 384 px),
 // whose last frame falls into order with the direct light: the whole run goes, the direct

@@ -91,9 +91,11 @@ std::size_t RejectRayConflicts(const ProbeModel& model,
 /// direct observations, ordered by column, advance along the line. A reflection standing where
 /// no other frame's stripe passed (a coarse sweep: 100 px between frames) has no competitor on
 /// its epipolar line nor on its pixel, but its column is out of order with the direct light on
-/// both sides of it. Keeps the longest ordered sequence of each line (within `tolerance_px`
-/// back-steps: the centres' noise in a fine sweep) and marks the rest `indirect`. Lines of an
-/// axis whose sign is 0 are left alone. Returns how many were marked.
+/// both sides of it. Keeps what every longest ordered sequence of each line holds (within
+/// `tolerance_px` back-steps: the centres' noise in a fine sweep) and marks the rest `indirect`:
+/// two members that could take the same place in it (a reflection just behind the stripe's last
+/// centre) both go. Lines of an axis whose sign is 0 are left alone. Returns how many were
+/// marked.
 std::size_t RejectOutOfOrder(double row_sign,
                              double column_sign,
                              double tolerance_px,
