@@ -398,6 +398,28 @@ std::size_t RejectOutOfOrder(double row_sign,
   return marked;
 }
 
+namespace {
+
+// The sweep's sheets in column order: rank of each observation's column among all of them.
+class SheetRanks {
+ public:
+  SheetRanks(const std::vector<SweepObservation>& a, const std::vector<SweepObservation>& b) {
+    for (const auto* v : {&a, &b})
+      for (const SweepObservation& o : *v) columns_.push_back(o.column);
+    std::sort(columns_.begin(), columns_.end());
+    columns_.erase(std::unique(columns_.begin(), columns_.end()), columns_.end());
+  }
+  int operator()(const SweepObservation& o) const {
+    return static_cast<int>(std::lower_bound(columns_.begin(), columns_.end(), o.column) -
+                            columns_.begin());
+  }
+
+ private:
+  std::vector<double> columns_;
+};
+
+}  // namespace
+
 std::size_t RejectBackwardRuns(double row_sign,
                                double column_sign,
                                double tolerance_px,
@@ -405,13 +427,7 @@ std::size_t RejectBackwardRuns(double row_sign,
                                int max_sheet_gap,
                                std::vector<SweepObservation>* seen) {
   // The sweep's sheets in column order (frames may sweep either way, or out of order).
-  std::vector<double> sheets;
-  for (const SweepObservation& o : *seen) sheets.push_back(o.column);
-  std::sort(sheets.begin(), sheets.end());
-  sheets.erase(std::unique(sheets.begin(), sheets.end()), sheets.end());
-  const auto sheet = [&](const SweepObservation& o) {
-    return std::lower_bound(sheets.begin(), sheets.end(), o.column) - sheets.begin();
-  };
+  const SheetRanks sheet(*seen, {});
   auto lines = DirectByLine(*seen);
   std::vector<std::size_t> marked;
   for (auto& [key, members] : lines) {
@@ -438,24 +454,6 @@ std::size_t RejectBackwardRuns(double row_sign,
 }
 
 namespace {
-
-// The sweep's sheets in column order: rank of each observation's column among all of them.
-class SheetRanks {
- public:
-  SheetRanks(const std::vector<SweepObservation>& a, const std::vector<SweepObservation>& b) {
-    for (const auto* v : {&a, &b})
-      for (const SweepObservation& o : *v) columns_.push_back(o.column);
-    std::sort(columns_.begin(), columns_.end());
-    columns_.erase(std::unique(columns_.begin(), columns_.end()), columns_.end());
-  }
-  int operator()(const SweepObservation& o) const {
-    return static_cast<int>(std::lower_bound(columns_.begin(), columns_.end(), o.column) -
-                            columns_.begin());
-  }
-
- private:
-  std::vector<double> columns_;
-};
 
 // What one line's pixels were swept by: per pixel the earliest sheet a stretch over it ended at
 // and the latest sheet one began at (a pixel nobody swept keeps INT_MAX / INT_MIN).
