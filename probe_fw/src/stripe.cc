@@ -11,6 +11,7 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace mlp::probe_fw {
@@ -99,12 +100,46 @@ double Centroid(const Span& s,
   return centre + mean;
 }
 
+// The two loops that read every pixel of a line, by hand with OpenCV's universal intrinsics
+// (SSE2 here, NEON on the probe's ARM board): GCC 12 made the line's minimum a five-instruction
+// compare-and-blend per 8 pixels on SSE2 and the background skip 16 scalar compares per block;
+// the two were 60 % of the stripe step's time (perf, issue 50's speed target).
 constexpr int kSkipBlock = 16;
 
-std::uint16_t BlockMax(const std::uint16_t* p) {
-  std::uint16_t m = 0;
-  for (int k = 0; k < kSkipBlock; ++k) m = std::max(m, p[k]);
-  return m;
+// The darkest pixel of [begin, end).
+std::uint16_t LineFloor(const std::uint16_t* row, int begin, int end) {
+  std::uint16_t lowest = 0xffff;
+  int x = begin;
+#if CV_SIMD128
+  // Four running minima: one would chain every load's minimum on the one before (rows only,
+  // 0.97 -> 0.87 ms a full frame).
+  constexpr std::ptrdiff_t kLanes = 8, kStep = 4 * kLanes;
+  if (end - begin >= kStep) {
+    const std::uint16_t* p = row + x;
+    cv::v_uint16x8 m0 = cv::v_load(p), m1 = cv::v_load(p + kLanes);
+    cv::v_uint16x8 m2 = cv::v_load(p + 2 * kLanes), m3 = cv::v_load(p + 3 * kLanes);
+    for (x += kStep; x + kStep <= end; x += kStep) {
+      p = row + x;
+      m0 = cv::v_min(m0, cv::v_load(p));
+      m1 = cv::v_min(m1, cv::v_load(p + kLanes));
+      m2 = cv::v_min(m2, cv::v_load(p + 2 * kLanes));
+      m3 = cv::v_min(m3, cv::v_load(p + 3 * kLanes));
+    }
+    lowest = cv::v_reduce_min(cv::v_min(cv::v_min(m0, m1), cv::v_min(m2, m3)));
+  }
+#endif
+  for (; x < end; ++x) lowest = std::min(lowest, row[x]);
+  return lowest;
+}
+
+// Whether any of the kSkipBlock pixels from p on is at or above `threshold` (<= 0xffff).
+bool BlockReaches(const std::uint16_t* p, int threshold) {
+#if CV_SIMD128
+  const cv::v_uint16x8 brightest = cv::v_max(cv::v_load(p), cv::v_load(p + 8));
+  return cv::v_check_any(brightest >= cv::v_setall_u16(static_cast<std::uint16_t>(threshold)));
+#else
+  return *std::max_element(p, p + kSkipBlock) >= threshold;
+#endif
 }
 
 enum class Verdict { kPoint, kWeak, kSaturated, kDoublePeak, kTooWide, kCut };
@@ -139,11 +174,14 @@ Verdict Judge(const Span& s, int peak, double bg, int max_level, const StripeOpt
 }
 
 // Peak over mean of a profile: about the stripe's length over its width across a stripe, near
-// 1 along it.
-double Peakedness(const double* profile, int n) {
-  double sum = 0.0, peak = 0.0;
-  for (int k = 0; k < n; ++k) sum += profile[k], peak = std::max(peak, profile[k]);
-  return sum > 0.0 ? peak * n / sum : 0.0;
+// 1 along it. The profile's sums less `floor` each.
+double Peakedness(const std::int32_t* sums, int n, std::int32_t floor) {
+  std::int64_t total = 0, peak = 0;
+  for (int k = 0; k < n; ++k) {
+    const std::int64_t above = sums[k] - floor;
+    total += above, peak = std::max(peak, above);
+  }
+  return total > 0 ? static_cast<double>(peak) * n / static_cast<double>(total) : 0.0;
 }
 
 constexpr int kMaxDirectionHalf = 15;
@@ -153,7 +191,8 @@ constexpr int kMaxDirectionHalf = 15;
 // is more peaked than summed onto v. A sum along the stripe averages speckle away, and a second
 // stripe beside it (a reflection) keeps the profile across them peaked, where second moments
 // would call two parallel stripes a blob. Ties belong to the row scan, so a crossing both scans
-// find has exactly one owner.
+// find has exactly one owner. One pass of integer sums: the darkest pixel comes off each sum
+// afterwards (n times it), which is the same number as summing the pixels less it.
 bool AcrossThisScan(const Scan& scan, double u, int v, int half_px) {
   const Raster& r = scan.raster;
   const int half = std::min(half_px, kMaxDirectionHalf);
@@ -161,21 +200,22 @@ bool AcrossThisScan(const Scan& scan, double u, int v, int half_px) {
   const int j0 = std::max(0, v - half), j1 = std::min(r.lines - 1, v + half);
   const int i0 = std::max(0, uc - half), i1 = std::min(r.length - 1, uc + half);
   if (i1 < i0 || j1 < j0) return scan.axis == ScanAxis::kRow;
+  const int nu = i1 - i0 + 1, nv = j1 - j0 + 1;
   std::uint16_t darkest = 0xffff;
-  for (int j = j0; j <= j1; ++j) {
-    for (int i = i0; i <= i1; ++i) darkest = std::min(darkest, r.Line(j)[i]);
-  }
-  std::array<double, 2 * kMaxDirectionHalf + 1> onto_u{}, onto_v{};
-  for (int j = j0; j <= j1; ++j) {
-    const std::uint16_t* line = r.Line(j);
-    for (int i = i0; i <= i1; ++i) {
-      const double w = line[i] - darkest;
-      onto_u[static_cast<size_t>(i - i0)] += w;
-      onto_v[static_cast<size_t>(j - j0)] += w;
+  // 31 pixels of 16 bits at most in a sum: 32-bit sums cannot overflow.
+  std::array<std::int32_t, 2 * kMaxDirectionHalf + 1> onto_u{}, onto_v{};
+  for (int j = 0; j < nv; ++j) {
+    const std::uint16_t* line = r.Line(j0 + j) + i0;
+    std::int32_t sum = 0;
+    for (int i = 0; i < nu; ++i) {
+      darkest = std::min(darkest, line[i]);
+      onto_u[static_cast<size_t>(i)] += line[i];
+      sum += line[i];
     }
+    onto_v[static_cast<size_t>(j)] = sum;
   }
-  const double across_u = Peakedness(onto_u.data(), i1 - i0 + 1);
-  const double across_v = Peakedness(onto_v.data(), j1 - j0 + 1);
+  const double across_u = Peakedness(onto_u.data(), nu, std::int32_t{darkest} * nv);
+  const double across_v = Peakedness(onto_v.data(), nv, std::int32_t{darkest} * nu);
   return scan.axis == ScanAxis::kRow ? across_u >= across_v : across_u > across_v;
 }
 
@@ -197,7 +237,7 @@ StripePoint MakePoint(
 bool NextRun(const Span& s, int threshold, int* x, int* begin, int* end, int* peak) {
   while (*x < s.end) {
     // Most of a row is background: skip it 16 pixels at a time (a vectorised maximum).
-    if (*x + kSkipBlock <= s.end && BlockMax(s.row + *x) < threshold) {
+    if (*x + kSkipBlock <= s.end && !BlockReaches(s.row + *x, threshold)) {
       *x += kSkipBlock;
       continue;
     }
@@ -311,18 +351,62 @@ void AlongMoments(
   if (light > 0.0) p->blur_m1_lines = first / light;
 }
 
+// A centre that passed the shape tests, waiting for the direction test and the rest.
+struct Candidate {
+  Span span;
+  int v, window_centre;
+  double u, amplitude, bg;
+  int peak_level;
+  double mass, variance;
+};
+
+// The direction test's square window reaches this many lines past the candidate's.
+int DirectionReach(const StripeOptions& o) {
+  return std::min(o.window_half_px + 2, kMaxDirectionHalf);
+}
+
+// The last tests of a candidate, and its point. Run a few lines after the candidate's own
+// (ScanLines): the direction test's window then lies in lines the scan has just read, in cache,
+// where run at once it read DirectionReach lines ahead from memory (a third of the stripe step's
+// time on a full frame, perf).
+void Settle(const Candidate& c,
+            const Scan& scan,
+            int max_level,
+            const StripeOptions& o,
+            std::vector<StripePoint>* out,
+            StripeCounts* counts) {
+  if (scan.other_axis_too && !AcrossThisScan(scan, c.u, c.v, o.window_half_px + 2)) {
+    ++counts->other_axis;
+    const int at = static_cast<int>(std::lround(c.u));
+    Want(scan, at, at + 1, 2 * (o.window_half_px + 2));
+    return;
+  }
+  if (!AlongKernelInside(scan, c.v)) {
+    ++counts->cut;
+    return;
+  }
+  out->push_back(MakePoint(scan, c.u, c.v, c.amplitude, c.peak_level, max_level));
+  out->back().mass_dn = c.mass, out->back().variance_px2 = c.variance;
+  if (scan.unsmoothed)
+    AlongMoments(scan, c.span, c.v, c.window_centre, o.window_half_px, c.bg, &out->back());
+  ++counts->points;
+}
+
+// Finds the candidates of one span of line v into *pending (rejections counted, those rejected
+// for their shape kept as evidence when asked); returns the span's darkest pixel.
 std::uint16_t ScanSpan(const Span& s,
                        const Scan& scan,
                        int v,
                        int max_level,
                        const StripeOptions& o,
-                       std::vector<StripePoint>* out,
+                       std::vector<Candidate>* pending,
                        StripeCounts* counts) {
-  std::uint16_t lowest = 0xffff;
-  for (int x = s.begin; x < s.end; ++x) lowest = std::min(lowest, s.row[x]);
+  const std::uint16_t lowest = LineFloor(s.row, s.begin, s.end);
   const double threshold_dn = lowest + o.min_amplitude_dn;
   // Integer threshold: a pixel is a candidate when row[x] >= threshold (same test as the real).
-  const int threshold = static_cast<int>(std::ceil(threshold_dn));
+  // Clamped below by 0 (every pixel reaches it, as before): the block skip compares in 16 bits.
+  const int threshold = std::max(0, static_cast<int>(std::ceil(threshold_dn)));
+  if (threshold > 0xffff) return lowest;  // no pixel can reach it
   int x = s.begin, run_begin = 0, run_end = 0, peak = 0;
   while (NextRun(s, threshold, &x, &run_begin, &run_end, &peak)) {
     peak = PlateauMiddle(s, peak, run_end, max_level);
@@ -338,35 +422,22 @@ std::uint16_t ScanSpan(const Span& s,
     if (evidence && scan.rejected)
       scan.rejected->push_back(MakePoint(scan, peak, v, s.row[peak] - bg, s.row[peak], max_level));
     if (!CountVerdict(verdict, counts)) continue;
-    double bg2 = 0.0, mass = 0.0, variance = 0.0;
-    int window_centre = peak;
-    const double u = ReCentred(s, peak, bg, o, &bg2, &mass, &variance, &window_centre);
-    if (variance < o.min_variance_px2) {
+    Candidate c{s, v, peak, 0.0, 0.0, 0.0, s.row[peak], 0.0, 0.0};
+    c.u = ReCentred(s, peak, bg, o, &c.bg, &c.mass, &c.variance, &c.window_centre);
+    c.amplitude = s.row[peak] - c.bg;
+    if (c.variance < o.min_variance_px2) {
       ++counts->too_narrow;
       if (scan.rejected)
-        scan.rejected->push_back(MakePoint(scan, u, v, s.row[peak] - bg2, s.row[peak], max_level));
+        scan.rejected->push_back(MakePoint(scan, c.u, v, c.amplitude, s.row[peak], max_level));
       continue;
     }
-    if (scan.other_axis_too && !AcrossThisScan(scan, u, v, o.window_half_px + 2)) {
-      ++counts->other_axis;
-      const int at = static_cast<int>(std::lround(u));
-      Want(scan, at, at + 1, margin);
-      continue;
-    }
-    if (!AlongKernelInside(scan, v)) {
-      ++counts->cut;
-      continue;
-    }
-    out->push_back(MakePoint(scan, u, v, s.row[peak] - bg2, s.row[peak], max_level));
-    out->back().mass_dn = mass, out->back().variance_px2 = variance;
-    if (scan.unsmoothed)
-      AlongMoments(scan, s, v, window_centre, o.window_half_px, bg2, &out->back());
-    ++counts->points;
+    pending->push_back(c);
   }
   return lowest;
 }
 
-// Scans every line of the raster; line v is the mask's line `first_line` + v.
+// Scans every line of the raster; line v is the mask's line `first_line` + v. Candidates settle
+// in the order found, so the points come out in scan order.
 void ScanLines(const Scan& scan,
                const RowMask& mask,
                int first_line,
@@ -380,15 +451,30 @@ void ScanLines(const Scan& scan,
     std::uint16_t lowest;
   };
   std::vector<Floor> floors;
+  std::vector<Candidate> pending;
+  std::size_t settled = 0;
+  const int lag = DirectionReach(options);
+  const auto settle_before = [&](int line) {
+    for (; settled < pending.size() && pending[settled].v < line; ++settled)
+      Settle(pending[settled], scan, max_level, options, out, counts);
+  };
   const auto mask_rows = mask.rows.begin() + first_line;  // mask_rows[v]: the mask of line v
   for (int v = 0; v < r.lines; ++v) {
+    settle_before(v - lag);
+    // Line v + 2 asked of memory while v and v + 1 are scanned: the hardware's prefetcher did not
+    // keep up with the line's minimum alone (rows only: 1.1 -> 0.86 ms a full frame).
+    if (v + 2 < r.lines) {
+      const char* next = reinterpret_cast<const char*>(r.Line(v + 2));
+      for (int byte = 0; byte < r.length * 2; byte += 64) __builtin_prefetch(next + byte);
+    }
     for (const auto& [b, e] : mask_rows[v]) {
       ++counts->lines;
       const Span span{r.Line(v), std::max(0, b), std::min(r.length, e)};
-      const std::uint16_t lowest = ScanSpan(span, scan, v, max_level, options, out, counts);
+      const std::uint16_t lowest = ScanSpan(span, scan, v, max_level, options, &pending, counts);
       if (scan.wanted) floors.push_back({span.begin, span.end, lowest});
     }
   }
+  settle_before(r.lines);
   // A stripe lying along a line lifts the whole line: nothing along it stands out, but its floor
   // stands above the darkest line's. The column scan is wanted across such lines.
   std::uint16_t darkest = 0xffff;
@@ -399,20 +485,21 @@ void ScanLines(const Scan& scan,
 }
 
 // out (width x height) = the transpose of in (height x width, rows `in_stride` apart). By hand
-// because OpenCV's cv::transpose takes 3.3 ms on a full 2048 x 1536 16-bit frame here and this
-// 1.4 ms: 8 x 8 blocks gathered into registers and written as whole output rows keep both sides
-// in cache.
+// because OpenCV's cv::transpose takes 3.3 ms on a full 2048 x 1536 16-bit frame here: blocks
+// of 8 input columns by 32 input rows gathered into a buffer, so that each output row gets a
+// whole cache line (32 pixels) at once rather than a quarter of one four times (issue 50: the
+// turned probe's step 8.0 -> 6.5 ms; 32 x 32 tiles measured 7.5).
 void Transpose(const std::uint16_t* in, int in_stride, int width, int height, std::uint16_t* out) {
-  constexpr int kBlock = 8;
+  constexpr int kWide = 8, kTall = 32;
   const auto at = [](int row, int col, int stride) {
     return static_cast<std::size_t>(row) * static_cast<std::size_t>(stride) +
            static_cast<std::size_t>(col);
   };
-  for (int y0 = 0; y0 < height; y0 += kBlock) {
-    const int rows = std::min(kBlock, height - y0);
-    for (int x0 = 0; x0 < width; x0 += kBlock) {
-      const int cols = std::min(kBlock, width - x0);
-      std::uint16_t block[kBlock][kBlock];
+  for (int y0 = 0; y0 < height; y0 += kTall) {
+    const int rows = std::min(kTall, height - y0);
+    for (int x0 = 0; x0 < width; x0 += kWide) {
+      const int cols = std::min(kWide, width - x0);
+      std::uint16_t block[kWide][kTall];
       for (int i = 0; i < rows; ++i) {
         for (int j = 0; j < cols; ++j) block[j][i] = in[at(y0 + i, x0 + j, in_stride)];
       }

@@ -56,12 +56,15 @@ Vec2 CameraModel::Undistort(const Vec2& pixel) const {
     const double dradial = k1 + r2 * (2.0 * k2 + 3.0 * r2 * k3);  // d radial / d r2
     const Vec2 f(x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) - target.x(),
                  y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y - target.y());
-    Eigen::Matrix2d jac;
-    jac(0, 0) = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x;
-    jac(0, 1) = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
-    jac(1, 0) = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
-    jac(1, 1) = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x;
-    const Vec2 step = jac.partialPivLu().solve(f);
+    // The Jacobian is symmetric and near the identity (a lens's distortion is a perturbation):
+    // Cramer's rule solves it; Eigen's pivoting LU took a third of this function's time, and
+    // the firmware runs it on every stripe centre (the epipolar index and the triangulation).
+    const double a = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x;
+    const double b = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
+    const double d = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x;
+    const double det = a * d - b * b;
+    if (!(std::abs(det) > 0.0)) break;  // no step can be taken: a pixel far outside the lens
+    const Vec2 step((d * f.x() - b * f.y()) / det, (a * f.y() - b * f.x()) / det);
     q -= step;
     if (step.norm() < 1e-14) break;
   }
