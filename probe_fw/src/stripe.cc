@@ -532,11 +532,41 @@ void ScanLines(const Scan& scan,
   }
 }
 
+#if CV_SIMD128
+// The 8 x 8 pixels at `in` (rows `in_stride` apart) transposed to `out` (rows `out_stride`
+// apart): three rounds of interleaving, of 16-bit, 32-bit and 64-bit pieces.
+void Transpose8x8(const std::uint16_t* in,
+                  std::size_t in_stride,
+                  std::uint16_t* out,
+                  std::size_t out_stride) {
+  using cv::v_uint16x8;
+  using cv::v_uint32x4;
+  v_uint16x8 r[8];
+  for (std::size_t i = 0; i < 8; ++i) r[i] = cv::v_load(in + i * in_stride);
+  v_uint16x8 t[8];  // t[2k], t[2k + 1]: rows 2k and 2k + 1 paired, columns 0-3 and 4-7
+  for (std::size_t k = 0; k < 4; ++k) cv::v_zip(r[2 * k], r[2 * k + 1], t[2 * k], t[2 * k + 1]);
+  v_uint32x4 q[8];  // q[0..3]: rows 0-3, column pairs (0,1) (2,3) (4,5) (6,7); q[4..7] rows 4-7
+  for (std::size_t half = 0; half < 2; ++half) {
+    const std::size_t at = 4 * half;
+    cv::v_zip(cv::v_reinterpret_as_u32(t[at]), cv::v_reinterpret_as_u32(t[at + 2]), q[at],
+              q[at + 1]);
+    cv::v_zip(cv::v_reinterpret_as_u32(t[at + 1]), cv::v_reinterpret_as_u32(t[at + 3]), q[at + 2],
+              q[at + 3]);
+  }
+  for (std::size_t pair = 0; pair < 4; ++pair) {
+    const v_uint16x8 top = cv::v_reinterpret_as_u16(q[pair]);
+    const v_uint16x8 bottom = cv::v_reinterpret_as_u16(q[pair + 4]);
+    cv::v_store(out + 2 * pair * out_stride, cv::v_combine_low(top, bottom));
+    cv::v_store(out + (2 * pair + 1) * out_stride, cv::v_combine_high(top, bottom));
+  }
+}
+#endif
+
 // out (width x height) = the transpose of in (height x width, rows `in_stride` apart). By hand
-// because OpenCV's cv::transpose takes 3.3 ms on a full 2048 x 1536 16-bit frame here: blocks
-// of 8 input columns by 32 input rows gathered into a buffer, so that each output row gets a
-// whole cache line (32 pixels) at once rather than a quarter of one four times (issue 50: the
-// turned probe's step 8.0 -> 6.5 ms; 32 x 32 tiles measured 7.5).
+// because OpenCV's cv::transpose takes 3.3 ms on a full 2048 x 1536 16-bit frame here: 8 x 8
+// blocks in registers (three rounds of interleaving), four of them down the input at a time so
+// that each output row gets a whole cache line (32 pixels) at once. The turned probe's step
+// was three quarters this transpose, pixel by pixel (issue 50: 6.3 -> see BENCHMARKS.md).
 void Transpose(const std::uint16_t* in, int in_stride, int width, int height, std::uint16_t* out) {
   constexpr int kWide = 8, kTall = 32;
   const auto at = [](int row, int col, int stride) {
@@ -547,12 +577,17 @@ void Transpose(const std::uint16_t* in, int in_stride, int width, int height, st
     const int rows = std::min(kTall, height - y0);
     for (int x0 = 0; x0 < width; x0 += kWide) {
       const int cols = std::min(kWide, width - x0);
-      std::uint16_t block[kWide][kTall];
-      for (int i = 0; i < rows; ++i) {
-        for (int j = 0; j < cols; ++j) block[j][i] = in[at(y0 + i, x0 + j, in_stride)];
+      int done = 0;  // rows of this block transposed in registers
+#if CV_SIMD128
+      if (cols == kWide) {
+        for (; done + kWide <= rows; done += kWide)
+          Transpose8x8(in + at(y0 + done, x0, in_stride), static_cast<std::size_t>(in_stride),
+                       out + at(x0, y0 + done, height), static_cast<std::size_t>(height));
       }
-      for (int j = 0; j < cols; ++j) {
-        for (int i = 0; i < rows; ++i) out[at(x0 + j, y0 + i, height)] = block[j][i];
+#endif
+      for (int i = done; i < rows; ++i) {
+        for (int j = 0; j < cols; ++j)
+          out[at(x0 + j, y0 + i, height)] = in[at(y0 + i, x0 + j, in_stride)];
       }
     }
   }
