@@ -233,6 +233,30 @@ TEST(Grind, AStrokeThatDidNotCutGivesTheNormalAndTheExcess) {
   EXPECT_LT((r.compensation_mm + f.normal * r.d_mm).norm(), 1e-12);
 }
 
+// A gouge deeper than the 0.4 mm searched beyond Mi is measured where the frame's own edge on
+// C-Mi confirms the seed's search (issue 55: the outside renderer's over-cuts of 404 and 478 um
+// were refused); past 1 mm it is refused, never compensated.
+TEST(Grind, AGougePastTheWindowIsMeasuredWhereTheFrameShowsIt) {
+  GrindJob job;
+  job.profile = DemoProfile();
+  const geometry::Profile2 p(job.profile);
+  const geometry::ProfileFoot f = p.At(0.8);
+  ErrorCase c;
+  c.mi_mm = f.point, c.c_mm = f.point + job.wheel_radius_mm * f.normal;
+  constexpr double kGougeMm = 0.47;
+  c.offset_mm = -kGougeMm * f.normal;
+  const PointResult r = Measure(p, job, c, 11);
+  EXPECT_EQ(r.feed, Feed::kOverFeed);
+  EXPECT_NEAR(r.d_mm, kGougeMm, kDTolMm);
+  c.offset_mm = -1.2 * f.normal;
+  try {
+    Measure(p, job, c, 11);
+    ADD_FAILURE() << "a gouge of 1.2 mm was measured";
+  } catch (const GrindError& e) {
+    EXPECT_NE(std::string(e.what()).find("not compensated"), std::string::npos) << e.what();
+  }
+}
+
 // The seed's six search cases (Fig. 3) and its one-column case, each met on purpose: a groove
 // whose flanks face right (C in a later column than Mi: cases 1-3) and left (4-6) and whose
 // flats put C over Mi (0); the material everywhere the nominal plus k, so Mr = Mi + k n

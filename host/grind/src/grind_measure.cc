@@ -628,6 +628,41 @@ const char* ToString(Feed f) {
   return "?";
 }
 
+// Past the window beyond Mi only the whole line's search or the seed's can find an edge, and
+// on the outside renderer those were not always the gouge's (a wheel driven into a sharp corner:
+// 462 um "under-feed" where no material lay within 0.6 mm). Such an edge at t is the gouge's
+// bottom only where the after frame itself shows it on C-Mi: its steepest fall from light to
+// dark within kConfirmMm of t, by the edge's contrast, lies within kConfirmPx of t, and the
+// line from Mi to it is light all the way (no material in front of it). Measured then (issue
+// 55: seed 9202's over-cuts of 404 and 478 um were refused though the seed's search had them
+// within 0.3 um), else refused, never compensated. Beyond kDeepestMm nothing is measured.
+constexpr double kConfirmMm = 0.15, kConfirmPx = 2.0, kDeepestMm = 1.0;
+
+double ConfirmedDeepGouge(const PointInput& in,
+                          const GrindCamera& cam,
+                          const Vec2& u,
+                          double ti,
+                          double t,
+                          double min_contrast) {
+  const auto refuse = [&](const std::string& why) {
+    Fail("the contour on C-Mi lies " + std::to_string(std::lround((t - ti) * 1e3)) +
+         " um beyond Mi, past the " + std::to_string(std::lround(kBeyondMiMm * 1e3)) +
+         " um searched, and " + why + ": not measured, not compensated");
+  };
+  if (t > ti + kDeepestMm) refuse("deeper than the 1 mm a gouge is measured to");
+  const LineEdge edge =
+      EdgeAlongLine(in.after, cam, in.c_mm, u, t - kConfirmMm, t + kConfirmMm, min_contrast);
+  if (!(std::abs(edge.t_mm - t) <= kConfirmPx * cam.mm_per_px))
+    refuse("the frame shows no edge of the part there on C-Mi");
+  const double half_level =
+      GreyAt(in.after, cam, in.c_mm + (edge.t_mm - 10 * cam.mm_per_px) * u) - edge.contrast / 2;
+  for (double s = ti; s < edge.t_mm - 3 * cam.mm_per_px; s += cam.mm_per_px) {
+    if (!(GreyAt(in.after, cam, in.c_mm + s * u) > half_level))
+      refuse("something dark lies on C-Mi before it");
+  }
+  return edge.t_mm;
+}
+
 PointResult MeasurePoint(const PointInput& in,
                          const geometry::Profile2& nominal,
                          const GrindCamera& cam,
@@ -671,13 +706,7 @@ PointResult MeasurePoint(const PointInput& in,
     res.search_case = -1;  // the seed's search found nothing: the local edge alone
   }
   res.local_edge = std::isfinite(on_line.t_mm);
-  // Past the window beyond Mi only the whole line's search or the seed's can find an edge, and
-  // on the outside renderer those were not the gouge's (a wheel driven into a sharp corner:
-  // 462 um "under-feed" where no material lay within 0.6 mm): refused, never compensated.
-  if (t > ti + kBeyondMiMm)
-    Fail("the contour on C-Mi lies " + std::to_string(std::lround((t - ti) * 1e3)) +
-         " um beyond Mi, past the " + std::to_string(std::lround(kBeyondMiMm * 1e3)) +
-         " um searched: a gouge deeper than that is not measured; not compensated");
+  if (t > ti + kBeyondMiMm) t = ConfirmedDeepGouge(in, cam, u, ti, t, min_contrast);
   RefuseSpeck(in.after, cam, in.c_mm + t * u, u);
   res.mr_mm = in.c_mm + t * u;
   res.d_mm = std::abs(t - ti);
