@@ -649,7 +649,9 @@ double ConfirmedDeepGouge(const PointInput& in,
          " um beyond Mi, past the " + std::to_string(std::lround(kBeyondMiMm * 1e3)) +
          " um searched, and " + why + ": not measured, not compensated");
   };
-  if (t > ti + kDeepestMm) refuse("deeper than the 1 mm a gouge is measured to");
+  if (t > ti + kDeepestMm)
+    refuse("deeper than the " + std::to_string(std::lround(kDeepestMm * 1e3)) +
+           " um a gouge is measured to");
   const LineEdge edge =
       EdgeAlongLine(in.after, cam, in.c_mm, u, t - kConfirmMm, t + kConfirmMm, min_contrast);
   if (!(std::abs(edge.t_mm - t) <= kConfirmPx * cam.mm_per_px))
