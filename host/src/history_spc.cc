@@ -4,9 +4,9 @@
 // control limits (jobs/spc.h), and a run chart as SVG.
 
 #include "mlp/base/files.h"
+#include "mlp/features/spc.h"
 #include "mlp/history/history.h"
 #include "mlp/host/cli.h"
-#include "mlp/jobs/spc.h"
 
 #include <cmath>
 #include <iomanip>
@@ -72,7 +72,7 @@ std::vector<Characteristic> Characteristics(const std::vector<history::FeatureRe
   return out;
 }
 
-nlohmann::json StudyJson(const Characteristic& c, const jobs::CapabilityStudy& s) {
+nlohmann::json StudyJson(const Characteristic& c, const features::CapabilityStudy& s) {
   return {{"unit", c.unit},
           {"nominal", c.nominal},
           {"lower_limit", c.lower},
@@ -101,7 +101,7 @@ nlohmann::json StudyJson(const Characteristic& c, const jobs::CapabilityStudy& s
 
 void PrintStudy(const std::string& feature,
                 const Characteristic& c,
-                const jobs::CapabilityStudy& s,
+                const features::CapabilityStudy& s,
                 std::ostream& out) {
   const double um = c.unit == "mm" ? 1e3 : 1.0;  // sigma in um for sizes
   const char* spread = c.unit == "mm" ? " um" : " deg";
@@ -152,7 +152,7 @@ int RunHistorySpc(const std::vector<std::string>& args, std::ostream& out, std::
   for (size_t k = 0; k < cs.size(); ++k) {
     const Characteristic& c = cs[k];
     try {
-      const jobs::CapabilityStudy s = jobs::StudyCapability(c.values, {c.lower, c.upper});
+      const features::CapabilityStudy s = features::StudyCapability(c.values, {c.lower, c.upper});
       if (a.Has("--json"))
         all.push_back(StudyJson(c, s));
       else
@@ -160,10 +160,10 @@ int RunHistorySpc(const std::vector<std::string>& args, std::ostream& out, std::
       if (a.Has("--svg")) {  // one chart per characteristic: FILE.svg, then FILE-2.svg, ...
         const std::string path = ChartPath(a.Text("--svg"), k);
         base::WriteFileAtomically(
-            path, jobs::RunChartSvg(c.values, {c.lower, c.upper}, s, q.feature, c.unit));
+            path, features::RunChartSvg(c.values, {c.lower, c.upper}, s, q.feature, c.unit));
         if (!a.Has("--json")) out << "  run chart: " << path << "\n";
       }
-    } catch (const jobs::SpcError& e) {
+    } catch (const features::SpcError& e) {
       err << "mlp history: " << q.feature << " (nominal " << c.nominal << "): " << e.what() << "\n";
       ++failed;
     }

@@ -7,14 +7,14 @@
 // Run: build/bin/mlp_host_bench --benchmark_counters_tabular=true
 
 #include "mlp/base/files.h"
+#include "mlp/features/composite.h"
+#include "mlp/features/decision.h"
+#include "mlp/features/feature.h"
+#include "mlp/features/report.h"
+#include "mlp/features/surface.h"
 #include "mlp/geometry/datum.h"
 #include "mlp/history/file_hash.h"
 #include "mlp/history/history.h"
-#include "mlp/jobs/composite.h"
-#include "mlp/jobs/decision.h"
-#include "mlp/jobs/feature.h"
-#include "mlp/jobs/report.h"
-#include "mlp/jobs/surface.h"
 #include "mlp/nc/nc_output.h"
 #include "mlp/nc/tool_table.h"
 #include "mlp/probe_fw/cloud_file.h"
@@ -22,7 +22,7 @@
 #include <filesystem>
 #include <random>
 
-#include "../jobs/feature_points.h"
+#include "../features/feature_points.h"
 #include <benchmark/benchmark.h>
 
 namespace {
@@ -109,9 +109,9 @@ void BM_BoreJobHostSide(benchmark::State& state) {
   const auto files = WriteHole("bore", 0, 0, 60, 12500, 2);
   const auto hashes = Hashes(files);
   mlp::history::History history((kDir / "history.sqlite").string());
-  mlp::jobs::BoreNominal n;
+  mlp::features::BoreNominal n;
   n.diameter_mm = 60.01, n.depth_mm = 20;
-  mlp::jobs::Feedback f;
+  mlp::features::Feedback f;
   f.offset_number = 12;
   f.null_band_mm = 0.002;
   for (auto _ : state) {
@@ -119,22 +119,23 @@ void BM_BoreJobHostSide(benchmark::State& state) {
     const Points3 p = Load(files, hashes);
     for (size_t k = 0; k < files.size(); ++k)
       history.AddCapture(job, {"c", nlohmann::json::object(), files[k], hashes[k], 12500});
-    const auto bore = mlp::jobs::MeasureBore(p, n);
-    const auto d = mlp::jobs::DecideSize(bore.diameter_mm, {60.01, 0.02, 0.02}, f);
-    mlp::jobs::FitEvidence e;
+    const auto bore = mlp::features::MeasureBore(p, n);
+    const auto d = mlp::features::DecideSize(bore.diameter_mm, {60.01, 0.02, 0.02}, f);
+    mlp::features::FitEvidence e;
     e.points = bore.points, e.rms_mm = bore.rms_mm, e.arc_span_deg = bore.arc_span_deg;
     e.calibration_probe = e.job_probe = "P";
     e.offset_changes_mm = {d.offset_change_mm};
-    if (!mlp::jobs::PlausibilityProblems(e, {}).empty()) state.SkipWithError("refused");
+    if (!mlp::features::PlausibilityProblems(e, {}).empty()) state.SkipWithError("refused");
     mlp::nc::NcResult out;
     out.tools.push_back(
         {12, mlp::nc::ToolRegister::kRadiusGeometry, 5.0, 5.0 + d.offset_change_mm, false});
     mlp::base::WriteFileAtomically((kDir / "mlp_result.ngc").string(),
                                    mlp::nc::LinuxCncSubroutine("mlp_result", out));
     history.AddResult(job, {"bore", {{"d", bore.diameter_mm}}, {{"change", d.offset_change_mm}}});
-    mlp::jobs::BoreReport rep;
+    mlp::features::BoreReport rep;
     rep.bore = bore;
-    mlp::base::WriteFileAtomically((kDir / "report.svg").string(), mlp::jobs::BoreReportSvg(rep));
+    mlp::base::WriteFileAtomically((kDir / "report.svg").string(),
+                                   mlp::features::BoreReportSvg(rep));
     history.FinishJob(job, mlp::history::JobStatus::kInTolerance, {{"ok", true}}, {});
     state.counters["diameter_error_um"] = (bore.diameter_mm - 60.0) * 1e3;
   }
@@ -146,13 +147,13 @@ void BM_AlignJobHostSide(benchmark::State& state) {
   const auto face = WriteFace(5000);
   const auto b = WriteHole("b", 0, 0, 20, 6000, 3), c = WriteHole("c", 0, 60, 20, 6000, 4);
   const auto hf = Hashes(face), hb = Hashes(b), hc = Hashes(c);
-  mlp::jobs::BoreNominal nb, nc;
+  mlp::features::BoreNominal nb, nc;
   nb.diameter_mm = nc.diameter_mm = 20, nb.depth_mm = nc.depth_mm = 20;
   nc.top_centre_mcs = Vec3(0, 60, 0);
   for (auto _ : state) {
-    const auto plane = mlp::jobs::MeasurePlane(Load(face, hf), {}).plane;
-    const auto pb = mlp::jobs::MeasureBore(Load(b, hb), nb);
-    const auto pc = mlp::jobs::MeasureBore(Load(c, hc), nc);
+    const auto plane = mlp::features::MeasurePlane(Load(face, hf), {}).plane;
+    const auto pb = mlp::features::MeasureBore(Load(b, hb), nb);
+    const auto pc = mlp::features::MeasureBore(Load(c, hc), nc);
     const auto w = mlp::geometry::ReadWorkOffset(
         mlp::geometry::DatumPlaneCircleCircle(plane, pb.top_centre_mcs, pc.top_centre_mcs));
     mlp::nc::NcResult out;
@@ -171,37 +172,37 @@ void BM_AlignJobHostSide(benchmark::State& state) {
 // The fits of the other features alone (no files, no writes), at the sizes their planned
 // captures give: what they add to a job against the bore's.
 void BM_RectanglePocketFit(benchmark::State& state) {
-  mlp::jobs::test::CloudMaker cloud(5, kNoiseMm);
+  mlp::features::test::CloudMaker cloud(5, kNoiseMm);
   for (double s : {1.0, -1.0}) {
     cloud.Patch(Vec3(s * 30, -4, -11.5), Vec3::UnitY(), Vec3::UnitZ(), 8, 8, 12500);
     cloud.Patch(Vec3(-4, s * 20, -11.5), Vec3::UnitX(), Vec3::UnitZ(), 8, 8, 12500);
   }
   const Points3 p = cloud.Cloud();
-  mlp::jobs::RectangleNominal n;
+  mlp::features::RectangleNominal n;
   n.centre_mcs = Vec3(0, 0, -7.5), n.size_x_mm = 60, n.size_y_mm = 40, n.within_mm = 6;
-  for (auto _ : state) benchmark::DoNotOptimize(mlp::jobs::MeasureRectangle(p, n));
+  for (auto _ : state) benchmark::DoNotOptimize(mlp::features::MeasureRectangle(p, n));
   state.counters["points"] = 50000;
 }
 
 void BM_PcdFit(benchmark::State& state) {
-  mlp::jobs::test::CloudMaker cloud(6, kNoiseMm);
-  mlp::jobs::PcdNominal n;
+  mlp::features::test::CloudMaker cloud(6, kNoiseMm);
+  mlp::features::PcdNominal n;
   n.diameter_mm = 30;
   for (int k = 0; k < 4; ++k) {
-    const Vec3 at = 15 * mlp::jobs::test::Dir(90 * k);
+    const Vec3 at = 15 * mlp::features::test::Dir(90 * k);
     cloud.Wall(at.x(), at.y(), 4, -10, -2, 0, 360, 12500);
-    mlp::jobs::BoreNominal h;
+    mlp::features::BoreNominal h;
     h.top_centre_mcs = at, h.diameter_mm = 8, h.depth_mm = 12;
     n.holes.push_back(h);
   }
   const Points3 p = cloud.Cloud();
-  for (auto _ : state) benchmark::DoNotOptimize(mlp::jobs::MeasurePcd(p, n));
+  for (auto _ : state) benchmark::DoNotOptimize(mlp::features::MeasurePcd(p, n));
   state.counters["points"] = 50000;
 }
 
 void BM_SurfacePatchAgainstNominal(benchmark::State& state) {
   // A flat 20 x 20 mm nominal every 0.25 mm (6,561 vector points), 50,000 measured points.
-  mlp::jobs::SurfaceNominal n;
+  mlp::features::SurfaceNominal n;
   n.spacing_mm = 0.25;
   n.points_mcs.resize(3, 81 * 81), n.normals_mcs.resize(3, 81 * 81);
   for (int i = 0; i < 81; ++i)
@@ -209,10 +210,10 @@ void BM_SurfacePatchAgainstNominal(benchmark::State& state) {
       n.points_mcs.col(i * 81 + j) = Vec3(-10 + 0.25 * i, -10 + 0.25 * j, 0);
       n.normals_mcs.col(i * 81 + j) = Vec3::UnitZ();
     }
-  mlp::jobs::test::CloudMaker cloud(7, kNoiseMm);
+  mlp::features::test::CloudMaker cloud(7, kNoiseMm);
   cloud.Patch(Vec3(-10, -10, 0), Vec3::UnitX(), Vec3::UnitY(), 20, 20, 50000);
   const Points3 p = cloud.Cloud();
-  for (auto _ : state) benchmark::DoNotOptimize(mlp::jobs::MeasureSurface(p, n));
+  for (auto _ : state) benchmark::DoNotOptimize(mlp::features::MeasureSurface(p, n));
   state.counters["points"] = 50000;
 }
 

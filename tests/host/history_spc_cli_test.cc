@@ -3,8 +3,8 @@
 // change half way (another nominal: another characteristic), the figures against the SPC
 // module's own on the same values, the run chart's SVG, and the exit codes.
 
+#include "mlp/features/spc.h"
 #include "mlp/history/history.h"
-#include "mlp/jobs/spc.h"
 
 #include <filesystem>
 #include <random>
@@ -61,7 +61,7 @@ TEST(HistorySpc, ABoresCapabilityFromTheHistory) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const json j = json::parse(run.out);
   ASSERT_EQ(j.size(), 2u);  // two characteristics, the refused job's figure in neither
-  const jobs::CapabilityStudy a = jobs::StudyCapability(first, {39.99, 40.02});
+  const features::CapabilityStudy a = features::StudyCapability(first, {39.99, 40.02});
   EXPECT_EQ(j[0].at("n"), 30);
   EXPECT_NEAR(j[0].at("nominal").get<double>(), 40.0, kSame);
   EXPECT_NEAR(j[0].at("mean").get<double>(), a.mean, kSame);

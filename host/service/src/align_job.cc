@@ -1,8 +1,8 @@
 #include "mlp/base/clock.h"
 #include "mlp/base/json_fields.h"
 #include "mlp/calib/record.h"
+#include "mlp/features/decision.h"
 #include "mlp/geometry/datum.h"
-#include "mlp/jobs/decision.h"
 #include "mlp/service/adapters.h"
 
 #include <algorithm>
@@ -19,23 +19,23 @@ using json = nlohmann::json;
 using geometry::Plane;
 using geometry::Vec3;
 
-// A face from the captures, segmented by its nominal (jobs::MeasurePlane).
-jobs::PlaneMeasurement MeasureFace(JobContext& ctx,
-                                   const json& f,
-                                   const std::string& w,
-                                   const geometry::Pose3& m,
-                                   std::int64_t job,
-                                   std::string* probe) {
+// A face from the captures, segmented by its nominal (features::MeasurePlane).
+features::PlaneMeasurement MeasureFace(JobContext& ctx,
+                                       const json& f,
+                                       const std::string& w,
+                                       const geometry::Pose3& m,
+                                       std::int64_t job,
+                                       std::string* probe) {
   const json& n = jf::Object<JobInputError>(f, "nominal", w);
-  const jobs::PlaneNominal nominal = ParsePlaneNominal(n, w + ".nominal");
+  const features::PlaneNominal nominal = ParsePlaneNominal(n, w + ".nominal");
   if (!f.contains("captures")) throw JobInputError(w + ".captures must list capture jobs");
   const Evidence ev = LoadCaptures(ctx, f.at("captures"), m, job);
   *probe = ev.probe_serial;
-  return jobs::MeasurePlane(ev.points_mcs, nominal);
+  return features::MeasurePlane(ev.points_mcs, nominal);
 }
 
 // Where a bore's fitted axis meets the plane.
-Vec3 AxisOnPlane(const jobs::BoreMeasurement& b, const Plane& a) {
+Vec3 AxisOnPlane(const features::BoreMeasurement& b, const Plane& a) {
   const double t = (a.point - b.top_centre_mcs).dot(a.normal) / b.axis_mcs.dot(a.normal);
   return b.top_centre_mcs + t * b.axis_mcs;
 }
@@ -77,7 +77,7 @@ AlignRequest ParseAlignRequest(const json& r) {
 // The datum frame found, with what the gate weighs and what the reply says of its features.
 struct Datum {
   geometry::Pose3 mcs_from_work = geometry::Pose3::Identity();
-  jobs::FitEvidence fe;
+  features::FitEvidence fe;
   std::string probe;
   json fields;
 };
@@ -102,13 +102,13 @@ Vec3 HoleOnPlane(JobContext& ctx,
                  const char* name,
                  const geometry::Pose3& m,
                  std::int64_t job,
-                 const jobs::PlaneMeasurement& a,
+                 const features::PlaneMeasurement& a,
                  Datum* d) {
   const std::string w = std::string("request.") + name;
   const Evidence ev = NamedCaptures(ctx, r, name, "captures", m, job);
   const json& n = jf::Object<JobInputError>(r.at(name), "nominal", w);
-  const jobs::BoreMeasurement b =
-      jobs::MeasureBore(ev.points_mcs, ParseBoreNominal(n, w + ".nominal"));
+  const features::BoreMeasurement b =
+      features::MeasureBore(ev.points_mcs, ParseBoreNominal(n, w + ".nominal"));
   Vec3 centre = AxisOnPlane(b, a.plane);
   d->fe.arc_span_deg = std::min(d->fe.arc_span_deg.value_or(360.0), b.arc_span_deg);
   d->fe.rms_mm = std::max(d->fe.rms_mm, b.rms_mm);
@@ -128,7 +128,7 @@ void PlaneCircleCircle(JobContext& ctx,
                        const json& r,
                        const geometry::Pose3& m,
                        std::int64_t job,
-                       const jobs::PlaneMeasurement& a,
+                       const features::PlaneMeasurement& a,
                        Datum* d) {
   const Vec3 b = HoleOnPlane(ctx, r, "circle_b", m, job, a, d);
   const Vec3 c = HoleOnPlane(ctx, r, "circle_c", m, job, a, d);
@@ -147,18 +147,18 @@ Vec3 ListedPoint(const json& e, const std::string& where) {
 
 // A part edge on plane A from the LED frames of edge captures (request.NAME.edges: capture jobs
 // taken with an "edge:x,y" ROI, e.g. from a plan of an "edge" feature); its fields in the reply.
-jobs::EdgeMeasurement EdgeOnA(JobContext& ctx,
-                              const json& r,
-                              const char* name,
-                              const geometry::Pose3& m,
-                              std::int64_t job,
-                              const jobs::PlaneMeasurement& a,
-                              Datum* d) {
+features::EdgeMeasurement EdgeOnA(JobContext& ctx,
+                                  const json& r,
+                                  const char* name,
+                                  const geometry::Pose3& m,
+                                  std::int64_t job,
+                                  const features::PlaneMeasurement& a,
+                                  Datum* d) {
   const Evidence ev = NamedCaptures(ctx, r, name, "edges", m, job);
   if (ev.edges.size() != r.at(name).at("edges").size())
     throw JobInputError(std::string("request.") + name +
                         ".edges: a capture holds no edge (take it with an edge:x,y ROI)");
-  jobs::EdgeMeasurement e = jobs::MeasureEdge(ev.edges, a.plane);
+  features::EdgeMeasurement e = features::MeasureEdge(ev.edges, a.plane);
   d->fields[name] = {{"point_mm", JsonVec(e.line_mcs.point)},
                      {"direction", JsonVec(e.line_mcs.direction)},
                      {"span_mm", e.span_mm},
@@ -178,10 +178,10 @@ geometry::Line3 SecondaryLine(JobContext& ctx,
                               const json& r,
                               const geometry::Pose3& m,
                               std::int64_t job,
-                              const jobs::PlaneMeasurement& a,
+                              const features::PlaneMeasurement& a,
                               Datum* d) {
   if (r.contains("plane_b")) {
-    const jobs::PlaneMeasurement b =
+    const features::PlaneMeasurement b =
         MeasureFace(ctx, r.at("plane_b"), "request.plane_b", m, job, &d->probe);
     d->fe.rms_mm = std::max(d->fe.rms_mm, b.rms_mm);
     d->fe.points = std::min(d->fe.points, b.points);
@@ -222,11 +222,11 @@ Vec3 TertiaryPoint(JobContext& ctx,
                    const json& r,
                    const geometry::Pose3& m,
                    std::int64_t job,
-                   const jobs::PlaneMeasurement& a,
+                   const features::PlaneMeasurement& a,
                    const geometry::Line3& line,
                    Datum* d) {
   if (r.contains("plane_c")) {
-    const jobs::PlaneMeasurement c =
+    const features::PlaneMeasurement c =
         MeasureFace(ctx, r.at("plane_c"), "request.plane_c", m, job, &d->probe);
     d->fe.rms_mm = std::max(d->fe.rms_mm, c.rms_mm);
     d->fe.points = std::min(d->fe.points, c.points);
@@ -255,7 +255,7 @@ void PlaneLinePoint(JobContext& ctx,
                     const json& r,
                     const geometry::Pose3& m,
                     std::int64_t job,
-                    const jobs::PlaneMeasurement& a,
+                    const features::PlaneMeasurement& a,
                     Datum* d) {
   const geometry::Line3 line = SecondaryLine(ctx, r, m, job, a, d);
   const Vec3 point = TertiaryPoint(ctx, r, m, job, a, line, d);
@@ -268,7 +268,7 @@ Datum MeasureDatum(JobContext& ctx,
                    const geometry::Pose3& flange_from_probe,
                    std::int64_t job) {
   Datum d;
-  const jobs::PlaneMeasurement a =
+  const features::PlaneMeasurement a =
       MeasureFace(ctx, jf::Object<JobInputError>(r, "plane_a", "request"), "request.plane_a",
                   flange_from_probe, job, &d.probe);
   d.fe.points = a.points;
@@ -312,7 +312,7 @@ json RunAlignJob(JobContext& ctx, const json& r) {
     d.fe.tilt_deg = wo.tilt_deg;
     if (request.expected_origin_mm)
       d.fe.work_shift_mm = (wo.origin_mm - *request.expected_origin_mm).norm();
-    const auto problems = jobs::PlausibilityProblems(d.fe, mc.limits);
+    const auto problems = features::PlausibilityProblems(d.fe, mc.limits);
     if (!problems.empty()) return run.Refuse(problems);
     nc::NcResult out;
     out.header = "mlprobe job " + std::to_string(run.job) + ": " + request.method + " alignment";

@@ -43,8 +43,8 @@ calib::HandEyeOptions ParseCalibrateRequest(const json& r) {
 // reference captures (taken before the disturbance) with the original calibration.
 struct PartArtefact {
   std::string feature;  ///< "bore" or "face"; request.part.reference_captures lists the captures
-  std::optional<jobs::BoreNominal> bore;
-  std::optional<jobs::PlaneNominal> face;
+  std::optional<features::BoreNominal> bore;
+  std::optional<features::PlaneNominal> face;
 };
 
 PartArtefact ParsePart(const json& r) {
@@ -144,7 +144,7 @@ calib::PartSurface ReferenceSurface(JobContext& ctx,
   const Evidence ev = LoadCaptures(ctx, reference_captures, original.flange_from_probe, job);
   calib::PartSurface s;
   if (part.bore) {
-    const jobs::BoreMeasurement b = jobs::MeasureBore(ev.points_mcs, *part.bore);
+    const features::BoreMeasurement b = features::MeasureBore(ev.points_mcs, *part.bore);
     s.kind = calib::PartSurface::Kind::kCylinder;
     s.point_mcs = b.top_centre_mcs, s.direction_mcs = b.axis_mcs, s.radius_mm = b.diameter_mm / 2;
     *fields = {{"feature", "bore"},
@@ -153,7 +153,7 @@ calib::PartSurface ReferenceSurface(JobContext& ctx,
                {"diameter_mm", b.diameter_mm},
                {"points", b.points}};
   } else {
-    const jobs::PlaneMeasurement f = jobs::MeasurePlane(ev.points_mcs, *part.face);
+    const features::PlaneMeasurement f = features::MeasurePlane(ev.points_mcs, *part.face);
     s.kind = calib::PartSurface::Kind::kPlane;
     s.point_mcs = f.plane.point, s.direction_mcs = f.plane.normal;
     *fields = {{"feature", "face"},

@@ -56,8 +56,8 @@ struct Reader {
   static constexpr int kMaxWaitS = 86400;
 };
 
-jobs::PlausibilityLimits ParseLimits(const Reader& r, const json& m, const std::string& w) {
-  jobs::PlausibilityLimits l;
+features::PlausibilityLimits ParseLimits(const Reader& r, const json& m, const std::string& w) {
+  features::PlausibilityLimits l;
   if (!m.contains("limits")) return l;
   const json& j = jf::Object<ConfigError>(m, "limits", r.Where(w));
   const std::string lw = w + ".limits";

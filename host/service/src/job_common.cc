@@ -243,8 +243,8 @@ std::string ReadDataFile(const std::string& data_dir,
   return text;
 }
 
-jobs::BoreNominal ParseBoreNominal(const json& n, const std::string& w) {
-  jobs::BoreNominal b;
+features::BoreNominal ParseBoreNominal(const json& n, const std::string& w) {
+  features::BoreNominal b;
   b.top_centre_mcs = jf::Vector3<JobInputError>(n, "top_centre_mm", w);
   b.axis_mcs = n.contains("axis") ? jf::Vector3<JobInputError>(n, "axis", w) : Vec3::UnitZ();
   b.diameter_mm = jf::Number<JobInputError>(n, "diameter_mm", w);
@@ -253,8 +253,8 @@ jobs::BoreNominal ParseBoreNominal(const json& n, const std::string& w) {
   return b;
 }
 
-jobs::PlaneNominal ParsePlaneNominal(const json& n, const std::string& w) {
-  jobs::PlaneNominal p;
+features::PlaneNominal ParsePlaneNominal(const json& n, const std::string& w) {
+  features::PlaneNominal p;
   p.point_mcs = jf::Vector3<JobInputError>(n, "point_mm", w);
   p.normal_mcs = jf::Vector3<JobInputError>(n, "normal", w);
   p.band_mm = jf::NumberOr<JobInputError>(n, "band_mm", p.band_mm, w);
@@ -349,7 +349,7 @@ Evidence LoadCaptures(JobContext& ctx,
     n += s.points_in_probe.cols();
     const geometry::Pose3 mcs_from_probe = s.mcs_from_flange * flange_from_probe;
     parts.push_back(geometry::TransformPoints(mcs_from_probe, s.points_in_probe));
-    if (s.edge) e.edges.push_back(jobs::EdgeViewInMcs(*s.edge, mcs_from_probe, s.id));
+    if (s.edge) e.edges.push_back(features::EdgeViewInMcs(*s.edge, mcs_from_probe, s.id));
   }
   e.points_mcs.resize(3, n);
   Eigen::Index at = 0;

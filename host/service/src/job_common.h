@@ -4,10 +4,10 @@
 
 #include "mlp/base/input_error.h"
 #include "mlp/calib/record.h"
+#include "mlp/features/edge.h"
+#include "mlp/features/feature.h"
 #include "mlp/geometry/types.h"
 #include "mlp/history/history.h"
-#include "mlp/jobs/edge.h"
-#include "mlp/jobs/feature.h"
 #include "mlp/nc/nc_output.h"
 #include "mlp/service/config.h"
 #include "mlp/service/job_server.h"
@@ -67,9 +67,9 @@ struct JobRun {
 };
 
 /// {"top_centre_mm", "axis" (default +Z), "diameter_mm", "depth_mm", "band_mm"}.
-jobs::BoreNominal ParseBoreNominal(const nlohmann::json& n, const std::string& where);
+features::BoreNominal ParseBoreNominal(const nlohmann::json& n, const std::string& where);
 /// A face's nominal: point_mm, normal, band_mm, within_mm.
-jobs::PlaneNominal ParsePlaneNominal(const nlohmann::json& n, const std::string& where);
+features::PlaneNominal ParsePlaneNominal(const nlohmann::json& n, const std::string& where);
 inline nlohmann::json JsonVec(const geometry::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 /// A capture named in a request (rather than given by job id) is used only this soon after it
@@ -79,7 +79,7 @@ constexpr int kNamedCaptureMaxAgeS = 3600;
 struct Evidence {
   geometry::Points3 points_mcs;
   std::string probe_serial;
-  std::vector<jobs::EdgeView> edges;  ///< of the captures whose firmware found an edge
+  std::vector<features::EdgeView> edges;  ///< of the captures whose firmware found an edge
 };
 
 /// A stored capture: its cloud in the probe frame and the flange pose H it was taken at.

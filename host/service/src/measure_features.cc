@@ -1,9 +1,9 @@
 #include "measure_features.h"
 
 #include "mlp/base/json_fields.h"
-#include "mlp/jobs/composite.h"
-#include "mlp/jobs/plan.h"
-#include "mlp/jobs/surface.h"
+#include "mlp/features/composite.h"
+#include "mlp/features/plan.h"
+#include "mlp/features/surface.h"
 
 #include <algorithm>
 #include <cmath>
@@ -35,7 +35,7 @@ std::string Um(double mm) {
 
 // The tolerance band of the job's size, in the size's unit: {"upper_mm", "lower_mm"} or
 // {"upper_deg", "lower_deg"}.
-jobs::SizeSpec Spec(const json& r, const char* key, double nominal, const std::string& unit) {
+features::SizeSpec Spec(const json& r, const char* key, double nominal, const std::string& unit) {
   const std::string w = std::string("request.") + key;
   const json& tol = jf::Object<JobInputError>(r, key, "request");
   return {nominal, jf::Number<JobInputError>(tol, ("upper_" + unit).c_str(), w),
@@ -57,8 +57,8 @@ std::string SizeChoice(const json& r,
   return size;
 }
 
-jobs::WidthNominal ParseWidth(const json& n, bool inside) {
-  jobs::WidthNominal w;
+features::WidthNominal ParseWidth(const json& n, bool inside) {
+  features::WidthNominal w;
   w.centre_mcs = jf::Vector3<JobInputError>(n, "centre_mm", kNom);
   w.direction_mcs = jf::Vector3<JobInputError>(n, "direction", kNom);
   w.width_mm = jf::Number<JobInputError>(n, "width_mm", kNom);
@@ -68,8 +68,8 @@ jobs::WidthNominal ParseWidth(const json& n, bool inside) {
   return w;
 }
 
-jobs::RectangleNominal ParseRectangle(const json& j, bool inside) {
-  jobs::RectangleNominal n;
+features::RectangleNominal ParseRectangle(const json& j, bool inside) {
+  features::RectangleNominal n;
   n.centre_mcs = jf::Vector3<JobInputError>(j, "centre_mm", kNom);
   n.x_direction_mcs = j.contains("x_direction") ? jf::Vector3<JobInputError>(j, "x_direction", kNom)
                                                 : Vec3::UnitX();
@@ -82,15 +82,15 @@ jobs::RectangleNominal ParseRectangle(const json& j, bool inside) {
   return n;
 }
 
-jobs::StepNominal ParseStep(const json& j) {
-  jobs::StepNominal n;
+features::StepNominal ParseStep(const json& j) {
+  features::StepNominal n;
   n.a = ParsePlaneNominal(jf::Object<JobInputError>(j, "a", kNom), kNom + ".a");
   n.b = ParsePlaneNominal(jf::Object<JobInputError>(j, "b", kNom), kNom + ".b");
   return n;
 }
 
-jobs::AngleNominal ParseAngle(const json& j) {
-  jobs::AngleNominal n;
+features::AngleNominal ParseAngle(const json& j) {
+  features::AngleNominal n;
   n.face = ParsePlaneNominal(jf::Object<JobInputError>(j, "face", kNom), kNom + ".face");
   if (j.contains("datum")) {
     n.datum_face = true;
@@ -101,8 +101,8 @@ jobs::AngleNominal ParseAngle(const json& j) {
   return n;
 }
 
-jobs::PcdNominal ParsePcd(const json& j) {
-  jobs::PcdNominal n;
+features::PcdNominal ParsePcd(const json& j) {
+  features::PcdNominal n;
   if (!j.contains("holes") || !j.at("holes").is_array())
     throw JobInputError("request.nominal.holes must list the holes' nominals");
   for (size_t k = 0; k < j.at("holes").size(); ++k)
@@ -113,8 +113,8 @@ jobs::PcdNominal ParsePcd(const json& j) {
   return n;
 }
 
-jobs::EllipseNominal ParseEllipse(const json& j, bool inside) {
-  jobs::EllipseNominal n;
+features::EllipseNominal ParseEllipse(const json& j, bool inside) {
+  features::EllipseNominal n;
   n.top_centre_mcs = jf::Vector3<JobInputError>(j, "top_centre_mm", kNom);
   n.axis_mcs = j.contains("axis") ? jf::Vector3<JobInputError>(j, "axis", kNom) : Vec3::UnitZ();
   n.major_direction_mcs = j.contains("major_direction")
@@ -133,8 +133,8 @@ constexpr std::size_t kMaxVectorPointsBytes = 64u << 20;
 
 // {"face": a plane nominal, "point_mm", "wall_normal", "length_mm" (0), "views" (2, or 1 on
 // a zero length)}.
-jobs::EdgeNominal ParseEdge(const json& j) {
-  jobs::EdgeNominal n;
+features::EdgeNominal ParseEdge(const json& j) {
+  features::EdgeNominal n;
   n.face = ParsePlaneNominal(jf::Object<JobInputError>(j, "face", kNom), kNom + ".face");
   n.point_mcs = jf::Vector3<JobInputError>(j, "point_mm", kNom);
   n.wall_normal_mcs = jf::Vector3<JobInputError>(j, "wall_normal", kNom);
@@ -143,16 +143,16 @@ jobs::EdgeNominal ParseEdge(const json& j) {
                                 : (n.length_mm > 0.0 ? 2 : 1);
   try {
     n.Check();
-  } catch (const jobs::FeatureError& e) {
+  } catch (const features::FeatureError& e) {
     throw JobInputError(kNom + ": " + e.what());
   }
   return n;
 }
 
-jobs::SurfaceNominal SurfaceNominalOf(const json& j, const std::string& data_dir) {
-  jobs::SurfaceNominal n;
+features::SurfaceNominal SurfaceNominalOf(const json& j, const std::string& data_dir) {
+  features::SurfaceNominal n;
   if (j.contains("vector_points_file")) {
-    n = jobs::ParseVectorPoints(
+    n = features::ParseVectorPoints(
         ReadDataFile(data_dir, jf::Text<JobInputError>(j, "vector_points_file", kNom),
                      "request.nominal.vector_points_file", kMaxVectorPointsBytes));
   } else if (j.contains("points") && j.at("points").is_array()) {
@@ -166,7 +166,7 @@ jobs::SurfaceNominal SurfaceNominalOf(const json& j, const std::string& data_dir
       }
       text << '\n';
     }
-    n = jobs::ParseVectorPoints(text.str());
+    n = features::ParseVectorPoints(text.str());
   } else {
     throw JobInputError("request.nominal needs vector_points_file or points");
   }
@@ -179,7 +179,7 @@ jobs::SurfaceNominal SurfaceNominalOf(const json& j, const std::string& data_dir
 // ---- Measuring ----------------------------------------------------------------------------
 
 // A second size of the job checked against its own band (no offset follows it).
-void CheckSize(const std::string& name, double size, const jobs::SizeSpec& s, Measured* m) {
+void CheckSize(const std::string& name, double size, const features::SizeSpec& s, Measured* m) {
   const double e = size - s.nominal_mm;
   if (e > s.upper_tol_mm || e < -s.lower_tol_mm)
     m->problems.push_back(name + " " + Um(e) + " from its nominal, outside +" + Um(s.upper_tol_mm) +
@@ -201,13 +201,13 @@ void CheckPosition(const FeatureRequest& q,
                           Um(*q.position_tol_mm));
 }
 
-void AddFace(const jobs::PlaneMeasurement& f, jobs::FitEvidence* fe) {
+void AddFace(const features::PlaneMeasurement& f, features::FitEvidence* fe) {
   fe->points = fe->points == 0 ? f.points : std::min(fe->points, f.points);
   fe->rms_mm = std::max(fe->rms_mm, f.rms_mm);
   fe->area_mm2 = fe->area_mm2 ? std::min(*fe->area_mm2, f.area_mm2) : f.area_mm2;
 }
 
-json FaceFields(const jobs::PlaneMeasurement& f) {
+json FaceFields(const features::PlaneMeasurement& f) {
   return {{"normal", JsonVec(f.plane.normal)},
           {"height_mm", f.height_mm},
           {"height_u_mm", f.height_u_mm},
@@ -217,16 +217,16 @@ json FaceFields(const jobs::PlaneMeasurement& f) {
 }
 
 Measured Cylindrical(const FeatureRequest& q,
-                     const jobs::BoreNominal& nominal,
+                     const features::BoreNominal& nominal,
                      const Evidence& ev) {
-  jobs::BoreNominal n = nominal;
+  features::BoreNominal n = nominal;
   n.cylindricity = q.cylindricity_tol_mm.has_value();  // a Chebyshev fit only where asked
-  const jobs::BoreMeasurement b = jobs::MeasureBore(ev.points_mcs, n);
+  const features::BoreMeasurement b = features::MeasureBore(ev.points_mcs, n);
   Measured m;
   const bool functional = q.size != "ls";
   if (functional && b.functional_diameter_mm == 0)
-    throw jobs::FeatureError(q.nominal.feature + ": no functional size from an arc of " +
-                             std::to_string(static_cast<int>(b.arc_span_deg)) + " deg");
+    throw features::FeatureError(q.nominal.feature + ": no functional size from an arc of " +
+                                 std::to_string(static_cast<int>(b.arc_span_deg)) + " deg");
   m.size = functional ? b.functional_diameter_mm : b.diameter_mm;
   const double tp = TruePosition(b.top_centre_mcs, n.top_centre_mcs, n.axis_mcs);
   m.fields = {{"diameter_mm", b.diameter_mm},
@@ -257,10 +257,10 @@ Measured Cylindrical(const FeatureRequest& q,
 }
 
 // A face: its height along the nominal normal (tolerance on it, nominal 0) and its flatness.
-Measured Face(const FeatureRequest& q, const jobs::PlaneNominal& nominal, const Evidence& ev) {
-  jobs::PlaneNominal n = nominal;
+Measured Face(const FeatureRequest& q, const features::PlaneNominal& nominal, const Evidence& ev) {
+  features::PlaneNominal n = nominal;
   n.flatness = true;
-  const jobs::PlaneMeasurement f = jobs::MeasurePlane(ev.points_mcs, n);
+  const features::PlaneMeasurement f = features::MeasurePlane(ev.points_mcs, n);
   Measured m;
   m.size = f.height_mm;
   m.fields = FaceFields(f);
@@ -268,7 +268,7 @@ Measured Face(const FeatureRequest& q, const jobs::PlaneNominal& nominal, const 
   m.fields["trimmed"] = f.trimmed;
   AddFace(f, &m.fe);
   m.fe.converged = f.flatness_converged;
-  m.panels = {jobs::FacePanel("the face", ev.points_mcs, f)};
+  m.panels = {features::FacePanel("the face", ev.points_mcs, f)};
   m.nominal_mcs = n.point_mcs;
   m.found_mcs = n.point_mcs + f.height_mm * n.normal_mcs.normalized();
   if (q.flatness_tol_mm && f.flatness_mm > *q.flatness_tol_mm)
@@ -278,8 +278,10 @@ Measured Face(const FeatureRequest& q, const jobs::PlaneNominal& nominal, const 
 }
 
 // A slot/pocket width (inside) or a web: the distance between two opposite faces.
-Measured Width(const FeatureRequest& /*request*/, const jobs::WidthNominal& n, const Evidence& ev) {
-  const jobs::WidthMeasurement w = jobs::MeasureWidth(ev.points_mcs, n);
+Measured Width(const FeatureRequest& /*request*/,
+               const features::WidthNominal& n,
+               const Evidence& ev) {
+  const features::WidthMeasurement w = features::MeasureWidth(ev.points_mcs, n);
   Measured m;
   m.size = w.width_mm;
   m.fields = {{"width_mm", w.width_mm},
@@ -291,15 +293,17 @@ Measured Width(const FeatureRequest& /*request*/, const jobs::WidthNominal& n, c
   AddFace(w.plus, &m.fe);
   AddFace(w.minus, &m.fe);
   m.found_mcs = w.centre_mcs, m.nominal_mcs = n.centre_mcs;
-  m.panels = {jobs::FacePanel("face at +direction", ev.points_mcs, w.plus),
-              jobs::FacePanel("face at -direction", ev.points_mcs, w.minus)};
+  m.panels = {features::FacePanel("face at +direction", ev.points_mcs, w.plus),
+              features::FacePanel("face at -direction", ev.points_mcs, w.minus)};
   return m;
 }
 
 // A rectangular pocket or boss: the decision on one size ("x" or "y"), the other held to its
 // own band (tolerance_y, default the same band).
-Measured Rectangle(const FeatureRequest& q, const jobs::RectangleNominal& n, const Evidence& ev) {
-  const jobs::RectangleMeasurement rect = jobs::MeasureRectangle(ev.points_mcs, n);
+Measured Rectangle(const FeatureRequest& q,
+                   const features::RectangleNominal& n,
+                   const Evidence& ev) {
+  const features::RectangleMeasurement rect = features::MeasureRectangle(ev.points_mcs, n);
   Measured m;
   const bool x = q.size == "x";
   m.size = x ? rect.x.width_mm : rect.y.width_mm;
@@ -313,15 +317,17 @@ Measured Rectangle(const FeatureRequest& q, const jobs::RectangleNominal& n, con
   m.found_mcs = rect.centre_mcs, m.nominal_mcs = n.centre_mcs;
   for (const auto* f : {&rect.x.plus, &rect.x.minus, &rect.y.plus, &rect.y.minus})
     AddFace(*f, &m.fe);
-  m.panels = {jobs::FacePanel("+x side", ev.points_mcs, rect.x.plus),
-              jobs::FacePanel("-x side", ev.points_mcs, rect.x.minus),
-              jobs::FacePanel("+y side", ev.points_mcs, rect.y.plus),
-              jobs::FacePanel("-y side", ev.points_mcs, rect.y.minus)};
+  m.panels = {features::FacePanel("+x side", ev.points_mcs, rect.x.plus),
+              features::FacePanel("-x side", ev.points_mcs, rect.x.minus),
+              features::FacePanel("+y side", ev.points_mcs, rect.y.plus),
+              features::FacePanel("-y side", ev.points_mcs, rect.y.minus)};
   return m;
 }
 
-Measured Step(const FeatureRequest& /*request*/, const jobs::StepNominal& n, const Evidence& ev) {
-  const jobs::StepMeasurement s = jobs::MeasureStep(ev.points_mcs, n);
+Measured Step(const FeatureRequest& /*request*/,
+              const features::StepNominal& n,
+              const Evidence& ev) {
+  const features::StepMeasurement s = features::MeasureStep(ev.points_mcs, n);
   Measured m;
   m.size = s.height_mm;
   m.fields = {{"height_mm", s.height_mm},
@@ -331,13 +337,15 @@ Measured Step(const FeatureRequest& /*request*/, const jobs::StepNominal& n, con
               {"face_b", FaceFields(s.b)}};
   AddFace(s.a, &m.fe);
   AddFace(s.b, &m.fe);
-  m.panels = {jobs::FacePanel("face A", ev.points_mcs, s.a),
-              jobs::FacePanel("face B", ev.points_mcs, s.b)};
+  m.panels = {features::FacePanel("face A", ev.points_mcs, s.a),
+              features::FacePanel("face B", ev.points_mcs, s.b)};
   return m;
 }
 
-Measured Angle(const FeatureRequest& /*request*/, const jobs::AngleNominal& n, const Evidence& ev) {
-  const jobs::AngleMeasurement a = jobs::MeasureAngle(ev.points_mcs, n);
+Measured Angle(const FeatureRequest& /*request*/,
+               const features::AngleNominal& n,
+               const Evidence& ev) {
+  const features::AngleMeasurement a = features::MeasureAngle(ev.points_mcs, n);
   Measured m;
   m.size = a.angle_deg;
   m.fields = {{"angle_deg", a.angle_deg},
@@ -345,31 +353,31 @@ Measured Angle(const FeatureRequest& /*request*/, const jobs::AngleNominal& n, c
               {"skew_deg", a.skew_deg},
               {"face", FaceFields(a.face)}};
   AddFace(a.face, &m.fe);
-  m.panels = {jobs::FacePanel("the face", ev.points_mcs, a.face)};
+  m.panels = {features::FacePanel("the face", ev.points_mcs, a.face)};
   if (n.datum_face) {
     m.fields["datum"] = FaceFields(a.datum);
     AddFace(a.datum, &m.fe);
-    m.panels.push_back(jobs::FacePanel("the datum", ev.points_mcs, a.datum));
+    m.panels.push_back(features::FacePanel("the datum", ev.points_mcs, a.datum));
   }
   return m;
 }
 
-Measured Pcd(const FeatureRequest& q, const jobs::PcdNominal& n, const Evidence& ev) {
-  const jobs::PcdMeasurement p = jobs::MeasurePcd(ev.points_mcs, n);
+Measured Pcd(const FeatureRequest& q, const features::PcdNominal& n, const Evidence& ev) {
+  const features::PcdMeasurement p = features::MeasurePcd(ev.points_mcs, n);
   Measured m;
   m.size = p.diameter_mm;
   json holes = json::array();
   m.fe.arc_span_deg = 360.0;
   m.fe.converged = p.converged;
   for (size_t k = 0; k < p.holes.size(); ++k) {
-    const jobs::BoreMeasurement& h = p.holes[k];
+    const features::BoreMeasurement& h = p.holes[k];
     holes.push_back({{"centre_mm", JsonVec(h.top_centre_mcs)},
                      {"diameter_mm", h.diameter_mm},
                      {"diameter_u_mm", h.diameter_u_mm},
                      {"true_position_mm", p.true_position_mm[k]},
                      {"points", h.points}});
     CheckPosition(q, p.true_position_mm[k], "hole " + std::to_string(k + 1), &m);
-    m.panels.push_back(jobs::RingPanel("hole " + std::to_string(k + 1), h));
+    m.panels.push_back(features::RingPanel("hole " + std::to_string(k + 1), h));
     m.fe.points = k == 0 ? h.points : std::min(m.fe.points, h.points);
     m.fe.rms_mm = std::max(m.fe.rms_mm, h.rms_mm);
     m.fe.arc_span_deg = std::min(*m.fe.arc_span_deg, h.arc_span_deg);
@@ -381,8 +389,8 @@ Measured Pcd(const FeatureRequest& q, const jobs::PcdNominal& n, const Evidence&
   return m;
 }
 
-Measured Ellipse(const FeatureRequest& q, const jobs::EllipseNominal& n, const Evidence& ev) {
-  const jobs::EllipseMeasurement e = jobs::MeasureEllipse(ev.points_mcs, n);
+Measured Ellipse(const FeatureRequest& q, const features::EllipseNominal& n, const Evidence& ev) {
+  const features::EllipseMeasurement e = features::MeasureEllipse(ev.points_mcs, n);
   Measured m;
   m.size = q.size == "major" ? e.major_mm : e.minor_mm;
   const double tp = TruePosition(e.top_centre_mcs, n.top_centre_mcs, n.axis_mcs);
@@ -406,9 +414,9 @@ Measured Ellipse(const FeatureRequest& q, const jobs::EllipseNominal& n, const E
 // A surface patch against its nominal: the profile (2 max |deviation|) against its tolerance.
 // The deviations are the measurement, not fit residuals: the RMS limit does not apply.
 Measured Surface(const FeatureRequest& /*request*/,
-                 const jobs::SurfaceNominal& nominal,
+                 const features::SurfaceNominal& nominal,
                  const Evidence& ev) {
-  const jobs::SurfaceMeasurement s = jobs::MeasureSurface(ev.points_mcs, nominal);
+  const features::SurfaceMeasurement s = features::MeasureSurface(ev.points_mcs, nominal);
   Measured m;
   m.size = s.profile_mm;
   // The mean's standard uncertainty: the deviations' scatter about it over the root of their
@@ -433,17 +441,19 @@ Measured Surface(const FeatureRequest& /*request*/,
   }
   m.fe.points = s.points;
   m.fe.area_mm2 = s.area_mm2;
-  m.panels = {jobs::PointsPanel("against the nominal", s.points_mcs, s.deviation_mm,
-                                nominal.normals_mcs.rowwise().sum())};
+  m.panels = {features::PointsPanel("against the nominal", s.points_mcs, s.deviation_mm,
+                                    nominal.normals_mcs.rowwise().sum())};
   return m;
 }
 
 // A straight edge from the LED frames (seed 004): where the face meets the wall, against its
 // nominal: the offset across it (+: the wall proud) decided on, the angle beside it.
-Measured Edge(const FeatureRequest& /*request*/, const jobs::EdgeNominal& n, const Evidence& ev) {
-  const jobs::PlaneMeasurement f = jobs::MeasurePlane(ev.points_mcs, n.face);
-  const jobs::EdgeMeasurement e = jobs::MeasureEdge(ev.edges, f.plane);
-  const jobs::EdgeDeviation d = jobs::CompareEdge(e, n, f.height_u_mm);
+Measured Edge(const FeatureRequest& /*request*/,
+              const features::EdgeNominal& n,
+              const Evidence& ev) {
+  const features::PlaneMeasurement f = features::MeasurePlane(ev.points_mcs, n.face);
+  const features::EdgeMeasurement e = features::MeasureEdge(ev.edges, f.plane);
+  const features::EdgeDeviation d = features::CompareEdge(e, n, f.height_u_mm);
   Measured m;
   m.size = d.offset_mm;
   m.fields = {{"offset_mm", d.offset_mm},
@@ -461,28 +471,30 @@ Measured Edge(const FeatureRequest& /*request*/, const jobs::EdgeNominal& n, con
               {"face", FaceFields(f)}};
   AddFace(f, &m.fe);
   m.found_mcs = d.found_mcs, m.nominal_mcs = n.point_mcs;
-  m.panels = {jobs::FacePanel("the face", ev.points_mcs, f)};
+  m.panels = {features::FacePanel("the face", ev.points_mcs, f)};
   return m;
 }
 
 // ---- Planning -----------------------------------------------------------------------------
 
-std::vector<jobs::ViewTarget> Join(std::vector<jobs::ViewTarget> a,
-                                   const std::vector<jobs::ViewTarget>& b) {
+std::vector<features::ViewTarget> Join(std::vector<features::ViewTarget> a,
+                                       const std::vector<features::ViewTarget>& b) {
   a.insert(a.end(), b.begin(), b.end());
   return a;
 }
 
-std::vector<jobs::ViewTarget> PcdViews(const jobs::PcdNominal& n, const jobs::PlanOptions& o) {
-  std::vector<jobs::ViewTarget> views;
+std::vector<features::ViewTarget> PcdViews(const features::PcdNominal& n,
+                                           const features::PlanOptions& o) {
+  std::vector<features::ViewTarget> views;
   for (size_t k = 0; k < n.holes.size(); ++k)
-    views = Join(views, jobs::BoreViews("hole" + std::to_string(k + 1), n.holes[k], o));
+    views = Join(views, features::BoreViews("hole" + std::to_string(k + 1), n.holes[k], o));
   return views;
 }
 
-std::vector<jobs::ViewTarget> AngleViews(const jobs::AngleNominal& n, const jobs::PlanOptions& o) {
-  auto views = jobs::FaceViews("face", n.face, o);
-  return n.datum_face ? Join(views, jobs::FaceViews("datum", n.datum, o)) : views;
+std::vector<features::ViewTarget> AngleViews(const features::AngleNominal& n,
+                                             const features::PlanOptions& o) {
+  auto views = features::FaceViews("face", n.face, o);
+  return n.datum_face ? Join(views, features::FaceViews("datum", n.datum, o)) : views;
 }
 
 // ---- The table ----------------------------------------------------------------------------
@@ -495,7 +507,8 @@ struct Feature {
   /// The rest of the request -> size, its spec, other tolerances (request->nominal read).
   std::function<void(const json& request, FeatureRequest*)> sizes;
   std::function<Measured(const FeatureRequest&, const Evidence&)> measure;
-  std::function<std::vector<jobs::ViewTarget>(const Shape&, const jobs::PlanOptions&)> views;
+  std::function<std::vector<features::ViewTarget>(const Shape&, const features::PlanOptions&)>
+      views;
 };
 
 // One feature's row, written against its own nominal type; Row() stores it behind the variant.
@@ -505,7 +518,8 @@ struct TypedFeature {
   std::function<Nominal(const json& nominal, const std::string& data_dir)> nominal;
   std::function<void(const json& request, const Nominal&, FeatureRequest*)> sizes;
   std::function<Measured(const FeatureRequest&, const Nominal&, const Evidence&)> measure;
-  std::function<std::vector<jobs::ViewTarget>(const Nominal&, const jobs::PlanOptions&)> views;
+  std::function<std::vector<features::ViewTarget>(const Nominal&, const features::PlanOptions&)>
+      views;
 };
 
 template <class Nominal>
@@ -518,7 +532,7 @@ Feature Row(TypedFeature<Nominal> t) {
           [m = t.measure](const FeatureRequest& q, const Evidence& ev) {
             return m(q, std::get<Nominal>(q.nominal.shape), ev);
           },
-          [v = t.views](const Shape& s, const jobs::PlanOptions& o) {
+          [v = t.views](const Shape& s, const features::PlanOptions& o) {
             return v(std::get<Nominal>(s), o);
           }};
 }
@@ -534,18 +548,18 @@ FeatureTraits Traits(std::string size_name,
   return {std::move(size_name), std::move(unit), change_per_error, moves_length, has_position};
 }
 
-using O = jobs::PlanOptions;
+using O = features::PlanOptions;
 
 Feature Cylinder(bool boss) {
   const char* functional = boss ? "mcc" : "mic";
-  return Row<jobs::BoreNominal>(
+  return Row<features::BoreNominal>(
       {Traits("diameter", boss ? -0.5 : 0.5, false, true),
        [boss](const json& j, const std::string&) {
-         jobs::BoreNominal n = ParseBoreNominal(j, kNom);
+         features::BoreNominal n = ParseBoreNominal(j, kNom);
          n.boss = boss;
          return n;
        },
-       [functional](const json& r, const jobs::BoreNominal& n, FeatureRequest* q) {
+       [functional](const json& r, const features::BoreNominal& n, FeatureRequest* q) {
          q->size = SizeChoice(r, {"ls", "functional", functional},
                               std::string("ls or functional (") + functional + ")");
          if (q->size != "ls") q->size = "functional";
@@ -554,36 +568,40 @@ Feature Cylinder(bool boss) {
          q->cylindricity_tol_mm = OptionalNumber(r, "cylindricity_tol_mm");
        },
        Cylindrical,
-       [](const jobs::BoreNominal& n, const O& o) { return jobs::BoreViews("wall", n, o); }});
+       [](const features::BoreNominal& n, const O& o) {
+         return features::BoreViews("wall", n, o);
+       }});
 }
 
 Feature FaceFeature() {
-  return Row<jobs::PlaneNominal>(
+  return Row<features::PlaneNominal>(
       {Traits("height", -1.0, true, true),
        [](const json& j, const std::string&) { return ParsePlaneNominal(j, kNom); },
-       [](const json& r, const jobs::PlaneNominal&, FeatureRequest* q) {
+       [](const json& r, const features::PlaneNominal&, FeatureRequest* q) {
          q->spec = Spec(r, "tolerance", 0.0, "mm");
          q->flatness_tol_mm = OptionalNumber(r, "flatness_tol_mm");
        },
        Face,
-       [](const jobs::PlaneNominal& n, const O& o) { return jobs::FaceViews("face", n, o); }});
+       [](const features::PlaneNominal& n, const O& o) {
+         return features::FaceViews("face", n, o);
+       }});
 }
 
 Feature WidthFeature(bool inside) {
-  return Row<jobs::WidthNominal>(
+  return Row<features::WidthNominal>(
       {Traits("width", inside ? 0.5 : -0.5, false, true),  // the side cutter's radius
        [inside](const json& j, const std::string&) { return ParseWidth(j, inside); },
-       [](const json& r, const jobs::WidthNominal& n, FeatureRequest* q) {
+       [](const json& r, const features::WidthNominal& n, FeatureRequest* q) {
          q->spec = Spec(r, "tolerance", n.width_mm, "mm");
        },
-       Width, jobs::WidthViews});
+       Width, features::WidthViews});
 }
 
 Feature RectangleFeature(bool inside) {
-  return Row<jobs::RectangleNominal>(
+  return Row<features::RectangleNominal>(
       {Traits("size", inside ? 0.5 : -0.5, false, true),
        [inside](const json& j, const std::string&) { return ParseRectangle(j, inside); },
-       [](const json& r, const jobs::RectangleNominal& n, FeatureRequest* q) {
+       [](const json& r, const features::RectangleNominal& n, FeatureRequest* q) {
          q->size = SizeChoice(r, {"x", "y"}, "x or y");
          const bool x = q->size == "x";
          q->spec = Spec(r, "tolerance", x ? n.size_x_mm : n.size_y_mm, "mm");
@@ -591,74 +609,78 @@ Feature RectangleFeature(bool inside) {
                               x ? n.size_y_mm : n.size_x_mm, "mm");
          q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
        },
-       Rectangle, jobs::RectangleViews});
+       Rectangle, features::RectangleViews});
 }
 
 // A step and an angle: their size's nominal is a field of the nominal no jobs type holds.
 Feature StepFeature() {
-  return Row<jobs::StepNominal>(
+  return Row<features::StepNominal>(
       {Traits("height", -1.0, true, false),  // face B cut by the tool to correct
        [](const json& j, const std::string&) { return ParseStep(j); },
-       [](const json& r, const jobs::StepNominal&, FeatureRequest* q) {
+       [](const json& r, const features::StepNominal&, FeatureRequest* q) {
          const double height_mm = jf::Number<JobInputError>(Nominal(r), "height_mm", kNom);
          q->spec = Spec(r, "tolerance", height_mm, "mm");
        },
        Step,
-       [](const jobs::StepNominal& n, const O& o) {
-         return Join(jobs::FaceViews("face_a", n.a, o), jobs::FaceViews("face_b", n.b, o));
+       [](const features::StepNominal& n, const O& o) {
+         return Join(features::FaceViews("face_a", n.a, o), features::FaceViews("face_b", n.b, o));
        }});
 }
 
 Feature AngleFeature() {
-  return Row<jobs::AngleNominal>({Traits("angle", std::nullopt, false, false, "deg"),
-                                  [](const json& j, const std::string&) { return ParseAngle(j); },
-                                  [](const json& r, const jobs::AngleNominal&, FeatureRequest* q) {
-                                    const double angle_deg =
-                                        jf::Number<JobInputError>(Nominal(r), "angle_deg", kNom);
-                                    q->spec = Spec(r, "tolerance", angle_deg, "deg");
-                                  },
-                                  Angle, AngleViews});
+  return Row<features::AngleNominal>(
+      {Traits("angle", std::nullopt, false, false, "deg"),
+       [](const json& j, const std::string&) { return ParseAngle(j); },
+       [](const json& r, const features::AngleNominal&, FeatureRequest* q) {
+         const double angle_deg = jf::Number<JobInputError>(Nominal(r), "angle_deg", kNom);
+         q->spec = Spec(r, "tolerance", angle_deg, "deg");
+       },
+       Angle, AngleViews});
 }
 
 Feature PcdFeature() {
-  return Row<jobs::PcdNominal>({Traits("diameter", std::nullopt, false, true),
-                                [](const json& j, const std::string&) { return ParsePcd(j); },
-                                [](const json& r, const jobs::PcdNominal& n, FeatureRequest* q) {
-                                  q->spec = Spec(r, "tolerance", n.diameter_mm, "mm");
-                                  q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
-                                },
-                                Pcd, PcdViews});
+  return Row<features::PcdNominal>(
+      {Traits("diameter", std::nullopt, false, true),
+       [](const json& j, const std::string&) { return ParsePcd(j); },
+       [](const json& r, const features::PcdNominal& n, FeatureRequest* q) {
+         q->spec = Spec(r, "tolerance", n.diameter_mm, "mm");
+         q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
+       },
+       Pcd, PcdViews});
 }
 
 Feature EllipseFeature(bool inside) {
-  return Row<jobs::EllipseNominal>(
+  return Row<features::EllipseNominal>(
       {Traits("diameter", inside ? 0.5 : -0.5, false, true),
        [inside](const json& j, const std::string&) { return ParseEllipse(j, inside); },
-       [](const json& r, const jobs::EllipseNominal& n, FeatureRequest* q) {
+       [](const json& r, const features::EllipseNominal& n, FeatureRequest* q) {
          q->size = SizeChoice(r, {"major", "minor"}, "major or minor");
          q->spec = Spec(r, "tolerance", q->size == "major" ? n.major_mm : n.minor_mm, "mm");
          q->position_tol_mm = OptionalNumber(r, "position_tol_mm");
        },
-       Ellipse, jobs::EllipseViews});
+       Ellipse, features::EllipseViews});
 }
 
 Feature SurfaceFeature() {
-  return Row<jobs::SurfaceNominal>(
+  return Row<features::SurfaceNominal>(
       {Traits("profile", std::nullopt, false, false), SurfaceNominalOf,
-       [](const json& r, const jobs::SurfaceNominal&, FeatureRequest* q) {
+       [](const json& r, const features::SurfaceNominal&, FeatureRequest* q) {
          q->spec = {0.0, jf::Number<JobInputError>(r, "profile_tol_mm", "request"), 0.0};
        },
-       Surface, jobs::SurfaceViews});
+       Surface, features::SurfaceViews});
 }
 
 Feature EdgeFeature() {
-  return Row<jobs::EdgeNominal>(
+  return Row<features::EdgeNominal>(
       {Traits("offset", -1.0, false, false),  // a wall proud by e: the side cutter's radius -e
        [](const json& j, const std::string&) { return ParseEdge(j); },
-       [](const json& r, const jobs::EdgeNominal&, FeatureRequest* q) {
+       [](const json& r, const features::EdgeNominal&, FeatureRequest* q) {
          q->spec = Spec(r, "tolerance", 0.0, "mm");
        },
-       Edge, [](const jobs::EdgeNominal& n, const O& o) { return jobs::EdgeViews("edge", n, o); }});
+       Edge,
+       [](const features::EdgeNominal& n, const O& o) {
+         return features::EdgeViews("edge", n, o);
+       }});
 }
 
 const std::map<std::string, Feature>& Features() {
@@ -716,8 +738,8 @@ Measured MeasureFeature(const FeatureRequest& q, const Evidence& ev) {
   return m;
 }
 
-std::vector<jobs::ViewTarget> FeatureViews(const FeatureNominal& n,
-                                           const jobs::PlanOptions& options) {
+std::vector<features::ViewTarget> FeatureViews(const FeatureNominal& n,
+                                               const features::PlanOptions& options) {
   return FeatureNamed(n.feature).views(n.shape, options);
 }
 

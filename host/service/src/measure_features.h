@@ -1,16 +1,16 @@
 #pragma once
 // The features a measure job knows (internal to mlp_service): each reads its part of the
 // request once into a FeatureRequest (nominal, the size decided on, its tolerances), checked
-// before any capture is loaded; then measures it from the mapped points (mlp::jobs) and says
+// before any capture is loaded; then measures it from the mapped points (mlp::features) and says
 // what the shared decision needs: the toleranced size, its numbers for the reply and the
 // evidence for the plausibility gate.
 
-#include "mlp/jobs/composite.h"
-#include "mlp/jobs/decision.h"
-#include "mlp/jobs/feature.h"
-#include "mlp/jobs/plan.h"
-#include "mlp/jobs/report.h"
-#include "mlp/jobs/surface.h"
+#include "mlp/features/composite.h"
+#include "mlp/features/decision.h"
+#include "mlp/features/feature.h"
+#include "mlp/features/plan.h"
+#include "mlp/features/report.h"
+#include "mlp/features/surface.h"
 
 #include <optional>
 #include <string>
@@ -25,16 +25,16 @@ namespace mlp::service {
 /// A feature's nominal (request.feature and request.nominal): what a plan places its views by
 /// and a measurement segments the points by.
 struct FeatureNominal {
-  using Shape = std::variant<jobs::BoreNominal,
-                             jobs::PlaneNominal,
-                             jobs::WidthNominal,
-                             jobs::RectangleNominal,
-                             jobs::StepNominal,
-                             jobs::AngleNominal,
-                             jobs::PcdNominal,
-                             jobs::EllipseNominal,
-                             jobs::SurfaceNominal,
-                             jobs::EdgeNominal>;
+  using Shape = std::variant<features::BoreNominal,
+                             features::PlaneNominal,
+                             features::WidthNominal,
+                             features::RectangleNominal,
+                             features::StepNominal,
+                             features::AngleNominal,
+                             features::PcdNominal,
+                             features::EllipseNominal,
+                             features::SurfaceNominal,
+                             features::EdgeNominal>;
   std::string feature;  ///< "bore", "face", ... (CheckFeatureName)
   Shape shape;
 };
@@ -59,25 +59,25 @@ struct FeatureRequest {
   /// The size decided on where there is a choice: "ls" or "functional" (a bore, a boss),
   /// "x" or "y" (a rectangle), "major" or "minor" (an ellipse); empty where there is none.
   std::string size;
-  jobs::SizeSpec spec;                        ///< that size's nominal and band
-  std::optional<jobs::SizeSpec> other_spec;   ///< a rectangle's other size, held to its band
-  std::optional<double> position_tol_mm;      ///< true position (ISO 1101), where asked
-  std::optional<double> flatness_tol_mm;      ///< a face's flatness, where asked
-  std::optional<double> cylindricity_tol_mm;  ///< a bore's or boss's cylindricity, where asked
+  features::SizeSpec spec;                       ///< that size's nominal and band
+  std::optional<features::SizeSpec> other_spec;  ///< a rectangle's other size, held to its band
+  std::optional<double> position_tol_mm;         ///< true position (ISO 1101), where asked
+  std::optional<double> flatness_tol_mm;         ///< a face's flatness, where asked
+  std::optional<double> cylindricity_tol_mm;     ///< a bore's or boss's cylindricity, where asked
 };
 
 struct Measured {
   std::string feature;
   FeatureTraits traits;
   double size = 0.0;
-  jobs::SizeSpec spec;
+  features::SizeSpec spec;
   nlohmann::json fields;
-  jobs::FitEvidence fe;
+  features::FitEvidence fe;
   /// Other tolerances of the job that were exceeded (flatness, true position, the second size
   /// of a rectangle): each makes the verdict out of tolerance.
   std::vector<std::string> problems;
-  std::optional<jobs::BoreMeasurement> bore;  ///< for the picture: a roundness plot
-  std::vector<jobs::DeviationPanel> panels;   ///< for the picture of the others
+  std::optional<features::BoreMeasurement> bore;  ///< for the picture: a roundness plot
+  std::vector<features::DeviationPanel> panels;   ///< for the picture of the others
   /// Where the feature was found and where its nominal put it (a centre, a face's point): a
   /// work offset update moves by the difference. Unset for features without a position.
   std::optional<geometry::Vec3> found_mcs;
@@ -92,11 +92,11 @@ FeatureNominal ParseFeatureNominal(const nlohmann::json& request, const std::str
 /// JobInputError.
 FeatureRequest ParseFeatureRequest(const nlohmann::json& request, const std::string& data_dir);
 
-/// Throws jobs::FeatureError (not measurable from these points).
+/// Throws features::FeatureError (not measurable from these points).
 Measured MeasureFeature(const FeatureRequest& request, const Evidence& evidence);
 
-/// The views a feature's capture plan needs (mlp::jobs plan.h).
-std::vector<jobs::ViewTarget> FeatureViews(const FeatureNominal& nominal,
-                                           const jobs::PlanOptions& options);
+/// The views a feature's capture plan needs (mlp::features plan.h).
+std::vector<features::ViewTarget> FeatureViews(const FeatureNominal& nominal,
+                                               const features::PlanOptions& options);
 
 }  // namespace mlp::service

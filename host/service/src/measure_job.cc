@@ -3,9 +3,9 @@
 #include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
 #include "mlp/calib/record.h"
-#include "mlp/jobs/decision.h"
-#include "mlp/jobs/feature.h"
-#include "mlp/jobs/report.h"
+#include "mlp/features/decision.h"
+#include "mlp/features/feature.h"
+#include "mlp/features/report.h"
 #include "mlp/nc/tool_table.h"
 #include "mlp/service/adapters.h"
 
@@ -41,7 +41,7 @@ nc::ToolRegister RegisterOf(const std::string& s) {
 struct ToolUpdateRequest {
   int offset = 0;
   nc::ToolRegister reg = nc::ToolRegister::kRadiusWear;
-  jobs::Feedback
+  features::Feedback
       feedback;  ///< percent, null band, upper limit, experience (change_per_error later)
 };
 
@@ -62,7 +62,7 @@ ToolUpdateRequest ParseToolUpdate(const json& u) {
   ToolUpdateRequest t;
   t.offset = jf::Integer<JobInputError>(u, "offset", w);
   t.reg = RegisterOf(jf::Text<JobInputError>(u, "register", w));
-  jobs::Feedback& f = t.feedback;
+  features::Feedback& f = t.feedback;
   f.offset_number = t.offset;
   f.reg = t.reg;
   f.percent = jf::NumberOr<JobInputError>(u, "percent", f.percent, w);
@@ -118,9 +118,9 @@ MeasureRequest ParseMeasureRequest(const json& r, const std::string& data_dir) {
 }
 
 // The feedback for the decision: none (report only), or the update asked for (CheckUpdatesFit).
-jobs::Feedback FeedbackFor(const std::optional<ToolUpdateRequest>& u, const Measured& ms) {
+features::Feedback FeedbackFor(const std::optional<ToolUpdateRequest>& u, const Measured& ms) {
   if (!u) return {};
-  jobs::Feedback f = u->feedback;
+  features::Feedback f = u->feedback;
   f.change_per_error = *ms.traits.change_per_error;
   return f;
 }
@@ -143,7 +143,7 @@ std::optional<nc::WorkOffsetChange> WorkChangeFor(const std::optional<WorkUpdate
 
 // The feature's numbers, a line each, as the picture lists them ("width 16.0140 mm"). Built
 // with streams: GCC 12 warns falsely (-Wrestrict) on long std::string + chains.
-std::vector<std::string> Lines(const Measured& ms, const jobs::SizeDecision& d) {
+std::vector<std::string> Lines(const Measured& ms, const features::SizeDecision& d) {
   const bool deg = ms.traits.unit == "deg";
   std::vector<std::string> out;
   std::ostringstream l;
@@ -187,13 +187,13 @@ std::vector<std::string> Lines(const Measured& ms, const jobs::SizeDecision& d) 
 std::string WriteReport(JobContext& ctx,
                         std::int64_t job,
                         const Measured& ms,
-                        const jobs::SizeDecision& d,
+                        const features::SizeDecision& d,
                         const json& reply) {
   const std::string title =
       "job " + std::to_string(job) + " - " + ms.feature + " - " + ctx.machine.name;
   std::string svg;
   if (ms.bore) {
-    jobs::BoreReport rep;
+    features::BoreReport rep;
     rep.title = title;
     rep.boss = ms.feature == "boss";
     rep.nominal_mm = ms.spec.nominal_mm;
@@ -205,16 +205,16 @@ std::string WriteReport(JobContext& ctx,
     rep.verdict = reply.value("verdict", "");
     rep.decision = reply.value("reason", "");
     rep.time_utc = reply.value("time_utc", "");
-    svg = jobs::BoreReportSvg(rep);
+    svg = features::BoreReportSvg(rep);
   } else {
-    jobs::FeatureReport rep;
+    features::FeatureReport rep;
     rep.title = title;
     rep.verdict = reply.value("verdict", "");
     rep.decision = reply.value("reason", "");
     rep.time_utc = reply.value("time_utc", "");
     rep.lines = Lines(ms, d);
     rep.panels = ms.panels;
-    svg = jobs::FeatureReportSvg(rep);
+    svg = features::FeatureReportSvg(rep);
   }
   const std::filesystem::path dir(ctx.config.ReportDir());
   std::filesystem::create_directories(dir);
@@ -230,12 +230,12 @@ struct Outcome {
   std::string verdict, reason;
 };
 
-Outcome OutcomeOf(const Measured& ms, const jobs::SizeDecision& d) {
+Outcome OutcomeOf(const Measured& ms, const features::SizeDecision& d) {
   Outcome o;
-  const bool size_ok = d.verdict == jobs::Verdict::kInTolerance;
+  const bool size_ok = d.verdict == features::Verdict::kInTolerance;
   o.in_tolerance = size_ok && ms.problems.empty();
-  o.verdict =
-      size_ok && !ms.problems.empty() ? std::string("out of tolerance") : jobs::ToString(d.verdict);
+  o.verdict = size_ok && !ms.problems.empty() ? std::string("out of tolerance")
+                                              : features::ToString(d.verdict);
   for (const auto& p : ms.problems) o.reason += p + "; ";
   o.reason += d.reason;
   return o;
@@ -243,7 +243,7 @@ Outcome OutcomeOf(const Measured& ms, const jobs::SizeDecision& d) {
 
 json ResultFields(const Measured& ms,
                   const calib::CalibrationRecord& cal,
-                  const jobs::SizeDecision& d,
+                  const features::SizeDecision& d,
                   const Outcome& o) {
   json fields = ms.fields;
   fields.update({{"feature", ms.feature},
@@ -258,12 +258,12 @@ json ResultFields(const Measured& ms,
 }
 
 // Everything the gate weighs: the fit's evidence, the calibration, every change to be written.
-jobs::FitEvidence GateEvidence(const Measured& ms,
-                               const calib::CalibrationRecord& cal,
-                               const Evidence& ev,
-                               const jobs::SizeDecision& d,
-                               const std::optional<nc::WorkOffsetChange>& work) {
-  jobs::FitEvidence fe = ms.fe;
+features::FitEvidence GateEvidence(const Measured& ms,
+                                   const calib::CalibrationRecord& cal,
+                                   const Evidence& ev,
+                                   const features::SizeDecision& d,
+                                   const std::optional<nc::WorkOffsetChange>& work) {
+  features::FitEvidence fe = ms.fe;
   fe.calibration_probe = cal.probe_serial;
   fe.job_probe = ev.probe_serial;
   fe.calibration_age_h = AgeHours(cal.created_utc);
@@ -280,9 +280,9 @@ jobs::FitEvidence GateEvidence(const Measured& ms,
 nc::NcResult ControllerResult(const MachineConfig& m,
                               std::int64_t job,
                               const Measured& ms,
-                              const jobs::SizeDecision& d,
+                              const features::SizeDecision& d,
                               const Outcome& o,
-                              const jobs::Feedback& fb,
+                              const features::Feedback& fb,
                               const std::optional<nc::WorkOffsetChange>& work,
                               json* reply) {
   nc::NcResult out;
@@ -303,7 +303,7 @@ nc::NcResult ControllerResult(const MachineConfig& m,
                           {"change_mm", d.offset_change_mm}};
     if (!note.empty()) (*reply)["update"]["note"] = note;
   }
-  if (work && d.verdict != jobs::Verdict::kUpperLimitExceeded) {
+  if (work && d.verdict != features::Verdict::kUpperLimitExceeded) {
     out.work.push_back(*work);
     (*reply)["update_work"] = {
         {"offset", work->index},
@@ -323,9 +323,9 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
     const calib::CalibrationRecord& cal = run.Calibration();
     const Evidence ev = LoadCaptures(ctx, r.at("captures"), cal.flange_from_probe, run.job);
     const Measured ms = MeasureFeature(request.feature, ev);
-    const jobs::Feedback fb = FeedbackFor(request.update, ms);
+    const features::Feedback fb = FeedbackFor(request.update, ms);
     const auto work = WorkChangeFor(request.update_work, ms);
-    const jobs::SizeDecision d = jobs::DecideSize(ms.size, ms.spec, fb);
+    const features::SizeDecision d = features::DecideSize(ms.size, ms.spec, fb);
     const Outcome o = OutcomeOf(ms, d);
     reply.update(ResultFields(ms, cal, d, o));
     ctx.history.AddResult(run.job, {ms.feature,
@@ -335,11 +335,11 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
                                      {"offset_change_mm", d.offset_change_mm},
                                      {"reason", o.reason}}});
     const auto problems =
-        jobs::PlausibilityProblems(GateEvidence(ms, cal, ev, d, work), ctx.machine.limits);
+        features::PlausibilityProblems(GateEvidence(ms, cal, ev, d, work), ctx.machine.limits);
     if (!problems.empty()) return run.Refuse(problems);
     const nc::NcResult out = ControllerResult(ctx.machine, run.job, ms, d, o, fb, work, &reply);
     if (request.report) reply["report"] = WriteReport(ctx, run.job, ms, d, reply);
-    if (d.verdict == jobs::Verdict::kUpperLimitExceeded) reply["alarm"] = d.reason;
+    if (d.verdict == features::Verdict::kUpperLimitExceeded) reply["alarm"] = d.reason;
     reply["status"] = o.in_tolerance ? "in_tolerance" : "out_of_tolerance";  // if a stop comes
     reply["files"] = WriteToController(ctx, run.job, out, reply, OffsetWriteRows(out));
     return run.Finish(

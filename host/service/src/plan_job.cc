@@ -1,5 +1,5 @@
 #include "mlp/base/json_fields.h"
-#include "mlp/jobs/plan.h"
+#include "mlp/features/plan.h"
 #include "mlp/probe_fw/probe_model.h"
 
 #include <algorithm>
@@ -13,8 +13,8 @@ namespace {
 namespace jf = base::json_fields;
 using json = nlohmann::json;
 
-jobs::PlanOptions ParseOptions(const json& r) {
-  jobs::PlanOptions o;
+features::PlanOptions ParseOptions(const json& r) {
+  features::PlanOptions o;
   o.standoff_mm = jf::NumberOr<JobInputError>(r, "standoff_mm", o.standoff_mm, "request");
   o.wall_tilt_deg = jf::NumberOr<JobInputError>(r, "wall_tilt_deg", o.wall_tilt_deg, "request");
   o.patch_mm = jf::NumberOr<JobInputError>(r, "patch_mm", o.patch_mm, "request");
@@ -25,7 +25,7 @@ jobs::PlanOptions ParseOptions(const json& r) {
   return o;
 }
 
-json CaptureJson(const jobs::PlannedCapture& c) {
+json CaptureJson(const features::PlannedCapture& c) {
   return {{"capture_id", c.id},
           {"mcs_from_flange", jf::PoseToJson(c.mcs_from_flange)},
           {"aoi", {c.aoi.x0, c.aoi.y0, c.aoi.width, c.aoi.height}},
@@ -36,7 +36,7 @@ json CaptureJson(const jobs::PlannedCapture& c) {
 // A plan request: the feature's nominal and the plan's options, read once and checked.
 struct PlanRequest {
   FeatureNominal nominal;
-  jobs::PlanOptions options;
+  features::PlanOptions options;
 };
 
 PlanRequest ParsePlanRequest(const json& r, const std::string& data_dir) {
@@ -64,13 +64,13 @@ json RunPlanJob(JobContext& ctx, const json& r) {
     const PlanRequest request = ParsePlanRequest(r, ctx.config.data_dir);
     const calib::CalibrationRecord& cal = run.Calibration();
     const probe_fw::ProbeModel model = PlanProbeModel(ctx);
-    const auto plan = jobs::PlanCaptures(FeatureViews(request.nominal, request.options), model,
-                                         cal.flange_from_probe, request.options);
+    const auto plan = features::PlanCaptures(FeatureViews(request.nominal, request.options), model,
+                                             cal.flange_from_probe, request.options);
     json captures = json::array();
     for (const auto& c : plan) captures.push_back(CaptureJson(c));
     run.reply["captures"] = captures;
     run.reply["calibration_id"] = cal.calibration_id;
-    const std::string tilt = jobs::CheckReachable(plan);
+    const std::string tilt = features::CheckReachable(plan);
     run.reply["three_axis"] = tilt.empty() ? json("reachable") : json(tilt);
     return run.Finish(history::JobStatus::kDone, true);
   } catch (const std::exception& e) {

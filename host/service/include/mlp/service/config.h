@@ -5,7 +5,7 @@
 /// limits and job timeout. Relative paths are relative to the configuration file's folder.
 
 #include "mlp/base/input_error.h"
-#include "mlp/jobs/decision.h"
+#include "mlp/features/decision.h"
 #include "mlp/nc/nc_output.h"
 
 #include <cstdint>
@@ -45,7 +45,7 @@ struct ControllerConfig {
 struct MachineConfig {
   std::string name, probe_serial;
   ControllerConfig controller;
-  jobs::PlausibilityLimits limits;
+  features::PlausibilityLimits limits;
   double job_timeout_s = 120.0;
 };
 
