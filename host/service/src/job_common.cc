@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <set>
 #include <sstream>
+#include <variant>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -355,6 +356,29 @@ Evidence LoadCaptures(JobContext& ctx,
   Eigen::Index at = 0;
   for (const auto& p : parts) e.points_mcs.middleCols(at, p.cols()) = p, at += p.cols();
   return e;
+}
+
+json ReadingsJson(const jobs::Readings& readings) {
+  json out = json::object();
+  for (const jobs::Reading& r : readings) {
+    json& v = out[r.name];
+    if (const auto* x = std::get_if<double>(&r.value))
+      v = *x;
+    else if (const auto* n = std::get_if<std::int64_t>(&r.value))
+      v = *n;
+    else if (const auto* p = std::get_if<geometry::Vec3>(&r.value))
+      v = JsonVec(*p);
+    else if (const auto* t = std::get_if<std::vector<std::string>>(&r.value))
+      v = *t;
+    else if (const auto* g = std::get_if<jobs::Readings>(&r.value))
+      v = ReadingsJson(*g);
+    else {
+      v = json::array();
+      for (const jobs::Readings& item : std::get<std::vector<jobs::Readings>>(r.value))
+        v.push_back(ReadingsJson(item));
+    }
+  }
+  return out;
 }
 
 }  // namespace mlp::service

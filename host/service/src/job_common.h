@@ -8,6 +8,8 @@
 #include "mlp/features/feature.h"
 #include "mlp/geometry/types.h"
 #include "mlp/history/history.h"
+#include "mlp/jobs/evidence.h"
+#include "mlp/jobs/readings.h"
 #include "mlp/nc/nc_output.h"
 #include "mlp/service/config.h"
 #include "mlp/service/job_server.h"
@@ -71,16 +73,16 @@ features::BoreNominal ParseBoreNominal(const nlohmann::json& n, const std::strin
 /// A face's nominal: point_mm, normal, band_mm, within_mm.
 features::PlaneNominal ParsePlaneNominal(const nlohmann::json& n, const std::string& where);
 inline nlohmann::json JsonVec(const geometry::Vec3& v) { return {v.x(), v.y(), v.z()}; }
+/// A job's readings as the reply's JSON object (a vector as [x, y, z], a group as an object, a
+/// list of groups as an array of objects).
+nlohmann::json ReadingsJson(const jobs::Readings& readings);
 
 /// A capture named in a request (rather than given by job id) is used only this soon after it
 /// was taken: the macro takes its captures and then measures.
 constexpr int kNamedCaptureMaxAgeS = 3600;
 
-struct Evidence {
-  geometry::Points3 points_mcs;
-  std::string probe_serial;
-  std::vector<features::EdgeView> edges;  ///< of the captures whose firmware found an edge
-};
+/// The points a job measures, mapped into the machine frame (mlp::jobs).
+using Evidence = jobs::Evidence;
 
 /// A stored capture: its cloud in the probe frame and the flange pose H it was taken at.
 struct StoredCapture {

@@ -4,8 +4,8 @@
 
 #include <algorithm>
 
+#include "feature_request_json.h"
 #include "job_common.h"
-#include "measure_features.h"
 
 namespace mlp::service {
 namespace {
@@ -35,7 +35,7 @@ json CaptureJson(const features::PlannedCapture& c) {
 
 // A plan request: the feature's nominal and the plan's options, read once and checked.
 struct PlanRequest {
-  FeatureNominal nominal;
+  jobs::FeatureNominal nominal;
   features::PlanOptions options;
 };
 
@@ -64,8 +64,8 @@ json RunPlanJob(JobContext& ctx, const json& r) {
     const PlanRequest request = ParsePlanRequest(r, ctx.config.data_dir);
     const calib::CalibrationRecord& cal = run.Calibration();
     const probe_fw::ProbeModel model = PlanProbeModel(ctx);
-    const auto plan = features::PlanCaptures(FeatureViews(request.nominal, request.options), model,
-                                             cal.flange_from_probe, request.options);
+    const auto plan = features::PlanCaptures(jobs::FeatureViews(request.nominal, request.options),
+                                             model, cal.flange_from_probe, request.options);
     json captures = json::array();
     for (const auto& c : plan) captures.push_back(CaptureJson(c));
     run.reply["captures"] = captures;

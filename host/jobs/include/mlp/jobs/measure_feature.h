@@ -1,29 +1,28 @@
 #pragma once
-// The features a measure job knows (internal to mlp_service): each reads its part of the
-// request once into a FeatureRequest (nominal, the size decided on, its tolerances), checked
-// before any capture is loaded; then measures it from the mapped points (mlp::features) and says
-// what the shared decision needs: the toleranced size, its numbers for the reply and the
-// evidence for the plausibility gate.
+/// @file The features a measure job knows: each is measured from the mapped points (the
+/// feature mathematics, mlp::features) into what the shared decision needs: the toleranced
+/// size, its readings for the reply and the evidence for the plausibility gate. The request's
+/// text is read by the service (its JSON face); here everything is typed.
 
 #include "mlp/features/composite.h"
 #include "mlp/features/decision.h"
+#include "mlp/features/edge.h"
 #include "mlp/features/feature.h"
 #include "mlp/features/plan.h"
 #include "mlp/features/report.h"
 #include "mlp/features/surface.h"
+#include "mlp/jobs/evidence.h"
+#include "mlp/jobs/readings.h"
 
 #include <optional>
 #include <string>
 #include <variant>
 #include <vector>
 
-#include "job_common.h"
-#include <nlohmann/json.hpp>
+namespace mlp::jobs {
 
-namespace mlp::service {
-
-/// A feature's nominal (request.feature and request.nominal): what a plan places its views by
-/// and a measurement segments the points by.
+/// A feature's nominal: what a plan places its views by and a measurement segments the points
+/// by.
 struct FeatureNominal {
   using Shape = std::variant<features::BoreNominal,
                              features::PlaneNominal,
@@ -35,7 +34,7 @@ struct FeatureNominal {
                              features::EllipseNominal,
                              features::SurfaceNominal,
                              features::EdgeNominal>;
-  std::string feature;  ///< "bore", "face", ... (CheckFeatureName)
+  std::string feature;  ///< "bore", "face", ... (FeatureNames)
   Shape shape;
 };
 
@@ -51,6 +50,11 @@ struct FeatureTraits {
   /// It has a position a work offset can be set from (a centre, a face's point).
   bool has_position = false;
 };
+
+/// The features known, by name ("bore", "boss", "face", ...).
+std::vector<std::string> FeatureNames();
+/// A known feature's traits; nullopt for any other name.
+std::optional<FeatureTraits> TraitsOf(const std::string& feature);
 
 /// A measure request's feature part, every field read and checked.
 struct FeatureRequest {
@@ -71,7 +75,7 @@ struct Measured {
   FeatureTraits traits;
   double size = 0.0;
   features::SizeSpec spec;
-  nlohmann::json fields;
+  Readings readings;
   features::FitEvidence fe;
   /// Other tolerances of the job that were exceeded (flatness, true position, the second size
   /// of a rectangle): each makes the verdict out of tolerance.
@@ -84,14 +88,6 @@ struct Measured {
   geometry::Vec3 nominal_mcs = geometry::Vec3::Zero();
 };
 
-/// request.feature and request.nominal. Throws JobInputError (an unknown feature, listing the
-/// known ones; a field missing or wrong). `data_dir` resolves relative nominal files.
-FeatureNominal ParseFeatureNominal(const nlohmann::json& request, const std::string& data_dir);
-
-/// The nominal, and the size, tolerances and limits a measure request gives it. Throws
-/// JobInputError.
-FeatureRequest ParseFeatureRequest(const nlohmann::json& request, const std::string& data_dir);
-
 /// Throws features::FeatureError (not measurable from these points).
 Measured MeasureFeature(const FeatureRequest& request, const Evidence& evidence);
 
@@ -99,4 +95,4 @@ Measured MeasureFeature(const FeatureRequest& request, const Evidence& evidence)
 std::vector<features::ViewTarget> FeatureViews(const FeatureNominal& nominal,
                                                const features::PlanOptions& options);
 
-}  // namespace mlp::service
+}  // namespace mlp::jobs
