@@ -192,5 +192,47 @@ TEST_F(ToolTableUpdateTest, TwoWritersOfOneTableLoseNoChange) {
   EXPECT_EQ(temporaries, 0u);
 }
 
+// LinuxCNC's register rules, one place (issue 53): a radius is half of D, a wear change moves
+// the geometry value (LinuxCNC has none), the restart's check reads the same registers back.
+TEST(ToolTableRules, AChangeIsResolvedAgainstTheTableAndWrittenAsItsWords) {
+  const ToolTable table = ToolTable::Parse(kTable, "tool.tbl");
+  std::string note;
+  const ToolOffsetChange r =
+      ResolveOnTable(table, "tool.tbl", 1, ToolRegister::kRadiusGeometry, -0.003, &note);
+  EXPECT_TRUE(note.empty());
+  EXPECT_FALSE(r.incremental);
+  EXPECT_NEAR(r.before_mm, 5.0, kReadBackMm);  // D10
+  EXPECT_NEAR(r.after_mm, 4.997, kReadBackMm);
+  const ToolOffsetChange l =
+      ResolveOnTable(table, "tool.tbl", 2, ToolRegister::kLengthWear, 0.01, &note);
+  EXPECT_EQ(l.reg, ToolRegister::kLengthGeometry);
+  EXPECT_NE(note.find("no wear registers"), std::string::npos) << note;
+  EXPECT_NEAR(l.after_mm, 95.26, kReadBackMm);
+  EXPECT_THROW(ResolveOnTable(table, "tool.tbl", 9, ToolRegister::kLengthGeometry, 0.0, &note),
+               ToolTableError);
+
+  const std::vector<ToolUpdate> u = ToolUpdatesOf({r, l});
+  ASSERT_EQ(u.size(), 2u);
+  EXPECT_NEAR(*u[0].diameter_mm, 9.994, kReadBackMm);  // twice the radius
+  EXPECT_NEAR(*u[0].diameter_before_mm, 10.0, kReadBackMm);
+  EXPECT_FALSE(u[0].length_mm.has_value());
+  EXPECT_NEAR(*u[1].length_mm, 95.26, kReadBackMm);
+}
+
+TEST(ToolTableRules, ARestartSeesAWriteInTheTableOnlyWhenEveryRegisterHoldsItsValue) {
+  ToolTable table = ToolTable::Parse(kTable, "tool.tbl");
+  const ToolOffsetChange radius{1, ToolRegister::kRadiusGeometry, 5.0, 4.997, false};
+  const ToolOffsetChange length{1, ToolRegister::kLengthGeometry, 120.5, 120.49, false};
+  EXPECT_FALSE(TableHolds(table, {radius, length}));
+  table.Set(1, 'D', 9.994);
+  EXPECT_FALSE(TableHolds(table, {radius, length}));  // half written is not written
+  table.Set(1, 'Z', 120.49);
+  EXPECT_TRUE(TableHolds(table, {radius, length}));
+  ToolOffsetChange increment = radius;
+  increment.incremental = true;  // a change the host cannot read back
+  EXPECT_FALSE(TableHolds(table, {increment}));
+  EXPECT_FALSE(TableHolds(table, {{7, ToolRegister::kLengthGeometry, 0, 1, false}}));
+}
+
 }  // namespace
 }  // namespace mlp::nc

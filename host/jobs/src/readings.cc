@@ -4,19 +4,21 @@
 
 namespace mlp::jobs {
 
-const Reading* Find(const Readings& readings, const std::string& name) {
-  const auto it = std::find_if(readings.begin(), readings.end(),
+Reading* Find(Readings* readings, const std::string& name) {
+  const auto it = std::find_if(readings->begin(), readings->end(),
                                [&](const Reading& r) { return r.name == name; });
-  return it == readings.end() ? nullptr : &*it;
+  return it == readings->end() ? nullptr : &*it;
+}
+
+const Reading* Find(const Readings& readings, const std::string& name) {
+  return Find(const_cast<Readings*>(&readings), name);  // NOLINT: the same search, read only
 }
 
 void Set(Readings* readings, Reading reading) {
-  const auto it = std::find_if(readings->begin(), readings->end(),
-                               [&](const Reading& r) { return r.name == reading.name; });
-  if (it == readings->end())
-    readings->push_back(std::move(reading));
+  if (Reading* r = Find(readings, reading.name))
+    *r = std::move(reading);
   else
-    *it = std::move(reading);
+    readings->push_back(std::move(reading));
 }
 
 }  // namespace mlp::jobs

@@ -4,6 +4,7 @@
 #include "mlp/base/csv.h"
 #include "mlp/base/files.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -153,6 +154,57 @@ ToolTableUpdateResult UpdateToolTable(const std::string& table_path,
     result.log_error = std::string("the tool table is written but not logged: ") + e.what();
   }
   return result;
+}
+
+ToolOffsetChange ResolveOnTable(const ToolTable& table,
+                                const std::string& source,
+                                int tool,
+                                ToolRegister reg,
+                                double change_mm,
+                                std::string* note) {
+  const auto record = table.Find(tool);
+  if (!record) throw ToolTableError("tool " + std::to_string(tool) + " is not in " + source);
+  if (reg == ToolRegister::kLengthWear || reg == ToolRegister::kRadiusWear) {
+    *note = "LinuxCNC has no wear registers: the " + ToString(reg) +
+            " change is applied to the geometry value";
+    reg = reg == ToolRegister::kLengthWear ? ToolRegister::kLengthGeometry
+                                           : ToolRegister::kRadiusGeometry;
+  }
+  const double before_mm = record->Register(reg);
+  return {tool, reg, before_mm, before_mm + change_mm, false};
+}
+
+std::vector<ToolUpdate> ToolUpdatesOf(const std::vector<ToolOffsetChange>& changes) {
+  std::vector<ToolUpdate> updates;
+  for (const ToolOffsetChange& t : changes) {
+    auto u = std::find_if(updates.begin(), updates.end(),
+                          [&](const ToolUpdate& x) { return x.tool == t.tool; });
+    if (u == updates.end()) {
+      ToolUpdate fresh;
+      fresh.tool = t.tool;
+      u = updates.insert(updates.end(), fresh);
+    }
+    if (const char word = OffsetWord(t.reg); word != 0) {
+      u->offsets[word] = t.after_mm;
+      u->offsets_before[word] = t.before_mm;
+    } else if (t.reg == ToolRegister::kLengthGeometry || t.reg == ToolRegister::kLengthWear) {
+      u->length_mm = t.after_mm;
+      u->length_before_mm = t.before_mm;
+    } else {  // the table holds the diameter
+      u->diameter_mm = 2 * t.after_mm;
+      u->diameter_before_mm = 2 * t.before_mm;
+    }
+  }
+  return updates;
+}
+
+bool TableHolds(const ToolTable& table, const std::vector<ToolOffsetChange>& changes) {
+  for (const ToolOffsetChange& t : changes) {
+    const auto record = table.Find(t.tool);
+    if (!record || t.incremental) return false;
+    if (std::abs(record->Register(t.reg) - t.after_mm) > kStaleToleranceMm) return false;
+  }
+  return true;
 }
 
 }  // namespace mlp::nc

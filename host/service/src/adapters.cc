@@ -17,10 +17,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool IsLength(nc::ToolRegister r) {
-  return r == nc::ToolRegister::kLengthGeometry || r == nc::ToolRegister::kLengthWear;
-}
-
 // One CSV line per job for SPC, appended whole and durably (base::AppendRecord).
 void AppendCsv(const fs::path& path, const nlohmann::json& r) {
   std::ostringstream line;
@@ -33,32 +29,6 @@ void AppendCsv(const fs::path& path, const nlohmann::json& r) {
                      line.str());
 }
 
-// LinuxCNC's changes (absolute, with the values they were decided on) as the tool table's words:
-// length Z, radius as the diameter D, the offsets X, Y, C; one update per tool.
-std::vector<nc::ToolUpdate> ToolUpdates(const std::vector<nc::ToolOffsetChange>& changes) {
-  std::vector<nc::ToolUpdate> updates;
-  for (const nc::ToolOffsetChange& t : changes) {
-    auto u = std::find_if(updates.begin(), updates.end(),
-                          [&](const nc::ToolUpdate& x) { return x.tool == t.tool; });
-    if (u == updates.end()) {
-      nc::ToolUpdate fresh;
-      fresh.tool = t.tool;
-      u = updates.insert(updates.end(), fresh);
-    }
-    if (const char word = nc::OffsetWord(t.reg); word != 0) {
-      u->offsets[word] = t.after_mm;
-      u->offsets_before[word] = t.before_mm;
-    } else if (t.reg == nc::ToolRegister::kLengthGeometry) {
-      u->length_mm = t.after_mm;
-      u->length_before_mm = t.before_mm;
-    } else {
-      u->diameter_mm = 2 * t.after_mm;
-      u->diameter_before_mm = 2 * t.before_mm;
-    }
-  }
-  return updates;
-}
-
 }  // namespace
 
 nc::ToolOffsetChange ResolveToolChange(const ControllerConfig& c,
@@ -66,22 +36,9 @@ nc::ToolOffsetChange ResolveToolChange(const ControllerConfig& c,
                                        nc::ToolRegister reg,
                                        double change_mm,
                                        std::string* note) {
-  nc::ToolOffsetChange t{offset, reg, 0.0, change_mm, true};
-  if (c.kind != ControllerConfig::Kind::kLinuxCnc) return t;
-  const nc::ToolTable table = nc::LoadToolTable(c.tool_table);
-  const auto tool = table.Find(offset);
-  if (!tool)
-    throw nc::ToolTableError("tool " + std::to_string(offset) + " is not in " + c.tool_table);
-  if (reg == nc::ToolRegister::kLengthWear || reg == nc::ToolRegister::kRadiusWear) {
-    *note = "LinuxCNC has no wear registers: the " + nc::ToString(reg) +
-            " change is applied to the geometry value";
-    reg = IsLength(reg) ? nc::ToolRegister::kLengthGeometry : nc::ToolRegister::kRadiusGeometry;
-  }
-  t.reg = reg;
-  t.incremental = false;
-  t.before_mm = tool->Register(reg);
-  t.after_mm = t.before_mm + change_mm;
-  return t;
+  if (c.kind != ControllerConfig::Kind::kLinuxCnc) return {offset, reg, 0.0, change_mm, true};
+  return nc::ResolveOnTable(nc::LoadToolTable(c.tool_table), c.tool_table, offset, reg, change_mm,
+                            note);
 }
 
 std::string ControllerFile(const ControllerConfig& c,
@@ -101,14 +58,7 @@ bool WritesReachedController(const ControllerConfig& c,
   try {
     if (c.kind == ControllerConfig::Kind::kLinuxCnc && c.write_tool_table &&
         !tool_changes.empty()) {
-      const nc::ToolTable table = nc::LoadToolTable(c.tool_table);
-      for (const nc::ToolOffsetChange& t : tool_changes) {
-        const auto tool = table.Find(t.tool);
-        if (!tool || t.incremental) return false;
-        // The table holds 4+ decimals; a value written is read back within 1e-6 mm.
-        if (std::abs(tool->Register(t.reg) - t.after_mm) > 1e-6) return false;
-      }
-      return true;
+      return nc::TableHolds(nc::LoadToolTable(c.tool_table), tool_changes);
     }
     std::ifstream in(ControllerFile(c, machine, job));
     const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -138,7 +88,7 @@ WrittenFiles WriteResult(const ControllerConfig& c,
     base::WriteFileAtomically(p.string(), nc::LinuxCncSubroutine("mlp_result", r));
     written.files.push_back(p.string());
     if (c.write_tool_table && !r.tools.empty()) {
-      const auto u = nc::UpdateToolTable(c.tool_table, ToolUpdates(r.tools), limits,
+      const auto u = nc::UpdateToolTable(c.tool_table, nc::ToolUpdatesOf(r.tools), limits,
                                          "job " + std::to_string(job) + " on " + machine);
       written.files.push_back(c.tool_table);
       written.files.push_back(u.log_file);

@@ -358,26 +358,25 @@ Evidence LoadCaptures(JobContext& ctx,
   return e;
 }
 
+namespace {
+// A reading's value as JSON: numbers as they are, a vector as [x, y, z], a group as an object.
+json ValueJson(double v) { return v; }
+json ValueJson(std::int64_t v) { return v; }
+json ValueJson(const geometry::Vec3& v) { return JsonVec(v); }
+json ValueJson(const std::vector<std::string>& v) { return v; }
+json ValueJson(const jobs::Readings& v) { return ReadingsJson(v); }
+template <class T>
+json ValueJson(const std::vector<T>& list) {
+  json out = json::array();
+  for (const T& item : list) out.push_back(ValueJson(item));
+  return out;
+}
+}  // namespace
+
 json ReadingsJson(const jobs::Readings& readings) {
   json out = json::object();
-  for (const jobs::Reading& r : readings) {
-    json& v = out[r.name];
-    if (const auto* x = std::get_if<double>(&r.value))
-      v = *x;
-    else if (const auto* n = std::get_if<std::int64_t>(&r.value))
-      v = *n;
-    else if (const auto* p = std::get_if<geometry::Vec3>(&r.value))
-      v = JsonVec(*p);
-    else if (const auto* t = std::get_if<std::vector<std::string>>(&r.value))
-      v = *t;
-    else if (const auto* g = std::get_if<jobs::Readings>(&r.value))
-      v = ReadingsJson(*g);
-    else {
-      v = json::array();
-      for (const jobs::Readings& item : std::get<std::vector<jobs::Readings>>(r.value))
-        v.push_back(ReadingsJson(item));
-    }
-  }
+  for (const jobs::Reading& r : readings)
+    out[r.name] = std::visit([](const auto& v) { return ValueJson(v); }, r.value);
   return out;
 }
 

@@ -5,10 +5,10 @@
 /// for the controller. The service reads the request's JSON, loads the captures, records the
 /// job and writes; everything it decides on is decided here.
 
-#include "mlp/base/input_error.h"
 #include "mlp/features/decision.h"
 #include "mlp/jobs/evidence.h"
 #include "mlp/jobs/measure_feature.h"
+#include "mlp/jobs/request_error.h"
 #include "mlp/nc/nc_output.h"
 #include "mlp/nc/offsets.h"
 
@@ -19,12 +19,6 @@
 #include <vector>
 
 namespace mlp::jobs {
-
-/// A request that cannot be carried out as written: the message names the field.
-class RequestError : public base::InputError {
- public:
-  using base::InputError::InputError;
-};
 
 /// "update": the tool offset the size error moves, and how (feedback %, null band, upper
 /// tolerance limit, experience value).

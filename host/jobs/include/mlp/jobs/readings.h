@@ -21,6 +21,7 @@ struct Reading {
   using Value = std::variant<double,
                              std::int64_t,
                              geometry::Vec3,
+                             std::vector<geometry::Vec3>,  // points: [[x, y, z], ...]
                              std::vector<std::string>,
                              Readings,                // a group: a face's numbers
                              std::vector<Readings>>;  // a list of groups: a bolt circle's holes
@@ -47,6 +48,7 @@ struct Reading {
 
 /// The reading named `name` at the top level, or nullptr.
 const Reading* Find(const Readings& readings, const std::string& name);
+Reading* Find(Readings* readings, const std::string& name);
 /// Sets `name` to `value`: replaces a reading of that name, else appends it.
 void Set(Readings* readings, Reading reading);
 

@@ -82,4 +82,27 @@ ToolTableUpdateResult UpdateToolTable(const std::string& table_path,
                                       const ToolChangeLimits& limits,
                                       const std::string& source);
 
+// ---- LinuxCNC's rules for offset registers, in one place ------------------------------------
+
+/// The change `change_mm` of register `reg` of tool `tool` as LinuxCNC's table takes it: the
+/// value before as the table holds it (ToolRecord::Register: a length is Z, a radius half of
+/// D), absolute. LinuxCNC has no wear registers: a wear change moves the geometry value, said
+/// in `note` (left empty otherwise). Throws ToolTableError when the tool is not in the table
+/// (`source`: the table's file, for the message).
+ToolOffsetChange ResolveOnTable(const ToolTable& table,
+                                const std::string& source,
+                                int tool,
+                                ToolRegister reg,
+                                double change_mm,
+                                std::string* note);
+
+/// Absolute register changes (with the values they were decided on) as the table's words, one
+/// update per tool: a length Z, a radius the diameter D (twice the radius), the offsets X, Y, C.
+std::vector<ToolUpdate> ToolUpdatesOf(const std::vector<ToolOffsetChange>& changes);
+
+/// True when every change's register holds its `after_mm` in `table` (within
+/// kStaleToleranceMm): how a restart tells that an interrupted write reached the table. An
+/// incremental change or a tool not in the table: false.
+bool TableHolds(const ToolTable& table, const std::vector<ToolOffsetChange>& changes);
+
 }  // namespace mlp::nc
