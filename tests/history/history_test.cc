@@ -5,6 +5,7 @@
 
 #include "mlp/history/file_hash.h"
 
+#include <array>
 #include <atomic>
 #include <filesystem>
 #include <fstream>
@@ -191,6 +192,81 @@ TEST(History, JobsLeftRunningAreClosedOnStartUp) {
   EXPECT_EQ(j.at("status"), "failed");
   EXPECT_EQ(j.at("reply").at("error"), "host restarted mid-job");
   EXPECT_TRUE(h.CloseInterruptedJobs("again").empty());
+}
+
+// The rows of the one job a stop left with announced writes.
+std::vector<OffsetWriteRow> InterruptedRows(const fs::path& db) {
+  const History h(db.string());
+  const auto interrupted = h.InterruptedWrites();
+  EXPECT_EQ(interrupted.size(), 1u);
+  return interrupted.empty() ? std::vector<OffsetWriteRow>{} : interrupted[0].writes;
+}
+
+// Two tool changes read back typed, value for value, and a work offset's row without one.
+void ExpectTyped(const std::vector<OffsetWriteRow>& rows,
+                 const std::array<nc::ToolOffsetChange, 2>& expected) {
+  ASSERT_EQ(rows.size(), 3u);
+  for (size_t k = 0; k < 2; ++k) {
+    ASSERT_TRUE(rows[k].tool.has_value()) << k;
+    const nc::ToolOffsetChange& t = *rows[k].tool;
+    EXPECT_EQ(t.tool, expected[k].tool);
+    EXPECT_EQ(t.reg, expected[k].reg);
+    EXPECT_EQ(t.before_mm, expected[k].before_mm);
+    EXPECT_EQ(t.after_mm, expected[k].after_mm);
+    EXPECT_EQ(t.incremental, expected[k].incremental);
+  }
+  EXPECT_FALSE(rows[2].tool.has_value());  // a work offset
+}
+
+// A restart settles an interrupted tool change from typed columns, never from the row's text
+// (issue 53): the change read back is the one announced, whatever the job kind wrote it.
+TEST(History, AnInterruptedToolChangeIsReadBackTyped) {
+  const fs::path db = FreshDb("typed");
+  std::int64_t id = 0;
+  const nc::ToolOffsetChange radius{12, nc::ToolRegister::kRadiusGeometry, 5.0, 4.997, false};
+  const nc::ToolOffsetChange wear{3, nc::ToolRegister::kLengthWear, 0.0, -0.01, true};
+  {
+    History h(db.string());
+    id = h.StartJob(Bore("vmc-1"));
+    OffsetWriteRow r{"lcnc", "offset 12 radius geometry", json(5.0), json(4.997)};
+    r.tool = radius;
+    OffsetWriteRow w{"fanuc", "offset 3 length wear", json(), json{{"change_mm", -0.01}}};
+    w.tool = wear;
+    h.AddWriteIntents(id, {r, w, {"lcnc", "G54", json(), json{{"origin_mm", {1, 2, 3}}}}},
+                      json::object());
+  }  // killed during the write
+  ExpectTyped(InterruptedRows(db), {radius, wear});
+}
+
+// A host upgraded while a tool change of the old program (schema 2: the change only as text)
+// was interrupted: the typed columns are filled in from the text once, on opening.
+TEST(History, AVersionTwoFilesInterruptedToolChangeIsMigratedToTypedColumns) {
+  const fs::path db = FreshDb("v2");
+  {
+    SQLite::Database raw(db.string(), SQLite::OPEN_READWRITE | SQLite::OPEN_CREATE);
+    raw.exec(R"sql(
+CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+INSERT INTO meta VALUES ('schema_version', '2');
+CREATE TABLE jobs (id INTEGER PRIMARY KEY, machine TEXT NOT NULL, kind TEXT NOT NULL,
+  probe_serial TEXT NOT NULL, calibration_id TEXT NOT NULL, request TEXT NOT NULL,
+  status TEXT NOT NULL, reply TEXT, timings_ms TEXT, started_utc TEXT NOT NULL,
+  finished_utc TEXT, request_id TEXT);
+CREATE TABLE offset_writes (id INTEGER PRIMARY KEY, job_id INTEGER NOT NULL REFERENCES jobs (id),
+  adapter TEXT NOT NULL, target TEXT NOT NULL, before TEXT NOT NULL, after TEXT NOT NULL,
+  written_utc TEXT NOT NULL, state TEXT NOT NULL DEFAULT 'written');
+INSERT INTO jobs VALUES (7, 'vmc-1', 'tool', 'MLP-1', 'c', '{}', 'running', '{}', NULL,
+  '2026-12-01T00:00:00Z', NULL, NULL);
+INSERT INTO offset_writes VALUES (1, 7, 'lcnc', 'offset 12 length geometry', '120.5', '120.49',
+  '2026-12-01T00:00:00Z', 'intent');
+INSERT INTO offset_writes VALUES (2, 7, 'fanuc', 'offset 4 radius wear', 'null',
+  '{"change_mm":-0.003}', '2026-12-01T00:00:00Z', 'intent');
+INSERT INTO offset_writes VALUES (3, 7, 'lcnc', 'G54', 'null', '{"origin_mm":[1,2,3]}',
+  '2026-12-01T00:00:00Z', 'intent');
+)sql");
+  }
+  const nc::ToolOffsetChange length{12, nc::ToolRegister::kLengthGeometry, 120.5, 120.49, false};
+  const nc::ToolOffsetChange wear{4, nc::ToolRegister::kRadiusWear, 0.0, -0.003, true};
+  ExpectTyped(InterruptedRows(db), {length, wear});
 }
 
 TEST(History, RefusesAFileFromANewerProgramOrNotADatabase) {

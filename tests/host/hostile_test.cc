@@ -662,6 +662,15 @@ TEST(HostileClient, ARepeatedRequestCompensatesOnce) {
   EXPECT_LT(stored.dump().size(), 1024u);
 }
 
+// A tool change's history row as the service announces it: its text and its typed columns.
+history::OffsetWriteRow ToolRow(int tool, nc::ToolRegister reg, double before_mm, double after_mm) {
+  history::OffsetWriteRow row{"lcnc-1:tool",
+                              "offset " + std::to_string(tool) + " " + nc::ToString(reg), before_mm,
+                              after_mm};
+  row.tool = nc::ToolOffsetChange{tool, reg, before_mm, after_mm, false};
+  return row;
+}
+
 // Issue 24 items 5, 9, 12: a host killed between announcing a write and confirming it is
 // recorded as the controller shows; temporaries of cut writes are removed; a new history in a
 // used data folder continues its job numbers; a history removed under the host stops jobs.
@@ -687,7 +696,7 @@ TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
                             {"register", "radius_geometry"},
                             {"before_mm", 4.999},
                             {"after_mm", after_mm}}}};
-      h.AddWriteIntents(job, {{"lcnc-1:tool", "offset 12 radius_geometry", 4.999, after_mm}},
+      h.AddWriteIntents(job, {ToolRow(12, nc::ToolRegister::kRadiusGeometry, 4.999, after_mm)},
                         reply);
       return job;
     };
@@ -700,8 +709,8 @@ TEST(Hostd, AStopDuringTheWriteIsSettledFromTheController) {
     // table: its reply is not a measure's, and the restart read the .ngc's header as "written".
     relocate_job = h.StartJob({"lcnc-1", "relocate", "MLP-REF-0001", "", {}});
     h.AddWriteIntents(relocate_job,
-                      {{"lcnc-1:tool", "offset 12 offset X", 0.0, 0.031},
-                       {"lcnc-1:tool", "offset 12 length geometry", 101.2, 101.215}},
+                      {ToolRow(12, nc::ToolRegister::kOffsetX, 0.0, 0.031),
+                       ToolRow(12, nc::ToolRegister::kLengthGeometry, 101.2, 101.215)},
                       {{"job_id", relocate_job}, {"status", "done"}, {"tool", 12}});
     // A `files` machine's write is its result file naming the job (in any key order).
     files_job = h.StartJob({"vmc-1", "align", "MLP-REF-0001", "", {}});

@@ -18,8 +18,9 @@ namespace {
 
 using json = nlohmann::json;
 // 2: jobs.request_id (idempotency key), offset_writes.state (intent before the write, written
-// after it), meta job_id_floor.
-constexpr int kSchemaVersion = 2;
+// after it), meta job_id_floor. 3: a tool register's change as typed columns of offset_writes
+// (tool, tool_register, before_mm, after_mm, incremental), which a restart settles from.
+constexpr int kSchemaVersion = 3;
 // Another process (mlp history reading while the host writes) holds the lock briefly.
 constexpr int kBusyTimeoutMs = 5000;
 
@@ -41,13 +42,22 @@ CREATE TABLE IF NOT EXISTS results (
 CREATE TABLE IF NOT EXISTS offset_writes (
   id INTEGER PRIMARY KEY, job_id INTEGER NOT NULL REFERENCES jobs (id),
   adapter TEXT NOT NULL, target TEXT NOT NULL, before TEXT NOT NULL, after TEXT NOT NULL,
-  written_utc TEXT NOT NULL, state TEXT NOT NULL DEFAULT 'written');
+  written_utc TEXT NOT NULL, state TEXT NOT NULL DEFAULT 'written',
+  tool INTEGER, tool_register TEXT, before_mm REAL, after_mm REAL, incremental INTEGER);
 )sql";
 // Version 1 files gain the columns of version 2 (a v1 offset write was recorded after it
 // happened: 'written').
 constexpr const char* kMigrateV1 = R"sql(
 ALTER TABLE jobs ADD COLUMN request_id TEXT;
 ALTER TABLE offset_writes ADD COLUMN state TEXT NOT NULL DEFAULT 'written';
+)sql";
+// Version 2 files gain the typed columns of version 3 (filled in by BackfillToolColumns).
+constexpr const char* kMigrateV2 = R"sql(
+ALTER TABLE offset_writes ADD COLUMN tool INTEGER;
+ALTER TABLE offset_writes ADD COLUMN tool_register TEXT;
+ALTER TABLE offset_writes ADD COLUMN before_mm REAL;
+ALTER TABLE offset_writes ADD COLUMN after_mm REAL;
+ALTER TABLE offset_writes ADD COLUMN incremental INTEGER;
 )sql";
 constexpr const char* kIndexes = R"sql(
 CREATE INDEX IF NOT EXISTS jobs_request ON jobs (machine, request_id);
@@ -66,6 +76,47 @@ std::optional<std::pair<dev_t, ino_t>> FileIdentity(const std::string& path) {
 std::string Text(const json& j) { return base::json_fields::DumpText(j); }
 
 json ParseStored(const std::string& text) { return text.empty() ? json() : json::parse(text); }
+
+// The typed tool change of a row read from column `at` on (tool, tool_register, before_mm,
+// after_mm, incremental); unset for a work offset's row.
+std::optional<nc::ToolOffsetChange> ToolChangeAt(SQLite::Statement& q, int at) {
+  if (q.getColumn(at).isNull()) return std::nullopt;
+  const auto reg = nc::ToolRegisterFrom(q.getColumn(at + 1).getString());
+  if (!reg) return std::nullopt;  // not written by this program
+  return nc::ToolOffsetChange{q.getColumn(at).getInt(), *reg, q.getColumn(at + 2).getDouble(),
+                              q.getColumn(at + 3).getDouble(), q.getColumn(at + 4).getInt() != 0};
+}
+
+// A version 2 file's tool changes, stored then only as text: "offset 12 radius geometry" with
+// the value after (a number) or {"change_mm": c} (an increment); the typed columns filled in
+// from it once, so that a restart never reads the text.
+void BackfillToolColumns(SQLite::Database& db) {
+  SQLite::Statement q(db, "SELECT id, target, before, after FROM offset_writes WHERE tool IS NULL");
+  SQLite::Statement u(db,
+                      "UPDATE offset_writes SET tool = ?, tool_register = ?, before_mm = ?, "
+                      "after_mm = ?, incremental = ? WHERE id = ?");
+  while (q.executeStep()) {
+    std::istringstream words(q.getColumn(1).getString());
+    std::string offset, rest;
+    int tool = 0;
+    if (!(words >> offset >> tool) || offset != "offset") continue;
+    std::getline(words >> std::ws, rest);
+    const auto reg = nc::ToolRegisterFrom(rest);
+    const json before = json::parse(q.getColumn(2).getString(), nullptr, false);
+    const json after = json::parse(q.getColumn(3).getString(), nullptr, false);
+    const bool incremental =
+        after.is_object() && after.contains("change_mm") && after.at("change_mm").is_number();
+    if (!reg || !(after.is_number() || incremental)) continue;
+    u.bind(1, tool);
+    u.bind(2, nc::ToString(*reg));
+    u.bind(3, before.is_number() ? before.get<double>() : 0.0);
+    u.bind(4, (incremental ? after.at("change_mm") : after).get<double>());
+    u.bind(5, incremental ? 1 : 0);
+    u.bind(6, q.getColumn(0).getInt64());
+    u.exec();
+    u.reset();
+  }
+}
 
 }  // namespace
 
@@ -127,7 +178,8 @@ struct History::Impl {
   void InsertWrite(std::int64_t job, const OffsetWriteRow& r, const std::string& state) {
     SQLite::Statement q(db,
                         "INSERT INTO offset_writes (job_id, adapter, target, before, after, "
-                        "written_utc, state) VALUES (?, ?, ?, ?, ?, ?, ?)");
+                        "written_utc, state, tool, tool_register, before_mm, after_mm, "
+                        "incremental) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
     q.bind(1, job);
     q.bind(2, r.adapter);
     q.bind(3, r.target);
@@ -135,6 +187,13 @@ struct History::Impl {
     q.bind(5, Text(r.after));
     q.bind(6, base::UtcTimestamp());
     q.bind(7, state);
+    if (r.tool) {
+      q.bind(8, r.tool->tool);
+      q.bind(9, nc::ToString(r.tool->reg));
+      q.bind(10, r.tool->before_mm);
+      q.bind(11, r.tool->after_mm);
+      q.bind(12, r.tool->incremental ? 1 : 0);
+    }  // else NULLs: a work offset
     q.exec();
   }
 
@@ -182,6 +241,10 @@ History::History(const std::string& path) {
         Fail("history " + path + ": schema version " + std::to_string(v) +
              " is newer than this program's " + std::to_string(kSchemaVersion));
       if (v == 1) impl_->db.exec(kMigrateV1);
+      if (v <= 2) {
+        impl_->db.exec(kMigrateV2);
+        BackfillToolColumns(impl_->db);
+      }
     }
     q.reset();
     impl_->db.exec("INSERT OR REPLACE INTO meta VALUES ('schema_version', '" +
@@ -339,13 +402,15 @@ std::vector<InterruptedWrite> History::InterruptedWrites() const {
                          {},
                          true};
       SQLite::Statement r(impl_->db,
-                          "SELECT adapter, target, before, after, state FROM offset_writes "
+                          "SELECT adapter, target, before, after, state, tool, tool_register, "
+                          "before_mm, after_mm, incremental FROM offset_writes "
                           "WHERE job_id = ? AND state IN ('intent', 'written') ORDER BY id");
       r.bind(1, w.job);
       while (r.executeStep()) {
         w.writes.push_back({r.getColumn(0).getString(), r.getColumn(1).getString(),
                             ParseStored(r.getColumn(2).getString()),
-                            ParseStored(r.getColumn(3).getString()), r.getColumn(4).getString()});
+                            ParseStored(r.getColumn(3).getString()), r.getColumn(4).getString(),
+                            ToolChangeAt(r, 5)});
         w.confirmed = w.confirmed && w.writes.back().state == "written";
       }
       out.push_back(std::move(w));

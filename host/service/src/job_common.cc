@@ -183,7 +183,8 @@ std::vector<history::OffsetWriteRow> OffsetWriteRows(const nc::NcResult& out) {
     rows.push_back(
         {"", "offset " + std::to_string(t.tool) + " " + nc::ToString(t.reg),
          t.incremental ? json() : json(t.before_mm),
-         t.incremental ? json{{"change_mm", t.after_mm - t.before_mm}} : json(t.after_mm)});
+         t.incremental ? json{{"change_mm", t.after_mm - t.before_mm}} : json(t.after_mm),
+         "written", t});
   for (const auto& w : out.work)
     rows.push_back({"",
                     "work offset " + std::to_string(w.index),
@@ -194,18 +195,8 @@ std::vector<history::OffsetWriteRow> OffsetWriteRows(const nc::NcResult& out) {
 
 std::vector<nc::ToolOffsetChange> ToolChangesOf(const std::vector<history::OffsetWriteRow>& rows) {
   std::vector<nc::ToolOffsetChange> out;
-  for (const history::OffsetWriteRow& row : rows) {
-    std::istringstream words(row.target);
-    std::string offset, rest;
-    int tool = 0;
-    if (!(words >> offset >> tool) || offset != "offset" || !row.after.is_number()) continue;
-    std::getline(words >> std::ws, rest);
-    const auto reg = nc::ToolRegisterFrom(rest);
-    if (!reg) continue;
-    nc::ToolOffsetChange t{tool, *reg, 0.0, row.after.get<double>(), false};
-    if (row.before.is_number()) t.before_mm = row.before.get<double>();
-    out.push_back(t);
-  }
+  for (const history::OffsetWriteRow& row : rows)
+    if (row.tool && !row.tool->incremental) out.push_back(*row.tool);
   return out;
 }
 

@@ -105,8 +105,8 @@ nlohmann::json StoredRequest(const nlohmann::json& request);
 /// StoredRequest): the same body, byte for byte as JSON, not only the same request_id.
 bool RepeatsStoredRequest(const nlohmann::json& request, const std::string& stored_text);
 
-/// The tool changes history rows announced (OffsetWriteRows' "offset N <register>" with an
-/// absolute `after`; work offsets and incremental changes are left out): how an interrupted or
+/// The tool changes history rows announced (their typed columns, absolute changes only; work
+/// offsets and incremental changes are left out): how an interrupted or
 /// failed write is settled against the tool table whatever the job kind.
 std::vector<nc::ToolOffsetChange> ToolChangesOf(const std::vector<history::OffsetWriteRow>& rows);
 

@@ -5,6 +5,8 @@
 /// used, timings, and how the job ended. Append-only from the jobs' side: a job row is created
 /// when it starts and closed once; nothing is deleted. Each call is one transaction.
 
+#include "mlp/nc/offsets.h"
+
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -51,6 +53,9 @@ struct OffsetWriteRow {
   nlohmann::json before, after;
   /// "intent" (about to be written), "written", "not_written" (found so after a stop)
   std::string state = "written";
+  /// A tool register's change as typed columns (schema 3): what a restart settles against the
+  /// controller's tool table, whatever the job kind. Unset for work offsets.
+  std::optional<nc::ToolOffsetChange> tool{};
 };
 
 /// A request seen before under the same idempotency key on the same machine.
@@ -120,7 +125,7 @@ class JobRecords {
 
 class History : public JobRecords {
  public:
-  /// Opens or creates the file (schema version 2; a newer schema is refused, an older one
+  /// Opens or creates the file (schema version 3; a newer schema is refused, an older one
   /// migrated). Throws HistoryError naming the file.
   explicit History(const std::string& path);
   ~History();
