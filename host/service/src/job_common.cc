@@ -353,6 +353,7 @@ namespace {
 // A reading's value as JSON: numbers as they are, a vector as [x, y, z], a group as an object.
 json ValueJson(double v) { return v; }
 json ValueJson(std::int64_t v) { return v; }
+json ValueJson(const std::string& v) { return v; }
 json ValueJson(const geometry::Vec3& v) { return JsonVec(v); }
 json ValueJson(const std::vector<std::string>& v) { return v; }
 json ValueJson(const jobs::Readings& v) { return ReadingsJson(v); }

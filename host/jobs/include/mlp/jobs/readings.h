@@ -20,6 +20,7 @@ using Readings = std::vector<Reading>;
 struct Reading {
   using Value = std::variant<double,
                              std::int64_t,
+                             std::string,  // a word: "+y"
                              geometry::Vec3,
                              std::vector<geometry::Vec3>,  // points: [[x, y, z], ...]
                              std::vector<std::string>,
@@ -41,6 +42,8 @@ struct Reading {
       return static_cast<std::int64_t>(v);
     else if constexpr (std::is_floating_point_v<T>)
       return static_cast<double>(v);
+    else if constexpr (std::is_convertible_v<T, std::string>)
+      return std::string(std::move(v));
     else
       return Value(std::move(v));
   }
