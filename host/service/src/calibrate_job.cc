@@ -2,6 +2,7 @@
 #include "mlp/calib/hand_eye.h"
 #include "mlp/calib/hand_eye_json.h"
 #include "mlp/calib/recheck.h"
+#include "mlp/jobs/recheck.h"
 
 #include <optional>
 
@@ -39,23 +40,17 @@ calib::HandEyeOptions ParseCalibrateRequest(const json& r) {
   return o;
 }
 
-// A part's feature as the recheck's artefact (seed 002's "other feature"): measured from the
-// reference captures (taken before the disturbance) with the original calibration.
-struct PartArtefact {
-  std::string feature;  ///< "bore" or "face"; request.part.reference_captures lists the captures
-  std::optional<features::BoreNominal> bore;
-  std::optional<features::PlaneNominal> face;
-};
-
-PartArtefact ParsePart(const json& r) {
+// A part's feature as the recheck's artefact (seed 002's "other feature"): its nominal, its
+// reference captures loaded later.
+jobs::PartArtefact ParsePart(const json& r) {
   const std::string w = "request.part";
   const json& p = jf::Object<JobInputError>(r, "part", "request");
-  PartArtefact a;
-  a.feature = jf::Text<JobInputError>(p, "feature", w);
+  jobs::PartArtefact a;
+  const std::string feature = jf::Text<JobInputError>(p, "feature", w);
   const json& n = jf::Object<JobInputError>(p, "nominal", w);
-  if (a.feature == "bore")
+  if (feature == "bore")
     a.bore = ParseBoreNominal(n, w + ".nominal");
-  else if (a.feature == "face")
+  else if (feature == "face")
     a.face = ParsePlaneNominal(n, w + ".nominal");
   else
     throw JobInputError(w + ".feature must be bore or face");
@@ -64,17 +59,9 @@ PartArtefact ParsePart(const json& r) {
   return a;
 }
 
-struct RecheckRequest {
-  std::optional<PartArtefact> part;  ///< instead of the sphere
-  double sphere_radius_mm = 0.0;
-  bool sphere_moved = false;
-  /// The sphere's centre measured by another probe (a touch probe after re-mounting it):
-  /// the reference instead of the full calibration's centre (seed 002).
-  std::optional<Eigen::Vector3d> sphere_centre_mcs;
-};
-
-RecheckRequest ParseRecheckRequest(const json& r) {
-  RecheckRequest q;
+// A recheck request, read once and checked before any capture is loaded (the captures follow).
+jobs::RecheckInputs ParseRecheckRequest(const json& r) {
+  jobs::RecheckInputs q;
   if (r.contains("part")) {
     if (r.contains("sphere_moved") || r.contains("sphere_centre_mm"))
       throw JobInputError("request: part with sphere_moved or sphere_centre_mm (one artefact)");
@@ -133,76 +120,26 @@ json RunCalibrateJob(JobContext& ctx, const json& r) {
   }
 }
 
-// The part's reference surface: its feature measured from the reference captures with the
-// original calibration's M; the reply's fields for it.
-calib::PartSurface ReferenceSurface(JobContext& ctx,
-                                    const PartArtefact& part,
-                                    const json& reference_captures,
-                                    const calib::CalibrationRecord& original,
-                                    std::int64_t job,
-                                    json* fields) {
-  const Evidence ev = LoadCaptures(ctx, reference_captures, original.flange_from_probe, job);
-  calib::PartSurface s;
-  if (part.bore) {
-    const features::BoreMeasurement b = features::MeasureBore(ev.points_mcs, *part.bore);
-    s.kind = calib::PartSurface::Kind::kCylinder;
-    s.point_mcs = b.top_centre_mcs, s.direction_mcs = b.axis_mcs, s.radius_mm = b.diameter_mm / 2;
-    *fields = {{"feature", "bore"},
-               {"centre_mm", JsonVec(b.top_centre_mcs)},
-               {"axis", JsonVec(b.axis_mcs)},
-               {"diameter_mm", b.diameter_mm},
-               {"points", b.points}};
-  } else {
-    const features::PlaneMeasurement f = features::MeasurePlane(ev.points_mcs, *part.face);
-    s.kind = calib::PartSurface::Kind::kPlane;
-    s.point_mcs = f.plane.point, s.direction_mcs = f.plane.normal;
-    *fields = {{"feature", "face"},
-               {"point_mm", JsonVec(f.plane.point)},
-               {"normal", JsonVec(f.plane.normal)},
-               {"points", f.points}};
-  }
-  return s;
-}
-
-// The recheck itself: on the sphere, or on the part's reference surface.
-calib::RecheckResult RecheckOn(JobContext& ctx,
-                               const json& r,
-                               const RecheckRequest& request,
-                               const calib::CalibrationRecord& original,
-                               const std::vector<calib::RecheckCapture>& captures,
-                               JobRun* run) {
-  calib::RecheckOptions o;
-  o.original_flange_from_probe = original.flange_from_probe;
-  if (request.part) {
-    json reference;
-    const calib::PartSurface surface = ReferenceSurface(
-        ctx, *request.part, r.at("part").at("reference_captures"), original, run->job, &reference);
-    run->reply["artefact"] = "part";
-    run->reply["reference"] = reference;
-    o.original_centre_mcs = original.sphere_centre_mcs;  // kept: the sphere was not measured
-    return calib::RecheckOnPart(captures, surface, o);
-  }
-  o.sphere_radius_mm = request.sphere_radius_mm;
-  o.sphere_moved = request.sphere_moved;
-  o.original_centre_mcs = request.sphere_centre_mcs.value_or(original.sphere_centre_mcs);
-  run->reply["artefact"] = "sphere";
-  run->reply["sphere_centre_from"] =
-      request.sphere_centre_mcs ? "the request (another probe)" : "the full calibration";
-  return calib::Recheck(captures, o);
-}
-
 // The pipeline: request -> the original calibration -> evidence -> recheck -> record, or a
 // refusal that asks for a full calibration.
 json RunRecheckJob(JobContext& ctx, const json& r) {
   JobRun run(ctx, "recheck", r);
   try {
-    const RecheckRequest request = ParseRecheckRequest(r);
+    jobs::RecheckInputs in = ParseRecheckRequest(r);
     const calib::CalibrationStore store(ctx.config.CalibrationDir());
     const calib::CalibrationRecord original = RecheckOriginal(ctx, store);
-    std::vector<calib::RecheckCapture> captures;
     for (auto& s : LoadStoredCaptures(ctx, r.at("captures"), run.job))
-      captures.push_back({s.id, s.mcs_from_flange, std::move(s.points_in_probe)});
-    const calib::RecheckResult c = RecheckOn(ctx, r, request, original, captures, &run);
+      in.captures.push_back({s.id, s.mcs_from_flange, std::move(s.points_in_probe)});
+    if (in.part)
+      in.part->reference = LoadCaptures(ctx, r.at("part").at("reference_captures"),
+                                        original.flange_from_probe, run.job);
+    const jobs::RecheckOutcome o = jobs::AssessRecheck(in, original);
+    const calib::RecheckResult& c = o.result;
+    run.reply["artefact"] = o.artefact;
+    if (in.part)
+      run.reply["reference"] = ReadingsJson(o.reference);
+    else
+      run.reply["sphere_centre_from"] = o.sphere_centre_from;
     run.reply["parent_id"] = original.calibration_id;
     run.reply.update(json(calib::RecheckResultJson(c)));
     ctx.history.AddResult(run.job, {"recheck", run.reply, json::object()});
@@ -210,7 +147,7 @@ json RunRecheckJob(JobContext& ctx, const json& r) {
       run.reply["error"] = "full calibration required: " + c.reason;
       return run.Finish(history::JobStatus::kRefused, false);
     }
-    run.reply["calibration_id"] = store.Save(calib::MakeRecord(original, c, captures));
+    run.reply["calibration_id"] = store.Save(calib::MakeRecord(original, c, in.captures));
     return run.Finish(history::JobStatus::kDone, true);
   } catch (const std::exception& e) {
     return run.Fail(e);

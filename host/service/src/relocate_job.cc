@@ -1,22 +1,15 @@
-// `{"op": "relocate", ...}`: an EDM electrode put back after re-clamping, found again from its
-// surface texture in reflected light against the texture recorded before it was taken out
-// (seed 000 example 6, toolcam/relocate.h), and its offsets written to LinuxCNC's tool table
-// through the machine's one adapter: X, Y across the spindle, Z (its length) and C (its turn),
-// so that G43 puts its end and its section where they were. Its tilt no four-axis machine can
-// correct: over the limit, refused (clamp it again), nothing written; nor its turn on a machine
-// without a C axis (the controller's `axes`), whose C offset is then not written.
-//
-// The chuck frame's x and y at C = 0 are the machine's X and Y (the reflected-light camera looks
-// along the machine's +X at C = 0: its installation). LinuxCNC's tool offsets are the spindle
-// less the tool's controlled point (its Z the length), so an electrode whose end moved by
-// (dx, dy, dz) and turned by dc gets X - dx, Y - dy, Z - dz, C - dc.
+// `{"op": "relocate", ...}`: an EDM electrode put back after re-clamping (mlp::jobs
+// relocate.h decides), its offsets written to LinuxCNC's tool table through the machine's one
+// adapter. This file reads the request and the texture folders, records and writes.
 
 #include "mlp/base/json_fields.h"
+#include "mlp/jobs/relocate.h"
 #include "mlp/nc/tool_table_update.h"
 #include "mlp/service/adapters.h"
 #include "mlp/toolcam/relocate.h"
 #include "mlp/toolcam/tool_images_io.h"
 
+#include <cctype>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -29,7 +22,7 @@ namespace {
 namespace jf = base::json_fields;
 using json = nlohmann::json;
 
-constexpr double kDefaultMaxTiltDeg = 0.01;  // 1.7 um over a 10 mm electrode's height
+using jobs::kDefaultMaxTiltDeg;
 
 struct RelocateRequest {
   std::string reference, images, tool_file;
@@ -56,92 +49,50 @@ RelocateRequest ParseRelocateRequest(const json& r) {
 }
 
 // A texture series named in the request: its images and the C axis' turns (positions of 360).
-struct Texture {
+jobs::TextureFrames ReadTexture(const JobContext& ctx,
+                                const std::string& folder,
+                                const std::string& field) {
   toolcam::ToolImageSeries images;
-  std::vector<double> turn_deg;
-};
-
-Texture ReadTexture(const JobContext& ctx, const std::string& folder, const std::string& field) {
-  Texture t;
   try {
-    t.images = toolcam::ReadToolImageSeries(DataFolder(ctx.config.data_dir, folder, field));
+    images = toolcam::ReadToolImageSeries(DataFolder(ctx.config.data_dir, folder, field));
   } catch (const toolcam::ToolInputError& e) {
     throw JobInputError(field + ": " + e.what());
   }
-  if (!t.images.calibrated)
-    throw JobInputError(field + ": images.json holds no camera calibration");
-  for (int p : t.images.position) t.turn_deg.push_back(360.0 * p / t.images.positions);
+  if (!images.calibrated) throw JobInputError(field + ": images.json holds no camera calibration");
+  jobs::TextureFrames t;
+  for (int p : images.position) t.turn_deg.push_back(360.0 * p / images.positions);
+  t.pixels = std::move(images.pixels);
+  t.camera = images.camera;
   return t;
 }
 
-// The tool table's four values for tool `number`, before (the table's) and after.
-nc::NcResult OffsetsResult(const MachineConfig& m,
-                           std::int64_t job,
-                           int number,
-                           const toolcam::ToolDescription& e,
-                           const toolcam::Relocation& r,
-                           json* reply) {
-  nc::NcResult out;
-  out.header = "mlprobe job " + std::to_string(job) + ": electrode " + e.id + " re-located";
-  const geometry::Vec3& t = r.change.translation_mm;
-  json update = {{"tool", number}};
-  for (const auto& [reg, change, name] :
-       {std::tuple{nc::ToolRegister::kLengthGeometry, -t.z(), "length"},
-        std::tuple{nc::ToolRegister::kOffsetX, -t.x(), "x"},
-        std::tuple{nc::ToolRegister::kOffsetY, -t.y(), "y"},
-        std::tuple{nc::ToolRegister::kOffsetC, -r.rotation_deg[2], "c"}}) {
-    const char word = nc::OffsetWord(reg);
-    if (word != 0 && m.controller.axes.find(word) == std::string::npos) continue;  // no such axis
-    std::string note;
-    out.tools.push_back(ResolveToolChange(m.controller, number, reg, change, &note));
-    const std::string unit = reg == nc::ToolRegister::kOffsetC ? "_deg" : "_mm";
-    update[std::string(name) + "_before" + unit] = out.tools.back().before_mm;
-    update[std::string(name) + "_after" + unit] = out.tools.back().after_mm;
-  }
-  out.named = {{"status", 0.0}, {"tilt_deg", r.tilt_deg}};
-  (*reply)["update"] = update;
-  return out;
+jobs::RelocateMachine MachineOf(const MachineConfig& m) {
+  return {m.controller.axes, m.controller.kind == ControllerConfig::Kind::kLinuxCnc,
+          m.limits.max_offset_change_mm, nc::ToolChangeLimits{}.max_rotation_change_deg};
 }
 
-// What must stop the write: a control without the table's X, Y, C; the tilt over the limit;
-// a change beyond the machine's limits (a wrong electrode or tool number).
-std::vector<std::string> Problems(const RelocateRequest& q,
-                                  const toolcam::Relocation& r,
-                                  const nc::NcResult& out,
-                                  const MachineConfig& m) {
-  std::vector<std::string> problems;
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(4);
-  if (m.controller.kind != ControllerConfig::Kind::kLinuxCnc)
-    problems.push_back(
-        "a re-located electrode's X, Y and C offsets go to LinuxCNC's tool table only");
-  if (r.tilt_deg > q.max_tilt_deg) {
-    s << "the electrode is tilted " << r.tilt_deg << " deg, beyond " << q.max_tilt_deg
-      << " deg, which no offset corrects: clamp it again";
-    problems.push_back(s.str());
+// The changes as the controller takes them (ResolveToolChange reads LinuxCNC's table), each
+// said in the reply before and after.
+std::vector<nc::ToolOffsetChange> Resolved(const MachineConfig& m,
+                                           int number,
+                                           const std::vector<jobs::OffsetChangeAsked>& asked,
+                                           json* reply) {
+  std::vector<nc::ToolOffsetChange> out;
+  json update = {{"tool", number}};
+  for (const jobs::OffsetChangeAsked& a : asked) {
+    std::string note;
+    out.push_back(ResolveToolChange(m.controller, number, a.reg, a.change, &note));
+    // "length_before_mm", "x_after_mm", "c_before_deg", ...
+    const std::string name =
+        a.reg == nc::ToolRegister::kLengthGeometry
+            ? "length"
+            : std::string(1, static_cast<char>(std::tolower(nc::OffsetWord(a.reg))));
+    const char* unit = a.reg == nc::ToolRegister::kOffsetC ? "_deg" : "_mm";
+    update[(name + "_before").append(unit)] = out.back().before_mm;
+    update[(name + "_after").append(unit)] = out.back().after_mm;
   }
-  // Without a C axis its turn is not corrected either: the same limit.
-  if (m.controller.axes.find('C') == std::string::npos &&
-      std::abs(r.rotation_deg[2]) > q.max_tilt_deg) {
-    std::ostringstream p;
-    p << std::fixed << std::setprecision(4) << "the electrode is turned " << r.rotation_deg[2]
-      << " deg and the machine has no C axis (controller.axes " << m.controller.axes << "), beyond "
-      << q.max_tilt_deg << " deg: clamp it again";
-    problems.push_back(p.str());
-  }
-  for (const nc::ToolOffsetChange& c : out.tools) {
-    const bool turn = c.reg == nc::ToolRegister::kOffsetC;
-    const double limit =
-        turn ? nc::ToolChangeLimits{}.max_rotation_change_deg : m.limits.max_offset_change_mm;
-    if (!(std::abs(c.after_mm - c.before_mm) <= limit)) {
-      std::ostringstream p;
-      p << std::fixed << std::setprecision(4) << "the " << nc::ToString(c.reg)
-        << " would change by " << c.after_mm - c.before_mm << (turn ? " deg" : " mm") << ", beyond "
-        << limit << ": a wrong electrode or tool number?";
-      problems.push_back(p.str());
-    }
-  }
-  return problems;
+  (*reply)["update"] = update;
+  return out;
 }
 
 json RelocationJson(const toolcam::Relocation& r) {
@@ -156,34 +107,35 @@ json RelocationJson(const toolcam::Relocation& r) {
 
 }  // namespace
 
+// The pipeline: request -> textures -> relocation (mlp::jobs) -> record -> changes and refusal
+// -> write -> record.
 json RunRelocateJob(JobContext& ctx, const json& request) {
   JobRun run(ctx, "relocate", request);
   json& reply = run.reply;
   try {
     const RelocateRequest q = ParseRelocateRequest(request);
-    const toolcam::ToolDescription e = ReadToolDescription(ctx, q.tool_file, "request.tool");
-    if (!e.electrode) throw JobInputError("request.tool: " + e.id + " is not an electrode");
-    const Texture ref = ReadTexture(ctx, q.reference, "request.reference");
-    const Texture now = ReadTexture(ctx, q.images, "request.images");
-    const toolcam::Relocation r = [&] {
-      try {
-        return toolcam::Relocate({ref.images.pixels, ref.turn_deg, ref.images.camera},
-                                 {now.images.pixels, now.turn_deg, now.images.camera}, e);
-      } catch (const toolcam::ToolInputError& x) {
-        throw JobInputError(std::string("request.images: ") + x.what());
-      }
-    }();
-    reply["tool"] = e.id;
+    jobs::RelocateInputs in;
+    in.electrode = ReadToolDescription(ctx, q.tool_file, "request.tool");
+    jobs::CheckElectrode(in.electrode);
+    in.tool_number = q.tool_number;
+    in.max_tilt_deg = q.max_tilt_deg;
+    in.reference = ReadTexture(ctx, q.reference, "request.reference");
+    in.now = ReadTexture(ctx, q.images, "request.images");
+    const toolcam::Relocation r = jobs::AssessRelocate(in);
+    reply["tool"] = in.electrode.id;
     reply["relocation"] = RelocationJson(r);
-    ctx.history.AddResult(run.job, {"relocate " + e.id,
+    ctx.history.AddResult(run.job, {"relocate " + in.electrode.id,
                                     reply,
                                     {{"shift_x_mm", r.change.translation_mm.x()},
                                      {"shift_y_mm", r.change.translation_mm.y()},
                                      {"shift_z_mm", r.change.translation_mm.z()},
                                      {"turn_c_deg", r.rotation_deg[2]},
                                      {"tilt_deg", r.tilt_deg}}});
-    const nc::NcResult out = OffsetsResult(ctx.machine, run.job, q.tool_number, e, r, &reply);
-    const auto problems = Problems(q, r, out, ctx.machine);
+    const jobs::RelocateMachine machine = MachineOf(ctx.machine);
+    const nc::NcResult out = jobs::RelocateChanges(
+        in, r, run.job,
+        Resolved(ctx.machine, q.tool_number, jobs::RelocateChangesAsked(r, machine), &reply));
+    const auto problems = jobs::RelocateRefusal(in, r, out, machine);
     if (!problems.empty()) return run.Refuse(problems);
     return run.WriteAndFinish(out);
   } catch (const std::exception& x) {  // bad input named, or the texture not matching
