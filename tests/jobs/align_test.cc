@@ -129,7 +129,8 @@ TEST(AlignJob, AnOriginFarFromTheExpectedOneIsRefusedAndNothingIsWritten) {
 
 TEST(AlignJob, ABoreWithoutItsPointsIsATypedErrorNotAnOrigin) {
   AlignInputs in = PlaneCircleCircle();
-  in.circle_c->evidence.points_mcs = in.circle_c->evidence.points_mcs.leftCols(3);
+  // A copy first: a block of the matrix assigned to itself would be read after its free.
+  in.circle_c->evidence.points_mcs = in.circle_c->evidence.points_mcs.leftCols(3).eval();
   EXPECT_THROW(AssessAlign(in, kCalibration, features::PlausibilityLimits{}),
                features::FeatureError);
 }
