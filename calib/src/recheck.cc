@@ -152,6 +152,16 @@ struct State {
 
 void CheckCaptureCount(int n, const RecheckOptions& o) {
   if (n == 0) Bad("no capture of the sphere");
+  // Two orientations: six equations for the mount's turn and shift, which they cannot tell
+  // apart; the truncated solve read an 80 um shift as a 61 arcsec turn and kept the shift's X
+  // and Y from the original, 34 um off in every one of 30 seeded draws (one orientation: 0.14
+  // um, three: 2.8 um median). Refused rather than stored.
+  if (n == 2)
+    throw HandEyeError(Kind::kUnderDetermined,
+                       "two orientations cannot tell a shift of the mount from a turn of it (a "
+                       "shift would be stored as a turn)",
+                       {"measure the sphere at one orientation for the offset alone, or at three "
+                        "or more (M19 0, 120, 240 degrees) for offset and turn"});
   if (o.sphere_moved && n < 3) {
     throw HandEyeError(Kind::kUnderDetermined,
                        "with the sphere re-mounted, its position and the probe's change can be "

@@ -66,7 +66,8 @@ struct RecheckResult {
   std::string reason;  ///< why a full calibration is required (empty otherwise)
 };
 
-/// Throws HandEyeError (kBadInput) for unusable input and (kUnderDetermined) when the sphere is
+/// Throws HandEyeError (kBadInput) for unusable input and (kUnderDetermined) for exactly two
+/// orientations (a shift and a turn of the mount they cannot tell apart) or when the sphere is
 /// declared moved and fewer than 3 orientations were measured.
 RecheckResult Recheck(const std::vector<RecheckCapture>& captures, const RecheckOptions& options);
 
