@@ -7,9 +7,8 @@
 
 #include "mlp/base/check.h"
 #include "mlp/features/feature.h"
+#include "mlp/host/cloud_io.h"
 
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "test_data.h"
@@ -20,20 +19,9 @@ namespace {
 
 using geometry::Vec3;
 
-// The sample clouds are text: x y z in mm a line, '#' comments.
+// The sample clouds (text, x y z in mm a line), read by the host's own reader.
 geometry::Points3 ReadXyz(const std::string& name) {
-  std::ifstream in(std::filesystem::path(test::SourceDir()) / "samples" / "clouds" / name);
-  EXPECT_TRUE(in.good()) << name;
-  std::vector<Vec3> points;
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream fields(line);
-    double x = 0, y = 0, z = 0;
-    if (fields >> x >> y >> z) points.emplace_back(x, y, z);
-  }
-  geometry::Points3 out(3, static_cast<Eigen::Index>(points.size()));
-  for (size_t i = 0; i < points.size(); ++i) out.col(static_cast<Eigen::Index>(i)) = points[i];
-  return out;
+  return host::ReadCloud(test::SourceDir() + "/samples/clouds/" + name).points;
 }
 
 Evidence EvidenceOf(geometry::Points3 points_mcs) {
