@@ -55,6 +55,19 @@ TEST(History, AJobsWholeRecordSurvivesReopening) {
   EXPECT_EQ(j.at("timings_ms").at("host"), 12.5);
   EXPECT_FALSE(j.at("finished_utc").get<std::string>().empty());
   EXPECT_THROW(h.ExportJob(id + 1), HistoryError);
+  // The typed read a job uses: the same row and captures as the export.
+  const JobCaptures typed = h.CapturesOf(id);
+  EXPECT_EQ(typed.job.id, id);
+  EXPECT_EQ(typed.job.kind, "measure");
+  EXPECT_EQ(typed.job.machine, "vmc-1");
+  EXPECT_EQ(typed.job.status, JobStatus::kOutOfTolerance);
+  ASSERT_EQ(typed.captures.size(), 1u);
+  EXPECT_EQ(typed.captures[0].capture_id, "c1");
+  EXPECT_EQ(typed.captures[0].pose, j.at("captures").at(0).at("pose"));
+  EXPECT_EQ(typed.captures[0].cloud_path, "/data/c1.ply");
+  EXPECT_EQ(typed.captures[0].cloud_sha256, "ab12");
+  EXPECT_EQ(typed.captures[0].points, 50000);
+  EXPECT_THROW(h.CapturesOf(id + 1), HistoryError);
 }
 
 TEST(History, ClosedJobsTakeNoMoreRows) {

@@ -600,7 +600,32 @@ JobSummary SummaryOf(SQLite::Statement& q) {
   return s;
 }
 
+std::vector<CaptureRow> CaptureRowsOf(SQLite::Database& db, std::int64_t job) {
+  std::vector<CaptureRow> out;
+  SQLite::Statement c(db,
+                      "SELECT capture_id, pose, cloud_path, cloud_sha256, points FROM captures "
+                      "WHERE job_id = ? ORDER BY id");
+  c.bind(1, job);
+  while (c.executeStep())
+    out.push_back({c.getColumn(0).getString(), ParseStored(c.getColumn(1).getString()),
+                   c.getColumn(2).getString(), c.getColumn(3).getString(),
+                   c.getColumn(4).getInt64()});
+  return out;
+}
+
 }  // namespace
+
+JobCaptures History::CapturesOf(std::int64_t job) const {
+  const std::lock_guard lock(impl_->m);
+  try {
+    SQLite::Statement q(impl_->db, std::string(kSummaryColumns) + "WHERE id = ?");
+    q.bind(1, job);
+    if (!q.executeStep()) Fail("history: no job " + std::to_string(job));
+    return {SummaryOf(q), CaptureRowsOf(impl_->db, job)};
+  } catch (const SQLite::Exception& e) {
+    Fail("history " + impl_->path + ": " + e.what());
+  }
+}
 
 std::vector<JobSummary> History::ListJobs(const JobFilter& f) const {
   const std::lock_guard lock(impl_->m);
@@ -690,16 +715,12 @@ json History::ExportJob(std::int64_t job, const std::string& /*host*/) const {
               {"started_utc", q.getColumn(8).getString()},
               {"finished_utc", q.getColumn(9).getString()}};
     j["captures"] = json::array();
-    SQLite::Statement c(impl_->db,
-                        "SELECT capture_id, pose, cloud_path, cloud_sha256, points FROM captures "
-                        "WHERE job_id = ? ORDER BY id");
-    c.bind(1, job);
-    while (c.executeStep())
-      j["captures"].push_back({{"capture_id", c.getColumn(0).getString()},
-                               {"pose", ParseStored(c.getColumn(1).getString())},
-                               {"cloud_path", c.getColumn(2).getString()},
-                               {"cloud_sha256", c.getColumn(3).getString()},
-                               {"points", c.getColumn(4).getInt64()}});
+    for (const CaptureRow& c : CaptureRowsOf(impl_->db, job))
+      j["captures"].push_back({{"capture_id", c.capture_id},
+                               {"pose", c.pose},
+                               {"cloud_path", c.cloud_path},
+                               {"cloud_sha256", c.cloud_sha256},
+                               {"points", c.points}});
     j["results"] = json::array();
     SQLite::Statement r(impl_->db,
                         "SELECT feature, fit, decision FROM results WHERE job_id = ? ORDER BY id");

@@ -277,7 +277,7 @@ std::int64_t CaptureJobId(JobContext& ctx, const json& c) {
 // The capture rows a job will read, checked before any cloud is: each a finished capture on
 // this machine, none named twice (a 7 KB request naming one capture 1,500 times made the host
 // read it 1,500 times and peak at 7.7 GB, issue 48), their points within the job's budget.
-std::vector<json> CaptureRows(JobContext& ctx, const json& capture_jobs) {
+std::vector<history::CaptureRow> CaptureRows(JobContext& ctx, const json& capture_jobs) {
   if (!capture_jobs.is_array() || capture_jobs.empty())
     throw JobInputError("captures must list the capture jobs to use");
   if (capture_jobs.size() > kMaxCapturesPerJob)
@@ -285,19 +285,19 @@ std::vector<json> CaptureRows(JobContext& ctx, const json& capture_jobs) {
                         " captures; a job takes at most " + std::to_string(kMaxCapturesPerJob));
   std::set<std::int64_t> seen;
   std::int64_t points = 0;
-  std::vector<json> rows;
+  std::vector<history::CaptureRow> rows;
   for (const auto& c : capture_jobs) {
     const std::int64_t id = CaptureJobId(ctx, c);
     if (!seen.insert(id).second)
       throw JobInputError("captures names capture job " + std::to_string(id) +
                           " twice: each capture counts once");
-    const json stored = ctx.history.ExportJob(id);
-    if (stored.at("kind") != "capture" || stored.at("status") != "done" ||
-        stored.at("machine") != ctx.machine.name || stored.at("captures").empty())
+    history::JobCaptures stored = ctx.history.CapturesOf(id);
+    if (stored.job.kind != "capture" || stored.job.status != history::JobStatus::kDone ||
+        stored.job.machine != ctx.machine.name || stored.captures.empty())
       throw JobInputError("job " + std::to_string(id) + " is not a finished capture on " +
                           ctx.machine.name);
-    rows.push_back(stored.at("captures").at(0));
-    points += rows.back().at("points").get<std::int64_t>();
+    rows.push_back(std::move(stored.captures.front()));
+    points += rows.back().points;
     if (points > kMaxJobPoints)
       throw JobInputError("the captures hold over " + std::to_string(kMaxJobPoints) +
                           " points together; a job takes at most that many");
@@ -309,21 +309,20 @@ std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
                                               const json& capture_jobs,
                                               std::int64_t job) {
   std::vector<StoredCapture> out;
-  for (const json& row : CaptureRows(ctx, capture_jobs)) {
-    const std::string path = row.at("cloud_path");
-    if (history::Sha256OfFile(path) != row.at("cloud_sha256"))
-      throw JobInputError("the cloud " + path + " changed since it was captured (SHA-256)");
-    const probe_fw::CloudFile f = probe_fw::ReadCloudPly(path);
-    if (!f.meta.mcs_from_flange) throw JobInputError(path + " holds no flange pose");
+  for (const history::CaptureRow& row : CaptureRows(ctx, capture_jobs)) {
+    if (history::Sha256OfFile(row.cloud_path) != row.cloud_sha256)
+      throw JobInputError("the cloud " + row.cloud_path +
+                          " changed since it was captured (SHA-256)");
+    const probe_fw::CloudFile f = probe_fw::ReadCloudPly(row.cloud_path);
+    if (!f.meta.mcs_from_flange) throw JobInputError(row.cloud_path + " holds no flange pose");
     StoredCapture s;
-    s.id = row.at("capture_id");
+    s.id = row.capture_id;
     s.probe_serial = f.meta.probe_serial;
     s.mcs_from_flange = *f.meta.mcs_from_flange;
     s.edge = f.meta.edge;
     s.points_in_probe = Eigen::Map<const Eigen::Matrix3Xd>(
         f.xyz.data(), 3, static_cast<Eigen::Index>(f.quality.size()));
-    ctx.history.AddCapture(job, {row.at("capture_id"), row.at("pose"), path, row.at("cloud_sha256"),
-                                 row.at("points")});
+    ctx.history.AddCapture(job, row);  // the job names the capture it read
     out.push_back(std::move(s));
   }
   return out;

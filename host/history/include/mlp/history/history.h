@@ -84,10 +84,19 @@ struct JobSummary {
   JobStatus status = JobStatus::kRunning;
 };
 
+/// A job's row and the captures it recorded, typed: what a job reads back of a capture job it
+/// names (its kind, status and machine decide whether it may use it).
+struct JobCaptures {
+  JobSummary job;
+  std::vector<CaptureRow> captures;
+};
+
 /// One measured feature as the SPC view reads it: its job, where and when, the reply (the fit's
 /// size and error) and the request (the tolerance).
-struct FeatureResult {
-  std::string host;  ///< as JobSummary::host
+// Its implicit move is noexcept; bugprone-exception-escape follows nlohmann::json's move into
+// assert_invariant, which asserts and never throws.
+struct FeatureResult {  // NOLINT(bugprone-exception-escape)
+  std::string host;     ///< as JobSummary::host
   std::int64_t job = 0;
   std::string machine, started_utc;
   JobStatus status = JobStatus::kRunning;
@@ -183,6 +192,9 @@ class History : public JobRecords {
   /// stand in).
   std::optional<JobSummary> LatestCapture(const std::string& machine,
                                           const std::string& capture_id) const;
+  /// The job's row and its captures in the order recorded; throws HistoryError for an unknown
+  /// id. The typed read a job uses (the JSON export is for people and the plant).
+  JobCaptures CapturesOf(std::int64_t job) const;
   /// `host` is ignored: a host's history is its own.
   nlohmann::json ExportJob(std::int64_t job, const std::string& host = "") const override;
 
