@@ -5,8 +5,10 @@
 # commands clang cannot parse the link's coroutines (Boost.Asio decides per compiler whether
 # co_await exists), and a file it cannot parse is a file it did not check. Parse errors count as
 # findings for that reason.
-# Slow (it parses every translation unit, about as long as a build): run by hand before a
-# large change, not in every CI run.
+# Slow the first time (it parses every translation unit, about as long as a build); after that
+# only files whose preprocessed text changed are tidied again (scripts/tidy_run.py keeps each
+# clean file's verdict, keyed as ccache keys an object), so CI runs it on every library and
+# program (scripts/test.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cmake -S . -B build-tidy -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_C_COMPILER=clang \
@@ -16,10 +18,4 @@ if [ $# -gt 0 ]; then
 else
   mapfile -t files < <(git ls-files 'geometry/*.cc' 'calib/*.cc' 'probe_fw/*.cc' 'host/*.cc')
 fi
-log=$(mktemp)
-printf '%s\n' "${files[@]}" | xargs -P "${MLP_JOBS:-2}" -n 4 clang-tidy -p build-tidy --quiet \
-  2>/dev/null >"$log" || true
-count=$(grep -cE ': (warning|error):' "$log" || true)
-grep -E ': (warning|error):' "$log" | sed 's/.*\[\(.*\)\]$/\1/' | sort | uniq -c | sort -rn || true
-echo "tidy: ${count} findings in ${#files[@]} files (full report: $log)"
-[ "$count" -eq 0 ]
+python3 scripts/tidy_run.py build-tidy "${files[@]}"

@@ -182,6 +182,29 @@ double SignedSpatialDistance(const Circle3& c, const Vec3& p) {
   return std::copysign(std::hypot(h, rho_minus_r), rho_minus_r);
 }
 
+// Backtracking line search on f along Newton's tilt `step`, taken whole near the optimum; true
+// when the iteration is done. Only a strict decrease moves; a decrease within rounding of f
+// ends the iteration: on a short arc of a large circle (10 deg of R 250 mm) the tilt along the
+// chord is weakly determined and Newton's steps there wandered at the level of f's rounding,
+// taking equal values as progress until the iteration limit (issue 49: "no stationary point in
+// 205 iterations"). No decrease along a descent direction: f is at rounding, done too.
+bool LineSearch(const Points3& points,
+                const Vec3& origin,
+                const Eigen::Vector2d& step,
+                ProjectedCircle* current) {
+  for (double t = 1.0; t > 1e-6; t *= 0.5) {
+    const ProjectedCircle trial =
+        BestCircleFor(points, origin, Tilted(current->state.normal, t * step));
+    if (trial.ok && trial.ss < current->ss) {
+      const bool done = (t == 1.0 && step.norm() <= kFinishedStep) ||
+                        current->ss - trial.ss <= kRoundingOfSs * current->ss;
+      *current = trial;
+      return done;
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
 FitResult<Circle3> RefineCircle3InSpace(const Points3& points,
@@ -200,24 +223,7 @@ FitResult<Circle3> RefineCircle3InSpace(const Points3& points,
       converged = true;
       break;
     }
-    // Backtracking line search on f: Newton's step is taken whole near the optimum. Only a
-    // strict decrease moves; a decrease within rounding of f ends the iteration: on a short
-    // arc of a large circle (10 deg of R 250 mm) the tilt along the chord is weakly determined
-    // and Newton's steps there wandered at the level of f's rounding, taking equal values as
-    // progress until the iteration limit (issue 49: "no stationary point in 205 iterations").
-    bool moved = false;
-    for (double t = 1.0; t > 1e-6; t *= 0.5) {
-      const ProjectedCircle trial =
-          BestCircleFor(points, origin, Tilted(current.state.normal, t * step));
-      if (trial.ok && trial.ss < current.ss) {
-        moved = true;
-        converged = (t == 1.0 && step.norm() <= kFinishedStep) ||
-                    current.ss - trial.ss <= kRoundingOfSs * current.ss;
-        current = trial;
-        break;
-      }
-    }
-    if (!moved) converged = true;  // no decrease along a descent direction: f is at rounding
+    converged = LineSearch(points, origin, step, &current);
   }
   const CircleState& state = current.state;
   const int total_iterations = in_plane.stats.iterations + iterations;

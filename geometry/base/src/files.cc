@@ -80,7 +80,7 @@ std::string ReadFile(const std::string& path, std::size_t max_bytes) {
   }
   // In chunks, never more than one past the limit: the size a file claims (a FIFO has none, a
   // sparse file a false one) is not trusted.
-  constexpr std::size_t kChunk = 64 * 1024;
+  constexpr std::size_t kChunk = std::size_t{64} * 1024;
   std::string bytes;
   char chunk[kChunk];
   while (in && bytes.size() <= max_bytes) {
@@ -146,11 +146,11 @@ FileLock::FileLock(const std::string& path, int wait_ms) {
   if (fd_ < 0) throw FileError("cannot open the lock file " + path + ": " + Why());
   for (int waited_ms = 0; ::flock(fd_, LOCK_EX | LOCK_NB) != 0; waited_ms += 5) {
     if (errno != EWOULDBLOCK || waited_ms >= wait_ms) {
-      const std::string why = errno == EWOULDBLOCK ? "held by another writer for over " +
-                                                         std::to_string(wait_ms) + " ms"
-                                                   : Why();
+      const bool held = errno == EWOULDBLOCK;
+      std::string why = held ? std::string("held by another writer for over ") : Why();
+      if (held) why.append(std::to_string(wait_ms)).append(" ms");
       ::close(fd_);
-      throw FileError("cannot lock " + path + ": " + why);
+      throw FileError(std::string("cannot lock ").append(path).append(": ").append(why));
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }

@@ -216,12 +216,11 @@ double PlaneTiltU(const PlaneMeasurement& face, const Vec3& toward) {
   return std::sqrt(std::max(0.0, t.dot(c.matrix.bottomRightCorner<2, 2>() * t)));
 }
 
-BoreMeasurement MeasureBore(const geometry::Points3& points, const BoreNominal& n) {
-  if (!(n.diameter_mm > 0) || !(n.depth_mm > 2 * n.edge_margin_mm) || !(n.band_mm > 0) ||
-      !(n.axis_mcs.norm() > 0.5))
-    throw FeatureError(std::string(n.boss ? "boss" : "bore") +
-                       ": the nominal needs a diameter > 0, a depth beyond the margins and an "
-                       "axis");
+namespace {
+
+// The points within the band about the nominal wall, clear of its ends by the margin; at
+// least kMinWallPoints of them, else FeatureError.
+geometry::Points3 NominalWall(const geometry::Points3& points, const BoreNominal& n) {
   const Vec3 axis = n.axis_mcs.normalized();
   const double r = n.diameter_mm / 2;
   std::vector<Eigen::Index> wall;
@@ -240,6 +239,20 @@ BoreMeasurement MeasureBore(const geometry::Points3& points, const BoreNominal& 
   geometry::Points3 pts(3, static_cast<Eigen::Index>(wall.size()));
   for (size_t k = 0; k < wall.size(); ++k)
     pts.col(static_cast<Eigen::Index>(k)) = points.col(wall[k]);
+  return pts;
+}
+
+}  // namespace
+
+BoreMeasurement MeasureBore(const geometry::Points3& points, const BoreNominal& n) {
+  if (!(n.diameter_mm > 0) || !(n.depth_mm > 2 * n.edge_margin_mm) || !(n.band_mm > 0) ||
+      !(n.axis_mcs.norm() > 0.5))
+    throw FeatureError(std::string(n.boss ? "boss" : "bore") +
+                       ": the nominal needs a diameter > 0, a depth beyond the margins and an "
+                       "axis");
+  const Vec3 axis = n.axis_mcs.normalized();
+  const double r = n.diameter_mm / 2;
+  const geometry::Points3 pts = NominalWall(points, n);
   geometry::Cylinder start;
   start.point = n.top_centre_mcs;
   start.axis = axis;
@@ -256,7 +269,7 @@ BoreMeasurement MeasureBore(const geometry::Points3& points, const BoreNominal& 
   m.diameter_u_mm = 2 * fit.covariance.StdDev("radius");
   m.rms_mm = fit.stats.rms;
   m.max_abs_mm = std::max(-fit.stats.min_residual, fit.stats.max_residual);
-  m.points = static_cast<int>(wall.size());
+  m.points = static_cast<int>(pts.cols());
   m.converged = fit.stats.converged;
   const Polar polar = PolarOf(pts, m.top_centre_mcs, m.axis_mcs);
   m.arc_span_deg = ArcSpanDeg(polar);

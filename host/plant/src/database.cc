@@ -237,7 +237,7 @@ struct PlantDatabase::Impl {
   }
 };
 
-PlantDatabase::PlantDatabase(std::string connection) : impl_(std::make_unique<Impl>()) {
+PlantDatabase::PlantDatabase(const std::string& connection) : impl_(std::make_unique<Impl>()) {
   impl_->secrets = Secrets(connection);
   impl_->connection = WithLimits(connection);  // the limits add no secret
 }

@@ -190,6 +190,54 @@ MqttConfig ParseMqtt(const Reader& r, const json& j) {
   return c;
 }
 
+std::vector<ProbeEntry> ParseProbes(const Reader& r, const json& j) {
+  if (!j.contains("probes") || !j.at("probes").is_array() || j.at("probes").empty())
+    r.Fail("probes", "must list at least one probe");
+  std::vector<ProbeEntry> probes;
+  std::set<std::string> serials;
+  for (size_t i = 0; i < j.at("probes").size(); ++i) {
+    const std::string w = "probes[" + std::to_string(i) + "]";
+    const json& p = j.at("probes")[i];
+    if (!p.is_object()) r.Fail(w, "must be an object");
+    r.OnlyKnown(p, {"serial", "key_file", "model_file", "comment"}, w);
+    ProbeEntry e{jf::Text<ConfigError>(p, "serial", r.Where(w)), r.Path(p, "key_file", w), ""};
+    if (p.contains("model_file")) e.model_file = r.Path(p, "model_file", w);
+    if (!serials.insert(e.serial).second) r.Fail(w + ".serial", "is listed twice");
+    probes.push_back(e);
+  }
+  return probes;
+}
+
+// The name is a file name (reports/<machine>-job<N>.svg, <machine>-job<N>.json): a name
+// "../../../escaped" wrote outside the data folder (issue 48).
+bool IsMachineFileName(const std::string& name) {
+  return !name.empty() && name.size() <= 64 && name[0] != '.' &&
+         std::none_of(name.begin(), name.end(), [](char ch) {
+           return ch == '/' || ch == '\\' || std::iscntrl(static_cast<unsigned char>(ch));
+         });
+}
+
+MachineConfig ParseMachine(const Reader& r,
+                           const json& m,
+                           const std::string& w,
+                           const std::set<std::string>& serials) {
+  if (!m.is_object()) r.Fail(w, "must be an object");
+  r.OnlyKnown(m, {"name", "probe", "controller", "limits", "job_timeout_s", "comment"}, w);
+  MachineConfig mc;
+  mc.name = jf::Text<ConfigError>(m, "name", r.Where(w));
+  if (!IsMachineFileName(mc.name))
+    r.Fail(w + ".name",
+           "must be 1 to 64 characters without '/', '\\' or control characters, not starting "
+           "with '.': it names the machine's files");
+  mc.probe_serial = jf::Text<ConfigError>(m, "probe", r.Where(w));
+  if (!serials.count(mc.probe_serial))
+    r.Fail(w + ".probe", "\"" + mc.probe_serial + "\" is not one of the probes");
+  mc.controller = ParseController(r, m, w);
+  mc.limits = ParseLimits(r, m, w);
+  mc.job_timeout_s = r.Seconds(m, "job_timeout_s", mc.job_timeout_s, w);
+  return mc;
+}
+
 }  // namespace
 
 const MachineConfig* HostdConfig::Machine(const std::string& name) const {
@@ -221,47 +269,15 @@ HostdConfig ParseHostdConfig(const std::string& text, const std::string& path) {
   const int port = jf::Integer<ConfigError>(link, "port", r.Where("probe_link"));
   if (port < 1 || port > 65535) r.Fail("probe_link.port", "must be 1..65535");
   c.link_port = static_cast<std::uint16_t>(port);
+  c.probes = ParseProbes(r, j);
   std::set<std::string> serials, names;
-  if (!j.contains("probes") || !j.at("probes").is_array() || j.at("probes").empty())
-    r.Fail("probes", "must list at least one probe");
-  for (size_t i = 0; i < j.at("probes").size(); ++i) {
-    const std::string w = "probes[" + std::to_string(i) + "]";
-    const json& p = j.at("probes")[i];
-    if (!p.is_object()) r.Fail(w, "must be an object");
-    r.OnlyKnown(p, {"serial", "key_file", "model_file", "comment"}, w);
-    ProbeEntry e{jf::Text<ConfigError>(p, "serial", r.Where(w)), r.Path(p, "key_file", w), ""};
-    if (p.contains("model_file")) e.model_file = r.Path(p, "model_file", w);
-    if (!serials.insert(e.serial).second) r.Fail(w + ".serial", "is listed twice");
-    c.probes.push_back(e);
-  }
+  for (const ProbeEntry& p : c.probes) serials.insert(p.serial);
   if (!j.contains("machines") || !j.at("machines").is_array() || j.at("machines").empty())
     r.Fail("machines", "must list at least one machine");
   for (size_t i = 0; i < j.at("machines").size(); ++i) {
     const std::string w = "machines[" + std::to_string(i) + "]";
-    const json& m = j.at("machines")[i];
-    if (!m.is_object()) r.Fail(w, "must be an object");
-    r.OnlyKnown(m, {"name", "probe", "controller", "limits", "job_timeout_s", "comment"}, w);
-    MachineConfig mc;
-    mc.name = jf::Text<ConfigError>(m, "name", r.Where(w));
-    // The name is a file name (reports/<machine>-job<N>.svg, <machine>-job<N>.json): a name
-    // "../../../escaped" wrote outside the data folder (issue 48).
-    const bool file_name =
-        !mc.name.empty() && mc.name.size() <= 64 && mc.name[0] != '.' &&
-        std::none_of(mc.name.begin(), mc.name.end(), [](char ch) {
-          return ch == '/' || ch == '\\' || std::iscntrl(static_cast<unsigned char>(ch));
-        });
-    if (!file_name)
-      r.Fail(w + ".name",
-             "must be 1 to 64 characters without '/', '\\' or control characters, not starting "
-             "with '.': it names the machine's files");
-    if (!names.insert(mc.name).second) r.Fail(w + ".name", "is listed twice");
-    mc.probe_serial = jf::Text<ConfigError>(m, "probe", r.Where(w));
-    if (!serials.count(mc.probe_serial))
-      r.Fail(w + ".probe", "\"" + mc.probe_serial + "\" is not one of the probes");
-    mc.controller = ParseController(r, m, w);
-    mc.limits = ParseLimits(r, m, w);
-    mc.job_timeout_s = r.Seconds(m, "job_timeout_s", mc.job_timeout_s, w);
-    c.machines.push_back(mc);
+    c.machines.push_back(ParseMachine(r, j.at("machines")[i], w, serials));
+    if (!names.insert(c.machines.back().name).second) r.Fail(w + ".name", "is listed twice");
   }
   c.host_id = j.contains("host_id") ? jf::Text<ConfigError>(j, "host_id", r.Where("config"))
                                     : ThisHostName();

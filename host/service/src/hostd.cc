@@ -433,6 +433,21 @@ struct Hostd::Impl {
     return {{"ok", true}, {"status", "done"}, {"job_id", job}, {"rejected", true}};
   }
 
+  // The capture's cloud as data/clouds/<job>/<name>.ply; never over an existing file.
+  std::string StoreCloud(std::int64_t job, const std::string& name, const link::LinkCloud& cloud) {
+    const fs::path dir = fs::path(config.CloudDir()) / std::to_string(job);
+    fs::create_directories(dir);
+    std::string path = (dir / (name + ".ply")).string();
+    if (fs::exists(path))  // the history and the data folder disagree: keep the older file
+      throw history::HistoryError("the cloud file " + path +
+                                  " exists already (a history that restarted its job numbers?): "
+                                  "not written over");
+    probe_fw::WriteCloudPly(path, cloud.xyz, cloud.quality,
+                            {cloud.probe_serial, cloud.calibration_id, cloud.capture_id,
+                             cloud.mcs_from_flange, "probe", cloud.edge});
+    return path;
+  }
+
   json Capture(const MachineConfig& m, const json& request) {
     const auto t0 = Clock::now();
     const std::string name = request.contains("capture_id")
@@ -449,16 +464,7 @@ struct Hostd::Impl {
           m.probe_serial, cr,
           std::chrono::milliseconds(static_cast<long>(config.capture_timeout_s * 1000)));
       const double round_trip_ms = Ms(sent);
-      const fs::path dir = fs::path(config.CloudDir()) / std::to_string(job);
-      fs::create_directories(dir);
-      const std::string path = (dir / (name + ".ply")).string();
-      if (fs::exists(path))  // the history and the data folder disagree: keep the older file
-        throw history::HistoryError("the cloud file " + path +
-                                    " exists already (a history that restarted its job numbers?): "
-                                    "not written over");
-      probe_fw::WriteCloudPly(path, cloud.xyz, cloud.quality,
-                              {cloud.probe_serial, cloud.calibration_id, cloud.capture_id,
-                               cloud.mcs_from_flange, "probe", cloud.edge});
+      const std::string path = StoreCloud(job, name, cloud);
       const std::string sha = history::Sha256OfFile(path);
       const json& pose = request.at("mcs_from_flange");
       history.AddCapture(job, {id, pose, path, sha, static_cast<std::int64_t>(cloud.size())});

@@ -34,10 +34,11 @@ constexpr std::uint32_t kMaxEdgePoints = 65535;
 /// The numbers of a sight in their serial order: normal, first ray, last ray, rms.
 inline std::array<double, 10> EdgeSightNumbers(const EdgeSight& s) {
   std::array<double, 10> v{};
-  for (int i = 0; i < 3; ++i) {
-    v[static_cast<std::size_t>(i)] = s.normal_in_probe(i);
-    v[static_cast<std::size_t>(3 + i)] = s.first_ray_in_probe(i);
-    v[static_cast<std::size_t>(6 + i)] = s.last_ray_in_probe(i);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    v[i] = s.normal_in_probe(k);
+    v[3 + i] = s.first_ray_in_probe(k);
+    v[6 + i] = s.last_ray_in_probe(k);
   }
   v[9] = s.rms_px;
   return v;

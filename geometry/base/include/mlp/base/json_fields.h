@@ -149,10 +149,11 @@ void OnlyKnownFields(const json& j,
       const std::size_t d = EditDistance(key, k);
       if (d < best) best = d, nearest = k;
     }
-    std::string hint;
+    std::string message = where;
+    message.append(".").append(key).append(" is not a known field");
     if (best <= std::max<std::size_t>(3, key.size() / 3))
-      hint = " (did you mean \"" + std::string(nearest) + "\"?)";
-    Fail<Error>(where + "." + key + " is not a known field" + hint);
+      message.append(" (did you mean \"").append(nearest).append("\"?)");
+    Fail<Error>(message);
   }
 }
 

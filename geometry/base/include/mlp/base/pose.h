@@ -14,8 +14,9 @@ namespace mlp::base {
 /// A pose's 4 x 4 matrix row by row, the last row 0 0 0 1.
 inline std::array<double, 16> RowMajor(const Eigen::Isometry3d& pose) {
   std::array<double, 16> m{};
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) m[static_cast<std::size_t>(4 * r + c)] = pose.matrix()(r, c);
+  for (std::size_t r = 0; r < 4; ++r)
+    for (std::size_t c = 0; c < 4; ++c)
+      m[4 * r + c] = pose.matrix()(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c));
   return m;
 }
 
@@ -32,8 +33,9 @@ inline bool PoseFromRowMajor(const std::array<double, 16>& m,
   if (m[12] != 0.0 || m[13] != 0.0 || m[14] != 0.0 || m[15] != 1.0)
     return *why = "the pose's last row is not 0 0 0 1", false;
   Eigen::Matrix4d h;
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) h(r, c) = m[static_cast<std::size_t>(4 * r + c)];
+  for (std::size_t r = 0; r < 4; ++r)
+    for (std::size_t c = 0; c < 4; ++c)
+      h(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = m[4 * r + c];
   constexpr double kOrthonormalTol = 1e-6;
   const Eigen::Matrix3d r = h.topLeftCorner<3, 3>();
   if (!((r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= kOrthonormalTol))

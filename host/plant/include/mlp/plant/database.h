@@ -27,7 +27,7 @@ class PlantDatabase : public history::JobRecords {
   /// `connection`: a libpq connection string or URI. Connects lazily (a database that is away
   /// is no error until used); creates the tables the first time. Thread-safe (one connection,
   /// one statement at a time).
-  explicit PlantDatabase(std::string connection);
+  explicit PlantDatabase(const std::string& connection);
   ~PlantDatabase() override;
 
   /// Creates the tables if they are missing (schema version 1); throws PlantDatabaseError.

@@ -206,6 +206,40 @@ int Render(const RenderOptions& o,
   return kExitOk;
 }
 
+// `mlp tool strobe` (the plan, readable or --json) and `mlp tool render` (the plan's frames).
+int StrobeOrRender(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  bool json = false;
+  RenderOptions render;
+  const bool rendering = args[0] == "render";
+  const toolcam::StrobeRequest r =
+      Parse({args.begin() + 1, args.end()}, &json, rendering ? &render : nullptr);
+  if (rendering && (render.tool.empty() || render.out.empty()))
+    throw UsageError("mlp tool render needs --tool and --out");
+  const toolcam::StrobePlan p = toolcam::PlanStrobe(r);
+  if (rendering) return Render(render, p, out, err);
+  if (!json) {
+    Print(p, out);
+    return kExitOk;
+  }
+  out << nlohmann::json{{"positions", p.positions},
+                        {"rpm", p.rpm},
+                        {"rpm_changed", p.rpm_changed},
+                        {"step_time_us", p.step_time_us},
+                        {"pulse_width_us", p.pulse_width_us},
+                        {"pulses_per_image", p.pulses_per_image},
+                        {"pulse_spacing_us", p.pulse_spacing_us},
+                        {"pulse_rate_hz", p.pulse_rate_hz},
+                        {"skip", p.skip},
+                        {"duration_s", p.duration_s},
+                        {"position", p.position},
+                        {"first_pulse_us", p.first_pulse_us},
+                        {"worst_angle_error_deg", p.worst_angle_error_deg},
+                        {"note", p.note}}
+             .dump()
+      << "\n";
+  return kExitOk;
+}
+
 }  // namespace
 
 int RunToolCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -230,36 +264,7 @@ int RunToolCommand(const std::vector<std::string>& args, std::ostream& out, std:
       throw UsageError(
           "expected: mlp tool strobe, render, calibrate, measure, render-texture, relocate, "
           "gauge-setup or gauge ...");
-    bool json = false;
-    RenderOptions render;
-    const bool rendering = args[0] == "render";
-    const toolcam::StrobeRequest r =
-        Parse({args.begin() + 1, args.end()}, &json, rendering ? &render : nullptr);
-    if (rendering && (render.tool.empty() || render.out.empty()))
-      throw UsageError("mlp tool render needs --tool and --out");
-    const toolcam::StrobePlan p = toolcam::PlanStrobe(r);
-    if (rendering) return Render(render, p, out, err);
-    if (!json) {
-      Print(p, out);
-      return kExitOk;
-    }
-    out << nlohmann::json{{"positions", p.positions},
-                          {"rpm", p.rpm},
-                          {"rpm_changed", p.rpm_changed},
-                          {"step_time_us", p.step_time_us},
-                          {"pulse_width_us", p.pulse_width_us},
-                          {"pulses_per_image", p.pulses_per_image},
-                          {"pulse_spacing_us", p.pulse_spacing_us},
-                          {"pulse_rate_hz", p.pulse_rate_hz},
-                          {"skip", p.skip},
-                          {"duration_s", p.duration_s},
-                          {"position", p.position},
-                          {"first_pulse_us", p.first_pulse_us},
-                          {"worst_angle_error_deg", p.worst_angle_error_deg},
-                          {"note", p.note}}
-               .dump()
-        << "\n";
-    return kExitOk;
+    return StrobeOrRender(args, out, err);
   } catch (const UsageError& e) {
     err << "mlp tool: " << e.what() << "\n" << kUsage;
     return kExitBadInput;
