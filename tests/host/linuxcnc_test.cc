@@ -7,7 +7,9 @@
 #include "mlp/history/history.h"
 #include "mlp/link/transport.h"
 
+#include <array>
 #include <future>
+#include <map>
 #include <optional>
 #include <random>
 
@@ -15,6 +17,7 @@
 #include "hostd_site.h"
 #include "linuxcnc_machine.h"
 #include "test_data.h"
+#include "tool_site.h"
 
 namespace mlp {
 namespace {
@@ -34,6 +37,7 @@ constexpr int kDriftPort = 17459;         // the moved-capture test's
 constexpr int kRelocatePort = 17464;      // the re-clamped electrode's (no probe: unused)
 constexpr int kSharedTablePort = 17472;   // two machines on one table (no probe: unused)
 constexpr int kKillPort = 17481;          // kills beside a running LinuxCNC (no probe: unused)
+constexpr int kKillKindsPort = 17483;     // kills of every job kind beside LinuxCNC
 constexpr double kDisturbanceMm = 0.005;  // 5x the M-code's 1 um pose drift limit
 constexpr double kFaceHeightTolMm = 0.001;
 constexpr double kOriginTolMm = 0.005;           // issue 6: alignment origin within 5 um
@@ -501,12 +505,113 @@ TEST(LinuxCnc, TwoMachinesOnOneToolTableLoseNoWrite) {
               after.at("tools").at("31").at("z").get<double>(), kExactMm);
 }
 
+// A host beside a running LinuxCNC that a test kills with SIGKILL (issue 48 item 4, issue 53:
+// a kill -9 test per job kind on the real controller). The M-code's client is wrapped to mark
+// the moment its request leaves (request.sent), so that a kill lands inside the job; the
+// program the kill aborted is run again under the same request_id after a restart, as an
+// operator would. Jobs go through M101 P1 (jobs/1.json); LinuxCNC's own G10 (the subroutine
+// the host writes) changes its tool table and work offsets.
+class KilledHost {
+ public:
+  KilledHost(Site& site, const fs::path& config)
+      : site_(site),
+        config_(config),
+        sent_(site.dir / "request.sent"),
+        client_(site.dir / "mlp-marked") {
+    std::ofstream(client_) << "#!/bin/sh\ntouch " << sent_.string() << "\nexec " << test::kMlp
+                           << " \"$@\"\n";
+    fs::permissions(client_, fs::perms::owner_all);
+  }
+
+  /// Starts the host (again); true once it answers.
+  bool StartHost() {
+    hostd_.reset();
+    // Built in place: a Child copied would stop the process when its temporary dies.
+    hostd_.emplace(
+        std::vector<std::string>{test::kHostd, "--config", (site_.dir / "hostd.json").string()},
+        site_.dir / "hostd.log");
+    return site_.WaitFor([&] { return site_.Mlp("status").exit_code == 0; });
+  }
+  /// Starts LinuxCNC with the marking client as its M-codes' `mlp`; true once it is up.
+  bool StartLinuxCnc() {
+    cnc_.emplace(config_, "mlprobe-sim.ini",
+                 "MLP=" + client_.string() + " MLP_SOCKET=" + site_.socket);
+    return cnc_->Up();
+  }
+  json State() { return cnc_->State(); }
+  int StopHost() { return hostd_->Stop(); }
+
+  /// `program` with `job` as M101 P1's request, not cut: LinuxCNC's state after it, and in
+  /// `job_ms` the time from the request's leaving to the result subroutine's writing.
+  json RunUncut(const json& job, const std::string& program, double* job_ms) {
+    std::ofstream(config_ / "jobs" / "1.json") << job.dump();
+    fs::remove(sent_);
+    json state = cnc_->Run(program);
+    *job_ms =
+        std::chrono::duration<double, std::milli>(
+            fs::last_write_time(config_ / "subs" / "mlp_result.ngc") - fs::last_write_time(sent_))
+            .count();
+    return state;
+  }
+
+  struct Round {
+    json cut;    ///< LinuxCNC's state after the program the kill may have aborted
+    json again;  ///< after the program run again under the same request_id
+  };
+  /// `job` through `program`, the host killed at a random instant up to 1.5 `job_ms` after
+  /// the request left, started again, and `program` run again.
+  Round KillAndRetry(const json& job,
+                     const std::string& program,
+                     double job_ms,
+                     std::mt19937* rng) {
+    std::ofstream(config_ / "jobs" / "1.json") << job.dump();
+    fs::remove(sent_);
+    auto first = std::async(std::launch::async, [&] { return cnc_->Run(program); });
+    EXPECT_TRUE(site_.WaitFor([&] { return fs::exists(sent_); })) << "no request left";
+    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(
+        std::uniform_real_distribution<double>(0, 1.5 * job_ms)(*rng)));
+    hostd_->Stop(SIGKILL);
+    Round r{first.get(), json()};
+    EXPECT_TRUE(StartHost()) << test::ReadText(site_.dir / "hostd.log");
+    r.again = cnc_->Run(program);
+    return r;
+  }
+
+ private:
+  Site& site_;
+  fs::path config_, sent_, client_;
+  std::optional<Child> hostd_;
+  std::optional<test::LinuxCnc> cnc_;
+};
+
+// The M-code's program: the job, its result subroutine, the end.
+const std::string kKillProgram =
+    "G21 G90 G54 G40 G49\nM101 P1\nM66 E0 L0\no<mlp_result> call\nM2\n";
+
+// The history after kills: no write left as an intent, and every request of `kind` written
+// by exactly one job, whatever the kills cut.
+void ExpectEachRequestWrittenOnce(const Site& site,
+                                  const std::string& kind,
+                                  const std::vector<std::string>& request_ids) {
+  history::History h((site.dir / "data" / "history.sqlite").string());
+  std::map<std::string, int> written_by_request;
+  for (const auto& job : h.ListJobs({"lcnc-1", kind, {}, 10000})) {
+    const json exported = h.ExportJob(job.id);
+    bool wrote = false;
+    for (const json& w : exported.at("offset_writes")) {
+      EXPECT_NE(w.at("state"), "intent") << kind << " job " << job.id;
+      wrote = wrote || w.at("state") == "written";
+    }
+    if (wrote) ++written_by_request[exported.at("request").value("request_id", "")];
+  }
+  for (const std::string& id : request_ids)
+    EXPECT_EQ(written_by_request[id], 1) << kind << " request " << id;
+}
+
 // Issue 48 item 4 beside a running LinuxCNC: the relocate job through M101, the host killed
-// (SIGKILL) at a random instant after the M-code's request left (the client is wrapped to mark
-// that moment), the program aborted by the failed M-code, the host restarted and the program
-// run again under the same request_id, as an operator would. LinuxCNC's own G10 L1 (the
-// subroutine) writes its tool table; each request must move T30 by one re-clamp step, never
-// two, never none, and the history keep no intent.
+// at a random instant after the M-code's request left, the program aborted by the failed
+// M-code, the host restarted and the program run again under the same request_id. Each request
+// must move T30 by one re-clamp step, never two, never none, and the history keep no intent.
 TEST(LinuxCnc, KillsOfTheHostInsideM101MoveTheElectrodeOncePerRequest) {
   ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0)
       << "linuxcnc-uspace is not installed: bash scripts/install-deps.sh";
@@ -515,62 +620,32 @@ TEST(LinuxCnc, KillsOfTheHostInsideM101MoveTheElectrodeOncePerRequest) {
   Site site("linuxcnc_kill", kKillPort);
   const fs::path config = ElectrodeLinuxCncSite(site);
   if (HasFatalFailure()) return;
-  const fs::path sent = site.dir / "request.sent", client = site.dir / "mlp-marked";
-  std::ofstream(client) << "#!/bin/sh\ntouch " << sent.string() << "\nexec " << test::kMlp
-                        << " \"$@\"\n";
-  fs::permissions(client, fs::perms::owner_all);
-  // Built in place: a Child copied would stop the process when its temporary dies.
-  std::optional<Child> hostd;
-  const auto start = [&] {
-    hostd.emplace(
-        std::vector<std::string>{test::kHostd, "--config", (site.dir / "hostd.json").string()},
-        site.dir / "hostd.log");
-  };
-  start();
-  ASSERT_TRUE(site.WaitFor([&] { return fs::exists(site.socket); }));
-  test::LinuxCnc cnc(config, "mlprobe-sim.ini",
-                     "MLP=" + client.string() + " MLP_SOCKET=" + site.socket);
-  ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
-  const std::string program = "G21 G90 G54 G40 G49\nM101 P1\nM66 E0 L0\no<mlp_result> call\nM2\n";
+  KilledHost host(site, config);
+  ASSERT_TRUE(host.StartHost());
+  ASSERT_TRUE(host.StartLinuxCnc()) << test::ReadText(config / "linuxcnc.log");
   const auto t30_x = [](const json& state) { return state.at("tools").at("30").at("x"); };
   // An uncut request first: the step, and how long the job takes from the request's leaving.
-  std::ofstream(config / "jobs" / "1.json") << test::RelocateJob("after").dump();
-  fs::remove(sent);
-  double x_mm = t30_x(cnc.State()).get<double>();
-  const json uncut = cnc.Run(program);
+  double x_mm = t30_x(host.State()).get<double>();
+  double job_ms = 0;
+  const json uncut = host.RunUncut(test::RelocateJob("after"), kKillProgram, &job_ms);
   ASSERT_TRUE(uncut.value("ended", false) && uncut.at("errors").empty()) << uncut.dump();
   ASSERT_NEAR(t30_x(uncut).get<double>() - x_mm, kShiftXMm, kRelocateTolMm);
   x_mm = t30_x(uncut).get<double>();
-  const double job_ms =
-      std::chrono::duration<double, std::milli>(
-          fs::last_write_time(config / "subs" / "mlp_result.ngc") - fs::last_write_time(sent))
-          .count();
   std::mt19937 rng(4811);
   int aborted = 0;
   for (int round = 0; round < kRounds; ++round) {
     json job = test::RelocateJob("after");
     job["request_id"] = "lcnc-kill-" + std::to_string(round);
-    std::ofstream(config / "jobs" / "1.json") << job.dump();
-    fs::remove(sent);
-    auto first = std::async(std::launch::async, [&] { return cnc.Run(program); });
-    ASSERT_TRUE(site.WaitFor([&] { return fs::exists(sent); })) << "round " << round;
-    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(
-        std::uniform_real_distribution<double>(0, 1.5 * job_ms)(rng)));
-    hostd->Stop(SIGKILL);
-    const json cut = first.get();
-    ASSERT_TRUE(cut.value("ended", false)) << cut.dump();
-    aborted += !cut.at("errors").empty();
-    hostd.reset();
-    start();
-    ASSERT_TRUE(site.WaitFor([&] { return site.Mlp("status").exit_code == 0; }));
-    const json again = cnc.Run(program);
-    ASSERT_TRUE(again.value("ended", false) && again.at("errors").empty())
-        << "round " << round << ": " << again.dump() << test::ReadText(site.dir / "hostd.log");
-    EXPECT_NEAR(t30_x(again).get<double>() - x_mm, kShiftXMm, kRelocateTolMm)
-        << "round " << round << (cut.at("errors").empty() ? " (not cut)" : " (cut)");
-    x_mm = t30_x(again).get<double>();
+    const KilledHost::Round r = host.KillAndRetry(job, kKillProgram, job_ms, &rng);
+    ASSERT_TRUE(r.cut.value("ended", false)) << r.cut.dump();
+    aborted += !r.cut.at("errors").empty();
+    ASSERT_TRUE(r.again.value("ended", false) && r.again.at("errors").empty())
+        << "round " << round << ": " << r.again.dump() << test::ReadText(site.dir / "hostd.log");
+    EXPECT_NEAR(t30_x(r.again).get<double>() - x_mm, kShiftXMm, kRelocateTolMm)
+        << "round " << round << (r.cut.at("errors").empty() ? " (not cut)" : " (cut)");
+    x_mm = t30_x(r.again).get<double>();
   }
-  EXPECT_EQ(hostd->Stop(), 0);
+  EXPECT_EQ(host.StopHost(), 0);
   history::History h((site.dir / "data" / "history.sqlite").string());
   int started = 0;
   for (const auto& job : h.ListJobs({"lcnc-1", "relocate", {}, 10000})) {
@@ -582,6 +657,108 @@ TEST(LinuxCnc, KillsOfTheHostInsideM101MoveTheElectrodeOncePerRequest) {
       "kill -9 beside LinuxCNC: %d rounds, %d programs aborted by the kill, %d relocate "
       "jobs started; a job %.0f ms from the request\n",
       kRounds, aborted, started, job_ms);
+  EXPECT_GT(aborted, 0);  // not vacuous: some kills cut the M-code's job
+}
+
+// Issue 53: the kill -9 test of every other job kind that writes, beside a running LinuxCNC, on
+// one site (the demo plate through the calibrated chain, the tool camera's images): a bore
+// measured in tolerance moves T12's radius wear by its correction (a request written twice
+// shows as a double step), an alignment sets G54 (the same captures give the same G54, written
+// once per request by the history), the tool camera sets T3's length and diameter (new and worn
+// images by turns). Rounds take the three kinds in turn; each kill lands at a random instant
+// of its job.
+TEST(LinuxCnc, KillsOfTheHostInsideM101WriteOncePerRequestForEveryJobKind) {
+  ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0)
+      << "linuxcnc-uspace is not installed: bash scripts/install-deps.sh";
+  constexpr int kRoundsPerKind = 4;
+  constexpr double kStepTolMm = 0.0005;  // a diameter step: two G10 roundings of 0.05 um, doubled
+  Site site("linuxcnc_kill_kinds", kKillKindsPort);
+  const fs::path config = LinuxCncSite(site);
+  std::ofstream(config / "tool.tbl", std::ios::app) << test::kToolT3;
+  test::EndMillImages(site);
+  if (HasFatalFailure()) return;
+  KilledHost host(site, config);
+  ASSERT_TRUE(host.StartHost());
+  CalibrateFor(site, test::kDemoPlate, kKillKindsPort);
+  if (HasFatalFailure()) return;
+  std::map<std::string, json> jobs;
+  {
+    Child probe(test::AsBuiltProbeArgs(site, test::kDemoPlate, kKillKindsPort),
+                site.dir / "sim.log");
+    ASSERT_TRUE(test::ProbeConnected(site));
+    const probe_fw::Aoi aoi{874, 668, 300, 200};
+    const std::string& model = test::kCalibratedModel;
+    const auto views = [&](const std::string& prefix) {
+      return test::CaptureSceneViews(site, "lcnc-1", test::kDemoPlate, prefix, aoi, model);
+    };
+    jobs["align"] =
+        host::DemoPlateAlignRequest("lcnc-1", views("face_"), views("b_wall"), views("c_wall"));
+    // The plate's bore (59.9 mm) against 59.91 +-0.02: in tolerance, T12's radius corrected.
+    const json truth = json::parse(test::ReadText(test::kDemoPlate)).at("truth");
+    jobs["measure"] = test::BoreMeasureJob(views("bore_wall"), 59.91);
+    jobs["measure"]["nominal"]["top_centre_mm"] = truth.at("bore_centre_mcs_mm");
+    jobs["measure"]["nominal"]["depth_mm"] = 20;
+    jobs["measure"]["nominal"]["band_mm"] = 0.5;
+  }
+  jobs["tool"] = test::ToolJob("tools/new");
+  jobs["tool"]["accept_findings"] = true;  // the worn tool's 20 um is written, not refused
+  ASSERT_TRUE(host.StartLinuxCnc()) << test::ReadText(config / "linuxcnc.log");
+  const auto t12_d = [](const json& s) {
+    return s.at("tools").at("12").at("diameter").get<double>();
+  };
+  // Uncut first: each kind's job time, T12's step, the G54 the captures give.
+  std::map<std::string, double> job_ms;
+  const double d0 = t12_d(host.State());
+  const json measured = host.RunUncut(jobs["measure"], kKillProgram, &job_ms["measure"]);
+  ASSERT_TRUE(measured.value("ended", false) && measured.at("errors").empty()) << measured.dump();
+  const double step_mm = t12_d(measured) - d0;
+  ASSERT_GT(std::abs(step_mm), 0.002) << "the correction must move T12: " << measured.dump();
+  const json aligned = host.RunUncut(jobs["align"], kKillProgram, &job_ms["align"]);
+  ASSERT_TRUE(aligned.value("ended", false) && aligned.at("errors").empty()) << aligned.dump();
+  const json g54 = aligned.at("g5x_offset");
+  const json tooled = host.RunUncut(jobs["tool"], kKillProgram, &job_ms["tool"]);
+  ASSERT_TRUE(tooled.value("ended", false) && tooled.at("errors").empty()) << tooled.dump();
+  // T3 as each folder of images sets it: the same images give the same length and diameter.
+  const auto t3 = [](const json& s) {
+    const json& t = s.at("tools").at("3");
+    return std::pair{t.at("z").get<double>(), t.at("diameter").get<double>()};
+  };
+  std::map<std::string, std::pair<double, double>> t3_by_images{{"tools/new", t3(tooled)}};
+  std::mt19937 rng(5311);
+  int aborted = 0;
+  double d_mm = t12_d(tooled);
+  std::map<std::string, std::vector<std::string>> requests;
+  for (int round = 0; round < 3 * kRoundsPerKind; ++round) {
+    const std::string kind = std::array{"measure", "align", "tool"}[round % 3];
+    json job = jobs[kind];
+    if (kind == "tool") job["images"] = (round / 3) % 2 == 0 ? "tools/worn" : "tools/new";
+    job["request_id"] = "lcnc-" + kind + "-kill-" + std::to_string(round);
+    requests[kind].push_back(job["request_id"]);
+    const KilledHost::Round r = host.KillAndRetry(job, kKillProgram, job_ms[kind], &rng);
+    ASSERT_TRUE(r.cut.value("ended", false)) << r.cut.dump();
+    aborted += !r.cut.at("errors").empty();
+    const std::string what = kind + " round " + std::to_string(round) +
+                             (r.cut.at("errors").empty() ? " (not cut)" : " (cut)");
+    ASSERT_TRUE(r.again.value("ended", false) && r.again.at("errors").empty())
+        << what << ": " << r.again.dump() << test::ReadText(site.dir / "hostd.log");
+    // T12 moves by the correction on a measure request, once; by nothing on the others.
+    const double expected_step_mm = kind == "measure" ? step_mm : 0.0;
+    EXPECT_NEAR(t12_d(r.again) - d_mm, expected_step_mm, kStepTolMm) << what;
+    d_mm = t12_d(r.again);
+    if (kind == "tool" && !t3_by_images.emplace(job["images"], t3(r.again)).second) {
+      EXPECT_NEAR(t3(r.again).first, t3_by_images[job["images"]].first, kExactMm) << what;
+      EXPECT_NEAR(t3(r.again).second, t3_by_images[job["images"]].second, kExactMm) << what;
+    }
+    for (size_t k = 0; k < 3; ++k)
+      EXPECT_NEAR(r.again.at("g5x_offset")[k].get<double>(), g54[k].get<double>(), kRoundingMm)
+          << what;
+  }
+  EXPECT_EQ(host.StopHost(), 0);
+  for (const auto& [kind, ids] : requests) ExpectEachRequestWrittenOnce(site, kind, ids);
+  std::printf(
+      "kill -9 beside LinuxCNC, every job kind: %d rounds, %d programs aborted by the kill; "
+      "jobs of %.0f (measure), %.0f (align), %.0f (tool) ms; T12's step %.4f mm\n",
+      3 * kRoundsPerKind, aborted, job_ms["measure"], job_ms["align"], job_ms["tool"], step_mm);
   EXPECT_GT(aborted, 0);  // not vacuous: some kills cut the M-code's job
 }
 

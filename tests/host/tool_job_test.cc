@@ -15,6 +15,7 @@
 #include <tuple>
 
 #include "hostd_site.h"
+#include "tool_site.h"
 
 namespace mlp::test {
 namespace {
@@ -25,31 +26,11 @@ constexpr double kLengthTolMm = 0.001;  // the virtual camera's tool through the
 constexpr double kDiameterTolMm = 0.002;
 constexpr double kAxisTolMm = 0.0005;      // the spindle axis across a camera's view (tool_kinds')
 constexpr double kPretravelTolMm = 0.001;  // the touch probe's trigger through the job
-const std::string kTools = mlp::test::SourceDir() + "/samples/tools/";
-const std::string kTable =
-    "T3 P3 Z+75.100000 D+10.050000 ;D10 Z4 roughing\n"
-    "T12 P12 Z101.2 D9.998 ;finishing end mill\n"
-    "T98 P98 Z60.005 D2.0 ;touch probe\n"
-    "T30 P30 Z60.0 D11.662 ;EDM electrode 10x6\n"
-    "T21 P21 Z45.1 D2.01 ;D2 end mill\n";
-
-// The virtual tool camera's images of `tool` into the site's data folder (the manifest holds
-// the virtual camera's own calibration).
-void RenderInto(const Site& site, const std::string& tool, const std::string& folder) {
-  const auto r = RunProcess(kMlp + " tool render --tool " + kTools + tool + " --out " +
-                            (site.dir / "data" / folder).string() +
-                            " --rpm 5000 --fps 50 --resolution-deg 7.2 --pulse-share 0.1 "
-                            "--drops 0 --seed 3");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-}
-
-json ToolJob(const std::string& images) {
-  return {{"op", "tool"},
-          {"machine", "lcnc-1"},
-          {"images", images},
-          {"tool", "tools/endmill_d10_z4_new.json"},
-          {"tool_number", 3}};
-}
+const std::string kTable = kToolT3 +
+                           "T12 P12 Z101.2 D9.998 ;finishing end mill\n"
+                           "T98 P98 Z60.005 D2.0 ;touch probe\n"
+                           "T30 P30 Z60.0 D11.662 ;EDM electrode 10x6\n"
+                           "T21 P21 Z45.1 D2.01 ;D2 end mill\n";
 
 TEST(ToolJob, TheToolCamerasResultGoesThroughTheAdapterOrIsRefused) {
   Site site("tool_job", kToolJobPort);
@@ -57,11 +38,7 @@ TEST(ToolJob, TheToolCamerasResultGoesThroughTheAdapterOrIsRefused) {
   config["machines"][1]["controller"]["write_tool_table"] = true;
   std::ofstream(site.dir / "hostd.json") << config.dump(1);
   std::ofstream(site.dir / "tool.tbl") << kTable;
-  fs::create_directories(site.dir / "data" / "tools");
-  fs::copy_file(kTools + "endmill_d10_z4_new.json",
-                site.dir / "data" / "tools" / "endmill_d10_z4_new.json");
-  RenderInto(site, "endmill_d10_z4_new.json", "tools/new");
-  RenderInto(site, "endmill_d10_z4_worn.json", "tools/worn");
+  EndMillImages(site);
   Child hostd({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
   ASSERT_TRUE(site.WaitFor([&] { return site.Mlp("status").exit_code == 0; }))
       << ReadText(site.dir / "hostd.log");
@@ -334,11 +311,7 @@ TEST(ToolJob, KillsInsideToolJobsLeaveTheTableWholeAndWriteOnce) {
   std::ofstream(site.dir / "hostd.json") << config.dump(1);
   const fs::path table = site.dir / "tool.tbl";
   std::ofstream(table) << kTable;
-  fs::create_directories(site.dir / "data" / "tools");
-  fs::copy_file(kTools + "endmill_d10_z4_new.json",
-                site.dir / "data" / "tools" / "endmill_d10_z4_new.json");
-  RenderInto(site, "endmill_d10_z4_new.json", "tools/new");
-  RenderInto(site, "endmill_d10_z4_worn.json", "tools/worn");
+  EndMillImages(site);
   if (HasFatalFailure()) return;
   const auto start = [&] {
     Child c({kHostd, "--config", (site.dir / "hostd.json").string()}, site.dir / "hostd.log");
