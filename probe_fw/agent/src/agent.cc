@@ -1,5 +1,6 @@
 #include "mlp/probe_fw/agent.h"
 
+#include "mlp/probe_fw/cloud_io.h"
 #include "mlp/probe_fw/roi_spec.h"
 #include "mlp/probe_fw/triangulate.h"
 
@@ -85,12 +86,9 @@ link::LinkCloud ProbeAgent::Capture(const link::CaptureRequest& request) {
   out.probe_serial = model_.serial;
   out.calibration_id = model_.calibration_id;
   out.mcs_from_flange = request.mcs_from_flange;
-  out.xyz.reserve(3 * cloud.size());
-  out.quality.reserve(cloud.size());
-  for (const CloudPoint& p : cloud) {
-    for (int a = 0; a < 3; ++a) out.xyz.push_back(p.point_in_probe(a));
-    out.quality.push_back(static_cast<float>(p.quality));
-  }
+  PackedCloud packed = PackCloud(cloud);
+  out.xyz = std::move(packed.xyz);
+  out.quality = std::move(packed.quality);
   out.processed_ns = WallClockNs();
   return out;
 }

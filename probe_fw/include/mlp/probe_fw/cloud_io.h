@@ -13,6 +13,13 @@
 
 namespace mlp::probe_fw {
 
+/// A cloud as the file and the link carry it: x y z per point [mm, probe frame], quality 0..1.
+struct PackedCloud {
+  std::vector<double> xyz;
+  std::vector<float> quality;
+};
+PackedCloud PackCloud(const std::vector<CloudPoint>& cloud);
+
 /// Writes atomically (temporary file + rename), with the LED frame's edge of an edge ROI when
 /// given. Throws FrameIoError.
 void WriteCloudPly(const std::string& path,
