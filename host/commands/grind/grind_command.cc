@@ -190,6 +190,7 @@ nlohmann::ordered_json PointsJson(const std::vector<grind::PointResult>& results
                       {"left_out", r.left_out},
                       {"nose_radius_mm", r.nose_radius_mm},
                       {"local_edge", r.local_edge},
+                      {"speck_passed_mm", r.speck_passed_mm},
                       {"direction_determined", r.direction_determined},
                       {"direction_sigma_deg", r.direction_sigma_deg},
                       {"seed_error_dir", Pair(r.seed_error_dir)},
@@ -222,6 +223,8 @@ void PrintPoints(const grind::GrindJob& job,
           << (r.wheel_cut ? "" : " (did not cut)")
           << (r.direction_determined ? ""
                                      : " (direction not determined to 5 deg: along the normal)");
+    if (r.speck_passed_mm > 0)
+      out << "  (a speck on C-Mi passed over, " << r.speck_passed_mm * 1e3 << " um before Mr)";
     if (r.compensation_mm.norm() > 0)
       out << "  compensation (" << r.compensation_mm.x() * 1e3 << ", "
           << r.compensation_mm.y() * 1e3 << ") um";

@@ -46,6 +46,10 @@ struct PointResult {
   /// Mr from the edge's local contrast along C-Mi (issue 55); false: the seed's search's.
   bool local_edge = false;
   bool search_by_rows = false;  ///< the rows played the columns' part (a steep contour)
+  /// A speck passed over on C-Mi before the part's edge (a droplet or chip in the light, a
+  /// soft shadow's edge: dark, then light again within 0.15 mm): how far before Mr it lay; 0:
+  /// none.
+  double speck_passed_mm = 0.0;
   /// Under-feed: the wheel's error found (unit direction, size); otherwise the normal and d.
   geometry::Vec2 error_dir = geometry::Vec2::UnitY();
   double error_mm = 0.0;
