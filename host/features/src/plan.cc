@@ -253,8 +253,11 @@ std::vector<PlannedCapture> PlanCaptures(const std::vector<ViewTarget>& views,
 
 std::string CheckReachable(const std::vector<PlannedCapture>& plan) {
   for (const PlannedCapture& c : plan) {
+    // The spindle untilted points its flange's z down the machine's -Z (H = T Rz Rx(180 deg):
+    // LinuxCNC's M101, the virtual scenes); measured from +Z, every plan of a face was said to
+    // need a 180 deg tilt.
     const Vec3 z = c.mcs_from_flange.linear().col(2);
-    const double tilt_deg = std::atan2(z.head<2>().norm(), z.z()) * base::kDegPerRad;
+    const double tilt_deg = std::atan2(z.head<2>().norm(), -z.z()) * base::kDegPerRad;
     if (tilt_deg > 0.01)
       return "view " + c.id + " needs the spindle tilted " + Num(tilt_deg) +
              " deg: a 3-axis machine only orients it about Z";

@@ -82,8 +82,9 @@ std::vector<PlannedCapture> PlanCaptures(const std::vector<ViewTarget>& views,
                                          const geometry::Pose3& flange_from_probe,
                                          const PlanOptions& options);
 
-/// Empty when every planned H turns only about machine Z (within 0.01 deg), otherwise the first
-/// view that needs a tilt and how much: a 3-axis machine orients its spindle and nothing else.
+/// Empty when every planned H keeps the spindle untilted (its flange's z down the machine's -Z,
+/// H = T Rz Rx(180 deg), within 0.01 deg), otherwise the first view that needs a tilt and how
+/// much: a 3-axis machine orients its spindle about Z and nothing else.
 std::string CheckReachable(const std::vector<PlannedCapture>& plan);
 
 }  // namespace mlp::features
