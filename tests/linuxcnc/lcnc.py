@@ -6,7 +6,8 @@ mlprobe's controller tests (docs/HOSTD.md, ../shared/LINUXCNC.md):
   lcnc.py state                     the live state only
 
 Prints one JSON object: the error channel's messages, the interpreter's end, the tool table
-(by tool id, the spindle slot left out), G5x offset, tool offset, position, tool in spindle.
+(by tool id, the spindle slot left out), G5x offset, tool offset, position (and every axis and
+joint), tool in spindle.
 HOME must be the LinuxCNC process's HOME (the tool table is shared through $HOME/.tool.mmap)."""
 import json
 import sys
@@ -40,6 +41,10 @@ def state(stat, errors):
         "g5x_rotation": stat.rotation_xy,
         "tool_offset": list(stat.tool_offset[:3]),
         "position": list(stat.position[:3]),
+        # Five-axis machines: every axis' position (X Y Z A B C U V W; in the table's frame under
+        # a table kinematics with TCP) and the joints (the machine's own coordinates).
+        "axes": list(stat.position[:9]),
+        "joints": list(stat.joint_actual_position[:stat.joints]),
         "tool_in_spindle": stat.tool_in_spindle,
     }
 
