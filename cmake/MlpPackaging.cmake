@@ -24,7 +24,7 @@ set(packages fw)
 
 if(NOT MLP_FIRMWARE_ONLY)
   install(TARGETS mlp mlp_hostd_app mlp_history_app mlp_calibrate_app mlp_tool_app
-                  mlp_setter_app mlp_grind_app
+                  mlp_setter_app mlp_grind_app mlp_kinematics_app
           RUNTIME DESTINATION bin COMPONENT host)
   install(TARGETS mlp_pcl_reader LIBRARY DESTINATION lib COMPONENT host)  # dlopen: ../lib
   mlp_packaged_unit(${CMAKE_SOURCE_DIR}/samples/hostd/mlp-hostd.service

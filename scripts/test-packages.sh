@@ -64,7 +64,7 @@ getent passwd mlprobe >/dev/null || fail "no system user mlprobe"
 [ "$(stat -c '%U %a' /etc/mlprobe/keys/MLP-REF-0001.key)" = "mlprobe 600" ] || fail "the key's owner or mode"
 [ "$(wc -c < /etc/mlprobe/keys/MLP-REF-0001.key)" -eq 65 ] || fail "the key is not 32 bytes of hex"
 [ "$(stat -c '%U:%G %a' /etc/mlprobe/hostd.json)" = "root:mlprobe 640" ] || fail "hostd.json's owner or mode"
-for p in mlp mlp-hostd mlp-history mlp-calibrate mlp-tool mlp-setter mlp-grind; do
+for p in mlp mlp-hostd mlp-history mlp-calibrate mlp-tool mlp-setter mlp-grind mlp-kinematics; do
   [ -x "/usr/bin/$p" ] || fail "/usr/bin/$p missing"
 done
 [ -f /usr/lib/libmlp_pcl_reader.so ] || fail "the PCL reader plug-in"

@@ -32,6 +32,8 @@ constexpr const char* kUsage =
     "            (mlp setter --help; runs mlp-setter beside this program)\n"
     "  grind     profile error while grinding, from back-lit frames: compensation vectors\n"
     "            (mlp grind --help; runs mlp-grind beside this program)\n"
+    "  kinematics a five-axis trunnion's rotary axes checked from sphere centres\n"
+    "            (mlp kinematics --help; runs mlp-kinematics beside this program)\n"
     "  --version print the version\n";
 
 // Replaces this process with `name` from the same folder (mlp-calibrate links Ceres and OpenCV,
@@ -64,6 +66,7 @@ int main(int argc, char** argv) {
   if (args[0] == "tool") return RunSibling(argv, "mlp-tool");
   if (args[0] == "setter") return RunSibling(argv, "mlp-setter");
   if (args[0] == "grind") return RunSibling(argv, "mlp-grind");
+  if (args[0] == "kinematics") return RunSibling(argv, "mlp-kinematics");
   if (args[0] == "fit") {
     return mlp::host::RunFitCommand({args.begin() + 1, args.end()}, std::cout, std::cerr);
   }

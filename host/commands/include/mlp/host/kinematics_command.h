@@ -1,0 +1,42 @@
+#pragma once
+/// @file `mlp kinematics` (issue 54): a five-axis trunnion's rotary axes checked from sphere
+/// centres measured at a plan of A and C positions, against the kinematics' parameters the
+/// machine starts with (its HAL file). docs/KINEMATICS.md, docs/CLI.md.
+
+#include "mlp/calib/trunnion.h"
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace mlp::host {
+
+/// Exit codes beyond the shared ones.
+enum KinematicsExit : int {
+  kExitKinematicsOff = 3,  ///< determined, and a pivot or squareness beyond its limit
+  kExitUndetermined = 4,   ///< the plan or the centres cannot determine the axes
+};
+
+/// The pins of `xyzac-trt-kins` from a HAL file's `setp xyzac-trt-kins.<pin> <mm>` lines (the
+/// file that sets them when the machine starts; other lines ignored). UsageError when a pin
+/// other than tool-offset is missing, given twice or not a finite number.
+calib::TrtPins ParseTrtPinsHal(const std::string& text);
+
+/// Sphere centres from a `mlprobe-trunnion-centres/1` JSON file: {"centres": [{"a_deg",
+/// "c_deg", "centre_mm": [x, y, z]}, ...]} (machine frame, mm). UsageError when malformed.
+std::vector<calib::TrunnionObservation> ParseTrunnionCentres(const std::string& text);
+
+/// The picture of a check: the centres per A/C position and the fitted circles' axes seen
+/// along X and along Z, each centre's residual magnified, the pivots' errors against the limit.
+std::string TrunnionSvg(const std::vector<calib::TrunnionObservation>& centres,
+                        const calib::TrunnionFit& fit,
+                        const calib::TrtPins& pins,
+                        double limit_mm);
+
+/// mlp kinematics check --centres FILE --pins HALFILE [--limit-um U] [--square-limit-deg D]
+///                      [--svg FILE] [--json]
+int RunKinematicsCommand(const std::vector<std::string>& args,
+                         std::ostream& out,
+                         std::ostream& err);
+
+}  // namespace mlp::host
