@@ -467,11 +467,18 @@ std::uint16_t ScanSpan(const Span& s,
     if (run_end - run_begin > o.max_width_px) Want(scan, run_begin, run_end, WantMargin(o));
     const double bg = LocalBackground(s, peak, o.window_half_px);
     const Verdict verdict = Judge(s, peak, bg, max_level, o);
-    // A stripe rejected for its shape is still light on this epipolar line (epipolar.h).
+    // A stripe rejected for its shape is still light on this epipolar line (epipolar.h). So is
+    // one the ROI's edge cuts: a sweep's first or last sheet often meets the part at the frame's
+    // edge, and a reflection or copy inside then stood alone on its lines and was kept (issue 50:
+    // corpus 7676 scenes 98 and 103, 102 and 572 points 2-11 mm off). Its light is known from
+    // below (the part inside), enough to outshine a dimmer copy.
+    const bool cut_light = verdict == Verdict::kCut && s.row[peak] - bg >= o.min_amplitude_dn;
     const bool evidence = verdict == Verdict::kSaturated || verdict == Verdict::kDoublePeak ||
-                          verdict == Verdict::kTooWide;
-    if (evidence && scan.rejected)
+                          verdict == Verdict::kTooWide || cut_light;
+    if (evidence && scan.rejected) {
       scan.rejected->push_back(MakePoint(scan, peak, v, s.row[peak] - bg, s.row[peak], max_level));
+      scan.rejected->back().cut = cut_light;
+    }
     if (!CountVerdict(verdict, counts)) continue;
     Candidate c{s, v, peak, 0.0, 0.0, 0.0, s.row[peak], 0.0, 0.0};
     c.u = ReCentred(s, peak, bg, o, &c.bg, &c.mass, &c.variance, &c.window_centre);

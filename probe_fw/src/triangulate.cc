@@ -106,7 +106,9 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
     counts->isolated += held.isolated;
     counts->points -= held.second_on_line + held.undecided + held.beside_rejected + held.isolated;
     for (const StripePoint& s : stripe) seen.push_back({s, frame.laser_column, index, false});
-    for (const StripePoint& s : rejected) evidence.push_back({s, frame.laser_column, index, true});
+    for (const StripePoint& s : rejected) {
+      if (!s.cut) evidence.push_back({s, frame.laser_column, index, true});
+    }
     ++index;
   }
   GhostOptions ghost;

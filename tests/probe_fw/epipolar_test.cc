@@ -96,6 +96,46 @@ TEST(OneDirectPerEpipolarLine, ARejectedStripeOutshinesTheReflectionBesideIt) {
   EXPECT_EQ(counts.beside_rejected, 100u);
 }
 
+// Rows 600-699 of the sensor's left edge, 8 bits on a 10 DN floor: a stripe of 200 DN whose
+// centre is `stripe_px` from the edge (its left flank past the frame when under ~4 px) and a copy
+// of it at 0.8 further in, as a sweep's first sheet meets the part at the frame's edge while a
+// reflection stands inside (issue 50: corpus 7676 scenes 98 and 103).
+Frame EdgeStripeAndCopy(double stripe_px, double copy_px) {
+  Frame f;
+  f.aoi = {0, 600, 64, 100};
+  f.bit_depth = 8;
+  for (int row = 0; row < f.aoi.height; ++row) {
+    for (int x = 0; x < f.aoi.width; ++x) {
+      const double v = 10.0 + 200.0 * std::exp(-0.5 * std::pow((x - stripe_px) / 1.5, 2)) +
+                       160.0 * std::exp(-0.5 * std::pow((x - copy_px) / 1.5, 2));
+      f.pixels.push_back(static_cast<std::uint16_t>(std::lround(v)));
+    }
+  }
+  return f;
+}
+
+std::vector<StripePoint> KeptOf(const Frame& f, EpipolarCounts* counts) {
+  StripeOptions rows;
+  rows.axes = StripeAxes::kRows;
+  std::vector<StripePoint> points, rejected;
+  StripeCounts stripe_counts;
+  StripeExtractor(RowMask::Full(f.aoi), rows).Extract(f, &points, &stripe_counts, &rejected);
+  KeepOneDirectPerEpipolarLine(Model(), rejected, NoFit(), &points, counts);
+  return points;
+}
+
+TEST(OneDirectPerEpipolarLine, AStripeTheFramesEdgeCutsOutshinesTheCopyInside) {
+  EpipolarCounts counts;
+  EXPECT_TRUE(KeptOf(EdgeStripeAndCopy(1.5, 21.0), &counts).empty());
+  EXPECT_EQ(counts.beside_rejected, 100u);
+  // Control: the stripe well inside is a point and the copy loses to it the same way.
+  EpipolarCounts inside;
+  const std::vector<StripePoint> kept = KeptOf(EdgeStripeAndCopy(40.0, 21.0), &inside);
+  ASSERT_EQ(kept.size(), 100u);
+  EXPECT_NEAR(kept.front().x_px, 40.0, 0.05);
+  EXPECT_EQ(inside.second_on_line, 100u);
+}
+
 TEST(OneDirectPerEpipolarLine, SurfacesOnDifferentEpipolarLinesAllStay) {
   std::vector<StripePoint> points;
   AddTrace(&points, 100, 399, 1000.0, 0.2, 150.0);

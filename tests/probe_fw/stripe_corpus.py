@@ -368,7 +368,14 @@ def main():
         fw, b = figures(s["surface"], P), figures(s["surface"], baseline(out, s, planes))
         ok = fw["beyond_200um"] == 0 and fw["beyond_50um"] <= b["beyond_50um"]
         bad += not ok
-        counts = json.loads(said).get("stripes", {}) if said.strip().startswith("{") else {}
+        counts = json.loads(said).get("rejected", {}) if said.strip().startswith("{") else {}
+        # The host's refusal (docs/HOSTD.md: StripeAccount::RejectedShare against
+        # max_rejected_stripe_share 0.5): the stripe light rejected, as the capture reply counts it
+        # (weak and cut are no light of the stripe's; a smoothed centre is no rejection).
+        refused = sum(counts.get(k, 0) for k in ("saturated", "double_peak", "too_wide", "too_narrow", "indirect",
+                                                  "reflectance_slope", "second_on_epipolar_line",
+                                                  "undecided_on_epipolar_line", "beside_rejected_stripe", "isolated"))
+        counts["rejected_share"] = refused / max(1, refused + fw["points"])
         results.append({"scene": k, "seed": int(seed), "describe": summary(s), "firmware": fw, "baseline": b,
                         "ok": ok, "firmware_counts": counts})
         print("%3d %-4s %-62s fw %6d pts RMS %7.2f max %8.1f >50 %4d >200 %3d | base %6d RMS %7.2f >50 %4d >200 %4d" % (

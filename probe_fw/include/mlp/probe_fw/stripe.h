@@ -90,6 +90,10 @@ struct StripePoint {
   double blur_m1_lines = 0.0;
   /// Its brightest pixel at the sensor's full scale: its light is known only from below.
   bool full_scale = false;
+  /// Rejected evidence whose window the ROI's edge cuts: its light is known from below and its
+  /// centre not at all (the peak may lie past the edge), so it is evidence on its epipolar line
+  /// only, never a stretch of the sweep (ghost.h).
+  bool cut = false;
 
   /// The sensor row (row scan) or column (column scan) the centre was found on.
   int Line() const { return static_cast<int>(axis == ScanAxis::kRow ? y_px : x_px); }
@@ -127,8 +131,9 @@ class StripeExtractor {
   StripeExtractor(const RowMask& mask, const StripeOptions& options);
   /// Appends the centres found in `frame` to `out`: the row scan's first, then the column
   /// scan's. Candidates rejected for their shape (saturated, double-peaked, too wide, too
-  /// narrow: counted, never points) go to `rejected` when given: they are light on their
-  /// epipolar line, evidence against a weaker candidate there (epipolar.h). Throws
+  /// narrow) or cut by the ROI's edge (at least min_amplitude_dn showing): counted, never
+  /// points, go to `rejected` when given: they are light on their epipolar line, evidence
+  /// against a weaker candidate there (epipolar.h). Throws
   /// std::invalid_argument when the frame's AOI is not the mask's.
   void Extract(const Frame& frame,
                std::vector<StripePoint>* out,
