@@ -201,10 +201,15 @@ void WornNose(const WheelSection& wheel,
 // the smallest spread's shift (numerical gradient of the section's distance), the covariance
 // from the residuals. The seed's smallest spread leans to the normal once the edge carries
 // 0.2-0.5 um of noise (3-15 deg on an outside renderer); least squares does not, but a short
-// arc leaves the shift's part across the normal loose: where its direction's 2-sigma exceeds
+// arc leaves the shift's part across the normal loose: where its direction's 3-sigma exceeds
 // 5 deg the direction is not determined, and the error is taken along the normal at the size
 // the crossing on C-Mi measured, said so (`direction_determined`).
 constexpr double kDirectionLimitDeg = 5.0;
+// How many sigmas the direction's uncertainty must fit in the limit: at 2, about one direction
+// in 60 the outside renderer's fresh sets called determined was beyond 5 deg (5.4 and 5.5 deg on
+// 9250-9347); 3 as the other limits of a measurement that acts on a machine (a 0.3 % two-sided
+// tail for a normal error), the rest said undetermined and taken along the normal.
+constexpr double kDirectionSigmas = 3.0;
 
 // The covariance from the residuals assumes each edge point's error its own, but neighbouring
 // rays share pixels and the arc's cusps and form bend the residuals together: with lag-one
@@ -261,7 +266,7 @@ void ShiftByLeastSquares(const WheelSection& wheel,
   if (!(size > 0) || !cov.allFinite()) return;
   const Vec2 across(-o.y() / size, o.x() / size);
   res->direction_sigma_deg = std::sqrt(across.dot(cov * across)) / size * base::kDegPerRad;
-  if (2 * res->direction_sigma_deg <= kDirectionLimitDeg) {
+  if (kDirectionSigmas * res->direction_sigma_deg <= kDirectionLimitDeg) {
     res->error_dir = o / size, res->error_mm = size;
     return;
   }
