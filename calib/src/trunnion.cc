@@ -177,6 +177,19 @@ Pose3 MachineFromTable(const TrunnionAxes& axes, double a_deg, double c_deg) {
   return about(axes.a, a_deg) * about(axes.c, c_deg);
 }
 
+Pose3 TableFromFlange(const TrunnionAxes& axes,
+                      const Vec3& gauge_point_machine_mm,
+                      double a_deg,
+                      double c_deg,
+                      double spindle_deg) {
+  Pose3 machine = Pose3::Identity();
+  machine.translation() = gauge_point_machine_mm;
+  machine.linear() =
+      (Eigen::AngleAxisd(spindle_deg * kDeg, Vec3::UnitZ()) * Eigen::AngleAxisd(kPi, Vec3::UnitX()))
+          .toRotationMatrix();
+  return MachineFromTable(axes, a_deg, c_deg).inverse() * machine;
+}
+
 namespace {
 
 // The least-squares solution from the nominal lines: the parameters, the whitened residuals at

@@ -54,6 +54,17 @@ TrunnionAxes AxesOf(const TrtPins& pins);
 /// The rigid motion of the table at joint angles (a, c) [deg]: machine <- table.
 Pose3 MachineFromTable(const TrunnionAxes& axes, double a_deg, double c_deg);
 
+/// The spindle flange's pose in the table's frame (H, where the part and the sphere live) from
+/// the joints: the gauge point at (x, y, z) in the machine frame, the spindle turned by
+/// `spindle_deg` about machine Z (M19), the table at (a, c) [deg]; the flange frame as the
+/// three-axis machine's, H = MachineFromTable(a, c)^-1 T(x, y, z) Rz(spindle) Rx(180 deg)
+/// (z along the tool out of the spindle).
+Pose3 TableFromFlange(const TrunnionAxes& axes,
+                      const Vec3& gauge_point_machine_mm,
+                      double a_deg,
+                      double c_deg,
+                      double spindle_deg);
+
 /// One sphere centre measured in the machine frame with the table at (a, c) [deg].
 struct TrunnionObservation {
   double a_deg = 0.0, c_deg = 0.0;
