@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -290,6 +291,47 @@ TrunnionFit FitTrunnion(const std::vector<TrunnionObservation>& observations,
     throw TrunnionError(why.str());
   }
   return fit;
+}
+
+void TrunnionPlanOptions::Check() const {
+  std::set<long> distinct;
+  for (double a : a_deg) {
+    if (!std::isfinite(a)) throw TrunnionError("trunnion plan: an A position is not finite");
+    distinct.insert(std::lround(a * 1000));
+  }
+  if (distinct.size() < 3 || c_count < 3)
+    throw TrunnionError("trunnion plan: three A positions and three C positions at least");
+  if (!(probe_length_mm >= 0) || !(standoff_mm > 0) || !(table_radius_mm >= 0) ||
+      !(margin_mm >= 0) || !std::isfinite(spindle_deg) || !std::isfinite(table_top_mm))
+    throw TrunnionError("trunnion plan: lengths must be finite, the stand-off > 0");
+}
+
+TrunnionPlan PlanTrunnionCheck(const TrunnionAxes& axes,
+                               const Vec3& sphere_table_mm,
+                               const TrunnionPlanOptions& o) {
+  o.Check();
+  if (!sphere_table_mm.allFinite()) throw TrunnionError("trunnion plan: the sphere is not finite");
+  TrunnionPlan plan;
+  const Vec3 up(0.0, 0.0, o.probe_length_mm + o.standoff_mm);
+  double highest = -std::numeric_limits<double>::infinity();  // of what the probe's tip passes
+  for (double a : o.a_deg) {
+    for (int k = 0; k < o.c_count; ++k) {
+      const double c = 360.0 * k / o.c_count;
+      const Vec3 gauge = MachineFromTable(axes, a, c) * sphere_table_mm + up;
+      plan.stops.push_back({a, c, gauge});
+      highest = std::max(highest, gauge.z() - o.probe_length_mm);
+      // The rim's highest point at this tilt (turning C does not raise it): sampled round.
+      for (int r = 0; r < 72 && o.table_radius_mm > 0; ++r) {
+        const double t = 2 * kPi * r / 72;
+        const Vec3 rim = axes.c.point + Vec3(o.table_radius_mm * std::cos(t),
+                                             o.table_radius_mm * std::sin(t), 0.0);
+        const Vec3 on_top(rim.x(), rim.y(), o.table_top_mm);
+        highest = std::max(highest, (MachineFromTable(axes, a, c) * on_top).z());
+      }
+    }
+  }
+  plan.clear_gauge_z_mm = highest + o.margin_mm + o.probe_length_mm;
+  return plan;
 }
 
 TrtPins PinsFor(const TrunnionFit& fit, const TrtPins& current) {

@@ -124,5 +124,28 @@ TEST(KinematicsCli, WhatCannotDetermineTheAxesAndBadFilesAreRefused) {
   EXPECT_EQ(Check("--pins " + kPins).exit_code, 2) << "no centres";
 }
 
+TEST(KinematicsCli, APlanHasItsStopsOverTheSphereAndRefusesWhatCannotDetermineTheAxes) {
+  const auto r = test::RunProcess(test::Program("mlp") + " kinematics plan --pins " + kPins +
+                                  " --sphere 175,-25,-70 --c 3 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json j = json::parse(r.out);
+  ASSERT_EQ(j["stops"].size(), 15u) << "A -30, 0, 30, 60, 90 by default, C three times";
+  const calib::TrunnionAxes axes = calib::AxesOf(SamplePins());
+  for (const auto& s : j["stops"]) {
+    const Vec3 over =
+        calib::MachineFromTable(axes, s["a_deg"].get<double>(), s["c_deg"].get<double>()) *
+            Vec3(175.0, -25.0, -70.0) +
+        Vec3(0, 0, 140.0 + 125.0);
+    const auto& g = s["gauge_machine_mm"];
+    EXPECT_NEAR(g[0].get<double>(), over.x(), 1e-9);
+    EXPECT_NEAR(g[2].get<double>(), over.z(), 1e-9);
+    EXPECT_LT(g[2].get<double>() + 20.0, j["clear_gauge_z_mm"].get<double>() + 1e-9);
+  }
+  const std::string plan = test::Program("mlp") + " kinematics plan --pins " + kPins;
+  EXPECT_EQ(test::RunProcess(plan + " --sphere 175,-25,-70 --a 0,30").exit_code, 2);
+  EXPECT_EQ(test::RunProcess(plan + " --sphere 175,-25").exit_code, 2);
+  EXPECT_EQ(test::RunProcess(plan + " --sphere 175,-25,-70 --c 2").exit_code, 2);
+}
+
 }  // namespace
 }  // namespace mlp

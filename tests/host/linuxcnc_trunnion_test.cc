@@ -10,6 +10,7 @@
 
 #include <filesystem>
 #include <sstream>
+#include <vector>
 
 #include "linuxcnc_machine.h"
 #include "process_run.h"
@@ -97,6 +98,54 @@ TEST(LinuxCncTrunnion, TheTablesMotionIsTheControllersWithThePinsItHolds) {
   EXPECT_EQ(changed.z_offset, 57.0);
   CheckPose(cnc, changed, on_table, 45.0, 135.0);
   CheckPose(cnc, changed, on_table + geometry::Vec3(10, -30, 5), -60.0, 10.0);
+}
+
+// `mlp kinematics plan` on the same machine: its program, run by LinuxCNC, stops the gauge point
+// straight above the sphere where the running controller's kinematics (its pins, read from HAL)
+// put the sphere at each A and C, every turn made at the clearance height, and leaves the
+// trunnion's kinematics on. The stops are read back as the program says them (DEBUG lines).
+TEST(LinuxCncTrunnion, TheSpherePlansProgramStopsOverTheSphereAtEveryTiltAndTurn) {
+  ASSERT_EQ(RunProcess("command -v linuxcnc").exit_code, 0)
+      << "linuxcnc-uspace is not installed: bash scripts/install-deps.sh";
+  const fs::path config = FiveAxisConfig();
+  const fs::path program = config / "sphere_plan.ngc";
+  const auto planned = RunProcess(test::Program("mlp") + " kinematics plan --pins " +
+                                  (config / "trunnion.hal").string() +
+                                  " --sphere 175,-25,-70 --a -30,0,30,60 --c 3 --table-radius 150"
+                                  " --table-top -90 --json --out " +
+                                  program.string());
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  const nlohmann::json plan = nlohmann::json::parse(planned.out);
+  ASSERT_EQ(plan["stops"].size(), 12u);
+  test::LinuxCnc cnc(config, "mlprobe-5axis.ini");
+  ASSERT_TRUE(cnc.Up()) << test::ReadText(config / "linuxcnc.log");
+  const auto state = cnc.Run(test::ReadText(program));
+  const calib::TrtPins pins = ReadPins(cnc);
+  std::vector<std::vector<double>> stops;
+  for (const auto& e : state["errors"]) {
+    std::istringstream words(e.get<std::string>());
+    std::string mlp, stop;
+    int n = 0;
+    std::vector<double> v(5);
+    if (words >> mlp >> stop >> n >> v[0] >> v[1] >> v[2] >> v[3] >> v[4] && stop == "stop")
+      stops.push_back(v);
+  }
+  ASSERT_EQ(stops.size(), 12u) << state.dump();
+  const double above = 140.0 + 125.0;  // the default probe length and stand-off
+  for (size_t i = 0; i < stops.size(); ++i) {
+    const auto& want = plan["stops"][i];
+    const double a = want["a_deg"].get<double>(), c = want["c_deg"].get<double>();
+    EXPECT_NEAR(stops[i][3], a, 1e-6);
+    EXPECT_NEAR(stops[i][4], c, 1e-6);
+    const geometry::Vec3 sphere =
+        calib::MachineFromTable(calib::AxesOf(pins), a, c) * geometry::Vec3(175.0, -25.0, -70.0);
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(stops[i][static_cast<size_t>(k)], sphere[k] + (k == 2 ? above : 0.0), 1e-5)
+          << "stop " << i + 1 << " axis " << k;
+    EXPECT_LT(stops[i][2], plan["clear_gauge_z_mm"].get<double>());
+  }
+  EXPECT_EQ(cnc.Hal("-s getp motion.switchkins-type").out.substr(0, 1), "0")
+      << "the trunnion's kinematics on again";
 }
 
 }  // namespace

@@ -25,7 +25,15 @@ constexpr const char* kUsage =
     "  pins the machine starts with (HALFILE: its setp xyzac-trt-kins.* lines).\n"
     "  --limit-um: largest pivot error accepted (default 10); --square-limit-deg: largest\n"
     "  squareness (default 0.01). Exit 0 within, 3 beyond a limit, 4 the centres cannot\n"
-    "  determine the axes, 2 bad input.\n";
+    "  determine the axes, 2 bad input.\n"
+    "usage: mlp kinematics plan --pins HALFILE --sphere X,Y,Z [--a A1,A2,...] [--c N]\n"
+    "                           [--spindle DEG] [--probe-length MM] [--standoff MM]\n"
+    "                           [--table-radius MM] [--table-top MM] [--margin MM]\n"
+    "                           [--out PROGRAM.ngc] [--json]\n"
+    "  The stops of a sphere check (the sphere at X,Y,Z in the table's frame; A at each of\n"
+    "  --a, default -30,0,30,60,90; C at N positions a turn, default 4) and an NC program that\n"
+    "  moves to them in machine coordinates: retract to a clearance height above every stop\n"
+    "  and the table's rim, turn there, move over, go down (it moves only: no capture yet).\n";
 
 std::string Num(double v, int decimals) {
   char b[40];
@@ -161,7 +169,7 @@ struct Command {
 };
 
 Command Parse(const std::vector<std::string>& args) {
-  if (args.empty() || args[0] != "check") throw UsageError("the command is `check`");
+  if (args.empty() || args[0] != "check") throw UsageError("the commands are `check` and `plan`");
   const Args a(
       {args.begin() + 1, args.end()},
       ArgSpec({"--centres", "--pins", "--limit-um", "--square-limit-deg", "--svg"}, {"--json"}));
@@ -231,6 +239,80 @@ int Check(const Command& c, std::ostream& out, std::ostream& err) {
                      "service\n");
   }
   return within ? static_cast<int>(kExitOk) : static_cast<int>(kExitKinematicsOff);
+}
+
+std::string Coordinate(double v) { return Num(std::abs(v) < 5e-7 ? 0.0 : v, 6); }
+
+// The program of a plan for LinuxCNC's xyzac-trt-kins with its type on motion.analog-out-03
+// (samples/linuxcnc/mlprobe-5axis/trt_sim.hal): identity kinematics for the moves (X Y Z A C
+// are the joints: the retract is straight up whatever the table's tilt), each stop said on the
+// operator's channel, the trunnion's kinematics back at the end.
+std::string PlanProgram(const calib::TrunnionPlan& plan, const Vec3& sphere) {
+  std::ostringstream p;
+  const std::string clear = "G53 G0 Z" + Coordinate(plan.clear_gauge_z_mm) + "\n";
+  p << "(mlprobe trunnion check: " << plan.stops.size() << " stops, the sphere at "
+    << Coordinate(sphere.x()) << " " << Coordinate(sphere.y()) << " " << Coordinate(sphere.z())
+    << " on the table; written by mlp kinematics plan)\n"
+    << "G21 G90 G40\nM68 E3 Q1 (identity kinematics: X Y Z A C are the joints)\nM66 E0 L0\n"
+    << clear;
+  for (size_t i = 0; i < plan.stops.size(); ++i) {
+    const calib::TrunnionStop& s = plan.stops[i];
+    p << "(stop " << i + 1 << " of " << plan.stops.size() << ")\n"
+      << "G53 G0 A" << Coordinate(s.a_deg) << " C" << Coordinate(s.c_deg) << "\n"
+      << "G53 G0 X" << Coordinate(s.gauge_machine_mm.x()) << " Y"
+      << Coordinate(s.gauge_machine_mm.y()) << "\n"
+      << "G53 G0 Z" << Coordinate(s.gauge_machine_mm.z()) << "\n"
+      << "(DEBUG, mlp stop " << i + 1 << " #5420 #5421 #5422 #5423 #5425)\n"
+      << clear;
+  }
+  p << "M68 E3 Q0 (the trunnion's kinematics again)\nM66 E0 L0\nM2\n";
+  return p.str();
+}
+
+int Plan(const std::vector<std::string>& args, std::ostream& out) {
+  const Args a({args.begin() + 1, args.end()},
+               ArgSpec({"--pins", "--sphere", "--a", "--c", "--spindle", "--probe-length",
+                        "--standoff", "--table-radius", "--table-top", "--margin", "--out"},
+                       {"--json"}));
+  const calib::TrtPins pins = ParseTrtPinsHal(ReadInputFile(a.Text("--pins")));
+  const std::vector<double> xyz = base::ParseNumberList("--sphere", a.Text("--sphere"));
+  if (xyz.size() != 3) throw UsageError("--sphere takes X,Y,Z");
+  calib::TrunnionPlanOptions o;
+  if (a.Has("--a")) o.a_deg = base::ParseNumberList("--a", a.Text("--a"));
+  o.c_count = static_cast<int>(a.Integer("--c", 4, 3));
+  o.spindle_deg = a.Number("--spindle", 0.0);
+  o.probe_length_mm = a.Number("--probe-length", o.probe_length_mm);
+  o.standoff_mm = a.Number("--standoff", o.standoff_mm);
+  o.table_radius_mm = a.Number("--table-radius", 0.0);
+  o.table_top_mm = a.Number("--table-top", 0.0);
+  o.margin_mm = a.Number("--margin", o.margin_mm);
+  const Vec3 sphere(xyz[0], xyz[1], xyz[2]);
+  calib::TrunnionPlan plan;
+  try {
+    plan = calib::PlanTrunnionCheck(calib::AxesOf(pins), sphere, o);
+  } catch (const calib::TrunnionError& e) {
+    throw UsageError(e.what());
+  }
+  if (a.Has("--out")) WriteOutputFile(a.Text("--out"), PlanProgram(plan, sphere));
+  if (a.Has("--json")) {
+    json stops = json::array();
+    for (const auto& s : plan.stops) {
+      stops.push_back({{"a_deg", s.a_deg},
+                       {"c_deg", s.c_deg},
+                       {"gauge_machine_mm",
+                        {s.gauge_machine_mm.x(), s.gauge_machine_mm.y(), s.gauge_machine_mm.z()}}});
+    }
+    out << json{{"clear_gauge_z_mm", plan.clear_gauge_z_mm}, {"stops", stops}}.dump(2) << "\n";
+    return kExitOk;
+  }
+  out << plan.stops.size() << " stops, turns made with the gauge point at Z "
+      << Num(plan.clear_gauge_z_mm, 3) << " (machine):\n";
+  for (const auto& s : plan.stops) {
+    out << "  A " << Num(s.a_deg, 3) << " C " << Num(s.c_deg, 3) << ": X "
+        << Num(s.gauge_machine_mm.x(), 3) << " Y " << Num(s.gauge_machine_mm.y(), 3) << " Z "
+        << Num(s.gauge_machine_mm.z(), 3) << "\n";
+  }
+  return kExitOk;
 }
 
 }  // namespace
@@ -330,6 +412,7 @@ int RunKinematicsCommand(const std::vector<std::string>& args,
     return kExitOk;
   }
   try {
+    if (!args.empty() && args[0] == "plan") return Plan(args, out);
     return Check(Parse(args), out, err);
   } catch (const UsageError& e) {
     err << "mlp kinematics: " << e.what() << "\n" << kUsage;

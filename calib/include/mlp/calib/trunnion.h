@@ -65,6 +65,42 @@ Pose3 TableFromFlange(const TrunnionAxes& axes,
                       double c_deg,
                       double spindle_deg);
 
+/// A plan of sphere captures on the trunnion: the probe looking straight down (the spindle
+/// untilted, oriented to `spindle_deg`), its origin `standoff_mm` above the sphere's centre,
+/// the gauge point `probe_length_mm` above that.
+struct TrunnionPlanOptions {
+  std::vector<double> a_deg{-30.0, 0.0, 30.0, 60.0, 90.0};
+  int c_count = 4;  ///< C positions per A, evenly over a turn from 0
+  double spindle_deg = 0.0;
+  double probe_length_mm = 140.0, standoff_mm = 125.0;
+  /// The table as a disc of this radius on the plane z = table_top_mm of the table's frame
+  /// (0: not modelled): the clearance height keeps the probe's tip above its rim at every tilt.
+  double table_radius_mm = 0.0, table_top_mm = 0.0;
+  double margin_mm = 20.0;  ///< above the highest thing met while turning
+  void Check() const;
+};
+
+struct TrunnionStop {
+  double a_deg = 0.0, c_deg = 0.0;
+  Vec3 gauge_machine_mm = Vec3::Zero();  ///< where the spindle's gauge point stops (joints)
+};
+
+/// The stops in order (C fastest) and the gauge point's height every turn is made at: above
+/// every stop's probe tip and the table's rim at every tilt of the plan, plus the margin.
+/// The approach to each stop: retract to the clearance height, turn A and C there, move over
+/// the stop, go down to it.
+struct TrunnionPlan {
+  std::vector<TrunnionStop> stops;
+  double clear_gauge_z_mm = 0.0;
+};
+
+/// The plan for a sphere at `sphere_table_mm` (table frame) on a trunnion moving about `axes`.
+/// Throws TrunnionError for options that cannot make a determining plan (under 3 A positions
+/// or 3 C positions) or a non-finite input.
+TrunnionPlan PlanTrunnionCheck(const TrunnionAxes& axes,
+                               const Vec3& sphere_table_mm,
+                               const TrunnionPlanOptions& options = {});
+
 /// One sphere centre measured in the machine frame with the table at (a, c) [deg].
 struct TrunnionObservation {
   double a_deg = 0.0, c_deg = 0.0;
