@@ -907,6 +907,53 @@ void ReportCaptures(const std::vector<Prepared>& prepared,
   result->centre_mean_offset_mm = (mean - s.model.centre).norm();
 }
 
+// What the points' noise alone would spread a capture's centre by [mm^2]: sigma^2 trace of the
+// inverse of the centre's normal matrix (the unit normals at its points, radius held), infinite
+// for a single profile (its centre lies on a circle's axis, loosely) or too few points.
+double CentreNoiseVar(const Model& m,
+                      const Prepared& p,
+                      const std::vector<int>& points,
+                      double sigma_mm) {
+  if (p.capture->single_profile || points.size() < 4) return HUGE_VAL;
+  Mat3 info = Mat3::Zero();
+  for (int j : points) {
+    const Vec3 d = m.MapToMcs(p.capture->mcs_from_flange, p.points.col(j)) - m.centre;
+    if (d.norm() > 0) info += d.normalized() * d.normalized().transpose();
+  }
+  const Eigen::FullPivLU<Mat3> lu(info);
+  if (!lu.isInvertible()) return HUGE_VAL;
+  return sigma_mm * sigma_mm * lu.inverse().trace();
+}
+
+// The captures' centres disagree far beyond what their points' noise explains: a pose H is
+// wrong (a machine's geometry; on a five-axis machine its kinematics, docs/KINEMATICS.md: pins
+// 30-40 um off put M 56 um off with a 24 um spread and nothing else said), a capture was taken
+// moving, or the sphere moved. Said as a warning with both figures. Caps only; the floor keeps
+// a probe's own few-micrometre form errors from raising it.
+void WarnIfCentresDisagree(const std::vector<Prepared>& prepared,
+                           const Solved& s,
+                           HandEyeResult* result) {
+  constexpr double kBeyondNoise = 5.0, kFloorMm = 0.005;
+  double expected2 = 0.0;
+  int caps = 0;
+  for (size_t i = 0; i < prepared.size(); ++i) {
+    const double v = CentreNoiseVar(s.model, prepared[i], s.selection[i], result->point_rms_mm);
+    if (std::isfinite(v)) expected2 += v, ++caps;
+  }
+  if (caps < 2 || !(result->centre_spread_rms_mm > kFloorMm)) return;
+  const double expected = std::sqrt(expected2 / caps);
+  if (result->centre_spread_rms_mm <= kBeyondNoise * expected) return;
+  std::ostringstream w;
+  w.setf(std::ios::fixed);
+  w.precision(1);
+  w << "the captures' sphere centres spread " << result->centre_spread_rms_mm * 1e3
+    << " um RMS where their points' noise explains " << expected * 1e3
+    << " um: a pose is wrong (the machine's geometry or, on a five-axis machine, its "
+       "kinematics: mlp kinematics check), a capture was taken moving, or the sphere moved; M "
+       "takes that error";
+  result->warnings.push_back(w.str());
+}
+
 }  // namespace
 
 void HandEyeOptions::Check() const {
@@ -1028,6 +1075,7 @@ HandEyeResult SolveSphereHandEye(const std::vector<SphereCapture>& captures,
   result.point_rms_mm = std::sqrt(info.sum_sq / info.m);
   result.points_used = info.m;
   ReportCaptures(prepared, s, o, &result);
+  WarnIfCentresDisagree(prepared, s, &result);
   if (o.leave_one_out)
     result.leave_one_out = ValidateLeaveOneOut(prepared, s, o, &result.iterations);
   if (!result.flange_from_probe.matrix().allFinite() || !result.covariance.allFinite() ||

@@ -3,9 +3,9 @@
 // in the table's frame from the joints through the kinematics (calib::TableFromFlange). With the
 // kinematics' true lines the hand-eye is fully determined without a given centre (no warning,
 // no refusal) and finds M and the sphere within issue 54's 5 um and 10 arcsec. With the pins
-// tens of micrometres off it cannot be right, and its centres' spread says so: measured here,
-// so that the order of the jobs (the kinematics checked first) rests on a figure. World: synthetic
-// caps (hand_eye_fixture.h: a perfect sphere, 2 um of noise, no probe optics).
+// tens of micrometres off it cannot be right, its centres' spread shows it and it warns:
+// measured here, so that the order of the jobs (the kinematics checked first) rests on a figure.
+// World: synthetic caps (hand_eye_fixture.h: a perfect sphere, 2 um of noise, no probe optics).
 
 #include "mlp/calib/trunnion.h"
 
@@ -100,14 +100,15 @@ TEST(TrunnionHandEye, PinsOffByTensOfMicrometresSpoilMAndShowInTheCentresSpread)
       "point RMS %.2f um, centre spread %.1f um\n",
       e.translation_mm * 1e3, e.rotation_arcsec, e.centre_mm * 1e3, r.point_rms_mm * 1e3,
       r.centre_spread_rms_mm * 1e3);
-  for (const std::string& w : r.warnings) std::printf("  warning: %s\n", w.c_str());
   // The hand-eye cannot stay right: the pins' error is in every H (measured: M 56 um and 66
   // arcsec off). What tells it: the captures' sphere centres no longer meet (24 um RMS spread
-  // against 0.1 um with the true pins) and the points leave the sphere (11 um RMS against 2).
-  // The hand-eye itself gives no warning for it (docs/KINEMATICS.md: open).
+  // against 0.1 um with the true pins) and the points leave the sphere (11 um RMS against 2);
+  // the hand-eye says so in a warning naming the kinematics.
   EXPECT_GT(e.translation_mm, kTranslationTolMm);
   EXPECT_GT(r.centre_spread_rms_mm, kSpreadThatTellsMm);
   EXPECT_GT(r.point_rms_mm, 3 * kNoiseMm);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("mlp kinematics check"), std::string::npos) << r.warnings[0];
 }
 
 }  // namespace
