@@ -20,6 +20,7 @@ namespace mlp {
 namespace {
 
 namespace fs = std::filesystem;
+using geometry::Pose3;
 using geometry::Vec3;
 using json = nlohmann::json;
 
@@ -145,6 +146,33 @@ TEST(KinematicsCli, APlanHasItsStopsOverTheSphereAndRefusesWhatCannotDetermineTh
   EXPECT_EQ(test::RunProcess(plan + " --sphere 175,-25,-70 --a 0,30").exit_code, 2);
   EXPECT_EQ(test::RunProcess(plan + " --sphere 175,-25").exit_code, 2);
   EXPECT_EQ(test::RunProcess(plan + " --sphere 175,-25,-70 --c 2").exit_code, 2);
+}
+
+TEST(KinematicsCli, TheFlangePoseIsTheKinematicsFromTheFileOrTheLivePins) {
+  const std::string mlp = test::Program("mlp") + " kinematics flange-pose ";
+  const Pose3 want =
+      calib::TableFromFlange(calib::AxesOf(SamplePins()), Vec3(100, -20, 150), 30.0, 45.0, 90.0);
+  for (const std::string& pins :
+       {"--pins " + kPins,
+        std::string("--pin x-rot-point=120 --pin y-rot-point=-40 --pin z-rot-point=-150 "
+                    "--pin y-offset=2.5 --pin z-offset=60")}) {
+    const auto r = test::RunProcess(mlp + pins + " --joints 100,-20,150,30,45 --spindle 90");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const json h = json::parse(r.out);
+    const Vec3 t(h["translation_mm"][0], h["translation_mm"][1], h["translation_mm"][2]);
+    const Vec3 rv(h["rotation_vector_rad"][0], h["rotation_vector_rad"][1],
+                  h["rotation_vector_rad"][2]);
+    EXPECT_LT((t - want.translation()).norm(), 1e-9) << pins;
+    const Eigen::Matrix3d r_got = Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix();
+    EXPECT_LT((r_got - want.linear()).norm(), 1e-9) << pins;
+  }
+  EXPECT_EQ(test::RunProcess(mlp + "--pins " + kPins + " --joints 1,2,3,4").exit_code, 2);
+  EXPECT_EQ(
+      test::RunProcess(mlp + "--pins " + kPins + " --pin z-offset=1 --joints 1,2,3,4,5").exit_code,
+      2)
+      << "the pins from two sources";
+  EXPECT_EQ(test::RunProcess(mlp + "--pin x-rot-point=1 --joints 1,2,3,4,5").exit_code, 2)
+      << "pins missing";
 }
 
 }  // namespace

@@ -4,7 +4,8 @@
 // mlprobe's model of the table's motion (calib::MachineFromTable: C turns first about its line,
 // then A turns both) puts every axis position, which LinuxCNC reports in the table's frame,
 // exactly on the joints LinuxCNC drives, for the shipped pins and for pins changed while the
-// machine runs (as a kinematics calibration would change them).
+// machine runs (as a kinematics calibration would change them); and H from the joints and the
+// live pins (`mlp kinematics flange-pose`) has its origin where LinuxCNC's TCP puts the tool.
 
 #include "mlp/calib/trunnion.h"
 
@@ -70,6 +71,22 @@ void CheckPose(const test::LinuxCnc& cnc,
   for (int k = 0; k < 3; ++k)
     EXPECT_NEAR(joints[k].get<double>(), machine[k], kSameMm)
         << "joint " << k << " at A " << a_deg << " C " << c_deg;
+  // H as M101 will have it: `mlp kinematics flange-pose` from the joints and the live pins; its
+  // origin (the gauge point) in the table's frame is where LinuxCNC's TCP says the tool is.
+  std::ostringstream cmd;
+  cmd.precision(17);
+  cmd << test::Program("mlp") << " kinematics flange-pose --pin x-rot-point=" << pins.x_rot_point
+      << " --pin y-rot-point=" << pins.y_rot_point << " --pin z-rot-point=" << pins.z_rot_point
+      << " --pin y-offset=" << pins.y_offset << " --pin z-offset=" << pins.z_offset
+      << " --pin tool-offset=" << pins.tool_offset << " --joints " << joints[0].get<double>() << ","
+      << joints[1].get<double>() << "," << joints[2].get<double>() << "," << joints[3].get<double>()
+      << "," << joints[4].get<double>();
+  const auto h = RunProcess(cmd.str());
+  ASSERT_EQ(h.exit_code, 0) << h.err;
+  const auto pose = nlohmann::json::parse(h.out);
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(pose["translation_mm"][static_cast<size_t>(k)].get<double>(), in_table[k], kSameMm)
+        << "H's origin, axis " << k << " at A " << a_deg << " C " << c_deg;
 }
 
 TEST(LinuxCncTrunnion, TheTablesMotionIsTheControllersWithThePinsItHolds) {

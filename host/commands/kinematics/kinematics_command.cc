@@ -1,5 +1,6 @@
 #include "mlp/host/kinematics_command.h"
 
+#include "mlp/base/json_fields.h"
 #include "mlp/host/cli.h"
 
 #include <algorithm>
@@ -15,6 +16,7 @@ namespace mlp::host {
 namespace {
 
 using json = nlohmann::json;
+using geometry::Pose3;
 using geometry::Vec3;
 
 constexpr const char* kUsage =
@@ -33,7 +35,12 @@ constexpr const char* kUsage =
     "  The stops of a sphere check (the sphere at X,Y,Z in the table's frame; A at each of\n"
     "  --a, default -30,0,30,60,90; C at N positions a turn, default 4) and an NC program that\n"
     "  moves to them in machine coordinates: retract to a clearance height above every stop\n"
-    "  and the table's rim, turn there, move over, go down (it moves only: no capture yet).\n";
+    "  and the table's rim, turn there, move over, go down (it moves only: no capture yet).\n"
+    "usage: mlp kinematics flange-pose (--pins HALFILE | --pin NAME=MM ...) --joints X,Y,Z,A,C\n"
+    "                                  [--spindle DEG]\n"
+    "  H, the spindle flange in the table's frame, from the joints and the pins (a capture's\n"
+    "  mcs_from_flange: translation_mm and rotation_vector_rad, JSON); --pin takes the running\n"
+    "  machine's values (halcmd getp xyzac-trt-kins.NAME), x-rot-point to z-offset, tool-offset.\n";
 
 std::string Num(double v, int decimals) {
   char b[40];
@@ -169,7 +176,8 @@ struct Command {
 };
 
 Command Parse(const std::vector<std::string>& args) {
-  if (args.empty() || args[0] != "check") throw UsageError("the commands are `check` and `plan`");
+  if (args.empty() || args[0] != "check")
+    throw UsageError("the commands are check, plan and flange-pose");
   const Args a(
       {args.begin() + 1, args.end()},
       ArgSpec({"--centres", "--pins", "--limit-um", "--square-limit-deg", "--svg"}, {"--json"}));
@@ -315,6 +323,34 @@ int Plan(const std::vector<std::string>& args, std::ostream& out) {
   return kExitOk;
 }
 
+// The pins from a HAL file or from NAME=MM values (the running machine's, as M101 reads them),
+// one source or the other.
+calib::TrtPins PinsOf(const Args& a) {
+  if (a.Has("--pins") == !a.All("--pin").empty())
+    throw UsageError("give the pins once: --pins HALFILE or --pin NAME=MM for each");
+  if (a.Has("--pins")) return ParseTrtPinsHal(ReadInputFile(a.Text("--pins")));
+  std::string hal;
+  for (const std::string& v : a.All("--pin")) {
+    const size_t eq = v.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw UsageError("--pin takes NAME=MM, not '" + v + "'");
+    hal += "setp xyzac-trt-kins." + v.substr(0, eq) + " " + v.substr(eq + 1) + "\n";
+  }
+  return ParseTrtPinsHal(hal);
+}
+
+int FlangePose(const std::vector<std::string>& args, std::ostream& out) {
+  const Args a({args.begin() + 1, args.end()},
+               ArgSpec({"--pins", "--joints", "--spindle"}, {}, {"--pin"}));
+  const calib::TrtPins pins = PinsOf(a);
+  const std::vector<double> j = base::ParseNumberList("--joints", a.Text("--joints"));
+  if (j.size() != 5) throw UsageError("--joints takes X,Y,Z,A,C");
+  const Pose3 h = calib::TableFromFlange(calib::AxesOf(pins), Vec3(j[0], j[1], j[2]), j[3], j[4],
+                                         a.Number("--spindle", 0.0));
+  out << base::json_fields::PoseToJson(h).dump() << "\n";
+  return kExitOk;
+}
+
 }  // namespace
 
 calib::TrtPins ParseTrtPinsHal(const std::string& text) {
@@ -413,6 +449,7 @@ int RunKinematicsCommand(const std::vector<std::string>& args,
   }
   try {
     if (!args.empty() && args[0] == "plan") return Plan(args, out);
+    if (!args.empty() && args[0] == "flange-pose") return FlangePose(args, out);
     return Check(Parse(args), out, err);
   } catch (const UsageError& e) {
     err << "mlp kinematics: " << e.what() << "\n" << kUsage;
