@@ -104,6 +104,13 @@ TEST(KinematicsCli, RightPinsAreWithinAndSaidSo) {
   EXPECT_EQ(r.exit_code, 0) << r.err << r.out;
   EXPECT_NE(r.out.find("within the limits"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("x-rot-point: "), std::string::npos) << r.out;
+  // The same pins as the running machine holds them (halcmd getp), the same verdict and figures.
+  const auto live =
+      Check("--centres " + (fs::temp_directory_path() / "mlp_kinematics_right.json").string() +
+            " --pin x-rot-point=120 --pin y-rot-point=-40 --pin z-rot-point=-150"
+            " --pin y-offset=2.5 --pin z-offset=60");
+  EXPECT_EQ(live.exit_code, 0) << live.err;
+  EXPECT_EQ(live.out, r.out);
 }
 
 TEST(KinematicsCli, WhatCannotDetermineTheAxesAndBadFilesAreRefused) {

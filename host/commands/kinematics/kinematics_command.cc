@@ -20,7 +20,8 @@ using geometry::Pose3;
 using geometry::Vec3;
 
 constexpr const char* kUsage =
-    "usage: mlp kinematics check --centres FILE --pins HALFILE [--limit-um U]\n"
+    "usage: mlp kinematics check --centres FILE (--pins HALFILE | --pin NAME=MM ...)\n"
+    "                            [--limit-um U]\n"
     "                            [--square-limit-deg D] [--svg FILE] [--json]\n"
     "  A trunnion (A tilting about X carrying C; LinuxCNC's xyzac-trt-kins) checked from sphere\n"
     "  centres measured at A and C positions (FILE: mlprobe-trunnion-centres/1), against the\n"
@@ -169,8 +170,25 @@ void Bars(std::ostringstream& s,
   }
 }
 
+// The pins from a HAL file or from NAME=MM values (the running machine's, as M101 reads them),
+// one source or the other.
+calib::TrtPins PinsOf(const Args& a) {
+  if (a.Has("--pins") == !a.All("--pin").empty())
+    throw UsageError("give the pins once: --pins HALFILE or --pin NAME=MM for each");
+  if (a.Has("--pins")) return ParseTrtPinsHal(ReadInputFile(a.Text("--pins")));
+  std::string hal;
+  for (const std::string& v : a.All("--pin")) {
+    const size_t eq = v.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw UsageError("--pin takes NAME=MM, not '" + v + "'");
+    hal += "setp xyzac-trt-kins." + v.substr(0, eq) + " " + v.substr(eq + 1) + "\n";
+  }
+  return ParseTrtPinsHal(hal);
+}
+
 struct Command {
-  std::string centres, pins, svg;
+  std::string centres, svg;
+  calib::TrtPins pins;
   double limit_mm = 0.010, square_limit_deg = 0.01;
   bool json = false;
 };
@@ -178,12 +196,12 @@ struct Command {
 Command Parse(const std::vector<std::string>& args) {
   if (args.empty() || args[0] != "check")
     throw UsageError("the commands are check, plan and flange-pose");
-  const Args a(
-      {args.begin() + 1, args.end()},
-      ArgSpec({"--centres", "--pins", "--limit-um", "--square-limit-deg", "--svg"}, {"--json"}));
+  const Args a({args.begin() + 1, args.end()},
+               ArgSpec({"--centres", "--pins", "--limit-um", "--square-limit-deg", "--svg"},
+                       {"--json"}, {"--pin"}));
   Command c;
   c.centres = a.Text("--centres");
-  c.pins = a.Text("--pins");
+  c.pins = PinsOf(a);
   c.svg = a.Text("--svg", "");
   c.limit_mm = a.Number("--limit-um", 10.0) * 1e-3;
   c.square_limit_deg = a.Number("--square-limit-deg", 0.01);
@@ -203,7 +221,7 @@ void PrintRows(
 }
 
 int Check(const Command& c, std::ostream& out, std::ostream& err) {
-  const calib::TrtPins pins = ParseTrtPinsHal(ReadInputFile(c.pins));
+  const calib::TrtPins& pins = c.pins;
   const std::vector<calib::TrunnionObservation> centres =
       ParseTrunnionCentres(ReadInputFile(c.centres));
   calib::TrunnionFit fit;
@@ -321,22 +339,6 @@ int Plan(const std::vector<std::string>& args, std::ostream& out) {
         << Num(s.gauge_machine_mm.z(), 3) << "\n";
   }
   return kExitOk;
-}
-
-// The pins from a HAL file or from NAME=MM values (the running machine's, as M101 reads them),
-// one source or the other.
-calib::TrtPins PinsOf(const Args& a) {
-  if (a.Has("--pins") == !a.All("--pin").empty())
-    throw UsageError("give the pins once: --pins HALFILE or --pin NAME=MM for each");
-  if (a.Has("--pins")) return ParseTrtPinsHal(ReadInputFile(a.Text("--pins")));
-  std::string hal;
-  for (const std::string& v : a.All("--pin")) {
-    const size_t eq = v.find('=');
-    if (eq == std::string::npos || eq == 0)
-      throw UsageError("--pin takes NAME=MM, not '" + v + "'");
-    hal += "setp xyzac-trt-kins." + v.substr(0, eq) + " " + v.substr(eq + 1) + "\n";
-  }
-  return ParseTrtPinsHal(hal);
 }
 
 int FlangePose(const std::vector<std::string>& args, std::ostream& out) {

@@ -33,8 +33,11 @@ std::string TrunnionSvg(const std::vector<calib::TrunnionObservation>& centres,
                         const calib::TrtPins& pins,
                         double limit_mm);
 
-/// mlp kinematics check --centres FILE --pins HALFILE [--limit-um U] [--square-limit-deg D]
-///                      [--svg FILE] [--json]
+/// mlp kinematics check --centres FILE (--pins HALFILE | --pin NAME=MM ...) [--limit-um U]
+///                      [--square-limit-deg D] [--svg FILE] [--json]
+/// mlp kinematics plan --pins HALFILE --sphere X,Y,Z [...] [--out PROGRAM.ngc] [--json]
+/// mlp kinematics flange-pose (--pins HALFILE | --pin NAME=MM ...) --joints X,Y,Z,A,C
+///                            [--spindle DEG]
 int RunKinematicsCommand(const std::vector<std::string>& args,
                          std::ostream& out,
                          std::ostream& err);
