@@ -288,6 +288,12 @@ TrunnionFit FitTrunnion(const std::vector<TrunnionObservation>& observations,
         << " um RMS from one point turned about two lines (limit "
         << options.max_residual_rms_mm * 1e3
         << " um): a loose sphere, a wrong pose or a move mid-plan";
+    // The worst centre named, so the operator can look at that capture first.
+    const auto worst = std::max_element(fit.residual_mm.begin(), fit.residual_mm.end());
+    const TrunnionObservation& w =
+        observations[static_cast<size_t>(worst - fit.residual_mm.begin())];
+    why << "; the worst centre, A " << w.a_deg << " C " << w.c_deg << ", " << *worst * 1e3
+        << " um off";
     throw TrunnionError(why.str());
   }
   return fit;

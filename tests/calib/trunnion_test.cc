@@ -158,6 +158,17 @@ TEST(Trunnion, PlansAndCentresThatCannotDetermineTheLinesAreRefused) {
   for (size_t i = moved.size() / 2; i < moved.size(); ++i)
     moved[i].centre_machine_mm += Vec3(0.050, 0.0, 0.0);
   EXPECT_THROW(FitTrunnion(moved, AxesOf(Controller())), TrunnionError);
+  // One capture 80 um off (A 60, C 180): refused, and that centre named as the worst.
+  std::vector<TrunnionObservation> one = Plan(truth, 0.0, 1);
+  for (TrunnionObservation& o : one)
+    if (o.a_deg == 60.0 && o.c_deg == 180.0) o.centre_machine_mm += Vec3(0.0, 0.080, 0.0);
+  try {
+    FitTrunnion(one, AxesOf(Controller()));
+    ADD_FAILURE() << "one centre 80 um off was fitted";
+  } catch (const TrunnionError& e) {
+    EXPECT_NE(std::string(e.what()).find("the worst centre, A 60 C 180"), std::string::npos)
+        << e.what();
+  }
   std::vector<TrunnionObservation> nan = Plan(truth, 0.0, 1);
   nan[3].centre_machine_mm.x() = std::nan("");
   EXPECT_THROW(FitTrunnion(nan, AxesOf(Controller())), TrunnionError);
