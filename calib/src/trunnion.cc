@@ -1,5 +1,7 @@
 #include "mlp/calib/trunnion.h"
 
+#include "mlp/base/units.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -15,8 +17,8 @@
 namespace mlp::calib {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
+using base::kPi;
+constexpr double kDeg = 1.0 / base::kDegPerRad;  // radians in a degree
 constexpr int kParams = 11;  // A: 2 position + 2 direction; C: the same; the sphere: 3
 using Params = std::array<double, kParams>;
 

@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <map>
 #include <ostream>
 #include <sstream>
@@ -42,12 +41,6 @@ constexpr const char* kUsage =
     "  H, the spindle flange in the table's frame, from the joints and the pins (a capture's\n"
     "  mcs_from_flange: translation_mm and rotation_vector_rad, JSON); --pin takes the running\n"
     "  machine's values (halcmd getp xyzac-trt-kins.NAME), x-rot-point to z-offset, tool-offset.\n";
-
-std::string Num(double v, int decimals) {
-  char b[40];
-  std::snprintf(b, sizeof b, "%.*f", decimals, v);
-  return b;
-}
 
 // One reported quantity: the pin's value, what the centres say, its uncertainty and limit.
 struct Row {
@@ -113,9 +106,9 @@ const char* ColourOf(double a_deg) {
 }
 
 void Mark(std::ostringstream& s, double x, double y, const char* colour, const std::string& label) {
-  s << "<path d='M" << Num(x - 6, 1) << ' ' << Num(y, 1) << "h12M" << Num(x, 1) << ' '
-    << Num(y - 6, 1) << "v12' stroke='" << colour << "' stroke-width='2'/>\n";
-  s << "<text x='" << Num(x + 8, 1) << "' y='" << Num(y - 8, 1) << "' font-size='11' fill='"
+  s << "<path d='M" << Fixed(x - 6, 1) << ' ' << Fixed(y, 1) << "h12M" << Fixed(x, 1) << ' '
+    << Fixed(y - 6, 1) << "v12' stroke='" << colour << "' stroke-width='2'/>\n";
+  s << "<text x='" << Fixed(x + 8, 1) << "' y='" << Fixed(y - 8, 1) << "' font-size='11' fill='"
     << colour << "'>" << label << "</text>\n";
 }
 
@@ -136,9 +129,9 @@ void View(std::ostringstream& s,
   s << "<rect x='" << left << "' y='50' width='320' height='320' fill='none' stroke='#888'/>\n"
     << "<text x='" << left << "' y='40' font-size='13'>" << title << "</text>\n";
   for (const auto& c : centres) {
-    s << "<circle cx='" << Num(p.X(c.centre_machine_mm[u]), 1) << "' cy='"
-      << Num(p.Y(c.centre_machine_mm[v]), 1) << "' r='4' fill='" << ColourOf(c.a_deg)
-      << "'><title>A " << Num(c.a_deg, 3) << " C " << Num(c.c_deg, 3) << "</title></circle>\n";
+    s << "<circle cx='" << Fixed(p.X(c.centre_machine_mm[u]), 1) << "' cy='"
+      << Fixed(p.Y(c.centre_machine_mm[v]), 1) << "' r='4' fill='" << ColourOf(c.a_deg)
+      << "'><title>A " << Fixed(c.a_deg, 3) << " C " << Fixed(c.c_deg, 3) << "</title></circle>\n";
   }
   Mark(s, p.X(fitted[u]), p.Y(fitted[v]), "#000", "axis found");
   Mark(s, p.X(pinned[u]), p.Y(pinned[v]), "#888", "pins");
@@ -155,18 +148,18 @@ void Bars(std::ostringstream& s,
   for (const Row& r : rows) worst = std::max({worst, std::abs(r.found - r.pin), r.limit});
   const double k = kHalf / (worst * scale);
   const double lim = rows.front().limit * scale * k;
-  s << "<path d='M" << Num(kLeft - lim, 1) << ' ' << top - 12 << "v" << 22 * rows.size() << "M"
-    << Num(kLeft + lim, 1) << ' ' << top - 12 << "v" << 22 * rows.size()
+  s << "<path d='M" << Fixed(kLeft - lim, 1) << ' ' << top - 12 << "v" << 22 * rows.size() << "M"
+    << Fixed(kLeft + lim, 1) << ' ' << top - 12 << "v" << 22 * rows.size()
     << "' stroke='#d62728' stroke-dasharray='4 3'/>\n";
   for (size_t i = 0; i < rows.size(); ++i) {
     const Row& r = rows[i];
     const double e = (r.found - r.pin) * scale, y = top + 22.0 * static_cast<double>(i);
-    s << "<rect x='" << Num(kLeft + std::min(0.0, e * k), 1) << "' y='" << Num(y - 8, 1)
-      << "' width='" << Num(std::abs(e * k), 1) << "' height='12' fill='"
+    s << "<rect x='" << Fixed(kLeft + std::min(0.0, e * k), 1) << "' y='" << Fixed(y - 8, 1)
+      << "' width='" << Fixed(std::abs(e * k), 1) << "' height='12' fill='"
       << (r.Within() ? "#2ca02c" : "#d62728") << "'/>\n"
-      << "<text x='" << kLeft - kHalf - 10 << "' y='" << Num(y + 2, 1)
-      << "' font-size='11' text-anchor='end'>" << r.name << ": " << Num(e, 2) << " " << unit
-      << " +- " << Num(r.u * scale, 2) << "</text>\n";
+      << "<text x='" << kLeft - kHalf - 10 << "' y='" << Fixed(y + 2, 1)
+      << "' font-size='11' text-anchor='end'>" << r.name << ": " << Fixed(e, 2) << " " << unit
+      << " +- " << Fixed(r.u * scale, 2) << "</text>\n";
   }
 }
 
@@ -214,8 +207,8 @@ Command Parse(const std::vector<std::string>& args) {
 void PrintRows(
     std::ostream& out, const std::vector<Row>& rows, double scale, const char* unit, int decimals) {
   for (const Row& r : rows) {
-    out << "  " << r.name << ": " << Num((r.found - r.pin) * scale, decimals) << " " << unit
-        << " +- " << Num(r.u * scale, decimals) << " (limit " << Num(r.limit * scale, decimals)
+    out << "  " << r.name << ": " << Fixed((r.found - r.pin) * scale, decimals) << " " << unit
+        << " +- " << Fixed(r.u * scale, decimals) << " (limit " << Fixed(r.limit * scale, decimals)
         << ")" << (r.Within() ? "" : "  BEYOND") << "\n";
   }
 }
@@ -254,8 +247,8 @@ int Check(const Command& c, std::ostream& out, std::ostream& err) {
         << "\n";
   } else {
     out << "trunnion check over " << centres.size() << " sphere centres: residual "
-        << Num(fit.residual_rms_mm * 1e3, 2) << " um RMS, worst "
-        << Num(*std::max_element(fit.residual_mm.begin(), fit.residual_mm.end()) * 1e3, 2)
+        << Fixed(fit.residual_rms_mm * 1e3, 2) << " um RMS, worst "
+        << Fixed(*std::max_element(fit.residual_mm.begin(), fit.residual_mm.end()) * 1e3, 2)
         << " um\n pivots against the pins (found - pin, k = 1):\n";
     PrintRows(out, pivots, 1e3, "um", 1);
     out << " squareness, which the kinematics cannot hold:\n";
@@ -267,7 +260,7 @@ int Check(const Command& c, std::ostream& out, std::ostream& err) {
   return within ? static_cast<int>(kExitOk) : static_cast<int>(kExitKinematicsOff);
 }
 
-std::string Coordinate(double v) { return Num(std::abs(v) < 5e-7 ? 0.0 : v, 6); }
+std::string Coordinate(double v) { return Fixed(std::abs(v) < 5e-7 ? 0.0 : v, 6); }
 
 // The program of a plan for LinuxCNC's xyzac-trt-kins with its type on motion.analog-out-03
 // (samples/linuxcnc/mlprobe-5axis/trt_sim.hal): identity kinematics for the moves (X Y Z A C
@@ -332,11 +325,11 @@ int Plan(const std::vector<std::string>& args, std::ostream& out) {
     return kExitOk;
   }
   out << plan.stops.size() << " stops, turns made with the gauge point at Z "
-      << Num(plan.clear_gauge_z_mm, 3) << " (machine):\n";
+      << Fixed(plan.clear_gauge_z_mm, 3) << " (machine):\n";
   for (const auto& s : plan.stops) {
-    out << "  A " << Num(s.a_deg, 3) << " C " << Num(s.c_deg, 3) << ": X "
-        << Num(s.gauge_machine_mm.x(), 3) << " Y " << Num(s.gauge_machine_mm.y(), 3) << " Z "
-        << Num(s.gauge_machine_mm.z(), 3) << "\n";
+    out << "  A " << Fixed(s.a_deg, 3) << " C " << Fixed(s.c_deg, 3) << ": X "
+        << Fixed(s.gauge_machine_mm.x(), 3) << " Y " << Fixed(s.gauge_machine_mm.y(), 3) << " Z "
+        << Fixed(s.gauge_machine_mm.z(), 3) << "\n";
   }
   return kExitOk;
 }
@@ -422,22 +415,23 @@ std::string TrunnionSvg(const std::vector<calib::TrunnionObservation>& centres,
        "seen along X: the centres turn about A (colour: A)");
   View(s, at_zero.empty() ? centres : at_zero, 0, 1, fit.axes.c.point, nominal.c.point, 380,
        "seen along Z at A = 0: the centres turn about C");
-  s << "<text x='750' y='40' font-size='13'>pivot errors against +-" << Num(limit_mm * 1e3, 1)
+  s << "<text x='750' y='40' font-size='13'>pivot errors against +-" << Fixed(limit_mm * 1e3, 1)
     << " um (dashed)</text>\n";
   Bars(s, PivotRows(fit, pins, limit_mm), 1e3, "um", 80);
   s << "<text x='750' y='210' font-size='13'>centre residuals: RMS "
-    << Num(fit.residual_rms_mm * 1e3, 2) << " um over " << centres.size() << "</text>\n";
+    << Fixed(fit.residual_rms_mm * 1e3, 2) << " um over " << centres.size() << "</text>\n";
   const double worst =
       std::max(1e-6, *std::max_element(fit.residual_mm.begin(), fit.residual_mm.end()));
   for (size_t i = 0; i < fit.residual_mm.size(); ++i) {
     const double h = 120.0 * fit.residual_mm[i] / worst;
     s << "<rect x='"
-      << Num(750 + 340.0 * static_cast<double>(i) / static_cast<double>(fit.residual_mm.size()), 1)
-      << "' y='" << Num(360 - h, 1) << "' width='"
-      << Num(300.0 / static_cast<double>(fit.residual_mm.size()), 1) << "' height='" << Num(h, 1)
-      << "' fill='" << ColourOf(centres[i].a_deg) << "'/>\n";
+      << Fixed(750 + 340.0 * static_cast<double>(i) / static_cast<double>(fit.residual_mm.size()),
+               1)
+      << "' y='" << Fixed(360 - h, 1) << "' width='"
+      << Fixed(300.0 / static_cast<double>(fit.residual_mm.size()), 1) << "' height='"
+      << Fixed(h, 1) << "' fill='" << ColourOf(centres[i].a_deg) << "'/>\n";
   }
-  s << "<text x='750' y='385' font-size='11'>tallest " << Num(worst * 1e3, 2)
+  s << "<text x='750' y='385' font-size='11'>tallest " << Fixed(worst * 1e3, 2)
     << " um</text>\n</svg>\n";
   return s.str();
 }

@@ -5,6 +5,8 @@
 #include "mlp/base/args.h"
 
 #include <filesystem>
+#include <iomanip>
+#include <sstream>
 #include <string>
 
 namespace mlp::host {
@@ -20,6 +22,13 @@ using base::kExitOk;
 using base::ParseInteger;
 using base::ParseNumber;
 using base::UsageError;
+
+/// A number with a fixed count of decimals, for the tools' readable summaries and pictures.
+inline std::string Fixed(double v, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << v;
+  return s.str();
+}
 
 /// A HAL component's name (its pins' prefix): 1..40 of a-z 0-9 - _; UsageError otherwise.
 std::string HalComponentName(const std::string& name);
