@@ -746,24 +746,7 @@ Vec3 CaptureCentre(const Model& m,
       return near;
     }
   }
-  Vec3 c = near;
-  constexpr int kMaxSteps = 50;
-  for (int step = 0; step < kMaxSteps; ++step) {
-    Mat3 jtj = Mat3::Zero();
-    Vec3 jtr = Vec3::Zero();
-    for (Eigen::Index k = 0; k < x.cols(); ++k) {
-      const Vec3 d = x.col(k) - c;
-      const double n = d.norm();
-      if (!(n > 0)) continue;
-      const Vec3 row = -d / n;  // d r / d c
-      jtj += row * row.transpose(), jtr += row * (n - radius);
-    }
-    const Vec3 dc = jtj.ldlt().solve(-jtr);
-    if (!dc.allFinite()) break;
-    c += dc;
-    if (dc.norm() < 1e-9) break;
-  }
-  return c;
+  return geometry::SphereCentreWithRadius(x, radius, near);
 }
 
 // ------------------------------------------------------------------ the solution's steps

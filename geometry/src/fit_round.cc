@@ -255,6 +255,27 @@ FitResult<Circle2> FitCircle2(const Points2& points, const FitOptions& options) 
   return fit;
 }
 
+Vec3 SphereCentreWithRadius(const Points3& points, double radius, const Vec3& start) {
+  constexpr int kMaxSteps = 50;
+  Vec3 c = start;
+  for (int step = 0; step < kMaxSteps; ++step) {
+    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
+    Vec3 jtr = Vec3::Zero();
+    for (Eigen::Index k = 0; k < points.cols(); ++k) {
+      const Vec3 d = points.col(k) - c;
+      const double n = d.norm();
+      if (!(n > 0)) continue;
+      const Vec3 row = -d / n;  // d r / d c
+      jtj += row * row.transpose(), jtr += row * (n - radius);
+    }
+    const Vec3 dc = jtj.ldlt().solve(-jtr);
+    if (!dc.allFinite()) break;
+    c += dc;
+    if (dc.norm() < 1e-9) break;
+  }
+  return c;
+}
+
 FitResult<Sphere> FitSphere(const Points3& points, const FitOptions& options) {
   const auto sol = FitNSphere<3>(points, options, "sphere");
   FitResult<Sphere> fit;

@@ -96,6 +96,20 @@ struct Site {
   }
 };
 
+// The site's machine lcnc-1 pointed at a LinuxCNC configuration folder: its tool table, its
+// subroutine folder (subs/) for the result subroutines, and jobs/ for M101's job files.
+inline void UseLinuxCncConfig(const Site& site, const fs::path& config) {
+  json hostd_config = json::parse(ReadText(site.dir / "hostd.json"));
+  for (auto& m : hostd_config.at("machines"))
+    if (m.at("name") == "lcnc-1")
+      m["controller"] = {{"kind", "linuxcnc"},
+                         {"tool_table", (config / "tool.tbl").string()},
+                         {"result_dir", (config / "subs").string()}};
+  std::ofstream(site.dir / "hostd.json") << hostd_config.dump(1);
+  fs::create_directories(config / "jobs");
+  fs::create_directories(config / "subs");
+}
+
 // The probe's calibration as the scene mounts it (a hand-eye record in the site's store).
 inline void SaveSceneCalibration(const Site& site, const std::string& scene = kScene) {
   calib::CalibrationRecord cal;

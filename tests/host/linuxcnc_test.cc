@@ -60,14 +60,7 @@ class LinuxCnc : public test::LinuxCnc {
 fs::path LinuxCncSite(const Site& site) {
   const fs::path config = site.dir / "mlprobe-sim";
   fs::copy(kConfig, config, fs::copy_options::recursive);
-  json hostd_config = json::parse(test::ReadText(site.dir / "hostd.json"));
-  for (auto& m : hostd_config.at("machines"))
-    if (m.at("name") == "lcnc-1")
-      m["controller"] = {{"kind", "linuxcnc"},
-                         {"tool_table", (config / "tool.tbl").string()},
-                         {"result_dir", (config / "subs").string()}};
-  std::ofstream(site.dir / "hostd.json") << hostd_config.dump(1);
-  fs::create_directories(config / "jobs");
+  test::UseLinuxCncConfig(site, config);
   return config;
 }
 

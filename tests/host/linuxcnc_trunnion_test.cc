@@ -27,10 +27,11 @@ using test::RunProcess;
 constexpr double kSameMm = 1e-6;  // two computations of one rigid motion: rounding only
 
 fs::path FiveAxisConfig() {
+  // Both sample machines: the five-axis one's M-codes are the three-axis one's (USER_M_PATH).
   const fs::path dir = fs::temp_directory_path() / "mlp_linuxcnc_5axis";
   fs::remove_all(dir);
-  fs::copy(test::SourceDir() + "/samples/linuxcnc/mlprobe-5axis", dir, fs::copy_options::recursive);
-  return dir;
+  fs::copy(test::SourceDir() + "/samples/linuxcnc", dir, fs::copy_options::recursive);
+  return dir / "mlprobe-5axis";
 }
 
 // The kinematics' pins as the running machine holds them.

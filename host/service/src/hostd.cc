@@ -151,9 +151,9 @@ struct Hostd::Impl {
     });
     // Jobs on stored captures: the same context, one machine at a time.
     const std::pair<const char*, json (*)(JobContext&, const json&)> jobs[] = {
-        {"plan", &RunPlanJob},           {"measure", &RunMeasureJob}, {"align", &RunAlignJob},
-        {"calibrate", &RunCalibrateJob}, {"recheck", &RunRecheckJob}, {"tool", &RunToolJob},
-        {"relocate", &RunRelocateJob}};
+        {"plan", &RunPlanJob},           {"measure", &RunMeasureJob},      {"align", &RunAlignJob},
+        {"calibrate", &RunCalibrateJob}, {"recheck", &RunRecheckJob},      {"tool", &RunToolJob},
+        {"relocate", &RunRelocateJob},   {"kinematics", &RunKinematicsJob}};
     for (const auto& [op, run] : jobs) {
       server.HandleInLane(op, [this, run = run](const json& r) {
         return RunOnMachine(r, [&](const MachineConfig& m, const json& req) {

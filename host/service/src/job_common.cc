@@ -320,6 +320,7 @@ std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
     s.probe_serial = f.meta.probe_serial;
     s.mcs_from_flange = *f.meta.mcs_from_flange;
     s.edge = f.meta.edge;
+    s.pose = row.pose;
     s.points_in_probe = Eigen::Map<const Eigen::Matrix3Xd>(
         f.xyz.data(), 3, static_cast<Eigen::Index>(f.quality.size()));
     ctx.history.AddCapture(job, row);  // the job names the capture it read

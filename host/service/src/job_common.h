@@ -90,6 +90,9 @@ struct StoredCapture {
   geometry::Pose3 mcs_from_flange = geometry::Pose3::Identity();
   geometry::Points3 points_in_probe;
   std::optional<base::EdgeSight> edge;  ///< the LED frame's edge of an edge ROI
+  /// The pose as the capture request gave it: H, and on a trunnion the joints, the frame and
+  /// the kinematics' pins M101 read with it.
+  nlohmann::json pose;
 };
 
 /// Requests longer than this (as JSON text) are kept in the history by size and SHA-256 only.
@@ -185,5 +188,7 @@ toolcam::ToolDescription ReadToolDescription(const JobContext& ctx,
                                              const std::string& field);
 /// `{"op": "relocate", ...}` (relocate_job.cc): an EDM electrode re-clamped, its offsets.
 nlohmann::json RunRelocateJob(JobContext& ctx, const nlohmann::json& request);
+/// {"op": "kinematics"}: a trunnion's rotary axes from sphere captures (issue 54).
+nlohmann::json RunKinematicsJob(JobContext& ctx, const nlohmann::json& request);
 
 }  // namespace mlp::service

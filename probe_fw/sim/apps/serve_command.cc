@@ -3,11 +3,14 @@
 // reconstructed from rendered frames.
 
 #include "mlp/probe_fw/agent.h"
+#include "mlp/sim/machine_world.h"
 #include "mlp/sim/scene.h"
 #include "mlp/sim/virtual_camera.h"
 
 #include <atomic>
 #include <csignal>
+#include <cstdio>
+#include <stdexcept>
 
 #include "cli.h"
 #include "sim_command.h"
@@ -22,12 +25,41 @@ extern "C" void OnSignal(int) { g_stop = true; }
 constexpr double kBatteryPerCapture = 0.02;
 constexpr double kBoardTemperatureC = 35.0;
 
+// A HAL pin of the running machine, read as its M-codes read them (halcmd, the environment
+// LinuxCNC was started with). popen rather than the HAL library: a component of our own would
+// have to be created and torn down at every capture, and the virtual probe must not need
+// LinuxCNC's headers to build.
+double HalPin(const std::string& name) {
+  if (name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789.-_") != std::string::npos)
+    throw std::runtime_error("machine: '" + name + "' is not a HAL pin name");
+  FILE* p = popen(("halcmd -s getp " + name + " 2>/dev/null").c_str(), "r");
+  if (p == nullptr) throw std::runtime_error("machine: cannot run halcmd");
+  char text[64] = {};
+  const bool read = std::fgets(text, sizeof text, p) != nullptr;
+  const int status = pclose(p);
+  char* end = nullptr;
+  const double v = read ? std::strtod(text, &end) : 0.0;
+  if (status != 0 || !read || end == text || !std::isfinite(v))
+    throw std::runtime_error("machine: cannot read HAL pin " + name + " (is LinuxCNC running?)");
+  return v;
+}
+
+// Where the flange truly is on the table: the machine's true axes at the joints the controller
+// holds now (the macro asked for this capture at rest), whatever H the host sent.
+TruePose FromMachine(const TrunnionWorld& world) {
+  return [world](const link::CaptureRequest&) {
+    std::array<double, 6> v{};
+    for (size_t i = 0; i < 6; ++i) v[i] = HalPin(world.joint_pins[i]);
+    return world.TableFromFlange({geometry::Vec3(v[0], v[1], v[2]), v[3], v[4], v[5]});
+  };
+}
+
 }  // namespace
 
 int RunServeCommand(const std::vector<std::string>& args, std::ostream& out) {
   using probe_fw::cli::UsageError;
   const base::Args o(args, {{"--probe", "--scene", "--host", "--port", "--key", "--seed",
-                             "--buffer", "--captures", "--firmware-model"},
+                             "--buffer", "--captures", "--firmware-model", "--machine"},
                             {}});
   // The frames come from the probe as built; its firmware knows only a model (the calibrated
   // one): an as-built file is never given to the firmware.
@@ -67,7 +99,9 @@ int RunServeCommand(const std::vector<std::string>& args, std::ostream& out) {
       << std::flush;
   const probe_fw::AgentStats s = probe_fw::ServeProbe(
       firmware_model,
-      MakeVirtualCamera(probe, static_cast<std::uint64_t>(o.Number("--seed", 1)), projector),
+      MakeVirtualCamera(
+          probe, static_cast<std::uint64_t>(o.Number("--seed", 1)), projector,
+          o.Has("--machine") ? FromMachine(LoadTrunnionWorld(o.Text("--machine"))) : TruePose()),
       &projector, options, g_stop, log);
   out << "mlp-sim: served " << s.captures << " captures (" << s.points << " points), refused "
       << s.refused << ", failed " << s.failed << "\n";

@@ -36,11 +36,14 @@ constexpr const char* kUsage =
     "\n"
     "usage: mlp-sim serve --probe PROBE_FILE --scene SCENE_FILE --port N --key KEY_FILE\n"
     "                     [--host ADDRESS] [--seed N] [--buffer CLOUDS] [--captures N]\n"
-    "                     [--firmware-model PROBE_FILE]\n"
+    "                     [--firmware-model PROBE_FILE] [--machine MACHINE_FILE]\n"
     "  a virtual probe: connects to the host's probe link, answers capture requests at the\n"
     "  requested pose, AOI and sweep until SIGINT/SIGTERM (or after N captures, acknowledged)\n"
     "  --firmware-model  the probe model its firmware triangulates with (required when --probe\n"
     "              is an as-built file; default: the --probe model file)\n"
+    "  --machine   the trunnion the scene sits on, as it truly is (mlprobe-machine/1: its A and\n"
+    "              C axes' lines): each capture is rendered where the running LinuxCNC's joints\n"
+    "              (HAL, halcmd) put the probe on the table, whatever H the host sent\n"
     "exit codes: 0 stopped, 2 bad arguments or input (key file, probe, scene), 1 bug\n";
 
 const Capture& FindCapture(const Scene& scene, const std::string& id) {

@@ -8,12 +8,13 @@ namespace mlp::sim {
 
 probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe,
                                    std::uint64_t seed,
-                                   const probe_fw::Projector& projector) {
-  return [probe = std::move(probe), seed, &projector](const link::CaptureRequest& r,
-                                                      const probe_fw::SweepPlan& plan) {
+                                   const probe_fw::Projector& projector,
+                                   TruePose true_pose) {
+  return [probe = std::move(probe), seed, &projector, true_pose = std::move(true_pose)](
+             const link::CaptureRequest& r, const probe_fw::SweepPlan& plan) {
     Capture capture;
     capture.id = r.capture_id;
-    capture.mcs_from_flange = r.mcs_from_flange;
+    capture.mcs_from_flange = true_pose ? true_pose(r) : r.mcs_from_flange;
     SweepOptions o;
     o.aoi = plan.aoi;
     o.first_column = plan.columns.front();

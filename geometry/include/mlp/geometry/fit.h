@@ -78,6 +78,11 @@ FitResult<Circle2> FitCircle2(const Points2& points, const FitOptions& options =
 ///   the in-plane circle.
 FitResult<Circle3> FitCircle3(const Points3& points, const FitOptions& options = {});
 FitResult<Sphere> FitSphere(const Points3& points, const FitOptions& options = {});
+/// The centre of a sphere of known radius (a calibrated reference sphere) through the points:
+/// Gauss-Newton on the centre alone from `start`, at most 50 steps, until a step is under 1 nm.
+/// On a cap seen from one side a free fit's radius trades against the centre's height; holding
+/// the radius removes that. `start` must be on the side of the points the centre is on.
+Vec3 SphereCentreWithRadius(const Points3& points, double radius, const Vec3& start);
 /// Cylinder (>= 5 points). `initial` skips the search for a starting axis.
 FitResult<Cylinder> FitCylinder(const Points3& points,
                                 const FitOptions& options = {},

@@ -3,6 +3,7 @@
 /// input and output files, and where the programs and the samples are.
 
 #include "mlp/base/args.h"
+#include "mlp/base/format.h"
 
 #include <filesystem>
 #include <iomanip>
@@ -24,11 +25,7 @@ using base::ParseNumber;
 using base::UsageError;
 
 /// A number with a fixed count of decimals, for the tools' readable summaries and pictures.
-inline std::string Fixed(double v, int digits) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(digits) << v;
-  return s.str();
-}
+using base::Fixed;
 
 /// A HAL component's name (its pins' prefix): 1..40 of a-z 0-9 - _; UsageError otherwise.
 std::string HalComponentName(const std::string& name);

@@ -26,13 +26,6 @@ calib::TrtPins ParseTrtPinsHal(const std::string& text);
 /// "c_deg", "centre_mm": [x, y, z]}, ...]} (machine frame, mm). UsageError when malformed.
 std::vector<calib::TrunnionObservation> ParseTrunnionCentres(const std::string& text);
 
-/// The picture of a check: the centres per A/C position and the fitted circles' axes seen
-/// along X and along Z, each centre's residual magnified, the pivots' errors against the limit.
-std::string TrunnionSvg(const std::vector<calib::TrunnionObservation>& centres,
-                        const calib::TrunnionFit& fit,
-                        const calib::TrtPins& pins,
-                        double limit_mm);
-
 /// mlp kinematics check --centres FILE (--pins HALFILE | --pin NAME=MM ...) [--limit-um U]
 ///                      [--square-limit-deg D] [--svg FILE] [--json]
 /// mlp kinematics plan --pins HALFILE --sphere X,Y,Z [...] [--out PROGRAM.ngc] [--json]

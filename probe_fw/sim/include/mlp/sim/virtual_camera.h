@@ -7,6 +7,7 @@
 #include "mlp/sim/render.h"
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 
 namespace mlp::sim {
@@ -21,8 +22,14 @@ constexpr int kServedLedSupersampling = 8;
 /// frames. The request's exposure scales every light by exposure_us / kReferenceExposureUs. The
 /// camera looks at `projector` (a VirtualProjector the agent drives), which must outlive it:
 /// each grab is the rendered frame of what the projector lights.
+///
+/// Where the flange truly is in the scene's frame: the request's H unless `true_pose` says
+/// otherwise (a machine whose controller's kinematics are not the machine's: machine_world.h).
+/// The cloud carries the request's H either way, as a real probe's would.
+using TruePose = std::function<geometry::Pose3(const link::CaptureRequest&)>;
 probe_fw::Camera MakeVirtualCamera(std::shared_ptr<const VirtualProbe> probe,
                                    std::uint64_t seed,
-                                   const probe_fw::Projector& projector);
+                                   const probe_fw::Projector& projector,
+                                   TruePose true_pose = nullptr);
 
 }  // namespace mlp::sim

@@ -1,0 +1,131 @@
+// {"op": "kinematics"} (issue 54): the trunnion check from sphere captures the macro took at a
+// plan of A and C positions in the machine frame (M101 with "pose_frame": "machine" on a
+// xyzac-trt-kins machine: each capture's pose carries its joints and the kinematics' pins).
+
+#include "mlp/base/files.h"
+#include "mlp/base/json_fields.h"
+#include "mlp/calib/trunnion_report.h"
+#include "mlp/geometry/datum.h"
+#include "mlp/jobs/kinematics.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include "job_common.h"
+
+namespace mlp::service {
+namespace {
+
+namespace jf = base::json_fields;
+using json = nlohmann::json;
+
+// The pins' names as HAL has them, the pose's "pins" object's keys.
+calib::TrtPins PinsOf(const json& pose, const std::string& where) {
+  const json& p = jf::Object<JobInputError>(pose, "pins", where);
+  calib::TrtPins pins;
+  pins.x_rot_point = jf::Number<JobInputError>(p, "x-rot-point", where + ".pins");
+  pins.y_rot_point = jf::Number<JobInputError>(p, "y-rot-point", where + ".pins");
+  pins.z_rot_point = jf::Number<JobInputError>(p, "z-rot-point", where + ".pins");
+  pins.y_offset = jf::Number<JobInputError>(p, "y-offset", where + ".pins");
+  pins.z_offset = jf::Number<JobInputError>(p, "z-offset", where + ".pins");
+  pins.tool_offset = jf::NumberOr<JobInputError>(p, "tool-offset", 0.0, where + ".pins");
+  return pins;
+}
+
+bool SamePins(const calib::TrtPins& a, const calib::TrtPins& b) {
+  return a.x_rot_point == b.x_rot_point && a.y_rot_point == b.y_rot_point &&
+         a.z_rot_point == b.z_rot_point && a.y_offset == b.y_offset && a.z_offset == b.z_offset &&
+         a.tool_offset == b.tool_offset;
+}
+
+jobs::KinematicsInputs ParseRequest(const json& r) {
+  jobs::KinematicsInputs in;
+  in.sphere_radius_mm = jf::Number<JobInputError>(r, "sphere_radius_mm", "request");
+  if (!(in.sphere_radius_mm > 0)) throw JobInputError("request.sphere_radius_mm must be > 0");
+  in.limits.pivot_mm = jf::NumberOr<JobInputError>(r, "limit_um", 10.0, "request") * 1e-3;
+  in.limits.square_deg = jf::NumberOr<JobInputError>(r, "square_limit_deg", 0.01, "request");
+  if (!(in.limits.pivot_mm > 0) || !(in.limits.square_deg > 0))
+    throw JobInputError("request.limit_um and request.square_limit_deg must be > 0");
+  if (!r.contains("captures")) throw JobInputError("request.captures must list the captures");
+  return in;
+}
+
+// The captures in the machine frame with their rotary joints; the pins every one was taken with
+// (one set: pins changed during the plan would mix two models).
+void Gather(const JobRun& run, const json& r, jobs::KinematicsInputs* in) {
+  const geometry::Pose3 m = run.Calibration().flange_from_probe;
+  std::optional<calib::TrtPins> pins;
+  for (StoredCapture& s : LoadStoredCaptures(run.ctx, r.at("captures"), run.job)) {
+    const std::string where = "capture " + s.id;
+    if (s.pose.value("frame", "") != "machine" || !s.pose.contains("joints"))
+      throw JobInputError(where +
+                          " was not taken in the machine frame on a trunnion: take the sphere "
+                          "plan with M101 jobs whose \"pose_frame\" is \"machine\"");
+    const json& joints = jf::Object<JobInputError>(s.pose, "joints", where);
+    const calib::TrtPins p = PinsOf(s.pose, where);
+    if (pins && !SamePins(*pins, p))
+      throw JobInputError(where +
+                          " was taken with other kinematics pins than the first capture: "
+                          "the pins changed during the plan; take it again");
+    pins = p;
+    in->captures.push_back({s.id, jf::Number<JobInputError>(joints, "a_deg", where),
+                            jf::Number<JobInputError>(joints, "c_deg", where),
+                            geometry::TransformPoints(s.mcs_from_flange * m, s.points_in_probe)});
+  }
+  if (!pins) throw JobInputError("request.captures is empty");
+  in->pins = *pins;
+}
+
+json SpheresJson(const std::vector<jobs::SphereSeen>& spheres) {
+  json out = json::array();
+  for (const jobs::SphereSeen& s : spheres)
+    out.push_back({{"capture", s.id},
+                   {"a_deg", s.a_deg},
+                   {"c_deg", s.c_deg},
+                   {"centre_mm", JsonVec(s.centre_machine_mm)},
+                   {"free_radius_mm", s.free_radius_mm},
+                   {"rms_mm", s.rms_mm},
+                   {"points", s.points},
+                   {"left_out", s.left_out}});
+  return out;
+}
+
+std::string WriteReport(JobContext& ctx,
+                        std::int64_t job,
+                        const jobs::KinematicsInputs& in,
+                        const jobs::KinematicsOutcome& o) {
+  std::vector<calib::TrunnionObservation> centres;
+  for (const jobs::SphereSeen& s : o.spheres)
+    centres.push_back({s.a_deg, s.c_deg, s.centre_machine_mm});
+  const std::filesystem::path dir(ctx.config.ReportDir());
+  std::filesystem::create_directories(dir);
+  std::string path =
+      (dir / (ctx.machine.name + "-job" + std::to_string(job) + ".svg")).string();
+  base::WriteFileAtomically(path, calib::TrunnionSvg(centres, *o.fit, in.pins, in.limits.pivot_mm));
+  return path;
+}
+
+}  // namespace
+
+json RunKinematicsJob(JobContext& ctx, const json& r) {
+  JobRun run(ctx, "kinematics", r);
+  try {
+    jobs::KinematicsInputs in = ParseRequest(r);
+    Gather(run, r, &in);
+    const jobs::KinematicsOutcome o = jobs::AssessKinematics(in);
+    run.reply["spheres"] = SpheresJson(o.spheres);
+    if (!o.fit) return run.Refuse(o.problems);
+    std::vector<calib::TrunnionObservation> centres;
+    for (const jobs::SphereSeen& s : o.spheres)
+      centres.push_back({s.a_deg, s.c_deg, s.centre_machine_mm});
+    run.reply.update(json(calib::TrunnionReportJson(centres, *o.fit, in.pins, in.limits)));
+    run.reply["report"] = WriteReport(ctx, run.job, in, o);
+    ctx.history.AddResult(run.job, {"trunnion", run.reply, json::object()});
+    return run.Finish(
+        o.within ? history::JobStatus::kInTolerance : history::JobStatus::kOutOfTolerance, true);
+  } catch (const std::exception& e) {
+    return run.Fail(e);
+  }
+}
+
+}  // namespace mlp::service
