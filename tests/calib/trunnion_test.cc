@@ -8,6 +8,8 @@
 
 #include "mlp/calib/trunnion.h"
 
+#include "mlp/calib/trunnion_hal.h"
+
 #include <cmath>
 #include <random>
 
@@ -175,6 +177,32 @@ TEST(Trunnion, PlansAndCentresThatCannotDetermineTheLinesAreRefused) {
   TrunnionFitOptions bad;
   bad.centre_sigma_mm = 0.0;
   EXPECT_THROW(FitTrunnion(Plan(truth, 0.0, 1), AxesOf(Controller()), bad), TrunnionError);
+}
+
+// The HAL file a calibration rewrites: only the four pins' values change, every other byte (the
+// comments, other components' lines, z-rot-point) as it was; a file that does not parse is
+// refused before anything is made of it.
+TEST(TrunnionHal, ARewriteChangesOnlyThePinsValues) {
+  const std::string file =
+      "# the trunnion\nsetp xyzac-trt-kins.x-rot-point 120.0\nsetp xyzac-trt-kins.y-rot-point -40\n"
+      "setp xyzac-trt-kins.z-rot-point -150.0  # kept\nsetp xyzac-trt-kins.y-offset 2.5\n"
+      "setp xyzac-trt-kins.z-offset 60.0\nnet a b => c\n";
+  TrtPins pins = ParseTrtPinsHal(file);
+  EXPECT_EQ(pins.y_rot_point, -40.0);
+  pins.x_rot_point = 120.0300001, pins.y_offset = 2.5659405, pins.z_offset = 59.9649344;
+  const std::string out = RewriteTrtPinsHal(file, pins);
+  EXPECT_EQ(out,
+            "# the trunnion\nsetp xyzac-trt-kins.x-rot-point 120.0300001\n"
+            "setp xyzac-trt-kins.y-rot-point -40.0000000\n"
+            "setp xyzac-trt-kins.z-rot-point -150.0  # kept\n"
+            "setp xyzac-trt-kins.y-offset 2.5659405\nsetp xyzac-trt-kins.z-offset 59.9649344\n"
+            "net a b => c\n");
+  const TrtPins back = ParseTrtPinsHal(out);
+  EXPECT_NEAR(back.x_rot_point, pins.x_rot_point, 1e-10);
+  EXPECT_EQ(back.z_rot_point, -150.0);
+  EXPECT_THROW(RewriteTrtPinsHal("setp xyzac-trt-kins.x-rot-point 1\n", pins), TrunnionError);
+  EXPECT_THROW(ParseTrtPinsHal(file + "setp xyzac-trt-kins.y-offset 3\n"), TrunnionError);
+  EXPECT_THROW(ParseTrtPinsHal("setp xyzac-trt-kins.x-rot-point 1e999\n"), TrunnionError);
 }
 
 }  // namespace

@@ -100,5 +100,25 @@ TEST(KinematicsJob, PositionsThatCannotDetermineTheAxesAreRefused) {
   ASSERT_EQ(o.problems.size(), 1u);
 }
 
+TEST(KinematicsJob, ACalibrationMovesOnlyWhatTheCentresSay) {
+  std::mt19937 rng(58);
+  calib::TrunnionAxes truth = calib::AxesOf(Pins());
+  truth.c.point += Vec3(0.030, 0, 0);  // x-rot-point only
+  KinematicsInputs in = Plan(truth, &rng);
+  in.calibrate = true;
+  const KinematicsOutcome o = AssessKinematics(in);
+  ASSERT_TRUE(o.new_pins);
+  EXPECT_NEAR(o.new_pins->x_rot_point, 120.030, kPivotTolMm);
+  for (const PinChange& c : o.changes) EXPECT_EQ(c.changed, c.name == "x-rot-point") << c.name;
+  EXPECT_EQ(o.new_pins->y_rot_point, -40.0);  // within the null band: kept exactly
+  EXPECT_EQ(o.new_pins->z_offset, 60.0);
+  // Beyond the machine's largest change: refused whole, nothing to write.
+  in.max_change_mm = 0.020;
+  const KinematicsOutcome too_far = AssessKinematics(in);
+  EXPECT_FALSE(too_far.new_pins);
+  ASSERT_EQ(too_far.problems.size(), 1u);
+  EXPECT_NE(too_far.problems[0].find("x-rot-point"), std::string::npos) << too_far.problems[0];
+}
+
 }  // namespace
 }  // namespace mlp::jobs

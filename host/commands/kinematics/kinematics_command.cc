@@ -1,6 +1,7 @@
 #include "mlp/host/kinematics_command.h"
 
 #include "mlp/base/json_fields.h"
+#include "mlp/calib/trunnion_hal.h"
 #include "mlp/calib/trunnion_report.h"
 #include "mlp/host/cli.h"
 
@@ -211,32 +212,11 @@ int FlangePose(const std::vector<std::string>& args, std::ostream& out) {
 }  // namespace
 
 calib::TrtPins ParseTrtPinsHal(const std::string& text) {
-  const std::string prefix = "xyzac-trt-kins.";
-  std::map<std::string, double> values;
-  std::istringstream lines(text);
-  std::string line;
-  while (std::getline(lines, line)) {
-    std::istringstream words(line.substr(0, line.find('#')));
-    std::string verb, pin, value, extra;
-    if (!(words >> verb) || verb != "setp" || !(words >> pin) || pin.rfind(prefix, 0) != 0)
-      continue;
-    if (!(words >> value) || (words >> extra))
-      throw UsageError("pins: '" + line + "' is not setp PIN VALUE");
-    const std::string name = pin.substr(prefix.size());
-    if (!values.emplace(name, ParseNumber(pin, value)).second)
-      throw UsageError("pins: " + pin + " is set twice");
+  try {
+    return calib::ParseTrtPinsHal(text);
+  } catch (const calib::TrunnionError& e) {
+    throw UsageError(e.what());
   }
-  const auto get = [&](const std::string& name, bool required) {
-    const auto it = values.find(name);
-    if (it != values.end()) return it->second;
-    if (required) throw UsageError("pins: no setp " + prefix + name);
-    return 0.0;
-  };
-  calib::TrtPins p;
-  p.x_rot_point = get("x-rot-point", true), p.y_rot_point = get("y-rot-point", true);
-  p.z_rot_point = get("z-rot-point", true), p.y_offset = get("y-offset", true);
-  p.z_offset = get("z-offset", true), p.tool_offset = get("tool-offset", false);
-  return p;
 }
 
 std::vector<calib::TrunnionObservation> ParseTrunnionCentres(const std::string& text) {

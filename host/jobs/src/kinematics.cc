@@ -3,6 +3,7 @@
 #include "mlp/base/format.h"
 #include "mlp/geometry/robust.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace mlp::jobs {
@@ -25,6 +26,40 @@ SphereSeen SphereOf(const geometry::Points3& points_machine, double radius_mm) {
   s.rms_mm = on.cols() > 0 ? std::sqrt(sum / static_cast<double>(on.cols())) : 0.0;
   return s;
 }
+
+namespace {
+
+// The calibration's pins: each moved where the fit says beyond the null band and 3 u; a change
+// beyond the limit refuses them all.
+void PlanPins(const KinematicsInputs& in, KinematicsOutcome* o) {
+  const calib::TrunnionFit& f = *o->fit;
+  const calib::TrtPins to = calib::PinsFor(f, in.pins);
+  calib::TrtPins next = in.pins;
+  const struct {
+    const char* name;
+    double calib::TrtPins::*pin;
+    double u_mm;
+  } pins[] = {{"x-rot-point", &calib::TrtPins::x_rot_point, f.c_x_u_mm},
+              {"y-rot-point", &calib::TrtPins::y_rot_point, f.c_y_u_mm},
+              {"y-offset", &calib::TrtPins::y_offset, std::hypot(f.a_y_u_mm, f.c_y_u_mm)},
+              {"z-offset", &calib::TrtPins::z_offset, f.a_z_u_mm}};
+  for (const auto& p : pins) {
+    PinChange c{p.name, in.pins.*p.pin, to.*p.pin, p.u_mm, false};
+    const double change = c.after_mm - c.before_mm;
+    c.changed = std::abs(change) > std::max(in.null_band_mm, 3 * c.u_mm);
+    if (!c.changed) c.after_mm = c.before_mm;
+    if (std::abs(change) > in.max_change_mm)
+      o->problems.push_back("the calibration would move " + c.name + " by " +
+                            base::Fixed(change * 1e3, 1) + " um, beyond the machine's limit of " +
+                            base::Fixed(in.max_change_mm * 1e3, 1) +
+                            " um: nothing written (a crash, a loose sphere, a wrong plan?)");
+    next.*p.pin = c.after_mm;
+    o->changes.push_back(c);
+  }
+  if (o->problems.empty()) o->new_pins = next;
+}
+
+}  // namespace
 
 KinematicsOutcome AssessKinematics(const KinematicsInputs& in) {
   KinematicsOutcome o;
@@ -61,6 +96,7 @@ KinematicsOutcome AssessKinematics(const KinematicsInputs& in) {
     return o;
   }
   o.within = calib::TrunnionWithin(*o.fit, in.pins, in.limits);
+  if (in.calibrate) PlanPins(in, &o);
   return o;
 }
 

@@ -84,9 +84,14 @@ ControllerConfig ParseController(const Reader& r, const json& m, const std::stri
   ControllerConfig c;
   c.result_dir = r.Path(j, "result_dir", cw);
   if (kind == "linuxcnc") {
-    r.OnlyKnown(j, {"kind", "result_dir", "tool_table", "write_tool_table", "axes", "comment"}, cw);
+    r.OnlyKnown(j,
+                {"kind", "result_dir", "tool_table", "write_tool_table", "axes", "kinematics_hal",
+                 "max_pivot_change_mm", "comment"},
+                cw);
     c.kind = ControllerConfig::Kind::kLinuxCnc;
     c.tool_table = r.Path(j, "tool_table", cw);
+    if (j.contains("kinematics_hal")) c.kinematics_hal = r.Path(j, "kinematics_hal", cw);
+    c.max_pivot_change_mm = r.Positive(j, "max_pivot_change_mm", c.max_pivot_change_mm, cw);
     c.write_tool_table = r.Flag(j, "write_tool_table", cw);
     if (j.contains("axes")) c.axes = jf::Text<ConfigError>(j, "axes", r.Where(cw));
     if (c.axes.empty() || c.axes.size() > 9 ||

@@ -4,10 +4,12 @@
 
 #include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
+#include "mlp/calib/trunnion_hal.h"
 #include "mlp/calib/trunnion_report.h"
 #include "mlp/geometry/datum.h"
 #include "mlp/jobs/kinematics.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -32,10 +34,15 @@ calib::TrtPins PinsOf(const json& pose, const std::string& where) {
   return pins;
 }
 
+// Two readings of the pins agree to the controller's readout: halcmd prints a pin to 7
+// significant digits (0.1 um at 100-999 mm), the HAL file holds it to 0.1 nm.
 bool SamePins(const calib::TrtPins& a, const calib::TrtPins& b) {
-  return a.x_rot_point == b.x_rot_point && a.y_rot_point == b.y_rot_point &&
-         a.z_rot_point == b.z_rot_point && a.y_offset == b.y_offset && a.z_offset == b.z_offset &&
-         a.tool_offset == b.tool_offset;
+  const auto same = [](double x, double y) {
+    return std::abs(x - y) <= 1e-6 * std::max({1.0, std::abs(x), std::abs(y)});
+  };
+  return same(a.x_rot_point, b.x_rot_point) && same(a.y_rot_point, b.y_rot_point) &&
+         same(a.z_rot_point, b.z_rot_point) && same(a.y_offset, b.y_offset) &&
+         same(a.z_offset, b.z_offset) && same(a.tool_offset, b.tool_offset);
 }
 
 jobs::KinematicsInputs ParseRequest(const json& r) {
@@ -47,6 +54,9 @@ jobs::KinematicsInputs ParseRequest(const json& r) {
   if (!(in.limits.pivot_mm > 0) || !(in.limits.square_deg > 0))
     throw JobInputError("request.limit_um and request.square_limit_deg must be > 0");
   if (!r.contains("captures")) throw JobInputError("request.captures must list the captures");
+  in.calibrate = jf::FlagOr<JobInputError>(r, "calibrate", false, "request");
+  in.null_band_mm = jf::NumberOr<JobInputError>(r, "null_band_um", 2.0, "request") * 1e-3;
+  if (!(in.null_band_mm >= 0)) throw JobInputError("request.null_band_um must be >= 0");
   return in;
 }
 
@@ -99,10 +109,66 @@ std::string WriteReport(JobContext& ctx,
     centres.push_back({s.a_deg, s.c_deg, s.centre_machine_mm});
   const std::filesystem::path dir(ctx.config.ReportDir());
   std::filesystem::create_directories(dir);
-  std::string path =
-      (dir / (ctx.machine.name + "-job" + std::to_string(job) + ".svg")).string();
+  std::string path = (dir / (ctx.machine.name + "-job" + std::to_string(job) + ".svg")).string();
   base::WriteFileAtomically(path, calib::TrunnionSvg(centres, *o.fit, in.pins, in.limits.pivot_mm));
   return path;
+}
+
+json PinsJson(const calib::TrtPins& p) {
+  return {{"x-rot-point", p.x_rot_point},
+          {"y-rot-point", p.y_rot_point},
+          {"y-offset", p.y_offset},
+          {"z-offset", p.z_offset}};
+}
+
+// The calibration written to the HAL file that sets the pins at start (atomically, announced
+// in the history first, before/after logged), after checking that the file holds what the
+// running machine held at the captures: a file and a machine that disagree would make the
+// next start load something nobody measured. The live pins are M101's to set (HAL is the
+// controller's), from the reply's "pins_written".
+json WritePins(JobContext& ctx,
+               std::int64_t job,
+               const jobs::KinematicsInputs& in,
+               const calib::TrtPins& next,
+               const json& reply) {
+  const std::string& path = ctx.machine.controller.kinematics_hal;
+  if (path.empty())
+    throw JobInputError("machine " + ctx.machine.name +
+                        " has no controller.kinematics_hal: a kinematics calibration has no "
+                        "file to write (docs/HOSTD.md)");
+  const std::string text = base::ReadFileAs<JobInputError>(path, "kinematics_hal: ");
+  calib::TrtPins in_file;
+  try {
+    in_file = calib::ParseTrtPinsHal(text);
+  } catch (const calib::TrunnionError& e) {
+    throw JobInputError(path + ": " + e.what());
+  }
+  if (!SamePins(in_file, in.pins))
+    throw JobInputError(path + " holds other pins than the machine ran the captures with (" +
+                        PinsJson(in_file).dump() + " against " + PinsJson(in.pins).dump() +
+                        "): nothing written; restart the machine or check the file");
+  history::OffsetWriteRow row;
+  row.adapter = ctx.machine.name + ":" + path;
+  row.target = "xyzac-trt-kins pins";
+  row.before = PinsJson(in.pins), row.after = PinsJson(next);
+  row.state = "intent";
+  ctx.history.AddWriteIntents(job, {row}, reply);
+  base::WriteFileAtomically(path, calib::RewriteTrtPinsHal(text, next));
+  ctx.history.MarkWritesDone(job);
+  ctx.log("job " + std::to_string(job) + ": " + path + " pins " + row.before.dump() + " -> " +
+          row.after.dump());
+  return {{"file", path}, {"before", row.before}, {"after", row.after}};
+}
+
+json ChangesJson(const std::vector<jobs::PinChange>& changes) {
+  json out = json::array();
+  for (const jobs::PinChange& c : changes)
+    out.push_back({{"name", c.name},
+                   {"before_mm", c.before_mm},
+                   {"after_mm", c.after_mm},
+                   {"u_mm", c.u_mm},
+                   {"changed", c.changed}});
+  return out;
 }
 
 }  // namespace
@@ -120,9 +186,16 @@ json RunKinematicsJob(JobContext& ctx, const json& r) {
       centres.push_back({s.a_deg, s.c_deg, s.centre_machine_mm});
     run.reply.update(json(calib::TrunnionReportJson(centres, *o.fit, in.pins, in.limits)));
     run.reply["report"] = WriteReport(ctx, run.job, in, o);
+    if (in.calibrate) run.reply["changes"] = ChangesJson(o.changes);
     ctx.history.AddResult(run.job, {"trunnion", run.reply, json::object()});
-    return run.Finish(
-        o.within ? history::JobStatus::kInTolerance : history::JobStatus::kOutOfTolerance, true);
+    if (!in.calibrate)
+      return run.Finish(
+          o.within ? history::JobStatus::kInTolerance : history::JobStatus::kOutOfTolerance, true);
+    if (!o.new_pins) return run.Refuse(o.problems);
+    const bool any = std::any_of(o.changes.begin(), o.changes.end(),
+                                 [](const jobs::PinChange& c) { return c.changed; });
+    run.reply["pins_written"] = any ? WritePins(ctx, run.job, in, *o.new_pins, run.reply) : json();
+    return run.Finish(history::JobStatus::kDone, true);
   } catch (const std::exception& e) {
     return run.Fail(e);
   }

@@ -30,6 +30,20 @@ struct KinematicsInputs {
   double max_radius_error_mm = 0.05;
   /// Fewer points on the sphere than this and the capture gives no centre.
   int min_points = 200;
+  /// A calibration: the pins that put the kinematics on the fitted lines (calib::PinsFor),
+  /// each changed only where its change exceeds both the null band and 3 of its uncertainties
+  /// (right pins change nothing), and refused whole when a change exceeds max_change_mm (a
+  /// crash or a wrong sphere, not a calibration).
+  bool calibrate = false;
+  double null_band_mm = 0.002;
+  double max_change_mm = 0.2;
+};
+
+/// One pin a calibration looked at.
+struct PinChange {
+  std::string name;  ///< as HAL names it: x-rot-point, y-rot-point, y-offset, z-offset
+  double before_mm = 0.0, after_mm = 0.0, u_mm = 0.0;
+  bool changed = false;  ///< beyond the null band and 3 u
 };
 
 /// One capture's sphere, radius held at the calibrated value.
@@ -47,6 +61,10 @@ struct KinematicsOutcome {
   std::vector<std::string> problems;  ///< why nothing is determined; empty when fitted
   std::optional<calib::TrunnionFit> fit;
   bool within = false;  ///< every pivot and squareness within its limit
+  /// With `calibrate`: every pin looked at, and the pins to write (the current ones where
+  /// none changed).
+  std::vector<PinChange> changes;
+  std::optional<calib::TrtPins> new_pins;
 };
 
 /// The check. Problems (a capture without its sphere, a radius far from the calibrated one,

@@ -40,6 +40,11 @@ struct ControllerConfig {
   std::string axes = "XYZ";
   std::string result_dir;  ///< where results go: NC subroutine / snippet, JSON and CSV
   nc::NcMap map;           ///< Fanuc-style controls
+  /// LinuxCNC with xyzac-trt-kins: the HAL file whose setp lines set the trunnion's pins at
+  /// start, rewritten by a kinematics calibration (""; none: a calibration is refused).
+  std::string kinematics_hal;
+  /// The largest change of one pin a kinematics calibration may write [mm].
+  double max_pivot_change_mm = 0.2;
 };
 
 struct MachineConfig {
