@@ -311,6 +311,29 @@ inline std::vector<std::string> AsBuiltProbeArgs(const Site& site,
           (site.dir / "probe.key").string()};
 }
 
+// How far a calibrate job's M (its reply, `calibrate_reply`) lies from the true M of the
+// probe mounted as `scene` mounts it, in the calibrated model's probe frame (as the demo judges
+// it; the window of the sphere captures, 400 x 300 px at the sensor's centre).
+struct MountError {
+  double um = 0, arcsec = 0;
+};
+inline MountError MountErrorOf(const std::string& calibrate_reply, const std::string& scene) {
+  const json m = json::parse(calibrate_reply).at("flange_from_probe");
+  const geometry::Vec3 t(m["translation_mm"][0].get<double>(), m["translation_mm"][1].get<double>(),
+                         m["translation_mm"][2].get<double>());
+  const geometry::Vec3 rv(m["rotation_vector_rad"][0].get<double>(),
+                          m["rotation_vector_rad"][1].get<double>(),
+                          m["rotation_vector_rad"][2].get<double>());
+  const probe_fw::Aoi window{824, 618, 400, 300};
+  const geometry::Pose3 truth =
+      sim::LoadScene(scene).flange_from_probe *
+      sim::TrueFromModelFrame(sim::LoadAsBuilt(kAsBuilt),
+                              probe_fw::LoadProbeModel(kCalibratedModel), &window);
+  const Eigen::AngleAxisd e(Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix() *
+                            truth.linear().transpose());
+  return {(t - truth.translation()).norm() * 1e3, e.angle() * 180 / M_PI * 3600};
+}
+
 // The hand-eye through the product's chain, as at the machine before a part is measured: the
 // as-built probe looks at a reference sphere from the 8 poses of `sphere_scene` (its captures
 // sphere_*; by default the demo plate's, whose mounting the features block shares: one virtual
@@ -331,23 +354,9 @@ inline void CalibrateThroughChain(const Site& site,
         {"op", "calibrate"}, {"machine", machine}, {"captures", ids}, {"sphere_radius_mm", 12.7}};
     const auto run = site.Mlp("request " + site.Request("calibrate-chain", request) + " --json");
     ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
-    // What it found against the true M in the calibrated probe frame (as the demo judges it).
-    const json m = json::parse(run.out).at("flange_from_probe");
-    const geometry::Vec3 t(m["translation_mm"][0].get<double>(),
-                           m["translation_mm"][1].get<double>(),
-                           m["translation_mm"][2].get<double>());
-    const geometry::Vec3 rv(m["rotation_vector_rad"][0].get<double>(),
-                            m["rotation_vector_rad"][1].get<double>(),
-                            m["rotation_vector_rad"][2].get<double>());
-    const probe_fw::Aoi window{824, 618, 400, 300};
-    const geometry::Pose3 truth =
-        sim::LoadScene(sphere_scene).flange_from_probe *
-        sim::TrueFromModelFrame(sim::LoadAsBuilt(kAsBuilt),
-                                probe_fw::LoadProbeModel(kCalibratedModel), &window);
-    const Eigen::AngleAxisd e(Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix() *
-                              truth.linear().transpose());
-    std::printf("hand-eye through the chain: %.2f um, %.2f arcsec from the true M\n",
-                (t - truth.translation()).norm() * 1e3, e.angle() * 180 / M_PI * 3600);
+    const MountError e = MountErrorOf(run.out, sphere_scene);
+    std::printf("hand-eye through the chain: %.2f um, %.2f arcsec from the true M\n", e.um,
+                e.arcsec);
   }
   ASSERT_TRUE(site.WaitFor([&] {
     const auto s = site.Mlp("status --json");

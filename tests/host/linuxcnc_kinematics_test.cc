@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 
 #include "hostd_site.h"
 #include "linuxcnc_machine.h"
@@ -31,10 +32,12 @@ using test::json;
 using test::Site;
 
 constexpr int kPort = 17484;
-constexpr double kPivotTolMm = 0.002;     // issue 54: each pivot found within 2 um
-constexpr double kSquareTolDeg = 0.002;   // and the squareness within 0.002 deg
-constexpr double kSphereRadiusMm = 12.7;  // the reference sphere (CalibrateThroughChain's)
-constexpr double kReadoutMm = 1e-4;       // halcmd prints a pin to 7 digits: 0.1 um at 100-999 mm
+constexpr double kPivotTolMm = 0.002;       // issue 54: each pivot found within 2 um
+constexpr double kSquareTolDeg = 0.002;     // and the squareness within 0.002 deg
+constexpr double kSphereRadiusMm = 12.7;    // the reference sphere (CalibrateThroughChain's)
+constexpr double kHandEyeTolUm = 5.0;       // issue 54: the hand-eye on the trunnion within
+constexpr double kHandEyeTolArcsec = 10.0;  // 5 um and 10 arcsec
+constexpr double kReadoutMm = 1e-4;         // halcmd prints a pin to 7 digits: 0.1 um at 100-999 mm
 
 // The machine as it truly is, against the sample's pins (trunnion.hal: C through (120, -40),
 // A through (y, z) = (-37.5, -90)): C 30 um off in X and -20 um in Y, A +25 um in Y and -35 um
@@ -84,6 +87,68 @@ json SphereOnTable(const geometry::Pose3& table_from_flange) {
         {"reflectance", 0.6}}},
       {"captures",
        {{{"id", "above"}, {"mcs_from_flange", base::json_fields::PoseToJson(table_from_flange)}}}}};
+}
+
+// The hand-eye's poses: at each (A, C) the gauge point that puts the sphere at `in_view` in the
+// probe frame of a flange T(g) Rz(spindle) Rx(180) (the mounting the scene's), taken by M101 P<n>
+// in the table's frame. The captures' names.
+std::vector<std::string> HandEyeViews(const test::LinuxCnc& cnc,
+                                      const fs::path& config,
+                                      const sim::VirtualProbe& seen,
+                                      const sim::TrunnionWorld& nominal) {
+  const geometry::Pose3 mount = seen.scene().flange_from_probe;
+  std::ostringstream program;
+  program.precision(10);
+  program << "G21 G90 G40\nM68 E3 Q1\nM66 E0 L0\nG53 G0 Z250\n";
+  std::vector<std::string> names;
+  int k = 0;
+  for (const double a : {0.0, 30.0, -30.0, 60.0}) {
+    for (const double c : {0.0, 90.0, 180.0, 270.0}) {
+      const double spindle = std::fmod(110.0 * k, 360.0);  // M19 R takes 0..360
+      const geometry::Vec3 in_view(4.0 * std::cos(1.9 * k), 3.0 * std::sin(2.3 * k),
+                                   118.0 + 8.0 * std::sin(1.3 * k));
+      geometry::Pose3 flange = geometry::Pose3::Identity();
+      flange.linear() = (Eigen::AngleAxisd(spindle * M_PI / 180, geometry::Vec3::UnitZ()) *
+                         Eigen::AngleAxisd(M_PI, geometry::Vec3::UnitX()))
+                            .toRotationMatrix();
+      // TableFromFlange = MachineFromTable^-1 Rx(180) at the origin: its value at (0, 0) over
+      // its value at (a, c) is the table's motion.
+      const geometry::Pose3 machine_from_table =
+          nominal.TableFromFlange({geometry::Vec3::Zero(), 0.0, 0.0, 0.0}) *
+          nominal.TableFromFlange({geometry::Vec3::Zero(), a, c, 0.0}).inverse();
+      const geometry::Vec3 sphere = machine_from_table * kSphereOnTableMm;
+      const geometry::Vec3 g = sphere - flange.linear() * (mount * in_view);
+      flange.translation() = g;
+      sim::Capture view;
+      view.id = "he_" + std::to_string(k + 1);
+      view.mcs_from_flange = machine_from_table.inverse() * flange;
+      json job = host::SceneCaptureRequest("lcnc-1", seen, view, {824, 618, 400, 300});
+      job.erase("mcs_from_flange");
+      std::ofstream(config / "jobs" / (std::to_string(501 + k) + ".json")) << job.dump();
+      names.push_back(view.id);
+      program << "G53 G0 A" << a << " C" << c << "\nM19 R" << spindle << "\nG53 G0 X" << g.x()
+              << " Y" << g.y() << "\nG53 G0 Z" << g.z() << "\nM101 P" << 501 + k
+              << "\nG53 G0 Z250\n";
+      ++k;
+    }
+  }
+  program << "M68 E3 Q0\nM66 E0 L0\nM2\n";
+  const json ran = cnc.Run(program.str());
+  EXPECT_TRUE(ran.value("ended", false) && ran.at("errors").empty()) << ran.dump();
+  return names;
+}
+
+// The calibrate job on the views, no centre given, H from `kinematics`. Its reply.
+json CalibrateOn(const Site& site, const std::vector<std::string>& views, const char* kinematics) {
+  const auto run = site.Mlp(
+      "request " +
+      site.Request(std::string("hand-eye-") + kinematics, {{"op", "calibrate"},
+                                                           {"machine", "lcnc-1"},
+                                                           {"captures", views},
+                                                           {"sphere_radius_mm", kSphereRadiusMm},
+                                                           {"kinematics", kinematics}}) +
+      " --json");
+  return run.out.empty() ? json{{"error", run.err}} : json::parse(run.out);
 }
 
 TEST(LinuxCncTrunnion, TheCheckFindsEachPivotAndTheSquarenessThroughTheProbe) {
@@ -280,6 +345,35 @@ TEST(LinuxCncTrunnion, TheCheckFindsEachPivotAndTheSquarenessThroughTheProbe) {
   const json unchanged = cnc.Run("M68 E3 Q1\nM66 E0 L0\nM101 P400\nM68 E3 Q0\nM66 E0 L0\nM2\n");
   ASSERT_TRUE(unchanged.at("errors").empty()) << unchanged.dump();
   EXPECT_EQ(test::ReadText(config / "trunnion.hal"), hal_calibrated);
+  if (HasFailure()) return;
+
+  // The sphere hand-eye on the trunnion's own poses (issue 54 item 3), no centre given: H in
+  // the table's frame from the joints and the calibrated pins (M101, `mlp kinematics
+  // flange-pose`); the probe straight down over the sphere at 12 tilts and turns, the spindle
+  // oriented three ways, the sphere at another place in the view and range each time.
+  // Through the controller's kinematics its H carry A's 0.01 deg, which no pin holds: the
+  // captures' centres disagree and the hand-eye says so. Through the axes the kinematics job
+  // fitted (their squareness too), from the same captures' joints: M within the issue's limits.
+  const std::vector<std::string> views = HandEyeViews(cnc, config, seen, nominal);
+  const json by_pins = CalibrateOn(site, views, "controller");
+  ASSERT_TRUE(by_pins.value("ok", false)) << by_pins.dump(1);
+  const test::MountError e_pins = test::MountErrorOf(by_pins.dump(), scene.string());
+  std::printf(
+      "hand-eye on the trunnion, H from the controller's pins: %.2f um, %.2f arcsec from "
+      "the true M; warnings %s\n",
+      e_pins.um, e_pins.arcsec, by_pins.at("warnings").dump().c_str());
+  EXPECT_FALSE(by_pins.at("warnings").empty());
+  const json he = CalibrateOn(site, views, "fitted");
+  ASSERT_TRUE(he.value("ok", false)) << he.dump(1);
+  const test::MountError e = test::MountErrorOf(he.dump(), scene.string());
+  std::printf(
+      "hand-eye on the trunnion, H from the fitted axes: %.2f um, %.2f arcsec from the "
+      "true M; centres spread %.2f um RMS; warnings %s\n",
+      e.um, e.arcsec, he.at("centre_spread_rms_mm").get<double>() * 1e3,
+      he.at("warnings").dump().c_str());
+  EXPECT_LT(e.um, kHandEyeTolUm);
+  EXPECT_LT(e.arcsec, kHandEyeTolArcsec);
+  EXPECT_TRUE(he.at("warnings").empty()) << he.at("warnings").dump();
 }
 
 }  // namespace

@@ -24,6 +24,16 @@ void RequireCaptures(const json& r) {
   if (!r.contains("captures")) throw JobInputError("request.captures must list capture jobs");
 }
 
+// Where the captures' H come from: "controller" (as the capture carried it) or "fitted" (a
+// trunnion's axes as the latest kinematics job found them, from the capture's joints).
+std::string ParseKinematicsSource(const json& r) {
+  std::string k =
+      r.contains("kinematics") ? jf::Text<JobInputError>(r, "kinematics", "request") : "controller";
+  if (k != "controller" && k != "fitted")
+    throw JobInputError("request.kinematics is \"controller\" or \"fitted\", not \"" + k + "\"");
+  return k;
+}
+
 // A calibrate request, read once and checked before any capture is loaded.
 calib::HandEyeOptions ParseCalibrateRequest(const json& r) {
   calib::HandEyeOptions o;
@@ -101,8 +111,11 @@ json RunCalibrateJob(JobContext& ctx, const json& r) {
   JobRun run(ctx, "calibrate", r);
   try {
     const calib::HandEyeOptions o = ParseCalibrateRequest(r);
+    std::vector<StoredCapture> stored = LoadStoredCaptures(ctx, r.at("captures"), run.job);
+    if (ParseKinematicsSource(r) == "fitted") UseFittedKinematics(ctx, &stored);
     std::vector<calib::SphereCapture> captures;
-    for (auto& s : LoadStoredCaptures(ctx, r.at("captures"), run.job))
+    captures.reserve(stored.size());
+    for (auto& s : stored)
       captures.push_back({s.id, s.mcs_from_flange, std::move(s.points_in_probe), false});
     const calib::HandEyeResult h = calib::SolveSphereHandEye(captures, o);
     const std::string id =

@@ -190,5 +190,10 @@ toolcam::ToolDescription ReadToolDescription(const JobContext& ctx,
 nlohmann::json RunRelocateJob(JobContext& ctx, const nlohmann::json& request);
 /// {"op": "kinematics"}: a trunnion's rotary axes from sphere captures (issue 54).
 nlohmann::json RunKinematicsJob(JobContext& ctx, const nlohmann::json& request);
+/// Each capture's H recomputed from its joints through the trunnion's axes as the machine's
+/// latest kinematics job fitted them (their squareness too, which the controller's pins cannot
+/// hold), instead of the H the controller's kinematics gave. Throws JobInputError when the
+/// machine has no fitted kinematics or a capture carries no joints.
+void UseFittedKinematics(const JobContext& ctx, std::vector<StoredCapture>* captures);
 
 }  // namespace mlp::service

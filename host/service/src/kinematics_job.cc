@@ -160,6 +160,29 @@ json WritePins(JobContext& ctx,
   return {{"file", path}, {"before", row.before}, {"after", row.after}};
 }
 
+json LineJson(const calib::AxisLine& l) {
+  return {{"point_mm", JsonVec(l.point)}, {"direction", JsonVec(l.direction)}};
+}
+
+calib::AxisLine LineFrom(const json& j, const char* key, const std::string& where) {
+  const json& o = jf::Object<JobInputError>(j, key, where);
+  return {jf::Vector3<JobInputError>(o, "point_mm", where + "." + key),
+          jf::Vector3<JobInputError>(o, "direction", where + "." + key).normalized()};
+}
+
+// The fitted axes kept for the jobs that map captures through them (UseFittedKinematics):
+// kinematics/<machine>.json, replaced whole by each fit.
+void KeepFit(const JobContext& ctx, std::int64_t job, const calib::TrunnionFit& fit) {
+  std::filesystem::create_directories(ctx.config.KinematicsDir());
+  const json kept = {{"format", "mlprobe-trunnion-fit/1"},
+                     {"job", job},
+                     {"a_axis", LineJson(fit.axes.a)},
+                     {"c_axis", LineJson(fit.axes.c)},
+                     {"residual_rms_mm", fit.residual_rms_mm}};
+  base::WriteFileAtomically(ctx.config.KinematicsDir() + "/" + ctx.machine.name + ".json",
+                            kept.dump(1) + "\n");
+}
+
 json ChangesJson(const std::vector<jobs::PinChange>& changes) {
   json out = json::array();
   for (const jobs::PinChange& c : changes)
@@ -186,6 +209,7 @@ json RunKinematicsJob(JobContext& ctx, const json& r) {
       centres.push_back({s.a_deg, s.c_deg, s.centre_machine_mm});
     run.reply.update(json(calib::TrunnionReportJson(centres, *o.fit, in.pins, in.limits)));
     run.reply["report"] = WriteReport(ctx, run.job, in, o);
+    KeepFit(ctx, run.job, *o.fit);
     if (in.calibrate) run.reply["changes"] = ChangesJson(o.changes);
     ctx.history.AddResult(run.job, {"trunnion", run.reply, json::object()});
     if (!in.calibrate)
@@ -198,6 +222,29 @@ json RunKinematicsJob(JobContext& ctx, const json& r) {
     return run.Finish(history::JobStatus::kDone, true);
   } catch (const std::exception& e) {
     return run.Fail(e);
+  }
+}
+
+void UseFittedKinematics(const JobContext& ctx, std::vector<StoredCapture>* captures) {
+  const std::string path = ctx.config.KinematicsDir() + "/" + ctx.machine.name + ".json";
+  if (!std::filesystem::exists(path))
+    throw JobInputError("machine " + ctx.machine.name +
+                        " has no fitted kinematics: run a kinematics job (the sphere plan) first");
+  const json kept =
+      json::parse(base::ReadFileAs<JobInputError>(path, "kinematics: "), nullptr, false);
+  if (kept.is_discarded() || kept.value("format", "") != "mlprobe-trunnion-fit/1")
+    throw JobInputError(path + " is not a mlprobe-trunnion-fit/1 file");
+  const calib::TrunnionAxes axes{LineFrom(kept, "a_axis", path), LineFrom(kept, "c_axis", path)};
+  for (StoredCapture& s : *captures) {
+    if (s.pose.value("frame", "table") == "machine") continue;  // H needs no axes there
+    const std::string where = "capture " + s.id;
+    if (!s.pose.contains("joints"))
+      throw JobInputError(where + " carries no joints: the fitted kinematics cannot place it");
+    const json& j = jf::Object<JobInputError>(s.pose, "joints", where);
+    const auto n = [&](const char* key) { return jf::Number<JobInputError>(j, key, where); };
+    s.mcs_from_flange =
+        calib::TableFromFlange(axes, geometry::Vec3(n("x_mm"), n("y_mm"), n("z_mm")), n("a_deg"),
+                               n("c_deg"), n("spindle_deg"));
   }
 }
 

@@ -96,6 +96,8 @@ struct HostdConfig {
   std::string CalibrationDir() const { return data_dir + "/calibrations"; }
   std::string CloudDir() const { return data_dir + "/clouds"; }
   std::string ReportDir() const { return data_dir + "/reports"; }
+  /// The trunnions' axes as each machine's latest kinematics job found them (<machine>.json).
+  std::string KinematicsDir() const { return data_dir + "/kinematics"; }
   const MachineConfig* Machine(const std::string& name) const;
 };
 
