@@ -24,16 +24,6 @@ void RequireCaptures(const json& r) {
   if (!r.contains("captures")) throw JobInputError("request.captures must list capture jobs");
 }
 
-// Where the captures' H come from: "controller" (as the capture carried it) or "fitted" (a
-// trunnion's axes as the latest kinematics job found them, from the capture's joints).
-std::string ParseKinematicsSource(const json& r) {
-  std::string k =
-      r.contains("kinematics") ? jf::Text<JobInputError>(r, "kinematics", "request") : "controller";
-  if (k != "controller" && k != "fitted")
-    throw JobInputError("request.kinematics is \"controller\" or \"fitted\", not \"" + k + "\"");
-  return k;
-}
-
 // A calibrate request, read once and checked before any capture is loaded.
 calib::HandEyeOptions ParseCalibrateRequest(const json& r) {
   calib::HandEyeOptions o;
@@ -112,7 +102,7 @@ json RunCalibrateJob(JobContext& ctx, const json& r) {
   try {
     const calib::HandEyeOptions o = ParseCalibrateRequest(r);
     std::vector<StoredCapture> stored = LoadStoredCaptures(ctx, r.at("captures"), run.job);
-    if (ParseKinematicsSource(r) == "fitted") UseFittedKinematics(ctx, &stored);
+    if (FittedKinematics(r)) UseFittedKinematics(ctx, &stored);
     std::vector<calib::SphereCapture> captures;
     captures.reserve(stored.size());
     for (auto& s : stored)

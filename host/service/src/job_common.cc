@@ -329,14 +329,25 @@ std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
   return out;
 }
 
+bool FittedKinematics(const json& r) {
+  if (!r.contains("kinematics")) return false;
+  const std::string k = jf::Text<JobInputError>(r, "kinematics", "request");
+  if (k != "controller" && k != "fitted")
+    throw JobInputError("request.kinematics is \"controller\" or \"fitted\", not \"" + k + "\"");
+  return k == "fitted";
+}
+
 Evidence LoadCaptures(JobContext& ctx,
                       const json& capture_jobs,
                       const geometry::Pose3& flange_from_probe,
-                      std::int64_t job) {
+                      std::int64_t job,
+                      bool fitted_kinematics) {
   Evidence e;
   std::vector<geometry::Points3> parts;
   Eigen::Index n = 0;
-  for (StoredCapture& s : LoadStoredCaptures(ctx, capture_jobs, job)) {
+  std::vector<StoredCapture> stored = LoadStoredCaptures(ctx, capture_jobs, job);
+  if (fitted_kinematics) UseFittedKinematics(ctx, &stored);
+  for (StoredCapture& s : stored) {
     e.probe_serial = s.probe_serial;
     n += s.points_in_probe.cols();
     const geometry::Pose3 mcs_from_probe = s.mcs_from_flange * flange_from_probe;

@@ -129,10 +129,18 @@ std::vector<StoredCapture> LoadStoredCaptures(JobContext& ctx,
 /// The clouds of earlier capture jobs (`capture_jobs`: ids) on this machine, each checked
 /// against the SHA-256 the history holds, mapped into the machine frame with its H and the
 /// calibration's M, and recorded as this job's captures. Throws JobInputError.
+/// With `fitted_kinematics`, each H recomputed through a trunnion's fitted axes first
+/// (UseFittedKinematics).
 Evidence LoadCaptures(JobContext& ctx,
                       const nlohmann::json& capture_jobs,
                       const geometry::Pose3& flange_from_probe,
-                      std::int64_t job);
+                      std::int64_t job,
+                      bool fitted_kinematics = false);
+
+/// The request's "kinematics": "controller" (default: each capture's H as it came) or "fitted"
+/// (true: through a trunnion's axes as its latest kinematics job found them); JobInputError
+/// for anything else.
+bool FittedKinematics(const nlohmann::json& request);
 
 /// The job's changes to the controller, made safe against a stop at any moment: announced in
 /// the history first (durably, with the reply so far), then written (WriteResult), then

@@ -142,7 +142,8 @@ json RunMeasureJob(JobContext& ctx, const json& r) {
   try {
     const MeasureRequest request = ParseMeasureRequest(r, ctx.config.data_dir);
     const calib::CalibrationRecord& cal = run.Calibration();
-    const Evidence ev = LoadCaptures(ctx, r.at("captures"), cal.flange_from_probe, run.job);
+    const Evidence ev =
+        LoadCaptures(ctx, r.at("captures"), cal.flange_from_probe, run.job, FittedKinematics(r));
     const jobs::MeasureOutcome o =
         jobs::AssessMeasure(request, ev, FactsOf(cal), ctx.machine.limits);
     const jobs::Measured& ms = o.measured;
