@@ -24,13 +24,13 @@ function(mlp_add_library name)
   mlp_set_warnings(mlp_${name})
 endfunction()
 
-# mlp_add_test(<module> <name> SOURCES ... DEPS ... [RESOURCE_LOCK lock] [TIMEOUT s]): one
+# mlp_add_test(<module> <name> SOURCES ... DEPS ... [RESOURCE_LOCK lock] [TIMEOUT s] [COST s]): one
 # gtest binary, tests discovered as <module>/<Suite>.<Case> so ctest -R geometry/ selects a
 # module. Tests sharing a RESOURCE_LOCK never run at once under ctest -j (one LinuxCNC per
 # machine). TIMEOUT (default 300 s; 4 times that sanitized or under qemu-user, the arm64 build's
 # tests) is a hang guard, not a speed check.
 function(mlp_add_test module name)
-  cmake_parse_arguments(ARG "" "RESOURCE_LOCK;TIMEOUT" "SOURCES;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "RESOURCE_LOCK;TIMEOUT;COST" "SOURCES;DEPS" ${ARGN})
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
@@ -48,9 +48,15 @@ function(mlp_add_test module name)
   if(ARG_RESOURCE_LOCK)
     set(lock RESOURCE_LOCK ${ARG_RESOURCE_LOCK})
   endif()
+  # COST: seconds a test takes, so that a clean clone's ctest (no timings of an earlier run)
+  # starts the long ones first instead of leaving one for the end on a core of its own.
+  set(cost)
+  if(ARG_COST)
+    set(cost COST ${ARG_COST})
+  endif()
   gtest_discover_tests(${target} TEST_PREFIX "${module}/" DISCOVERY_TIMEOUT 60
                        PROPERTIES ENVIRONMENT "MLP_SHARED_DATA=${MLP_SHARED_DATA_DIR}"
-                                  TIMEOUT ${ARG_TIMEOUT} ${lock})
+                                  TIMEOUT ${ARG_TIMEOUT} ${lock} ${cost})
 endfunction()
 
 # mlp_import_opencv_modules(<module>...): imported targets opencv_<module> from the headers and

@@ -83,7 +83,7 @@ TEST(KinematicsJob, ACaptureThatIsNotTheSphereIsRefusedNotFitted) {
   std::mt19937 rng(56);
   KinematicsInputs in = Plan(calib::AxesOf(Pins()), &rng);
   in.captures[4].points_machine = Cap(Vec3(90, 12, -40), 10.0, 2000, &rng);  // another ball
-  in.captures[7].points_machine = in.captures[7].points_machine.leftCols(50);
+  in.captures[7].points_machine = in.captures[7].points_machine.leftCols(50).eval();  // no alias
   const KinematicsOutcome o = AssessKinematics(in);
   EXPECT_FALSE(o.fit);
   ASSERT_EQ(o.problems.size(), 2u);
