@@ -39,6 +39,8 @@ constexpr double kSquareTolDeg = 0.002;     // and the squareness within 0.002 d
 constexpr double kSphereRadiusMm = 12.7;    // the reference sphere (CalibrateThroughChain's)
 constexpr double kHandEyeTolUm = 5.0;       // issue 54: the hand-eye on the trunnion within
 constexpr double kHandEyeTolArcsec = 10.0;  // 5 um and 10 arcsec
+constexpr double kGrowthMm = 0.008;         // the warm-up's growth of C's position in X
+constexpr double kDriftTolMm = 0.001;       // a drift between two checks found within 1 um
 constexpr double kReadoutMm = 1e-4;         // halcmd prints a pin to 7 digits: 0.1 um at 100-999 mm
 
 // The machine as it truly is, against the sample's pins (trunnion.hal: C through (120, -40),
@@ -62,15 +64,15 @@ std::string ReadHostLog(const Site& site) { return test::ReadText(site.dir / "ho
 
 const geometry::Vec3 kSphereOnTableMm(180.0, -40.0, -40.0);  // 60 mm off C
 
-json TrueMachine() {
+json TrueMachine(const geometry::Vec3& c_grown_mm = geometry::Vec3::Zero()) {
   const double t = kAAboutZDeg * M_PI / 180;
+  const geometry::Vec3 c = kTrueCMm + c_grown_mm;
   return {{"format", "mlprobe-machine/1"},
           {"kind", "trunnion"},
           {"a_axis",
            {{"point_mm", {kTrueAMm.x(), kTrueAMm.y(), kTrueAMm.z()}},
             {"direction", {std::cos(t), std::sin(t), 0.0}}}},
-          {"c_axis",
-           {{"point_mm", {kTrueCMm.x(), kTrueCMm.y(), kTrueCMm.z()}}, {"direction", {0, 0, 1}}}}};
+          {"c_axis", {{"point_mm", {c.x(), c.y(), c.z()}}, {"direction", {0, 0, 1}}}}};
 }
 
 // The sphere on the table, the probe mounted as on the demo plate (the hand-eye's machine), and
@@ -138,6 +140,18 @@ std::vector<std::string> HandEyeViews(const test::LinuxCnc& cnc,
   const json ran = cnc.Run(program.str());
   EXPECT_TRUE(ran.value("ended", false) && ran.at("errors").empty()) << ran.dump();
   return names;
+}
+
+// The kinematics job (a check, nothing written) on the sphere captures; its reply, whatever the
+// status (out of tolerance exits 5), or {"error"} when the client printed nothing.
+json CheckOn(const Site& site, const std::string& name, const std::vector<std::string>& captures) {
+  const auto run = site.Mlp("request " +
+                            site.Request(name, {{"op", "kinematics"},
+                                                {"machine", "lcnc-1"},
+                                                {"captures", captures},
+                                                {"sphere_radius_mm", kSphereRadiusMm}}) +
+                            " --json");
+  return run.out.empty() ? json{{"error", run.err}} : json::parse(run.out);
 }
 
 // The calibrate job on the views, no centre given, H from `kinematics`. Its reply.
@@ -352,20 +366,29 @@ TEST(LinuxCncTrunnion, TheCheckFindsEachPivotAndTheSquarenessThroughTheProbe) {
   std::optional<Child> probe;
   probe.emplace(probe_args, site.dir / "sim.log");
   ASSERT_TRUE(test::ProbeConnected(site));
+  // Another scene or machine file: the probe stopped, the host seeing it gone, a new one.
+  const auto restart_probe = [&](const fs::path& with_scene, const char* log) {
+    probe.reset();
+    if (!site.WaitFor([&] {
+          const auto st = site.Mlp("status --json");
+          return st.exit_code == 0 &&
+                 json::parse(st.out).at("probes").at(0).at("connected") == false;
+        }))
+      return false;
+    probe_args = {probe_args.begin(), probe_args.begin() + 4};
+    for (const std::string& a : test::AsBuiltProbeArgs(site, with_scene.string(), kPort))
+      probe_args.push_back(a);
+    probe_args.insert(probe_args.end(), {"--machine", machine.string()});
+    probe.emplace(probe_args, site.dir / log);
+    return test::ProbeConnected(site);
+  };
   const json ran = cnc.Run(test::ReadText(program));
   ASSERT_TRUE(ran.value("ended", false)) << ran.dump() << test::ReadText(site.dir / "hostd.log");
   for (const json& e : ran.at("errors"))  // the program's own DEBUG lines say each stop
     ASSERT_EQ(e.get<std::string>().rfind(" mlp stop ", 0), 0u) << ran.dump();
 
   // The check: beyond the 10 um limit (the pins are 20-45 um off), each pivot's error found.
-  const auto check = site.Mlp("request " +
-                              site.Request("check", {{"op", "kinematics"},
-                                                     {"machine", "lcnc-1"},
-                                                     {"captures", names},
-                                                     {"sphere_radius_mm", kSphereRadiusMm}}) +
-                              " --json");
-  ASSERT_FALSE(check.out.empty()) << check.err;
-  const json reply = json::parse(check.out);
+  const json reply = CheckOn(site, "check", names);
   EXPECT_EQ(reply.value("status", ""), "out_of_tolerance") << reply.dump(1);
   ASSERT_TRUE(reply.contains("pivots_mm")) << reply.dump(1);
   for (const json& s : reply.at("spheres"))
@@ -446,15 +469,12 @@ TEST(LinuxCncTrunnion, TheCheckFindsEachPivotAndTheSquarenessThroughTheProbe) {
   ASSERT_TRUE(reran.value("ended", false)) << reran.dump();
   // Still out of tolerance: A's 0.01 deg about Z is beyond the 0.01 deg limit and no pin can
   // hold it (the machine's service can); every pivot within 2 um.
-  const auto rechecked = site.Mlp("request " +
-                                  site.Request("recheck", {{"op", "kinematics"},
-                                                           {"machine", "lcnc-1"},
-                                                           {"captures", again},
-                                                           {"sphere_radius_mm", kSphereRadiusMm}}) +
-                                  " --json");
-  ASSERT_FALSE(rechecked.out.empty()) << rechecked.err;
-  const json recheck = json::parse(rechecked.out);
+  const json recheck = CheckOn(site, "recheck", again);
   EXPECT_EQ(recheck.value("status", ""), "out_of_tolerance") << recheck.dump(1);
+  // The same machine checked twice: no drift beyond the checks' own scatter.
+  ASSERT_TRUE(recheck.contains("drift") && recheck.at("drift").is_object()) << recheck.dump(1);
+  for (const auto& [name, d] : recheck.at("drift").at("pivots_mm").items())
+    EXPECT_LT(std::abs(d.get<double>()), kDriftTolMm) << name;
   ASSERT_TRUE(recheck.contains("pivots_mm")) << recheck.dump(1);
   for (const json& p : recheck.at("pivots_mm")) {
     std::printf("after calibration, pivot %s: %+.3f um +- %.2f\n",
@@ -513,20 +533,30 @@ TEST(LinuxCncTrunnion, TheCheckFindsEachPivotAndTheSquarenessThroughTheProbe) {
   // D30 bore measured with the table tilted A 30 deg and turned to C 45, 135, 225 and 315 deg
   // (the probe straight down sees a wall leaning 30 deg towards it each time), H through the
   // fitted axes; G54 (in the table's frame, LinuxCNC's TCP) moved by where the bore was found.
-  probe.reset();
-  ASSERT_TRUE(site.WaitFor([&] {
-    const auto st = site.Mlp("status --json");
-    return st.exit_code == 0 && json::parse(st.out).at("probes").at(0).at("connected") == false;
-  }));
   const fs::path part = site.dir / "tilted_part.json";
   std::ofstream(part) << BlockOnTable(seen.scene().flange_from_probe).dump(1);
-  probe_args = {probe_args.begin(), probe_args.begin() + 4};
-  for (const std::string& a : test::AsBuiltProbeArgs(site, part.string(), kPort))
-    probe_args.push_back(a);
-  probe_args.insert(probe_args.end(), {"--machine", machine.string()});
-  probe.emplace(probe_args, site.dir / "sim-part.log");
-  ASSERT_TRUE(test::ProbeConnected(site));
+  ASSERT_TRUE(restart_probe(part, "sim-part.log"));
   MeasureTheTiltedBore(cnc, site, config, nominal, part);
+  if (HasFailure()) return;
+
+  // Warm-up: the C axis grows 8 um in X (the machine, not the pins); the same check again
+  // reports the drift since the last one.
+  std::ofstream(machine) << TrueMachine(geometry::Vec3(kGrowthMm, 0, 0)).dump(1);
+  ASSERT_TRUE(restart_probe(scene, "sim-warm.log"));
+  const json warm_ran = cnc.Run(test::ReadText(program));  // kin2_* taken again
+  ASSERT_TRUE(warm_ran.value("ended", false)) << warm_ran.dump();
+  const json warm = CheckOn(site, "warm", again);
+  ASSERT_TRUE(warm.contains("drift") && warm.at("drift").is_object()) << warm.dump(1);
+  const json& drift = warm.at("drift").at("pivots_mm");
+  std::printf(
+      "warm-up drift since job %d: C x %+.2f um (truth %+.2f), C y %+.2f, A y %+.2f, A z "
+      "%+.2f\n",
+      warm.at("drift").at("since_job").get<int>(), drift.at("c_x").get<double>() * 1e3,
+      kGrowthMm * 1e3, drift.at("c_y").get<double>() * 1e3, drift.at("a_y").get<double>() * 1e3,
+      drift.at("a_z").get<double>() * 1e3);
+  EXPECT_NEAR(drift.at("c_x").get<double>(), kGrowthMm, kDriftTolMm);
+  for (const char* other : {"c_y", "a_y", "a_z"})
+    EXPECT_LT(std::abs(drift.at(other).get<double>()), kDriftTolMm) << other;
 }
 
 }  // namespace

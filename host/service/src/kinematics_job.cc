@@ -2,6 +2,7 @@
 // plan of A and C positions in the machine frame (M101 with "pose_frame": "machine" on a
 // xyzac-trt-kins machine: each capture's pose carries its joints and the kinematics' pins).
 
+#include "mlp/base/clock.h"
 #include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
 #include "mlp/calib/trunnion_hal.h"
@@ -170,17 +171,47 @@ calib::AxisLine LineFrom(const json& j, const char* key, const std::string& wher
           jf::Vector3<JobInputError>(o, "direction", where + "." + key).normalized()};
 }
 
-// The fitted axes kept for the jobs that map captures through them (UseFittedKinematics):
-// kinematics/<machine>.json, replaced whole by each fit.
+// What a fit says of the machine itself, whatever the pins: the four sums and the angles, as
+// the drift between two checks compares them.
+json StateJson(const calib::TrunnionFit& fit) {
+  return {{"pivots_mm",
+           {{"c_x", fit.c_x_mm}, {"c_y", fit.c_y_mm}, {"a_y", fit.a_y_mm}, {"a_z", fit.a_z_mm}}},
+          {"angles_deg",
+           {{"a_about_z", fit.a_about_z_deg},
+            {"a_about_y", fit.a_about_y_deg},
+            {"c_about_x", fit.c_about_x_deg},
+            {"c_about_y", fit.c_about_y_deg}}}};
+}
+
+std::string KeptPath(const JobContext& ctx) {
+  return ctx.config.KinematicsDir() + "/" + ctx.machine.name + ".json";
+}
+
+// The machine's change since the fit kept before this one (a warm-up study: the same check run
+// twice): each sum and angle's difference, the hours between; null for a first check.
+json DriftSinceKept(const JobContext& ctx, const calib::TrunnionFit& fit) {
+  if (!std::filesystem::exists(KeptPath(ctx))) return nullptr;
+  const json kept =
+      json::parse(base::ReadFileAs<JobInputError>(KeptPath(ctx), "kinematics: "), nullptr, false);
+  if (kept.is_discarded() || !kept.contains("state")) return nullptr;  // an older file
+  const json now = StateJson(fit);
+  json drift = {{"since_job", kept.value("job", 0)},
+                {"hours", AgeHours(kept.value("time_utc", ""))}};
+  for (const char* group : {"pivots_mm", "angles_deg"})
+    for (const auto& [name, value] : now.at(group).items())
+      drift[group][name] = value.get<double>() - kept.at("state").at(group).value(name, 0.0);
+  return drift;
+}
+
+// The fitted axes kept for the jobs that map captures through them (UseFittedKinematics) and
+// for the next check's drift: kinematics/<machine>.json, replaced whole by each fit.
 void KeepFit(const JobContext& ctx, std::int64_t job, const calib::TrunnionFit& fit) {
   std::filesystem::create_directories(ctx.config.KinematicsDir());
-  const json kept = {{"format", "mlprobe-trunnion-fit/1"},
-                     {"job", job},
-                     {"a_axis", LineJson(fit.axes.a)},
-                     {"c_axis", LineJson(fit.axes.c)},
+  const json kept = {{"format", "mlprobe-trunnion-fit/1"},    {"job", job},
+                     {"time_utc", base::UtcTimestamp()},      {"a_axis", LineJson(fit.axes.a)},
+                     {"c_axis", LineJson(fit.axes.c)},        {"state", StateJson(fit)},
                      {"residual_rms_mm", fit.residual_rms_mm}};
-  base::WriteFileAtomically(ctx.config.KinematicsDir() + "/" + ctx.machine.name + ".json",
-                            kept.dump(1) + "\n");
+  base::WriteFileAtomically(KeptPath(ctx), kept.dump(1) + "\n");
 }
 
 json ChangesJson(const std::vector<jobs::PinChange>& changes) {
@@ -209,6 +240,7 @@ json RunKinematicsJob(JobContext& ctx, const json& r) {
       centres.push_back({s.a_deg, s.c_deg, s.centre_machine_mm});
     run.reply.update(json(calib::TrunnionReportJson(centres, *o.fit, in.pins, in.limits)));
     run.reply["report"] = WriteReport(ctx, run.job, in, o);
+    run.reply["drift"] = DriftSinceKept(ctx, *o.fit);
     KeepFit(ctx, run.job, *o.fit);
     if (in.calibrate) run.reply["changes"] = ChangesJson(o.changes);
     ctx.history.AddResult(run.job, {"trunnion", run.reply, json::object()});
@@ -226,7 +258,7 @@ json RunKinematicsJob(JobContext& ctx, const json& r) {
 }
 
 void UseFittedKinematics(const JobContext& ctx, std::vector<StoredCapture>* captures) {
-  const std::string path = ctx.config.KinematicsDir() + "/" + ctx.machine.name + ".json";
+  const std::string path = KeptPath(ctx);
   if (!std::filesystem::exists(path))
     throw JobInputError("machine " + ctx.machine.name +
                         " has no fitted kinematics: run a kinematics job (the sphere plan) first");
