@@ -142,6 +142,15 @@ std::vector<std::string> HandEyeViews(const test::LinuxCnc& cnc,
   return names;
 }
 
+// The kinematics job that calibrates from the sphere captures (M101's job file).
+json CalibrationJob(const std::vector<std::string>& captures) {
+  return {{"op", "kinematics"},
+          {"machine", "lcnc-1"},
+          {"captures", captures},
+          {"sphere_radius_mm", kSphereRadiusMm},
+          {"calibrate", true}};
+}
+
 // The kinematics job (a check, nothing written) on the sphere captures; its reply, whatever the
 // status (out of tolerance exits 5), or {"error"} when the client printed nothing.
 json CheckOn(const Site& site, const std::string& name, const std::vector<std::string>& captures) {
@@ -421,12 +430,7 @@ TEST(LinuxCncTrunnion, TheCheckFindsEachPivotAndTheSquarenessThroughTheProbe) {
   // kinematics (nothing written), then in identity kinematics the pins written to the HAL file
   // and set on the running machine.
   const std::string hal_before = test::ReadText(config / "trunnion.hal");
-  std::ofstream(config / "jobs" / "200.json") << json{
-      {"op", "kinematics"},
-      {"machine", "lcnc-1"},
-      {"captures", names},
-      {"sphere_radius_mm", kSphereRadiusMm},
-      {"calibrate", true}}.dump();
+  std::ofstream(config / "jobs" / "200.json") << CalibrationJob(names).dump();
   const json refused = cnc.Run("M101 P200\nM2\n");
   ASSERT_EQ(refused.at("errors").size(), 1u) << refused.dump();
   EXPECT_NE(refused.at("errors")[0].get<std::string>().find("identity kinematics"),
@@ -489,12 +493,7 @@ TEST(LinuxCncTrunnion, TheCheckFindsEachPivotAndTheSquarenessThroughTheProbe) {
     }
   }
   const std::string hal_calibrated = test::ReadText(config / "trunnion.hal");
-  std::ofstream(config / "jobs" / "400.json") << json{
-      {"op", "kinematics"},
-      {"machine", "lcnc-1"},
-      {"captures", again},
-      {"sphere_radius_mm", kSphereRadiusMm},
-      {"calibrate", true}}.dump();
+  std::ofstream(config / "jobs" / "400.json") << CalibrationJob(again).dump();
   const json unchanged = cnc.Run("M68 E3 Q1\nM66 E0 L0\nM101 P400\nM68 E3 Q0\nM66 E0 L0\nM2\n");
   ASSERT_TRUE(unchanged.at("errors").empty()) << unchanged.dump();
   EXPECT_EQ(test::ReadText(config / "trunnion.hal"), hal_calibrated);

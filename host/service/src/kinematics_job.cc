@@ -104,10 +104,8 @@ json SpheresJson(const std::vector<jobs::SphereSeen>& spheres) {
 std::string WriteReport(JobContext& ctx,
                         std::int64_t job,
                         const jobs::KinematicsInputs& in,
-                        const jobs::KinematicsOutcome& o) {
-  std::vector<calib::TrunnionObservation> centres;
-  for (const jobs::SphereSeen& s : o.spheres)
-    centres.push_back({s.a_deg, s.c_deg, s.centre_machine_mm});
+                        const jobs::KinematicsOutcome& o,
+                        const std::vector<calib::TrunnionObservation>& centres) {
   const std::filesystem::path dir(ctx.config.ReportDir());
   std::filesystem::create_directories(dir);
   std::string path = (dir / (ctx.machine.name + "-job" + std::to_string(job) + ".svg")).string();
@@ -239,7 +237,7 @@ json RunKinematicsJob(JobContext& ctx, const json& r) {
     for (const jobs::SphereSeen& s : o.spheres)
       centres.push_back({s.a_deg, s.c_deg, s.centre_machine_mm});
     run.reply.update(json(calib::TrunnionReportJson(centres, *o.fit, in.pins, in.limits)));
-    run.reply["report"] = WriteReport(ctx, run.job, in, o);
+    run.reply["report"] = WriteReport(ctx, run.job, in, o, centres);
     run.reply["drift"] = DriftSinceKept(ctx, *o.fit);
     KeepFit(ctx, run.job, *o.fit);
     if (in.calibrate) run.reply["changes"] = ChangesJson(o.changes);
