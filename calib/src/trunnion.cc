@@ -351,6 +351,41 @@ TrtPins PinsFor(const TrunnionFit& fit, const TrtPins& current) {
   return p;
 }
 
+PinCalibration CalibratePins(const TrunnionFit& fit,
+                             const TrtPins& current,
+                             double null_band_mm,
+                             double max_change_mm) {
+  const TrtPins to = PinsFor(fit, current);
+  PinCalibration out;
+  out.pins = current;
+  const struct {
+    const char* name;
+    double TrtPins::*pin;
+    double u_mm;
+  } pins[] = {{"x-rot-point", &TrtPins::x_rot_point, fit.c_x_u_mm},
+              {"y-rot-point", &TrtPins::y_rot_point, fit.c_y_u_mm},
+              {"y-offset", &TrtPins::y_offset, std::hypot(fit.a_y_u_mm, fit.c_y_u_mm)},
+              {"z-offset", &TrtPins::z_offset, fit.a_z_u_mm}};
+  for (const auto& p : pins) {
+    PinChange c{p.name, current.*p.pin, to.*p.pin, p.u_mm, false};
+    const double change = c.after_mm - c.before_mm;
+    c.changed = std::abs(change) > std::max(null_band_mm, 3 * c.u_mm);
+    if (!c.changed) c.after_mm = c.before_mm;
+    if (std::abs(change) > max_change_mm) {
+      std::ostringstream why;
+      why.setf(std::ios::fixed);
+      why.precision(1);
+      why << "the calibration would move " << c.name << " by " << change * 1e3
+          << " um, beyond the machine's limit of " << max_change_mm * 1e3
+          << " um: nothing written (a crash, a loose sphere, a wrong plan?)";
+      out.problems.push_back(why.str());
+    }
+    out.pins.*p.pin = c.after_mm;
+    out.changes.push_back(c);
+  }
+  return out;
+}
+
 std::string Describe(const TrunnionFit& fit, const TrtPins& current) {
   const TrtPins to = PinsFor(fit, current);
   std::ostringstream o;

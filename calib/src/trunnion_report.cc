@@ -218,4 +218,15 @@ std::string TrunnionSvg(const std::vector<TrunnionObservation>& centres,
   return s.str();
 }
 
+nlohmann::json PinChangesJson(const std::vector<PinChange>& changes) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const PinChange& c : changes)
+    out.push_back({{"name", c.name},
+                   {"before_mm", c.before_mm},
+                   {"after_mm", c.after_mm},
+                   {"u_mm", c.u_mm},
+                   {"changed", c.changed}});
+  return out;
+}
+
 }  // namespace mlp::calib

@@ -6,10 +6,12 @@
 // truth is the generator's lines; no probe), 0.5 um of noise.
 
 #include "mlp/calib/trunnion.h"
+#include "mlp/calib/trunnion_hal.h"
 
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 
 #include "process_run.h"
 #include "test_data.h"
@@ -130,6 +132,115 @@ TEST(KinematicsCli, WhatCannotDetermineTheAxesAndBadFilesAreRefused) {
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_NE(missing.err.find("y-rot-point"), std::string::npos) << missing.err;
   EXPECT_EQ(Check("--pins " + kPins).exit_code, 2) << "no centres";
+}
+
+// The sample's HAL file copied to `name` (the command rewrites it), its log removed.
+fs::path HalCopy(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("mlp_kinematics_" + name + ".hal");
+  fs::copy_file(kPins, p, fs::copy_options::overwrite_existing);
+  fs::remove(p.string() + ".log");
+  return p;
+}
+
+test::ProcessRun Calibrate(const std::string& args) {
+  return test::RunProcess(test::Program("mlp") + " kinematics calibrate " + args);
+}
+
+// The file's lines that are not one of the four pins a calibration may rewrite.
+std::string OtherLines(const std::string& text) {
+  std::istringstream in(text);
+  std::string out, line;
+  while (std::getline(in, line)) {
+    bool pin = false;
+    for (const char* name : {"x-rot-point ", "y-rot-point ", "y-offset ", "z-offset "})
+      pin = pin || line.rfind(std::string("setp xyzac-trt-kins.") + name, 0) == 0;
+    if (!pin) out += line + "\n";
+  }
+  return out;
+}
+
+TEST(KinematicsCli, CalibrateWritesThePinsThatFitOnceAndRightPinsNotAgain) {
+  const calib::TrunnionAxes truth = Off(calib::AxesOf(SamplePins()));
+  const std::string centres = CentresFile("cal", truth, {-30, 0, 30, 60, 90}).string();
+  const fs::path hal = HalCopy("cal");
+  const std::string original = test::ReadText(hal);
+  const auto fits = Check("--centres " + centres + " --pins " + kPins + " --json");
+  ASSERT_EQ(fits.exit_code, 3) << fits.err;
+  const json want = json::parse(fits.out)["pins_that_fit"];
+
+  // Without --write: what it would write, the file as it was, exit 3.
+  const auto dry = Calibrate("--centres " + centres + " --pins " + hal.string());
+  EXPECT_EQ(dry.exit_code, 3) << dry.err << dry.out;
+  EXPECT_NE(dry.out.find("--write to write"), std::string::npos) << dry.out;
+  EXPECT_EQ(test::ReadText(hal), original);
+  EXPECT_FALSE(fs::exists(hal.string() + ".log"));
+
+  // With --write: the four pins those that fit, every other line kept, before/after logged.
+  const auto wrote = Calibrate("--centres " + centres + " --pins " + hal.string() + " --write");
+  ASSERT_EQ(wrote.exit_code, 0) << wrote.err << wrote.out;
+  const calib::TrtPins now = calib::ParseTrtPinsHal(test::ReadText(hal));
+  EXPECT_NEAR(now.x_rot_point, truth.c.point.x(), kFoundTolMm);
+  EXPECT_NEAR(now.y_rot_point, truth.c.point.y(), kFoundTolMm);
+  EXPECT_NEAR(now.x_rot_point, want["x-rot-point"].get<double>(), 1e-7);
+  EXPECT_NEAR(now.y_offset, want["y-offset"].get<double>(), 1e-7);
+  EXPECT_NEAR(now.z_offset, 60.0 - 0.043, kFoundTolMm);
+  EXPECT_EQ(now.z_rot_point, -150.0);
+  EXPECT_EQ(OtherLines(test::ReadText(hal)), OtherLines(original));
+  const std::string log = test::ReadText(hal.string() + ".log");
+  std::istringstream records(log);
+  std::string intent, written, more;
+  ASSERT_TRUE(std::getline(records, intent) && std::getline(records, written)) << log;
+  EXPECT_FALSE(std::getline(records, more)) << log;
+  EXPECT_EQ(json::parse(intent)["state"], "intent");
+  const json record = json::parse(written);
+  EXPECT_EQ(record["state"], "written");
+  ASSERT_EQ(record["changes"].size(), 4u);
+  EXPECT_EQ(record["changes"][0]["before_mm"].get<double>(), 120.0);
+  EXPECT_NEAR(record["changes"][0]["after_mm"].get<double>(), now.x_rot_point, 1e-7);
+
+  // The same centres against the written pins: nothing to change, nothing written.
+  const std::string calibrated = test::ReadText(hal);
+  const auto again = Calibrate("--centres " + centres + " --pins " + hal.string() + " --write");
+  EXPECT_EQ(again.exit_code, 0) << again.err << again.out;
+  EXPECT_NE(again.out.find("nothing to change"), std::string::npos) << again.out;
+  EXPECT_EQ(test::ReadText(hal), calibrated);
+  EXPECT_EQ(test::ReadText(hal.string() + ".log"), log);
+}
+
+TEST(KinematicsCli, CalibrateRefusesAChangeBeyondTheLimitAndTakesAJobsReply) {
+  const calib::TrunnionAxes truth = Off(calib::AxesOf(SamplePins()));
+  const fs::path centres = CentresFile("far", truth, {-30, 0, 30, 60, 90});
+  const fs::path hal = HalCopy("far");
+  const std::string original = test::ReadText(hal);
+  // x-rot-point is 31 um off: beyond a 20 um limit nothing is written.
+  const auto far = Calibrate("--centres " + centres.string() + " --pins " + hal.string() +
+                             " --max-change-um 20 --write");
+  EXPECT_EQ(far.exit_code, 6) << far.err << far.out;
+  EXPECT_NE(far.err.find("x-rot-point by 31"), std::string::npos) << far.err;
+  EXPECT_EQ(test::ReadText(hal), original);
+  EXPECT_FALSE(fs::exists(hal.string() + ".log"));
+
+  // The kinematics job's reply (its "spheres") gives the same calibration as the centres file.
+  json spheres = json::array();
+  const json file = json::parse(test::ReadText(centres));
+  for (const json& c : file.at("centres"))
+    spheres.push_back({{"capture", "k"},
+                       {"a_deg", c["a_deg"]},
+                       {"c_deg", c["c_deg"]},
+                       {"centre_mm", c["centre_mm"]},
+                       {"points", 5000}});
+  const fs::path reply = fs::temp_directory_path() / "mlp_kinematics_reply.json";
+  std::ofstream(reply) << json{{"ok", true}, {"spheres", spheres}}.dump();
+  const auto a = Calibrate("--centres " + centres.string() + " --pins " + hal.string() + " --json");
+  const auto b = Calibrate("--centres " + reply.string() + " --pins " + hal.string() + " --json");
+  EXPECT_EQ(a.exit_code, 3) << a.err;
+  EXPECT_EQ(b.exit_code, 3) << b.err;
+  EXPECT_EQ(json::parse(a.out)["changes"], json::parse(b.out)["changes"]);
+  EXPECT_FALSE(json::parse(a.out)["written"].get<bool>());
+  EXPECT_EQ(
+      Calibrate("--centres " + reply.string() + " --pins " + hal.string() + " --null-band-um -1")
+          .exit_code,
+      2);
 }
 
 TEST(KinematicsCli, APlanHasItsStopsOverTheSphereAndRefusesWhatCannotDetermineTheAxes) {

@@ -1,17 +1,25 @@
 #include "mlp/host/kinematics_command.h"
 
+#include "mlp/base/clock.h"
+#include "mlp/base/files.h"
 #include "mlp/base/json_fields.h"
 #include "mlp/calib/trunnion_hal.h"
 #include "mlp/calib/trunnion_report.h"
 #include "mlp/host/cli.h"
 
 #include <algorithm>
+#include <array>
+#include <cerrno>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <ostream>
 #include <sstream>
 
+#include <fcntl.h>
 #include <nlohmann/json.hpp>
+#include <spawn.h>
+#include <sys/wait.h>
 
 namespace mlp::host {
 namespace {
@@ -30,6 +38,16 @@ constexpr const char* kUsage =
     "  --limit-um: largest pivot error accepted (default 10); --square-limit-deg: largest\n"
     "  squareness (default 0.01). Exit 0 within, 3 beyond a limit, 4 the centres cannot\n"
     "  determine the axes, 2 bad input.\n"
+    "usage: mlp kinematics calibrate --centres FILE --pins HALFILE [--null-band-um U]\n"
+    "                                [--max-change-um U] [--write] [--log FILE] [--json]\n"
+    "  The pins that put the kinematics on the axes the centres give (FILE as for check, or a\n"
+    "  kinematics job's reply): a pin changes only beyond the null band (default 2 um) and 3\n"
+    "  of its uncertainties; a change beyond --max-change-um (default 200) refuses them all.\n"
+    "  Without --write it says what it would write. With --write, HALFILE's four values are\n"
+    "  rewritten whole (every other byte kept) and before/after appended to --log (default\n"
+    "  HALFILE.log); refused while LinuxCNC runs (halcmd answers): a running machine's pins\n"
+    "  are set by the kinematics job through M101, at rest (docs/KINEMATICS.md). Exit 0\n"
+    "  nothing to change or written, 3 changes not written, 4 undetermined, 6 refused.\n"
     "usage: mlp kinematics plan --pins HALFILE --sphere X,Y,Z [--a A1,A2,...] [--c N]\n"
     "                           [--spindle DEG] [--probe-length MM] [--standoff MM]\n"
     "                           [--table-radius MM] [--table-top MM] [--margin MM]\n"
@@ -72,7 +90,7 @@ struct Command {
 
 Command Parse(const std::vector<std::string>& args) {
   if (args.empty() || args[0] != "check")
-    throw UsageError("the commands are check, plan and flange-pose");
+    throw UsageError("the commands are check, calibrate, plan and flange-pose");
   const Args a({args.begin() + 1, args.end()},
                ArgSpec({"--centres", "--pins", "--limit-um", "--square-limit-deg", "--svg"},
                        {"--json"}, {"--pin"}));
@@ -88,17 +106,25 @@ Command Parse(const std::vector<std::string>& args) {
   return c;
 }
 
+// The axes from the centres, or why they cannot be found said on `err`.
+std::optional<calib::TrunnionFit> FitOrSay(const std::vector<calib::TrunnionObservation>& centres,
+                                           const calib::TrtPins& pins,
+                                           std::ostream& err) {
+  try {
+    return calib::FitTrunnion(centres, calib::AxesOf(pins));
+  } catch (const calib::TrunnionError& e) {
+    err << "mlp kinematics: " << e.what() << "\n";
+    return std::nullopt;
+  }
+}
+
 int Check(const Command& c, std::ostream& out, std::ostream& err) {
   const calib::TrtPins& pins = c.pins;
   const std::vector<calib::TrunnionObservation> centres =
       ParseTrunnionCentres(ReadInputFile(c.centres));
-  calib::TrunnionFit fit;
-  try {
-    fit = calib::FitTrunnion(centres, calib::AxesOf(pins));
-  } catch (const calib::TrunnionError& e) {
-    err << "mlp kinematics: " << e.what() << "\n";
-    return kExitUndetermined;
-  }
+  const std::optional<calib::TrunnionFit> fitted = FitOrSay(centres, pins, err);
+  if (!fitted) return kExitUndetermined;
+  const calib::TrunnionFit& fit = *fitted;
   const calib::TrunnionLimits limits{c.limit_mm, c.square_limit_deg};
   const bool within = calib::TrunnionWithin(fit, pins, limits);
   if (!c.svg.empty()) WriteOutputFile(c.svg, calib::TrunnionSvg(centres, fit, pins, c.limit_mm));
@@ -107,10 +133,139 @@ int Check(const Command& c, std::ostream& out, std::ostream& err) {
   } else {
     out << calib::TrunnionReportText(centres, fit, pins, limits)
         << (within ? " within the limits\n"
-                   : " BEYOND a limit: mlp kinematics calibrate (not built yet) or the machine's "
-                     "service\n");
+                   : " BEYOND a limit: mlp kinematics calibrate (the pins), or the machine's "
+                     "service (what no pin holds)\n");
   }
   return within ? static_cast<int>(kExitOk) : static_cast<int>(kExitKinematicsOff);
+}
+
+struct CalibrateCommand {
+  std::string centres, hal, log;
+  double null_band_mm = 0.002, max_change_mm = 0.2;
+  bool write = false, json = false;
+};
+
+CalibrateCommand ParseCalibrate(const std::vector<std::string>& args) {
+  const Args a({args.begin() + 1, args.end()},
+               ArgSpec({"--centres", "--pins", "--null-band-um", "--max-change-um", "--log"},
+                       {"--write", "--json"}));
+  CalibrateCommand c;
+  c.centres = a.Text("--centres");
+  c.hal = a.Text("--pins");
+  c.log = a.Text("--log", c.hal + ".log");
+  c.null_band_mm = a.Number("--null-band-um", 2.0) * 1e-3;
+  c.max_change_mm = a.Number("--max-change-um", 200.0) * 1e-3;
+  c.write = a.Has("--write");
+  c.json = a.Has("--json");
+  if (!(c.null_band_mm >= 0) || !(c.max_change_mm > 0))
+    throw UsageError("--null-band-um must be >= 0 and --max-change-um > 0");
+  return c;
+}
+
+// True when a LinuxCNC with the trunnion's kinematics is running here (halcmd reads its pin).
+// Its live pins are then what the machine moves by; a file rewritten under it would disagree
+// with them until the next start, so the command leaves a running machine to the job (M101).
+bool TrunnionControllerRuns() {
+  const std::array<const char*, 5> argv = {"halcmd", "-s", "getp", "xyzac-trt-kins.x-rot-point",
+                                           nullptr};
+  posix_spawn_file_actions_t quiet;
+  posix_spawn_file_actions_init(&quiet);
+  posix_spawn_file_actions_addopen(&quiet, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&quiet, 2, "/dev/null", O_WRONLY, 0);
+  pid_t pid = 0;
+  // posix_spawnp takes argv as char* const*: halcmd does not write to them.
+  const int spawned =
+      posix_spawnp(&pid, argv[0], &quiet, nullptr, const_cast<char* const*>(argv.data()), environ);
+  posix_spawn_file_actions_destroy(&quiet);
+  if (spawned != 0) return false;  // no halcmd: no LinuxCNC here
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
+std::string ChangesText(const calib::PinCalibration& c) {
+  std::string t;
+  for (const calib::PinChange& p : c.changes)
+    t += "  " + p.name + ": " + Fixed(p.before_mm, 4) + " -> " + Fixed(p.after_mm, 4) +
+         (p.changed ? " (" + Fixed((p.after_mm - p.before_mm) * 1e3, 1) + " um, +-" +
+                          Fixed(p.u_mm * 1e3, 1) + " um)\n"
+                    : " (kept: within the null band or 3 u)\n");
+  return t;
+}
+
+// The file rewritten whole under a lock (two calibrations never interleave their read and
+// write), the intent logged before and the result after: a log that ends in an intent says a
+// write may not have happened.
+void WritePins(const CalibrateCommand& c,
+               const calib::TrtPins& read,
+               const calib::PinCalibration& p) {
+  const base::FileLock lock(c.hal + ".lock");
+  const std::string text = ReadInputFile(c.hal);
+  const calib::TrtPins now = ParseTrtPinsHal(text);
+  if (now.x_rot_point != read.x_rot_point || now.y_rot_point != read.y_rot_point ||
+      now.z_rot_point != read.z_rot_point || now.y_offset != read.y_offset ||
+      now.z_offset != read.z_offset || now.tool_offset != read.tool_offset)
+    throw base::FileError(c.hal + " changed while the calibration was computed: nothing written");
+  json record = {{"time_utc", base::UtcNow("%Y-%m-%dT%H:%M:%SZ", false)},
+                 {"file", c.hal},
+                 {"centres", c.centres},
+                 {"changes", calib::PinChangesJson(p.changes)}};
+  record["state"] = "intent";
+  base::AppendRecord(c.log, "", record.dump() + "\n");
+  base::WriteFileAtomically(c.hal, calib::RewriteTrtPinsHal(text, p.pins));
+  record["state"] = "written";
+  base::AppendRecord(c.log, "", record.dump() + "\n");
+}
+
+int Calibrate(const CalibrateCommand& c, std::ostream& out, std::ostream& err) {
+  const calib::TrtPins pins = ParseTrtPinsHal(ReadInputFile(c.hal));
+  const std::optional<calib::TrunnionFit> fitted =
+      FitOrSay(ParseTrunnionCentres(ReadInputFile(c.centres)), pins, err);
+  if (!fitted) return kExitUndetermined;
+  const calib::TrunnionFit& fit = *fitted;
+  const calib::PinCalibration p = calib::CalibratePins(fit, pins, c.null_band_mm, c.max_change_mm);
+  const bool any = std::any_of(p.changes.begin(), p.changes.end(),
+                               [](const calib::PinChange& x) { return x.changed; });
+  std::string refused;
+  if (!p.problems.empty())
+    refused = p.problems.front();
+  else if (c.write && any && TrunnionControllerRuns())
+    refused =
+        "LinuxCNC is running with xyzac-trt-kins (halcmd reads its pins): nothing written; "
+        "a running machine's pins are set by the kinematics job through M101 at rest "
+        "(docs/KINEMATICS.md), or stop the machine first";
+  bool written = c.write && any && refused.empty();
+  if (written) {
+    try {
+      WritePins(c, pins, p);
+    } catch (const base::FileError& e) {
+      written = false;
+      refused = e.what();
+    }
+  }
+  if (c.json) {
+    out << json{{"file", c.hal},
+                {"changes", calib::PinChangesJson(p.changes)},
+                {"residual_rms_mm", fit.residual_rms_mm},
+                {"written", written},
+                {"refused", refused.empty() ? json() : json(refused)}}
+               .dump(2)
+        << "\n";
+  } else {
+    out << calib::Describe(fit, pins) << "calibration of " << c.hal << ":\n" << ChangesText(p);
+    if (!any)
+      out << "nothing to change: the pins fit the axes\n";
+    else if (written)
+      out << "written; before/after in " << c.log << "; the machine reads it at its next start\n";
+    else if (refused.empty())
+      out << "not written (dry run): --write to write\n";
+  }
+  if (!refused.empty()) {
+    err << "mlp kinematics: refused: " << refused << "\n";
+    return kExitCalibrationRefused;
+  }
+  return (any && !written) ? static_cast<int>(kExitKinematicsOff) : static_cast<int>(kExitOk);
 }
 
 std::string Coordinate(double v) { return Fixed(std::abs(v) < 5e-7 ? 0.0 : v, 6); }
@@ -221,11 +376,15 @@ calib::TrtPins ParseTrtPinsHal(const std::string& text) {
 
 std::vector<calib::TrunnionObservation> ParseTrunnionCentres(const std::string& text) {
   const json j = json::parse(text, nullptr, false);
-  if (j.is_discarded() || !j.is_object() || j.value("format", "") != "mlprobe-trunnion-centres/1" ||
-      !j.contains("centres") || !j["centres"].is_array())
-    throw UsageError("centres: not a mlprobe-trunnion-centres/1 file");
+  // A kinematics job's reply carries the same centres as "spheres" (docs/HOSTD.md).
+  const bool reply = j.is_object() && !j.contains("format") && j.contains("spheres");
+  const char* key = reply ? "spheres" : "centres";
+  if (j.is_discarded() || !j.is_object() ||
+      (!reply && j.value("format", "") != "mlprobe-trunnion-centres/1") || !j.contains(key) ||
+      !j[key].is_array())
+    throw UsageError("centres: not a mlprobe-trunnion-centres/1 file or a kinematics job's reply");
   std::vector<calib::TrunnionObservation> out;
-  for (const json& c : j["centres"]) {
+  for (const json& c : j[key]) {
     const json& m = c.value("centre_mm", json());
     if (!c.is_object() || !c.contains("a_deg") || !c["a_deg"].is_number() || !c.contains("c_deg") ||
         !c["c_deg"].is_number() || !m.is_array() || m.size() != 3 ||
@@ -251,6 +410,7 @@ int RunKinematicsCommand(const std::vector<std::string>& args,
   try {
     if (!args.empty() && args[0] == "plan") return Plan(args, out);
     if (!args.empty() && args[0] == "flange-pose") return FlangePose(args, out);
+    if (!args.empty() && args[0] == "calibrate") return Calibrate(ParseCalibrate(args), out, err);
     return Check(Parse(args), out, err);
   } catch (const UsageError& e) {
     err << "mlp kinematics: " << e.what() << "\n" << kUsage;

@@ -27,40 +27,6 @@ SphereSeen SphereOf(const geometry::Points3& points_machine, double radius_mm) {
   return s;
 }
 
-namespace {
-
-// The calibration's pins: each moved where the fit says beyond the null band and 3 u; a change
-// beyond the limit refuses them all.
-void PlanPins(const KinematicsInputs& in, KinematicsOutcome* o) {
-  const calib::TrunnionFit& f = *o->fit;
-  const calib::TrtPins to = calib::PinsFor(f, in.pins);
-  calib::TrtPins next = in.pins;
-  const struct {
-    const char* name;
-    double calib::TrtPins::*pin;
-    double u_mm;
-  } pins[] = {{"x-rot-point", &calib::TrtPins::x_rot_point, f.c_x_u_mm},
-              {"y-rot-point", &calib::TrtPins::y_rot_point, f.c_y_u_mm},
-              {"y-offset", &calib::TrtPins::y_offset, std::hypot(f.a_y_u_mm, f.c_y_u_mm)},
-              {"z-offset", &calib::TrtPins::z_offset, f.a_z_u_mm}};
-  for (const auto& p : pins) {
-    PinChange c{p.name, in.pins.*p.pin, to.*p.pin, p.u_mm, false};
-    const double change = c.after_mm - c.before_mm;
-    c.changed = std::abs(change) > std::max(in.null_band_mm, 3 * c.u_mm);
-    if (!c.changed) c.after_mm = c.before_mm;
-    if (std::abs(change) > in.max_change_mm)
-      o->problems.push_back("the calibration would move " + c.name + " by " +
-                            base::Fixed(change * 1e3, 1) + " um, beyond the machine's limit of " +
-                            base::Fixed(in.max_change_mm * 1e3, 1) +
-                            " um: nothing written (a crash, a loose sphere, a wrong plan?)");
-    next.*p.pin = c.after_mm;
-    o->changes.push_back(c);
-  }
-  if (o->problems.empty()) o->new_pins = next;
-}
-
-}  // namespace
-
 KinematicsOutcome AssessKinematics(const KinematicsInputs& in) {
   KinematicsOutcome o;
   std::vector<calib::TrunnionObservation> centres;
@@ -96,7 +62,13 @@ KinematicsOutcome AssessKinematics(const KinematicsInputs& in) {
     return o;
   }
   o.within = calib::TrunnionWithin(*o.fit, in.pins, in.limits);
-  if (in.calibrate) PlanPins(in, &o);
+  if (in.calibrate) {
+    calib::PinCalibration c =
+        calib::CalibratePins(*o.fit, in.pins, in.null_band_mm, in.max_change_mm);
+    o.changes = std::move(c.changes);
+    if (c.problems.empty()) o.new_pins = c.pins;
+    o.problems.insert(o.problems.end(), c.problems.begin(), c.problems.end());
+  }
   return o;
 }
 

@@ -118,14 +118,15 @@ struct Loader {
   const json& r;
   const geometry::Pose3& flange_from_probe;
   std::int64_t job;
+  bool fitted_kinematics;  ///< H through the trunnion's fitted axes (a 3+2 set-up)
 
   Evidence Captures(const char* name) const {
-    return LoadCaptures(ctx, r.at(name).at("captures"), flange_from_probe, job);
+    return LoadCaptures(ctx, r.at(name).at("captures"), flange_from_probe, job, fitted_kinematics);
   }
   // Every edge capture must hold an edge (taken with an "edge:x,y" ROI).
   Evidence Edges(const char* name) const {
     const json& list = r.at(name).at("edges");
-    Evidence e = LoadCaptures(ctx, list, flange_from_probe, job);
+    Evidence e = LoadCaptures(ctx, list, flange_from_probe, job, fitted_kinematics);
     if (e.edges.size() != list.size())
       throw JobInputError(std::string("request.") + name +
                           ".edges: a capture holds no edge (take it with an edge:x,y ROI)");
@@ -155,7 +156,7 @@ json RunAlignJob(JobContext& ctx, const json& r) {
   try {
     jobs::AlignInputs in = ParseAlignRequest(r);
     const calib::CalibrationRecord& cal = run.Calibration();
-    LoadEvidence({ctx, r, cal.flange_from_probe, run.job}, &in);
+    LoadEvidence({ctx, r, cal.flange_from_probe, run.job, FittedKinematics(r)}, &in);
     const jobs::AlignOutcome o = jobs::AssessAlign(
         in, {cal.calibration_id, cal.probe_serial, AgeHours(cal.created_utc)}, mc.limits);
     const geometry::WorkOffsetReading& wo = o.work;

@@ -212,17 +212,6 @@ void KeepFit(const JobContext& ctx, std::int64_t job, const calib::TrunnionFit& 
   base::WriteFileAtomically(KeptPath(ctx), kept.dump(1) + "\n");
 }
 
-json ChangesJson(const std::vector<jobs::PinChange>& changes) {
-  json out = json::array();
-  for (const jobs::PinChange& c : changes)
-    out.push_back({{"name", c.name},
-                   {"before_mm", c.before_mm},
-                   {"after_mm", c.after_mm},
-                   {"u_mm", c.u_mm},
-                   {"changed", c.changed}});
-  return out;
-}
-
 }  // namespace
 
 json RunKinematicsJob(JobContext& ctx, const json& r) {
@@ -240,7 +229,7 @@ json RunKinematicsJob(JobContext& ctx, const json& r) {
     run.reply["report"] = WriteReport(ctx, run.job, in, o, centres);
     run.reply["drift"] = DriftSinceKept(ctx, *o.fit);
     KeepFit(ctx, run.job, *o.fit);
-    if (in.calibrate) run.reply["changes"] = ChangesJson(o.changes);
+    if (in.calibrate) run.reply["changes"] = calib::PinChangesJson(o.changes);
     ctx.history.AddResult(run.job, {"trunnion", run.reply, json::object()});
     if (!in.calibrate)
       return run.Finish(

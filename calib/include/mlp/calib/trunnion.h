@@ -158,6 +158,29 @@ TrunnionFit FitTrunnion(const std::vector<TrunnionObservation>& observations,
 /// tool offset (z-rot-point and the tool offset kept: only their sum with z-offset matters).
 TrtPins PinsFor(const TrunnionFit& fit, const TrtPins& current);
 
+/// One pin a calibration looked at.
+struct PinChange {
+  std::string name;  ///< as HAL names it: x-rot-point, y-rot-point, y-offset, z-offset
+  double before_mm = 0.0, after_mm = 0.0, u_mm = 0.0;
+  bool changed = false;  ///< beyond the null band and 3 u
+};
+
+/// A calibration's decision (the service's kinematics job and `mlp kinematics calibrate`).
+struct PinCalibration {
+  std::vector<PinChange> changes;     ///< the four pins PinsFor sets, each looked at
+  std::vector<std::string> problems;  ///< why nothing may be written; empty when it may
+  TrtPins pins;                       ///< to write: the current ones where a pin did not change
+};
+
+/// The pins that put the kinematics on the fitted lines (PinsFor), each changed only where its
+/// change exceeds both `null_band_mm` and 3 of its uncertainties (right pins change nothing:
+/// a fit's scatter is not written into a machine), and refused whole (`problems`) where a
+/// change exceeds `max_change_mm` (a crash, a loose sphere or a wrong plan, not a calibration).
+PinCalibration CalibratePins(const TrunnionFit& fit,
+                             const TrtPins& current,
+                             double null_band_mm,
+                             double max_change_mm);
+
 /// A one-paragraph report: each sum against the pins, the squareness, the residuals.
 std::string Describe(const TrunnionFit& fit, const TrtPins& current);
 

@@ -23,6 +23,10 @@ bool TrunnionWithin(const TrunnionFit& fit, const TrtPins& pins, const TrunnionL
 /// {"within", "centres", "residual_rms_mm", "residual_mm", "pivots_mm": [{"name",
 /// "controller", "found", "error", "u", "limit", "within"}], "squareness_deg": [...],
 /// "pins_that_fit"}.
+/// A calibration's pins as JSON (the job's reply and `mlp kinematics calibrate --json`):
+/// [{"name", "before_mm", "after_mm", "u_mm", "changed"}, ...].
+nlohmann::json PinChangesJson(const std::vector<PinChange>& changes);
+
 nlohmann::ordered_json TrunnionReportJson(const std::vector<TrunnionObservation>& centres,
                                           const TrunnionFit& fit,
                                           const TrtPins& pins,

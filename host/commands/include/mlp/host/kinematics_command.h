@@ -13,8 +13,9 @@ namespace mlp::host {
 
 /// Exit codes beyond the shared ones.
 enum KinematicsExit : int {
-  kExitKinematicsOff = 3,  ///< determined, and a pivot or squareness beyond its limit
-  kExitUndetermined = 4,   ///< the plan or the centres cannot determine the axes
+  kExitKinematicsOff = 3,       ///< determined, and a pivot or squareness beyond its limit
+  kExitUndetermined = 4,        ///< the plan or the centres cannot determine the axes
+  kExitCalibrationRefused = 6,  ///< a change beyond the limit, or the machine running
 };
 
 /// The pins of `xyzac-trt-kins` from a HAL file's `setp xyzac-trt-kins.<pin> <mm>` lines (the
@@ -28,6 +29,8 @@ std::vector<calib::TrunnionObservation> ParseTrunnionCentres(const std::string& 
 
 /// mlp kinematics check --centres FILE (--pins HALFILE | --pin NAME=MM ...) [--limit-um U]
 ///                      [--square-limit-deg D] [--svg FILE] [--json]
+/// mlp kinematics calibrate --centres FILE --pins HALFILE [--null-band-um U]
+///                          [--max-change-um U] [--write] [--log FILE] [--json]
 /// mlp kinematics plan --pins HALFILE --sphere X,Y,Z [...] [--out PROGRAM.ngc] [--json]
 /// mlp kinematics flange-pose (--pins HALFILE | --pin NAME=MM ...) --joints X,Y,Z,A,C
 ///                            [--spindle DEG]

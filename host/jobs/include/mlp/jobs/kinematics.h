@@ -39,12 +39,7 @@ struct KinematicsInputs {
   double max_change_mm = 0.2;
 };
 
-/// One pin a calibration looked at.
-struct PinChange {
-  std::string name;  ///< as HAL names it: x-rot-point, y-rot-point, y-offset, z-offset
-  double before_mm = 0.0, after_mm = 0.0, u_mm = 0.0;
-  bool changed = false;  ///< beyond the null band and 3 u
-};
+using PinChange = calib::PinChange;
 
 /// One capture's sphere, radius held at the calibrated value.
 struct SphereSeen {
