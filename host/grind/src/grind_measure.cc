@@ -56,6 +56,23 @@ struct LineEdge {
   double contrast = 0.0;  ///< grey levels between the two sides at the edge
 };
 
+// Where a side's samples start [px from the edge along the line]: 3 px where the line crosses
+// the edge square; where it crosses obliquely (the image's gradient at angle phi to u) the
+// edge's blur along the line is 1 / cos(phi) as long, and so is the start. Read inside the blur,
+// the levels pull the crossing towards the edge's middle grey (outside renderer, seed 9369
+// point 2: a worn nose crossed at 54 deg, -1.08 um with 3 px, -0.05 um with 6). At most 10.
+int ObliqueSideStartPx(const geometry::GreyView& im,
+                       const GrindCamera& cam,
+                       const Vec2& at_edge,
+                       const Vec2& u) {
+  const Vec2 dx(cam.mm_per_px, 0), dy(0, cam.mm_per_px);
+  const Vec2 gradient(GreyAt(im, cam, at_edge + dx) - GreyAt(im, cam, at_edge - dx),
+                      GreyAt(im, cam, at_edge + dy) - GreyAt(im, cam, at_edge - dy));
+  const double cos_phi =
+      gradient.allFinite() && gradient.norm() > 0 ? std::abs(gradient.dot(u)) / gradient.norm() : 1;
+  return std::clamp(static_cast<int>(std::ceil(3.0 / std::max(cos_phi, 0.3) - 1e-6)), 3, 10);
+}
+
 LineEdge EdgeAlongLine(const geometry::GreyView& im,
                        const GrindCamera& cam,
                        const Vec2& a,
@@ -91,10 +108,14 @@ LineEdge EdgeAlongLine(const geometry::GreyView& im,
     if (fall > steepest) steepest = fall, best = i;
   }
   if (best < 0) return {};
-  // A side's level at the edge: a straight line through its samples 3..10 px away.
+  // A side's level at the edge: a straight line through 8 samples' worth (7 px) from where the
+  // edge's blur along the line ends (ObliqueSideStartPx).
+  const int near_px =
+      std::max(3, std::min(ObliqueSideStartPx(im, cam, a + (t_first + best * step) * u, u),
+                           std::min(best, n - 1 - best) / kQ - 7));  // as the line's ends allow
   const auto side = [&](int sign) {
     double st = 0, sg = 0, stt = 0, stg = 0, m = 0;
-    for (int k = 3 * kQ; k <= 10 * kQ; ++k) {
+    for (int k = near_px * kQ; k <= (near_px + 7) * kQ; ++k) {
       const double t = sign * k, v = at(best + sign * k);
       st += t, sg += v, stt += t * t, stg += t * v, ++m;
     }
@@ -640,8 +661,12 @@ const char* ToString(Feed f) {
 // dark within kConfirmMm of t, by the edge's contrast, lies within kConfirmPx of t, and the
 // line from Mi to it is light all the way (no material in front of it). Measured then (issue
 // 55: seed 9202's over-cuts of 404 and 478 um were refused though the seed's search had them
-// within 0.3 um), else refused, never compensated. Beyond kDeepestMm nothing is measured.
-constexpr double kConfirmMm = 0.15, kConfirmPx = 2.0, kDeepestMm = 1.0;
+// within 0.3 um), else refused, never compensated. Beyond kDeepestMm nothing is measured: an
+// over-cut that deep is a crash, not a compensation (the cell caps one at 0.1 mm), and the line
+// from C there reaches past the wheel's nose into whatever lies beyond (outside renderer, seed
+// 9424: an R6 wheel driven 0.6-0.9 mm into a corner, where the renderer itself says no material
+// lies within 0.6 mm on C-Mi; with 1 mm those were measured as over-feeds).
+constexpr double kConfirmMm = 0.15, kConfirmPx = 2.0, kDeepestMm = 0.6;
 
 double ConfirmedDeepGouge(const PointInput& in,
                           const GrindCamera& cam,
@@ -704,6 +729,22 @@ double MaterialPastSpeck(const PointInput& in,
   return next.t_mm;
 }
 
+// The material's edge on C-Mi by its local contrast: in the window round Mi, else on the whole
+// line from C (the seed's case 1), else past the window as deep as a gouge is measured, such an
+// edge then confirmed as any past the window (ConfirmedDeepGouge). Outside renderer, seed 9369
+// point 6: a 407 um over-cut, its edge straddling the window's end, was "no contour".
+LineEdge EdgeOnCMi(
+    const PointInput& in, const GrindCamera& cam, const Vec2& u, double ti, double min_contrast) {
+  LineEdge on_line =
+      EdgeAlongLine(in.after, cam, in.c_mm, u, std::max(12 * cam.mm_per_px, ti - kBeforeMiMm),
+                    ti + kBeyondMiMm, min_contrast);
+  if (!std::isfinite(on_line.t_mm))
+    on_line = EdgeAlongLine(in.after, cam, in.c_mm, u, -ti, ti + kBeyondMiMm, min_contrast);
+  if (!std::isfinite(on_line.t_mm))
+    on_line = EdgeAlongLine(in.after, cam, in.c_mm, u, ti, ti + kDeepestMm, min_contrast);
+  return on_line;
+}
+
 PointResult MeasurePoint(const PointInput& in,
                          const geometry::Profile2& nominal,
                          const GrindCamera& cam,
@@ -728,11 +769,7 @@ PointResult MeasurePoint(const PointInput& in,
   // case, and Mr where the line shows no step.
   const double min_contrast = kMinContrastShare * (geometry::GreyPercentile(in.after, 0.98) -
                                                    geometry::GreyPercentile(in.after, 0.02));
-  LineEdge on_line =
-      EdgeAlongLine(in.after, cam, in.c_mm, u, std::max(12 * cam.mm_per_px, ti - kBeforeMiMm),
-                    ti + kBeyondMiMm, min_contrast);
-  if (!std::isfinite(on_line.t_mm))  // the whole line, beyond C too (the seed's case 1)
-    on_line = EdgeAlongLine(in.after, cam, in.c_mm, u, -ti, ti + kBeyondMiMm, min_contrast);
+  const LineEdge on_line = EdgeOnCMi(in, cam, u, ti, min_contrast);
   double t = on_line.t_mm;
   try {
     if (pts.size() < 10) Fail("no contour near Mi");
