@@ -73,21 +73,13 @@ int ObliqueSideStartPx(const geometry::GreyView& im,
   return std::clamp(static_cast<int>(std::ceil(3.0 / std::max(cos_phi, 0.3) - 1e-6)), 3, 10);
 }
 
-// Where EdgeAlongLine reads the sides' levels: outside the edge's blur along the line
-// (ObliqueSideStartPx: the measurement on C-Mi), or at 3-10 px whatever the crossing (the rays
-// round the nose, whose tests compare rays with rays and new dark with the edge's contrast as
-// read there: read further out an oblique edge's contrast grows, and a droplet's new dark on a
-// top-of-stroke frame fell under the test's share, outside renderer seed 9524 point 7).
-enum class SideLevels { kOutsideBlur, kAtThreePx };
-
 LineEdge EdgeAlongLine(const geometry::GreyView& im,
                        const GrindCamera& cam,
                        const Vec2& a,
                        const Vec2& u,
                        double t_from,
                        double t_to,
-                       double min_contrast,
-                       SideLevels levels = SideLevels::kOutsideBlur) {
+                       double min_contrast) {
   const double step = cam.mm_per_px / 4;
   const int whole = static_cast<int>(std::floor((t_to - t_from) / step)) + 1;
   std::vector<double> g;
@@ -118,11 +110,9 @@ LineEdge EdgeAlongLine(const geometry::GreyView& im,
   if (best < 0) return {};
   // A side's level at the edge: a straight line through 8 samples' worth (7 px) from where the
   // edge's blur along the line ends (ObliqueSideStartPx).
-  const int start_px = levels == SideLevels::kAtThreePx
-                           ? 3
-                           : ObliqueSideStartPx(im, cam, a + (t_first + best * step) * u, u);
   const int near_px =
-      std::max(3, std::min(start_px, std::min(best, n - 1 - best) / kQ - 7));  // the line's ends
+      std::max(3, std::min(ObliqueSideStartPx(im, cam, a + (t_first + best * step) * u, u),
+                           std::min(best, n - 1 - best) / kQ - 7));  // as the line's ends allow
   const auto side = [&](int sign) {
     double st = 0, sg = 0, stt = 0, stg = 0, m = 0;
     for (int k = near_px * kQ; k <= (near_px + 7) * kQ; ++k) {
@@ -348,42 +338,6 @@ void CheckAgainstCrossing(const PointResult& res, const Vec2& n, double r, bool 
 // Mi (material left: the previous pass's stock and more) to this far beyond it (an over-cut).
 constexpr double kMinContrastShare = 0.2;
 constexpr double kBeforeMiMm = 0.4, kBeyondMiMm = 0.4;
-// The deepest over-cut measured (ConfirmedDeepGouge says why); the rays round the nose reach as
-// far, so that a burr where the cut arc's end runs away from the wheel's circle stands on rays
-// of its own (outside renderer, seed 9472: an R6 wheel, a burr 0.97 mm from Mi where the edge lay
-// 0.4-0.6 mm beyond the circle; with the rays ending at the window it went unseen and the point
-// was compensated).
-constexpr double kDeepestMm = 0.6;
-
-double LightAgain(const geometry::GreyView& after,
-                  const GrindCamera& cam,
-                  const Vec2& edge,
-                  const Vec2& u);
-
-// A ray's first fall may be a speck in the light (a droplet floating off the contour): light
-// again within kSolidMm beyond it (LightAgain). The material's edge is the next solid fall on
-// the ray, as on C-Mi (MaterialPastSpeck); none within `to`: NaN. A speck within the light-side
-// samples of that edge (24 px, 0.12 mm) is still new dark there; one farther out floats in the
-// light and spoils nothing (outside renderer, seed 9166 point 6: a droplet 0.4 mm above a 443 um
-// gouge, which the longer rays took for the edge, 485 um nearer C than the rays beside it).
-LineEdge PastSpecks(const geometry::GreyView& after,
-                    const GrindCamera& cam,
-                    const Vec2& c,
-                    const Vec2& dir,
-                    LineEdge edge,
-                    double to,
-                    double min_contrast) {
-  for (int speck = 0; speck < 2 && std::isfinite(edge.t_mm); ++speck) {
-    const double light_mm = LightAgain(after, cam, c + edge.t_mm * dir, dir);
-    if (!std::isfinite(light_mm)) return edge;
-    edge = EdgeAlongLine(after, cam, c, dir, edge.t_mm + light_mm + 3 * cam.mm_per_px, to,
-                         min_contrast, SideLevels::kAtThreePx);
-  }
-  return std::isfinite(edge.t_mm) &&
-                 !std::isfinite(LightAgain(after, cam, c + edge.t_mm * dir, dir))
-             ? edge
-             : LineEdge{};
-}
 
 // The material's edge round the nose by local contrast (issue 55, as Mr): rays from C a pixel
 // apart at the nose, within +-1 rad of C-Mi, each searched round where it meets the theoretical
@@ -416,8 +370,7 @@ double BeforeEdgeMm(const PointInput& in,
                     double to,
                     const LineEdge& after,
                     double min_contrast) {
-  const LineEdge before =
-      EdgeAlongLine(in.before, cam, in.c_mm, dir, from, to, min_contrast, SideLevels::kAtThreePx);
+  const LineEdge before = EdgeAlongLine(in.before, cam, in.c_mm, dir, from, to, min_contrast);
   if (std::isfinite(before.t_mm)) return before.t_mm;
   const Vec2 light = in.c_mm + (after.t_mm - 3 * cam.mm_per_px) * dir;
   const double darker = GreyAt(in.after, cam, light) - GreyAt(in.before, cam, light);
@@ -436,11 +389,8 @@ std::vector<Ray> EdgeRays(const PointInput& in,
     const std::vector<double> rim = wheel.Crossings(Vec2::Zero(), dir);  // C is inside it
     if (rim.empty() || !(rim.back() > 0)) continue;
     const double from = std::max(12 * cam.mm_per_px, rim.back() - kBeforeMiMm);
-    const double to = rim.back() + kDeepestMm;
-    const LineEdge after = PastSpecks(
-        in.after, cam, in.c_mm, dir,
-        EdgeAlongLine(in.after, cam, in.c_mm, dir, from, to, min_contrast, SideLevels::kAtThreePx),
-        to, min_contrast);
+    const double to = rim.back() + kBeyondMiMm;
+    const LineEdge after = EdgeAlongLine(in.after, cam, in.c_mm, dir, from, to, min_contrast);
     if (!std::isfinite(after.t_mm)) continue;
     const double before_mm = BeforeEdgeMm(in, cam, dir, from, to, after, min_contrast);
     if (!std::isfinite(before_mm)) continue;
@@ -716,7 +666,7 @@ const char* ToString(Feed f) {
 // from C there reaches past the wheel's nose into whatever lies beyond (outside renderer, seed
 // 9424: an R6 wheel driven 0.6-0.9 mm into a corner, where the renderer itself says no material
 // lies within 0.6 mm on C-Mi; with 1 mm those were measured as over-feeds).
-constexpr double kConfirmMm = 0.15, kConfirmPx = 2.0;
+constexpr double kConfirmMm = 0.15, kConfirmPx = 2.0, kDeepestMm = 0.6;
 
 double ConfirmedDeepGouge(const PointInput& in,
                           const GrindCamera& cam,
