@@ -73,13 +73,21 @@ int ObliqueSideStartPx(const geometry::GreyView& im,
   return std::clamp(static_cast<int>(std::ceil(3.0 / std::max(cos_phi, 0.3) - 1e-6)), 3, 10);
 }
 
+// Where EdgeAlongLine reads the sides' levels: outside the edge's blur along the line
+// (ObliqueSideStartPx: the measurement on C-Mi), or at 3-10 px whatever the crossing (the rays
+// round the nose, whose tests compare ray with ray and new dark with the edge's contrast as read
+// there: read further out an oblique edge's contrast grows, and a droplet's new dark on a
+// top-of-stroke frame fell under the test's share, outside renderer seed 9524 point 7).
+enum class SideLevels { kOutsideBlur, kAtThreePx };
+
 LineEdge EdgeAlongLine(const geometry::GreyView& im,
                        const GrindCamera& cam,
                        const Vec2& a,
                        const Vec2& u,
                        double t_from,
                        double t_to,
-                       double min_contrast) {
+                       double min_contrast,
+                       SideLevels levels = SideLevels::kOutsideBlur) {
   const double step = cam.mm_per_px / 4;
   const int whole = static_cast<int>(std::floor((t_to - t_from) / step)) + 1;
   std::vector<double> g;
@@ -110,9 +118,11 @@ LineEdge EdgeAlongLine(const geometry::GreyView& im,
   if (best < 0) return {};
   // A side's level at the edge: a straight line through 8 samples' worth (7 px) from where the
   // edge's blur along the line ends (ObliqueSideStartPx).
+  const int start_px = levels == SideLevels::kAtThreePx
+                           ? 3
+                           : ObliqueSideStartPx(im, cam, a + (t_first + best * step) * u, u);
   const int near_px =
-      std::max(3, std::min(ObliqueSideStartPx(im, cam, a + (t_first + best * step) * u, u),
-                           std::min(best, n - 1 - best) / kQ - 7));  // as the line's ends allow
+      std::max(3, std::min(start_px, std::min(best, n - 1 - best) / kQ - 7));  // the line's ends
   const auto side = [&](int sign) {
     double st = 0, sg = 0, stt = 0, stg = 0, m = 0;
     for (int k = near_px * kQ; k <= (near_px + 7) * kQ; ++k) {
@@ -370,7 +380,8 @@ double BeforeEdgeMm(const PointInput& in,
                     double to,
                     const LineEdge& after,
                     double min_contrast) {
-  const LineEdge before = EdgeAlongLine(in.before, cam, in.c_mm, dir, from, to, min_contrast);
+  const LineEdge before =
+      EdgeAlongLine(in.before, cam, in.c_mm, dir, from, to, min_contrast, SideLevels::kAtThreePx);
   if (std::isfinite(before.t_mm)) return before.t_mm;
   const Vec2 light = in.c_mm + (after.t_mm - 3 * cam.mm_per_px) * dir;
   const double darker = GreyAt(in.after, cam, light) - GreyAt(in.before, cam, light);
@@ -390,7 +401,8 @@ std::vector<Ray> EdgeRays(const PointInput& in,
     if (rim.empty() || !(rim.back() > 0)) continue;
     const double from = std::max(12 * cam.mm_per_px, rim.back() - kBeforeMiMm);
     const double to = rim.back() + kBeyondMiMm;
-    const LineEdge after = EdgeAlongLine(in.after, cam, in.c_mm, dir, from, to, min_contrast);
+    const LineEdge after =
+        EdgeAlongLine(in.after, cam, in.c_mm, dir, from, to, min_contrast, SideLevels::kAtThreePx);
     if (!std::isfinite(after.t_mm)) continue;
     const double before_mm = BeforeEdgeMm(in, cam, dir, from, to, after, min_contrast);
     if (!std::isfinite(before_mm)) continue;
