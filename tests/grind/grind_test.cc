@@ -415,6 +415,35 @@ TEST(Grind, SaysWhenMiIsOutsideTheFrame) {
   }
 }
 
+// An edge found only by extrapolating the contour past the frame's last column is not measured
+// (outside renderer seed 9590 point 3: Mi and Mr 3 px beyond the right edge, d 1.76 um off): a
+// flat part whose edge runs out of the frame, Mi 3 px past it, is refused as outside the view.
+TEST(Grind, SaysWhenTheEdgeFoundIsOutsideTheFrame) {
+  const GrindCamera cam;
+  const double right_mm = cam.ToMm(Vec2(cam.width_px - 1, 0)).x();
+  const double y_mm = cam.ToMm(Vec2(0, cam.height_px / 2.0)).y();
+  const geometry::Profile2 flat(std::vector<geometry::ProfileSegment>{
+      {Vec2(0.05, y_mm), Vec2(right_mm + 1.0, y_mm), false, Vec2::Zero(), true}});
+  constexpr double kNoseMm = 0.3, kLimitMm = 0.01, kStockMm = 0.02, kBeyondPx = 3;
+  const auto frame = RenderGrindFrame(flat, kStockMm, {}, cam, 50);
+  const geometry::GreyView view{frame.data(), cam.width_px, cam.height_px};
+  const geometry::ProfileFoot f = flat.Closest(Vec2(right_mm + kBeyondPx * cam.mm_per_px, y_mm));
+  try {
+    const PointResult r = MeasurePoint({view, view, f.point + kNoseMm * f.normal, f.point}, flat,
+                                       cam, kNoseMm, kLimitMm);
+    ADD_FAILURE() << "an edge outside the frame was measured: Mr " << r.mr_mm.transpose();
+  } catch (const GrindError& e) {
+    EXPECT_NE(std::string(e.what()).find("Mr lies 3 px beyond the frame's right edge"),
+              std::string::npos)
+        << e.what();
+  }
+  // 10 px inside the frame the same edge is measured, to the stock.
+  const geometry::ProfileFoot in = flat.Closest(Vec2(right_mm - 10 * cam.mm_per_px, y_mm));
+  const PointResult r = MeasurePoint({view, view, in.point + kNoseMm * in.normal, in.point}, flat,
+                                     cam, kNoseMm, kLimitMm);
+  EXPECT_NEAR(r.d_mm, kStockMm, kDTolMm);
+}
+
 TEST(Grind, RefusesWhatItCannotMeasure) {
   GrindJob job;
   job.profile = DemoProfile();

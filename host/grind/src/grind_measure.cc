@@ -636,19 +636,34 @@ void UnderFeed(const std::vector<Ray>& rays,
   res->compensation_mm = -res->error_dir * res->error_mm;
 }
 
+// The edge's lens blur and bilinear reads: a found edge this close to the frame's last pixels
+// is not measured.
+constexpr double kFrameMarginPx = 2.0;
+
 // Where no edge was found on C-Mi and Mi itself lies outside the frame, that is why: the
 // operator learns the point is not in the camera's view (a job's point list or the camera's
 // placement to check), not that the part has no contour there (outside renderer seed 9237:
-// 7 points 2-79 px beyond the frame's right edge, each refused as "no contour on C-Mi").
-void RefuseOutOfFrame(const GrindCamera& cam, const Vec2& mi_mm) {
-  const Vec2 px = cam.ToPx(mi_mm);
-  const std::array<double, 4> beyond = {-px.x(), px.x() - (cam.width_px - 1), -px.y(),
-                                        px.y() - (cam.height_px - 1)};
+// 7 points 2-79 px beyond the frame's right edge, each refused as "no contour on C-Mi"). The
+// same for the edge found (`what` "Mr"): within `margin_px` of the frame's last pixels its
+// blur and its interpolation reach past the frame (seed 9590 point 3: Mi and Mr 3 px beyond
+// the right edge, the seed's search extrapolating the contour past the frame's last column, d 1.76
+// um off; Mi itself may lie outside where the edge found is inside).
+void RefuseOutOfFrame(const GrindCamera& cam,
+                      const Vec2& at_mm,
+                      const char* what = "Mi",
+                      double margin_px = 0) {
+  const Vec2 px = cam.ToPx(at_mm);
+  const std::array<double, 4> beyond = {margin_px - px.x(), px.x() - (cam.width_px - 1 - margin_px),
+                                        margin_px - px.y(),
+                                        px.y() - (cam.height_px - 1 - margin_px)};
   constexpr std::array<const char*, 4> kSide = {"left", "right", "top", "bottom"};
   const auto worst = std::max_element(beyond.begin(), beyond.end());
   if (!(*worst > 0)) return;
-  Fail(std::string("Mi lies ") + std::to_string(std::lround(*worst)) + " px beyond the frame's " +
-       kSide[static_cast<std::size_t>(worst - beyond.begin())] +
+  const double out_px = *worst - margin_px;
+  Fail(std::string(what) + " lies " +
+       (out_px > 0 ? std::to_string(std::lround(out_px)) + " px beyond"
+                   : "within " + std::to_string(std::lround(margin_px)) + " px of") +
+       " the frame's " + kSide[static_cast<std::size_t>(worst - beyond.begin())] +
        " edge: the point is outside the camera's view, not measured");
 }
 
@@ -804,6 +819,7 @@ PointResult MeasurePoint(const PointInput& in,
     res.speck_passed_mm = t - speck_at;
   }
   res.mr_mm = in.c_mm + t * u;
+  RefuseOutOfFrame(cam, res.mr_mm, "Mr", kFrameMarginPx);
   res.d_mm = std::abs(t - ti);
   res.feed = res.d_mm <= e ? Feed::kGood : t < ti ? Feed::kUnderFeed : Feed::kOverFeed;
   res.error_dir = n, res.error_mm = res.d_mm;
