@@ -7,7 +7,9 @@ the after frame's grey sampled along C-Mi, its first crossing of the frame's hal
 run_corpus.py MLP FIRST_SEED COUNT [--work DIR] [--json OUT] [--check | --check-measured]
 MLP: `mlp` or `mlp-grind`. --check: exit 1 unless the issue's figures hold: no measurable point
 refused, d within 1 um, classes right, under-feed direction within 5 deg and size within 2 um
-(or refused with a reason), no compensation on a point a droplet or burr spoiled.
+(or refused with a reason), no compensation on a point a droplet or burr spoiled. The direction
+is judged on a worn nose's under-feed too (against the normal, its size against the wear; since
+2026-12-07: until then only shifted wheels were judged, and worn noses 5-17 deg off passed).
 --check-measured: only the figures of the clean points measured (d, classes, direction and size
 where determined); what --check adds is still open (docs/GRIND.md: burrs, clean refusals).
 The corpus is frozen: seeds 5500.. tuned on, 8800.. reported fresh (docs/GRIND.md).
@@ -106,6 +108,12 @@ def one_case(mlp, seed, work):
                     and not row["direction_refused"]):
                 row["dir_error_deg"] = angle_between(g["error_dir"], t["offset_mm"])
                 row["size_error_um"] = (g["error_mm"] - math.hypot(*t["offset_mm"])) * 1e3
+            # A worn nose, the wheel where it should be: the error is the lost radius, along the
+            # normal at the cutting point (toward the wheel, as an under-feed's offset).
+            if (t["feed"] == "under-feed" and t["kind"] == "wear" and g["feed"] == "under-feed"
+                    and not row["direction_refused"]):
+                row["dir_error_deg"] = angle_between(g["error_dir"], t["normal"])
+                row["size_error_um"] = (g["error_mm"] - t["wear_mm"]) * 1e3
         rows.append(row)
     return rows
 
