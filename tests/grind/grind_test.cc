@@ -249,7 +249,9 @@ TEST(Grind, ADropletOnTheCutArcIsRefusedOrLeftOut) {
     try {
       const PointResult r =
           MeasurePoint(f.in, p, job.camera, job.wheel_radius_mm, job.limit_mm, job.bevel);
-      EXPECT_GT(r.left_out, 0) << what;  // the droplet's points found and left out
+      EXPECT_GT(r.left_out, 0) << what;                  // the droplet's points found and left out
+      EXPECT_EQ(r.compensation_mm.norm(), 0.0) << what;  // and nothing acts on the point
+      EXPECT_NE(r.compensation_withheld.find("not compensated"), std::string::npos) << what;
       worst_dir = std::max(worst_dir, AngleDeg(r.error_dir, c.error_dir));
       worst_size = std::max(worst_size, std::abs(r.error_mm - c.error_mm));
       EXPECT_LT(AngleDeg(r.error_dir, c.error_dir), kNuisanceDirTolDeg) << what;

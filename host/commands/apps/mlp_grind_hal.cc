@@ -84,8 +84,8 @@ void Publish(const mlp::grind::StationMeasurement& m, int count, Pins* p) {
   std::fprintf(
       stderr, "mlp-grind-hal: C (%.4f, %.4f) mm: %s, d %.2f um, compensation (%.2f, %.2f) um%s%s\n",
       m.c_mm.x(), m.c_mm.y(), mlp::grind::ToString(r.feed), r.d_mm * 1e3,
-      r.compensation_mm.x() * 1e3, r.compensation_mm.y() * 1e3, m.refused ? " REFUSED: " : "",
-      m.why.c_str());
+      r.compensation_mm.x() * 1e3, r.compensation_mm.y() * 1e3,
+      m.refused ? " REFUSED: " : (m.why.empty() ? "" : ": "), m.why.c_str());
 }
 
 // LinuxCNC's src/hal/components/streamer.h (2.9; not installed with linuxcnc-uspace-dev): the

@@ -195,7 +195,8 @@ nlohmann::ordered_json PointsJson(const std::vector<grind::PointResult>& results
                       {"direction_sigma_deg", r.direction_sigma_deg},
                       {"seed_error_dir", Pair(r.seed_error_dir)},
                       {"seed_error_mm", r.seed_error_mm},
-                      {"compensation_mm", Pair(r.compensation_mm)}});
+                      {"compensation_mm", Pair(r.compensation_mm)},
+                      {"compensation_withheld", r.compensation_withheld}});
   }
   return points;
 }
@@ -228,6 +229,8 @@ void PrintPoints(const grind::GrindJob& job,
     if (r.compensation_mm.norm() > 0)
       out << "  compensation (" << r.compensation_mm.x() * 1e3 << ", "
           << r.compensation_mm.y() * 1e3 << ") um";
+    if (!r.compensation_withheld.empty())
+      out << "  compensation withheld: " << r.compensation_withheld;
     out << "\n";
   }
 }

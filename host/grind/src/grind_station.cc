@@ -67,6 +67,8 @@ StationMeasurement GrindStation::Measure(const StrokeTop& top, const Vec2& c) co
     m.refused = true, m.why = e.what();
     return m;
   }
+  if (!m.point.compensation_withheld.empty())
+    m.why = "compensation withheld: " + m.point.compensation_withheld;
   if (m.point.compensation_mm.norm() > cfg_.max_compensation_mm) {
     m.refused = true;
     m.why = "the compensation's " + std::to_string(m.point.compensation_mm.norm() * 1e3) +

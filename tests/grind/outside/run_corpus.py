@@ -101,6 +101,7 @@ def one_case(mlp, seed, work):
             row["feed"] = g["feed"]
             row["d_error_um"] = (g["d_mm"] - t["d_mm"]) * 1e3
             row["compensated"] = math.hypot(*g["compensation_mm"]) > 0
+            row["withheld"] = bool(g.get("compensation_withheld"))
             row["left_out"] = g.get("left_out", 0)
             row["direction_refused"] = g.get("direction_determined") is False
             row["dir_sigma_deg"] = g.get("direction_sigma_deg")
@@ -145,7 +146,10 @@ def summarise(rows):
             int((sizes > SIZE_TOL_UM).sum()), SIZE_TOL_UM),
         "under-feed directions not determined (along the normal, said): %d" % sum(
             1 for r in clean if r.get("direction_refused")),
-        "compensated on a spoiled point: %d" % len(spoiled_comp),
+        "compensated on a spoiled point: %d; compensation withheld (something on the edge): "
+        "%d spoiled, %d clean" % (len(spoiled_comp), sum(r["spoiled"] and r.get("withheld", False)
+                                                         for r in measured),
+                                  sum(r.get("withheld", False) for r in clean)),
         "points with no material within 0.6 mm on C-Mi (gouged): %d, refused %d" % (
             len(none), sum(r["refused_as_expected"] for r in none)),
         "plain baseline (clean points): d error max %.1f um, %d beyond %.1f, %d not found; classes right %d of %d" % (

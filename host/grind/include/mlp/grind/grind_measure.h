@@ -60,16 +60,22 @@ struct PointResult {
   int left_out = 0;
   double spread_mm = 0.0;  ///< their distances' spread at the direction found (or the circle's rms)
   /// The nose's radius when a shift did not explain its arc (spread over 1 um: worn, or not
-  /// round) and a circle was fitted through the edge; 0 otherwise.
+  /// round) or a circle through the arc put its radius over 3 sigma off the wheel's (worn), and
+  /// the circle gave the error; 0 otherwise.
   double nose_radius_mm = 0.0;
   /// Under-feed with a shift explaining the arc: the seed's smallest-spread answer (error_dir
   /// and error_mm are least squares' over the same edge, or the normal and d when that cannot
-  /// fix the direction to 5 deg at 2 sigma: direction_determined false).
+  /// fix the direction to 5 deg at 3 sigma, or a nose worn by d would explain the arc as well
+  /// and lies over 5 deg from it: direction_determined false).
   geometry::Vec2 seed_error_dir = geometry::Vec2::UnitY();
   double seed_error_mm = 0.0;
   double direction_sigma_deg = 0.0;  ///< least squares' direction, 1 sigma
   bool direction_determined = true;
   geometry::Vec2 compensation_mm = geometry::Vec2::Zero();  ///< for the motion controller
+  /// Why no compensation is given for a point measured off (empty: none withheld): the fit left
+  /// edge points out as no wheel position's, so something stands on the edge (issue 55: no
+  /// compensation from a point with a droplet or burr on it). d and the class stand.
+  std::string compensation_withheld;
   std::vector<geometry::Vec2> contour_mm;  ///< the actual contour near Mi (for pictures)
   /// Not measured: why (a job's other points still are; set by the job's caller, never by
   /// MeasurePoint, which throws GrindError).

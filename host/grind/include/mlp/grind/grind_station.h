@@ -42,7 +42,7 @@ struct StationMeasurement {
   geometry::Vec2 c_mm = geometry::Vec2::Zero(), mi_mm = geometry::Vec2::Zero();
   PointResult point;
   bool refused = false;  ///< not measurable, or the compensation over the limit
-  std::string why;       ///< when refused
+  std::string why;       ///< when refused, or why a measured point's compensation was withheld
 };
 
 class GrindStation {
