@@ -453,6 +453,48 @@ std::size_t RejectBackwardRuns(double row_sign,
   return marked.size();
 }
 
+std::size_t RejectOffRate(double row_sign,
+                          double column_sign,
+                          const RateOptions& options,
+                          std::vector<SweepObservation>* seen) {
+  const SheetRanks sheet(*seen, {});
+  auto lines = DirectByLine(*seen);
+  std::vector<std::size_t> marked;
+  for (auto& line : lines) {
+    std::vector<std::size_t>& members = line.second;
+    const double sign =
+        line.first.first == static_cast<int>(ScanAxis::kRow) ? row_sign : column_sign;
+    if (sign == 0.0 || members.size() < 3) continue;
+    std::sort(members.begin(), members.end(),
+              [&](std::size_t a, std::size_t b) { return (*seen)[a].column < (*seen)[b].column; });
+    // The end, the member nearest it and the next two inwards, at either end of the line.
+    const long n = static_cast<long>(members.size());
+    const auto at = [&](long k) -> const SweepObservation& {
+      return (*seen)[members[static_cast<std::size_t>(k)]];
+    };
+    for (const auto& [end, inward] :
+         {std::pair<long, long>{0, 1}, std::pair<long, long>{n - 1, -1}}) {
+      const SweepObservation &e = at(end), &a = at(end + inward), &b = at(end + 2 * inward);
+      if (std::abs(sheet(e) - sheet(a)) < options.min_gap_sheets || a.column == b.column) continue;
+      const double rate = (a.stripe.Along() - b.stripe.Along()) / (a.column - b.column);
+      const double step = rate * (e.column - a.column);
+      const double off = e.stripe.Along() - (a.stripe.Along() + step);
+      // Where the rate itself changes (a sphere towards its limb), by as much again over the gap.
+      double bend = 0.0;
+      if (n >= 4) {
+        const SweepObservation& c = at(end + 3 * inward);
+        if (b.column != c.column)
+          bend = std::abs(rate - (b.stripe.Along() - c.stripe.Along()) / (b.column - c.column)) *
+                 std::abs(e.column - a.column);
+      }
+      if (std::abs(off) > options.share * std::abs(step) + options.tolerance_px + bend)
+        marked.push_back(members[static_cast<std::size_t>(end)]);
+    }
+  }
+  for (std::size_t i : marked) (*seen)[i].indirect = true;
+  return marked.size();
+}
+
 namespace {
 
 // What one line's pixels were swept by: per pixel the earliest sheet a stretch over it ended at

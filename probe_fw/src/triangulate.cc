@@ -122,6 +122,7 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
   indirect += RejectSweptTwice(rows, columns, evidence, SweptOptions{}, &seen);
   indirect += RejectBehindClippedLight(rows, columns, evidence, kOrderTolerancePx, &seen);
   indirect += RejectAcrossOrder(rows, columns, kOrderTolerancePx, &seen);
+  indirect += RejectOffRate(rows, columns, RateOptions{}, &seen);
   indirect += SpreadAlongStripes(EpipolarOptions{}.link_gate_px, EpipolarOptions{}.max_line_gap,
                                  0.5, &seen);
   counts->indirect += indirect;

@@ -199,6 +199,53 @@ TEST(RejectOutOfOrder, TwoThatCouldTakeTheSamePlaceAreBothDropped) {
   EXPECT_TRUE(obs[8].indirect);  // the frame-8 centre, the one the reflection could replace
 }
 
+// Corpus 7777 scene 45 in small: a plane's coarse sweep on row 300 takes sheets 0-2 at 14, 221
+// and 428 px; the stripe drops out for sheets 3-5 while a mirror reflection stays, lit at 812 px
+// in sheet 4, where the rate puts the direct light at 842: in order, and off the rate by 30 px,
+// more than 5 % of the 414 px step + 3 px. It goes; the direct light stays. The same end at 840
+// (a plane's rate changing by a few per cent) stays, as do ends after no gap, lines of under
+// three members and the axis without a direction.
+TEST(RejectOffRate, AnEndAfterAGapOffTheLinesRateGoes) {
+  std::vector<SweepObservation> obs;
+  const double direct[] = {14.0, 221.0, 428.0};
+  for (int f = 0; f < 3; ++f) AddTrace(&obs, 300, f, f, direct[f], 0.0, 0.0, 120.0);
+  AddTrace(&obs, 300, 4, 4, 812.0, 0.0, 0.0, 60.0);
+  AddTrace(&obs, 301, 0, 5, 14.0, 207.0, 0.0, 100.0);  // another line sees sheets 0-5
+  EXPECT_EQ(RejectOffRate(+1.0, 0.0, RateOptions{}, &obs), 1u);
+  EXPECT_EQ(Indirect(obs, 60.0), 1u);
+  EXPECT_EQ(Indirect(obs, 120.0), 0u);
+  // The same at the other end of the line (the sweep taken the other way).
+  for (auto& o : obs) o.indirect = false, o.column = -o.column;
+  EXPECT_EQ(RejectOffRate(+1.0, 0.0, RateOptions{}, &obs), 1u);
+  EXPECT_EQ(Indirect(obs, 60.0), 1u);
+
+  for (auto& o : obs) o.indirect = false, o.column = -o.column;
+  obs[3].stripe.x_px = 840.0;  // 2 px off the rate
+  EXPECT_EQ(RejectOffRate(+1.0, 0.0, RateOptions{}, &obs), 0u);
+  obs[3].stripe.x_px = 812.0, obs[3].column = 6.0, obs[3].frame = 3;  // no gap: sheet 3
+  EXPECT_EQ(RejectOffRate(+1.0, 0.0, RateOptions{}, &obs), 0u);
+  std::vector<SweepObservation> two(obs.begin() + 1, obs.begin() + 2);
+  two.push_back(obs[3]);
+  EXPECT_EQ(RejectOffRate(+1.0, 0.0, RateOptions{}, &two), 0u);
+  obs[3].column = 8.0, obs[3].frame = 4;
+  for (auto& o : obs) o.stripe.axis = ScanAxis::kColumn;
+  EXPECT_EQ(RejectOffRate(+1.0, 0.0, RateOptions{}, &obs), 0u);
+
+  // A sphere towards its limb: the rate grows sheet by sheet (100, 140, 180 px a sheet), and the
+  // end after a gap lies where a rate still growing puts it (corpus 5050 scene 84 lost 28 % of
+  // its points before the bend was allowed for): kept. The same end on a line whose rate held
+  // (the reflection above) still goes.
+  std::vector<SweepObservation> limb;
+  const double along[] = {100.0, 200.0, 340.0, 520.0};
+  for (int f = 0; f < 4; ++f) AddTrace(&limb, 50, f, f, along[f], 0.0, 0.0, 100.0);
+  AddTrace(&limb, 50, 6, 6, 520.0 + 6 * 90.0 + 60.0, 0.0, 0.0, 100.0);  // sheet 6
+  AddTrace(&limb, 51, 0, 6, 0.0, 100.0, 0.0, 90.0);
+  EXPECT_EQ(RejectOffRate(+1.0, 0.0, RateOptions{}, &limb), 0u);
+  for (int f = 0; f < 4; ++f) limb[static_cast<std::size_t>(f)].stripe.x_px = 100.0 + 180.0 * f;
+  limb[4].stripe.x_px = 640.0 + 2 * 180.0 + 60.0;
+  EXPECT_EQ(RejectOffRate(+1.0, 0.0, RateOptions{}, &limb), 1u);
+}
+
 // A coarse sweep of a cylinder on row 200 (frames 5-9, about 100 px between them) and a mirror
 // reflection walking back through frames 0-3 (corpus 7171, scene 41: 620, 525, 444, 384 px),
 // whose last frame falls into order with the direct light: the whole run goes, the direct

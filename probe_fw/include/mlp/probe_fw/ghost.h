@@ -173,6 +173,28 @@ std::size_t SpreadAlongStripes(double link_gate_px,
                                double share,
                                std::vector<SweepObservation>* seen);
 
+/// The rate along the line. A smooth surface takes the sweep's sheets at a rate along each line
+/// that changes slowly from sheet to sheet; a reflection kept at the end of a line's sequence,
+/// cut off from the rest by sheets the line never saw (a coarse sweep, frames a dropout took),
+/// is in order with them, so the ordering tests keep it, but it breaks the rate (issue 50,
+/// corpus 7777: scene 45, sheets at 14, 221, 428 px, then a reflection at 812 where the rate
+/// puts 842). An end member after a gap of at least `min_gap_sheets` whose position lies off
+/// the rate of the two members nearest it (extrapolated by column) by more than `share` of the
+/// extrapolated step plus `tolerance_px` is marked; where a third member shows the rate itself
+/// changing (a sphere towards its limb), by that change times the gap more. The line's sign as in
+/// RejectOutOfOrder (only lines of an axis with a sign). Returns how many were marked.
+struct RateOptions {
+  int min_gap_sheets = 2;
+  /// A plane's sheets land at a rate that changes by a few per cent a sheet; the centres'
+  /// scatter is under a pixel.
+  double share = 0.05;
+  double tolerance_px = 3.0;
+};
+std::size_t RejectOffRate(double row_sign,
+                          double column_sign,
+                          const RateOptions& options,
+                          std::vector<SweepObservation>* seen);
+
 /// The ordering constraint across the scan axes. Where the stripe runs along the epipolar lines
 /// (a face the light grazes) the other axis' scan finds it, and those observations have no line
 /// of their own to be ordered on: RejectOutOfOrder cannot see them. Each lies on an epipolar line
