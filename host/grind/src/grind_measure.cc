@@ -230,9 +230,15 @@ double CorrelatedInflation(const std::vector<double>& residuals) {
   return (1 + rho) / (1 - rho);
 }
 
+// The error along the normal at the size the crossing on C-Mi measured, said so: the direction
+// the removed region's edge gave is not determined.
+void SayUndetermined(const Vec2& n, PointResult* res) {
+  res->direction_determined = false;
+  res->error_dir = n, res->error_mm = res->d_mm;
+}
+
 // The error vector found, with its covariance, is taken where its direction is determined to
-// kDirectionLimitDeg at kDirectionSigmas; else the error along the normal at the crossing's d,
-// said so.
+// kDirectionLimitDeg at kDirectionSigmas; else SayUndetermined.
 void TakeIfDetermined(const Vec2& error,
                       const Eigen::Matrix2d& cov,
                       const Vec2& n,
@@ -245,8 +251,7 @@ void TakeIfDetermined(const Vec2& error,
     res->error_dir = error / size, res->error_mm = size;
     return;
   }
-  res->direction_determined = false;
-  res->error_dir = n, res->error_mm = res->d_mm;
+  SayUndetermined(n, res);
 }
 
 // The nose as a circle through the removed region's edge where it is the nose's arc (centre
@@ -293,7 +298,6 @@ NoseCircle FitNose(const WheelSection& wheel, const std::vector<Vec2>& edge, con
 // other). Without a circle the shift's answer stands.
 void WornNose(const NoseCircle& nose, const Vec2& n, PointResult* res) {
   if (!nose.ok) return;
-  res->error_dir = nose.error.normalized(), res->error_mm = nose.error.norm();
   res->nose_radius_mm = nose.radius_mm;
   res->spread_mm = nose.rms_mm;
   TakeIfDetermined(nose.error, nose.cov, n, res);
@@ -662,10 +666,8 @@ void ErrorFromEdge(const WheelSection& wheel,
     if (nose.ok && res->direction_determined &&
         std::abs(worn_mm - res->d_mm) <= kWornSigmas * nose.radius_sigma_mm &&
         std::acos(std::clamp(res->error_dir.dot(n), -1.0, 1.0)) * base::kDegPerRad >
-            kDirectionLimitDeg) {
-      res->direction_determined = false;
-      res->error_dir = n, res->error_mm = res->d_mm;
-    }
+            kDirectionLimitDeg)
+      SayUndetermined(n, res);
   }
 }
 
@@ -753,8 +755,8 @@ constexpr double kFrameMarginPx = 2.0;
 // 7 points 2-79 px beyond the frame's right edge, each refused as "no contour on C-Mi"). The
 // same for the edge found (`what` "Mr"): within `margin_px` of the frame's last pixels its
 // blur and its interpolation reach past the frame (seed 9590 point 3: Mi and Mr 3 px beyond
-// the right edge, the seed's search extrapolating the contour past the frame's last column, d 1.76
-// um off; Mi itself may lie outside where the edge found is inside).
+// the right edge, the seed's search extrapolating the contour past the frame's last column,
+// d 1.76 um off; Mi itself may lie outside where the edge found is inside).
 void RefuseOutOfFrame(const GrindCamera& cam,
                       const Vec2& at_mm,
                       const char* what = "Mi",

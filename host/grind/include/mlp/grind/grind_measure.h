@@ -69,7 +69,7 @@ struct PointResult {
   /// and lies over 5 deg from it: direction_determined false).
   geometry::Vec2 seed_error_dir = geometry::Vec2::UnitY();
   double seed_error_mm = 0.0;
-  double direction_sigma_deg = 0.0;  ///< least squares' direction, 1 sigma
+  double direction_sigma_deg = 0.0;  ///< the error's direction (shift or circle), 1 sigma
   bool direction_determined = true;
   geometry::Vec2 compensation_mm = geometry::Vec2::Zero();  ///< for the motion controller
   /// Why no compensation is given for a point measured off (empty: none withheld): the fit left
