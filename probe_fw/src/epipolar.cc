@@ -8,6 +8,8 @@
 #include <numeric>
 #include <utility>
 
+#include <Eigen/Dense>
+
 namespace mlp::probe_fw {
 namespace {
 
@@ -137,7 +139,36 @@ std::map<std::pair<int, int>, PairEvidence> Conflicts(const std::vector<Candidat
   return evidence;
 }
 
-// Replaces each kept centre of a trace by a line fitted along the trace over +-half lines.
+// The value at d = 0 of the parabola fitted by least squares to centres a(d) from the moments
+// m[e] = sum d^e and t[e] = sum a d^e; `fallback` when fewer than five centres or a singular
+// system. A parabola, not a line: a stripe curving along the lines (a sphere, a cylinder seen
+// aslant) is bent by a line fit towards its inside by the curvature times the window's mean d^2
+// (a sphere's stripe, 12 lines a side: 0.15 px, 18 um at 115 mm: corpus 7878, scene 64); a
+// symmetric window's parabola is unbiased to third order (Savitzky and Golay, Anal. Chem. 36,
+// 1964).
+double QuadraticAtZero(const std::array<double, 5>& m,
+                       const std::array<double, 3>& t,
+                       double fallback) {
+  if (m[0] < 5) return fallback;
+  const Eigen::Matrix3d normal{{m[0], m[1], m[2]}, {m[1], m[2], m[3]}, {m[2], m[3], m[4]}};
+  const Eigen::Vector3d rhs(t[0], t[1], t[2]);
+  const Eigen::LDLT<Eigen::Matrix3d> solve(normal);
+  if (solve.info() != Eigen::Success || !(std::abs(solve.vectorD().minCoeff()) > 1e-9))
+    return fallback;
+  const double at_zero = solve.solve(rhs)(0);
+  return std::isfinite(at_zero) ? at_zero : fallback;
+}
+
+// Adds one sample a at d to the moments QuadraticAtZero reads.
+void AddMoments(int d, double a, std::array<double, 5>* m, std::array<double, 3>* t) {
+  double p = 1.0;
+  for (size_t e = 0; e < 5; ++e, p *= d) {
+    (*m)[e] += p;
+    if (e < 3) (*t)[e] += a * p;
+  }
+}
+
+// Replaces each kept centre of a trace by a parabola fitted along the trace over +-half lines.
 std::uint64_t FitAlongTraces(std::vector<Candidate>& all, int half) {
   if (half <= 0) return 0;
   std::map<int, std::vector<Candidate*>> traces;
@@ -154,17 +185,16 @@ std::uint64_t FitAlongTraces(std::vector<Candidate>& all, int half) {
       const int line = members[i]->stripe.Line();
       // A window as long on both sides: a one-sided one bends a curving stripe's centre.
       const int reach = std::min({half, line - first, last - line});
-      double s0 = 0, s1 = 0, s2 = 0, t0 = 0, t1 = 0;
+      // Moments of d^0..d^4 and of the centres times d^0..d^2 over the window.
+      std::array<double, 5> m{};
+      std::array<double, 3> t{};
       for (size_t k = i - std::min(i, static_cast<size_t>(half)); k < n; ++k) {
         const int d = members[k]->stripe.Line() - line;
         if (d < -reach) continue;
         if (d > reach) break;
-        const double a = members[k]->stripe.Along();
-        s0 += 1, s1 += d, s2 += d * d, t0 += a, t1 += a * d;
+        AddMoments(d, members[k]->stripe.Along(), &m, &t);
       }
-      const double det = s0 * s2 - s1 * s1;
-      // Three centres at least: the fit at d = 0.
-      fitted[i] = (s0 >= 3 && det > 0) ? (t0 * s2 - t1 * s1) / det : members[i]->stripe.Along();
+      fitted[i] = QuadraticAtZero(m, t, members[i]->stripe.Along());
     }
     for (size_t i = 0; i < n; ++i) {
       StripePoint& s = members[i]->stripe;
@@ -293,42 +323,88 @@ void Decide(std::vector<Candidate>& all,
   }
 }
 
+// The light's trend along a trace is taken out over this many lines a side: a parabola's
+// passband over 33 lines is about a mean's over 17, so grains of a few lines stay in the residual
+// (over 17 lines the parabola took a quarter of the contrast of 4-line grains, and half their
+// length).
+constexpr int kSpeckleTrendLines = 16;
+// Traces shorter than this are left out. Not the window's full 33: under heavy speckle the
+// unsmoothed stripe breaks into pieces of a few dozen lines, and leaving them out left too few
+// centres to see its speckle at all (outside renderer, plane, contrast 0.44).
+constexpr std::size_t kSpeckleMinTraceLines = 17;
+
+struct TraceLight {
+  std::vector<int> lines;
+  std::vector<double> relative;  // light / trend - 1
+};
+
+// Each member's light against its trend: a parabola fitted over the lines within
+// kSpeckleTrendLines of its own. A parabola, not the mean: the light of a sphere's or a
+// cylinder's stripe falls off towards the limb and bends over a few dozen lines (Lambert's
+// cosine), and a running mean leaves that bend as a contrast of several per cent with a grain
+// of lines, speckle that is not there (corpus 7878, scene 64: a noise-free sphere read as
+// contrast 0.08, grain 2.7 lines, and its centres then smoothed over 12 lines).
+TraceLight RelativeLight(const std::vector<Candidate*>& members) {
+  TraceLight out;
+  out.lines.reserve(members.size());
+  out.relative.reserve(members.size());
+  for (size_t i = 0; i < members.size(); ++i) {
+    const int line = members[i]->stripe.Line();
+    std::array<double, 5> m{};
+    std::array<double, 3> t{};
+    const size_t from = i - std::min(i, static_cast<size_t>(kSpeckleTrendLines));
+    for (size_t k = from; k < members.size(); ++k) {
+      const int d = members[k]->stripe.Line() - line;
+      if (d < -kSpeckleTrendLines) continue;
+      if (d > kSpeckleTrendLines) break;
+      AddMoments(d, members[k]->light, &m, &t);
+    }
+    const double trend = QuadraticAtZero(m, t, t[0] / m[0]);
+    if (!(trend > 0.0)) continue;
+    out.lines.push_back(line);
+    out.relative.push_back(members[i]->light / trend - 1.0);
+  }
+  return out;
+}
+
 }  // namespace
 
 SpeckleEstimate EstimateSpeckle(const std::vector<StripePoint>& points,
                                 const EpipolarOptions& options) {
-  constexpr int kTrend = 8, kMaxLag = 6;
+  constexpr int kMaxLag = 6;
   std::vector<Candidate> all;
   all.reserve(points.size());
   // The profile's light, not its peak pixel: the peak changes with the centre's sub-pixel phase.
   for (const StripePoint& s : points) all.push_back({s, 0.0, std::max(1.0, s.mass_dn)});
-  std::array<double, kMaxLag + 1> products{}, pairs{};
-  SpeckleEstimate out;
-  std::vector<double> relative, prefix;
+  std::vector<TraceLight> traces;
   for (const auto& [id, members] : Traces(all, options)) {
-    if (members.size() < 2 * kTrend + 1) continue;
-    // Each member's light against the mean over the lines within kTrend of its own: a window
-    // sliding along the trace (its members ascend by line), summed from prefix sums.
-    relative.assign(members.size(), 0.0);
-    prefix.assign(members.size() + 1, 0.0);
-    for (size_t i = 0; i < members.size(); ++i) prefix[i + 1] = prefix[i] + members[i]->light;
-    size_t lo = 0, hi = 0;  // the window [lo, hi)
-    for (size_t i = 0; i < members.size(); ++i) {
-      const int line = members[i]->stripe.Line();
-      while (members[lo]->stripe.Line() < line - kTrend) ++lo;
-      while (hi < members.size() && members[hi]->stripe.Line() <= line + kTrend) ++hi;
-      const double mean = (prefix[hi] - prefix[lo]) / static_cast<double>(hi - lo);
-      relative[i] = members[i]->light / mean - 1.0;
-    }
-    for (size_t i = 0; i < members.size(); ++i) {
-      for (size_t k = i; k < members.size(); ++k) {
-        const int lag = members[k]->stripe.Line() - members[i]->stripe.Line();
+    if (members.size() < kSpeckleMinTraceLines) continue;
+    traces.push_back(RelativeLight(members));
+  }
+  SpeckleEstimate out;
+  std::vector<double> pooled;
+  for (const TraceLight& t : traces)
+    pooled.insert(pooled.end(), t.relative.begin(), t.relative.end());
+  out.samples = pooled.size();
+  if (pooled.empty()) return out;
+  // A glint (a spot several times brighter, a few lines long) is no speckle: each residual is
+  // clipped at 3 robust sigma (1.4826 times the median absolute residual), so a few lines of a
+  // spot cannot pass for a grainy surface.
+  for (double& r : pooled) r = std::abs(r);
+  std::nth_element(pooled.begin(), pooled.begin() + static_cast<long>(pooled.size() / 2),
+                   pooled.end());
+  const double clip = 3.0 * 1.4826 * pooled[pooled.size() / 2];
+  std::array<double, kMaxLag + 1> products{}, pairs{};
+  for (const TraceLight& t : traces) {
+    for (size_t i = 0; i < t.lines.size(); ++i) {
+      for (size_t k = i; k < t.lines.size(); ++k) {
+        const int lag = t.lines[k] - t.lines[i];
         if (lag > kMaxLag) break;
-        products[static_cast<size_t>(lag)] += relative[i] * relative[k];
+        products[static_cast<size_t>(lag)] +=
+            std::clamp(t.relative[i], -clip, clip) * std::clamp(t.relative[k], -clip, clip);
         pairs[static_cast<size_t>(lag)] += 1.0;
       }
     }
-    out.samples += members.size();
   }
   if (pairs[0] < 1.0) return out;
   const double variance = products[0] / pairs[0];
@@ -356,7 +432,7 @@ double AlongStripeSigmaPx(const SpeckleEstimate& speckle) {
 
 int SmoothHalfLines(const SpeckleEstimate& speckle, int plain) {
   if (AlongStripeSigmaPx(speckle) == 0.0) return plain;
-  return std::clamp(static_cast<int>(std::ceil(8.0 * speckle.grain_lines)), plain, 12);
+  return std::clamp(static_cast<int>(std::ceil(18.0 * speckle.grain_lines)), plain, 27);
 }
 
 void KeepOneDirectPerEpipolarLine(const ProbeModel& model,

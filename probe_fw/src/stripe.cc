@@ -235,10 +235,10 @@ bool WindowSums16(const Raster& r,
 // scan's: its light in a square window (above the window's darkest pixel) summed onto the u axis
 // is more peaked than summed onto v. A sum along the stripe averages speckle away, and a second
 // stripe beside it (a reflection) keeps the profile across them peaked, where second moments
-// would call two parallel stripes a blob. Ties belong to the row scan, so a crossing both scans
-// find has exactly one owner. One pass of integer sums: the darkest pixel comes off each sum
+// would call two parallel stripes a blob. Ties belong to the epipolar scan, so a crossing both
+// scans find has exactly one owner. One pass of integer sums: the darkest pixel comes off each sum
 // afterwards (n times it), which is the same number as summing the pixels less it.
-bool AcrossThisScan(const Scan& scan, double u, int v, int half_px) {
+bool AcrossThisScan(const Scan& scan, double u, int v, int half_px, const StripeOptions& o) {
   const Raster& r = scan.raster;
   const int half = std::min(half_px, kMaxDirectionHalf);
   const int uc = static_cast<int>(std::lround(u));
@@ -263,7 +263,9 @@ bool AcrossThisScan(const Scan& scan, double u, int v, int half_px) {
   }
   const double across_u = Peakedness(onto_u.data(), nu, std::int32_t{darkest} * nv);
   const double across_v = Peakedness(onto_v.data(), nv, std::int32_t{darkest} * nu);
-  return scan.axis == ScanAxis::kRow ? across_u >= across_v : across_u > across_v;
+  const double k = std::max(1.0, o.cross_scan_dominance);
+  if (scan.axis == o.epipolar_axis) return k * across_u >= across_v;
+  return across_u > k * across_v;
 }
 
 StripePoint MakePoint(
@@ -427,7 +429,7 @@ void Settle(const Candidate& c,
             const StripeOptions& o,
             std::vector<StripePoint>* out,
             StripeCounts* counts) {
-  if (scan.other_axis_too && !AcrossThisScan(scan, c.u, c.v, DirectionReach(o))) {
+  if (scan.other_axis_too && !AcrossThisScan(scan, c.u, c.v, DirectionReach(o), o)) {
     ++counts->other_axis;
     const int at = static_cast<int>(std::lround(c.u));
     Want(scan, at, at + 1, WantMargin(o));

@@ -52,6 +52,19 @@ StripeOptions WithSpeckleSmoothing(const std::vector<Frame>& frames,
   return options;
 }
 
+// The scans as the probe's epipolar geometry wants them: the scan along the epipolar lines (the
+// axis along which direct light moves) owns a crossing unless the other crosses the stripe
+// kCrossScanDominance times more squarely: an angle of about 72 deg to the epipolar scan's
+// normal, where that scan's profile is three times its width and the stripe runs nearly along
+// the epipolar lines (the faces the light grazes, which only the other scan can measure).
+constexpr double kCrossScanDominance = 3.0;
+StripeOptions OnEpipolarLines(const GhostOptions& motion, StripeOptions options) {
+  if ((motion.row_motion_sign != 0.0) == (motion.column_motion_sign != 0.0)) return options;
+  options.epipolar_axis = motion.row_motion_sign != 0.0 ? ScanAxis::kRow : ScanAxis::kColumn;
+  options.cross_scan_dominance = kCrossScanDominance;
+  return options;
+}
+
 }  // namespace
 
 std::optional<Vec3> Triangulate(const ProbeModel& model, double x_px, double y_px, double column) {
@@ -92,7 +105,10 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
   std::vector<SweepObservation> seen, evidence;
   std::vector<StripePoint> stripe, rejected;
   EpipolarOptions epipolar;
-  StripeExtractor extractor(mask, WithSpeckleSmoothing(laser_frames, mask, options, &epipolar));
+  GhostOptions ghost;
+  DirectMotion(model, &ghost.row_motion_sign, &ghost.column_motion_sign);
+  StripeExtractor extractor(
+      mask, WithSpeckleSmoothing(laser_frames, mask, OnEpipolarLines(ghost, options), &epipolar));
   int index = 0;
   for (const Frame& frame : laser_frames) {
     if (!frame.IsLaser()) continue;
@@ -111,8 +127,6 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
     }
     ++index;
   }
-  GhostOptions ghost;
-  DirectMotion(model, &ghost.row_motion_sign, &ghost.column_motion_sign);
   // In this order, one statement each (each test reads what the one before marked).
   const double rows = ghost.row_motion_sign, columns = ghost.column_motion_sign;
   std::size_t indirect = RejectIndirectLight(&seen, ghost);

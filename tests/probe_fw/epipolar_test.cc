@@ -217,5 +217,45 @@ TEST(EstimateSpeckle, FindsTheGrainItIsGivenAndNoneInPixelNoise) {
   EXPECT_EQ(SmoothHalfLines(plain, 4), 4);
 }
 
+// A trace over a curved face without speckle: its light falls off towards both ends as a
+// parabola (Lambert's cosine over a sphere, down to 5 % at the ends), a glint 3 times brighter
+// over a few lines at row 60, and 1 % pixel noise.
+std::vector<StripePoint> CurvedFaceWithAGlint() {
+  std::mt19937 rng(5004);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  std::vector<StripePoint> points;
+  for (int row = 0; row < 240; ++row) {
+    const double fall = std::max(0.05, 1.0 - std::pow((row - 120) / 125.0, 2));
+    const double glint = 1.0 + 2.0 * std::exp(-0.5 * std::pow((row - 60) / 2.0, 2));
+    StripePoint p;
+    p.x_px = 1000.0, p.y_px = row + 300;
+    p.mass_dn = p.amplitude_dn = 600.0 * fall * glint * (1.0 + noise(rng));
+    points.push_back(p);
+  }
+  return points;
+}
+
+TEST(EstimateSpeckle, ALightFallingOffOverACurvedFaceOrAGlintIsNoSpeckle) {
+  // Against the running mean over +-8 lines this trace read as contrast 0.13 (corpus 7878, scene
+  // 64: a noise-free sphere with a glint smoothed as speckle, 18 um off).
+  const SpeckleEstimate curved = EstimateSpeckle(CurvedFaceWithAGlint(), {});
+  EXPECT_GT(curved.samples, 200u);
+  EXPECT_LT(curved.contrast, kMinSpeckleContrast);
+  EXPECT_EQ(AlongStripeSigmaPx(curved), 0.0);
+}
+
+TEST(OneDirectPerEpipolarLine, TheSpeckleWindowKeepsAStronglyBendingStripeWhereItIs) {
+  // Under coarse speckle the fit spans up to 27 lines a side; a line fit over that would pull
+  // this bend's centres inwards by c / 2 times the mean of d^2 (0.5 px).
+  const auto bending = [](double row) { return 1000.0 + 0.004 * (row - 700.0) * (row - 700.0); };
+  std::vector<StripePoint> points = Trace(bending, 0.0);
+  EpipolarOptions wide;
+  wide.smooth_half_lines = 27;
+  EpipolarCounts counts;
+  KeepOneDirectPerEpipolarLine(Model(), {}, wide, &points, &counts);
+  ASSERT_EQ(points.size(), 200u);
+  for (const auto& p : points) EXPECT_NEAR(p.x_px, bending(p.y_px), kFitShapePx) << p.y_px;
+}
+
 }  // namespace
 }  // namespace mlp::probe_fw

@@ -17,9 +17,10 @@
 ///
 /// Speckle: the centre of one scan line carries the speckle of the few grains across the stripe
 /// there (Dorsch, Haeusler & Herrmann, Appl. Opt. 33, 1994). Along a trace, each centre is
-/// replaced by a straight line fitted to the trace's centres within +-`smooth_half_lines` lines
-/// (a local linear fit keeps a sloping or gently curving stripe's centre unbiased, where a plain
-/// mean would not); a trace breaks where the stripe jumps (an edge, a step), so no fit spans one.
+/// replaced by a parabola fitted to the trace's centres within +-`smooth_half_lines` lines (a
+/// local parabola keeps a sloping or curving stripe's centre unbiased, where a mean or a line
+/// would not: Savitzky and Golay, Anal. Chem. 36, 1964); a trace breaks where the stripe jumps (an
+/// edge, a step), so no fit spans one.
 
 #include "mlp/probe_fw/probe_model.h"
 #include "mlp/probe_fw/stripe.h"
@@ -50,8 +51,10 @@ struct EpipolarOptions {
   /// Neighbouring lines share speckle grains: the paired lines count as this many times fewer.
   double lines_per_independent = 3.0;
   double few_lines_dominance = 2.0;
-  /// The local line fit along a trace spans +-this many lines; 0 keeps the raw centres.
-  int smooth_half_lines = 4;
+  /// The local parabola along a trace spans +-this many lines; 0 keeps the raw centres. Nine
+  /// lines a side leave a centre the noise a line over four did (a parabola's value at the
+  /// window's middle has 2.25 times a line's variance over as many lines).
+  int smooth_half_lines = 9;
   /// A trace (points and rejected candidates) on fewer lines than this is no stripe to measure.
   int min_trace_lines = 5;
 };
@@ -70,7 +73,9 @@ struct EpipolarCounts {
 };
 
 /// Laser speckle along the stripe as one frame's centres show it: the contrast of the stripe's
-/// peak along each trace (about its running mean over +-8 lines) and the grain, the lag [lines]
+/// light along each trace (about a parabola fitted over +-16 lines, so the light's own fall-off
+/// over a curved face is no contrast; each residual clipped at 3 robust sigma, so a glint a few
+/// lines long is none either) and the grain, the lag [lines]
 /// at which that contrast's autocorrelation falls to one half (Goodman, "Speckle Phenomena in
 /// Optics", 2007: the autocorrelation's width is the grain's size). Pixel noise alone gives a
 /// contrast of a percent and no grain.
@@ -86,9 +91,9 @@ SpeckleEstimate EstimateSpeckle(const std::vector<StripePoint>& points,
 /// `kMinSpeckleContrast` or with too few samples, else twice the grain (bounded to 1..4 px).
 constexpr double kMinSpeckleContrast = 0.05;
 double AlongStripeSigmaPx(const SpeckleEstimate& speckle);
-/// The line fit's half-window along a trace: `plain` without speckle; under speckle wide enough
-/// to span 16 grains (bounded to 12 lines): the centre's speckle error averages over grains, not
-/// lines, so the window follows the grain.
+/// The parabola's half-window along a trace: `plain` without speckle; under speckle 18 grains a
+/// side (bounded to 27 lines; the noise a line over 8 grains, bounded to 12, had): the centre's
+/// speckle error averages over grains, not lines, so the window follows the grain.
 int SmoothHalfLines(const SpeckleEstimate& speckle, int plain);
 
 /// The points of one frame (`points`, one scan's or both) with `rejected` (the candidates the
