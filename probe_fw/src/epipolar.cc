@@ -139,13 +139,13 @@ std::map<std::pair<int, int>, PairEvidence> Conflicts(const std::vector<Candidat
   return evidence;
 }
 
-// The value at d = 0 of the parabola fitted by least squares to centres a(d) from the moments
-// m[e] = sum d^e and t[e] = sum a d^e; `fallback` when fewer than five centres or a singular
-// system. A parabola, not a line: a stripe curving along the lines (a sphere, a cylinder seen
-// aslant) is bent by a line fit towards its inside by the curvature times the window's mean d^2
-// (a sphere's stripe, 12 lines a side: 0.15 px, 18 um at 115 mm: corpus 7878, scene 64); a
-// symmetric window's parabola is unbiased to third order (Savitzky and Golay, Anal. Chem. 36,
-// 1964).
+// The value at d = 0 of the parabola fitted by least squares to samples a(d) from the moments
+// m[e] = sum d^e and t[e] = sum a d^e; `fallback` when fewer than five samples or a singular
+// system. A symmetric window's parabola is unbiased to third order (Savitzky and Golay, Anal.
+// Chem. 36, 1964). (Tried for the centres along a trace too, 2026-12-07: it took a small
+// sphere's bias from -7 to -2.6 um on corpus 7878 scene 59, but moved the virtual probe's
+// recheck hand-eye by 3.3-5 um where the line moved it 1.3, and stopped a bore's fit; not used
+// there.)
 double QuadraticAtZero(const std::array<double, 5>& m,
                        const std::array<double, 3>& t,
                        double fallback) {
@@ -159,7 +159,14 @@ double QuadraticAtZero(const std::array<double, 5>& m,
   return std::isfinite(at_zero) ? at_zero : fallback;
 }
 
-// Adds one sample a at d to the moments QuadraticAtZero reads.
+// The value at d = 0 of the line fitted by least squares to the same moments; `fallback` with
+// fewer than three centres.
+double LineAtZero(const std::array<double, 5>& m, const std::array<double, 3>& t, double fallback) {
+  const double det = m[0] * m[2] - m[1] * m[1];
+  return (m[0] >= 3 && det > 0) ? (t[0] * m[2] - t[1] * m[1]) / det : fallback;
+}
+
+// Adds one sample a at d to the moments QuadraticAtZero and LineAtZero read.
 void AddMoments(int d, double a, std::array<double, 5>* m, std::array<double, 3>* t) {
   double p = 1.0;
   for (size_t e = 0; e < 5; ++e, p *= d) {
@@ -168,7 +175,7 @@ void AddMoments(int d, double a, std::array<double, 5>* m, std::array<double, 3>
   }
 }
 
-// Replaces each kept centre of a trace by a parabola fitted along the trace over +-half lines.
+// Replaces each kept centre of a trace by a line fitted along the trace over +-half lines.
 std::uint64_t FitAlongTraces(std::vector<Candidate>& all, int half) {
   if (half <= 0) return 0;
   std::map<int, std::vector<Candidate*>> traces;
@@ -194,7 +201,7 @@ std::uint64_t FitAlongTraces(std::vector<Candidate>& all, int half) {
         if (d > reach) break;
         AddMoments(d, members[k]->stripe.Along(), &m, &t);
       }
-      fitted[i] = QuadraticAtZero(m, t, members[i]->stripe.Along());
+      fitted[i] = LineAtZero(m, t, members[i]->stripe.Along());
     }
     for (size_t i = 0; i < n; ++i) {
       StripePoint& s = members[i]->stripe;
@@ -432,7 +439,7 @@ double AlongStripeSigmaPx(const SpeckleEstimate& speckle) {
 
 int SmoothHalfLines(const SpeckleEstimate& speckle, int plain) {
   if (AlongStripeSigmaPx(speckle) == 0.0) return plain;
-  return std::clamp(static_cast<int>(std::ceil(18.0 * speckle.grain_lines)), plain, 27);
+  return std::clamp(static_cast<int>(std::ceil(8.0 * speckle.grain_lines)), plain, 12);
 }
 
 void KeepOneDirectPerEpipolarLine(const ProbeModel& model,

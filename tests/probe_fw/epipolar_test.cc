@@ -244,18 +244,5 @@ TEST(EstimateSpeckle, ALightFallingOffOverACurvedFaceOrAGlintIsNoSpeckle) {
   EXPECT_EQ(AlongStripeSigmaPx(curved), 0.0);
 }
 
-TEST(OneDirectPerEpipolarLine, TheSpeckleWindowKeepsAStronglyBendingStripeWhereItIs) {
-  // Under coarse speckle the fit spans up to 27 lines a side; a line fit over that would pull
-  // this bend's centres inwards by c / 2 times the mean of d^2 (0.5 px).
-  const auto bending = [](double row) { return 1000.0 + 0.004 * (row - 700.0) * (row - 700.0); };
-  std::vector<StripePoint> points = Trace(bending, 0.0);
-  EpipolarOptions wide;
-  wide.smooth_half_lines = 27;
-  EpipolarCounts counts;
-  KeepOneDirectPerEpipolarLine(Model(), {}, wide, &points, &counts);
-  ASSERT_EQ(points.size(), 200u);
-  for (const auto& p : points) EXPECT_NEAR(p.x_px, bending(p.y_px), kFitShapePx) << p.y_px;
-}
-
 }  // namespace
 }  // namespace mlp::probe_fw

@@ -17,10 +17,9 @@
 ///
 /// Speckle: the centre of one scan line carries the speckle of the few grains across the stripe
 /// there (Dorsch, Haeusler & Herrmann, Appl. Opt. 33, 1994). Along a trace, each centre is
-/// replaced by a parabola fitted to the trace's centres within +-`smooth_half_lines` lines (a
-/// local parabola keeps a sloping or curving stripe's centre unbiased, where a mean or a line
-/// would not: Savitzky and Golay, Anal. Chem. 36, 1964); a trace breaks where the stripe jumps (an
-/// edge, a step), so no fit spans one.
+/// replaced by a straight line fitted to the trace's centres within +-`smooth_half_lines` lines
+/// (a local linear fit keeps a sloping or gently curving stripe's centre unbiased, where a plain
+/// mean would not); a trace breaks where the stripe jumps (an edge, a step), so no fit spans one.
 
 #include "mlp/probe_fw/probe_model.h"
 #include "mlp/probe_fw/stripe.h"
@@ -51,10 +50,8 @@ struct EpipolarOptions {
   /// Neighbouring lines share speckle grains: the paired lines count as this many times fewer.
   double lines_per_independent = 3.0;
   double few_lines_dominance = 2.0;
-  /// The local parabola along a trace spans +-this many lines; 0 keeps the raw centres. Nine
-  /// lines a side leave a centre the noise a line over four did (a parabola's value at the
-  /// window's middle has 2.25 times a line's variance over as many lines).
-  int smooth_half_lines = 9;
+  /// The local line fit along a trace spans +-this many lines; 0 keeps the raw centres.
+  int smooth_half_lines = 4;
   /// A trace (points and rejected candidates) on fewer lines than this is no stripe to measure.
   int min_trace_lines = 5;
 };
@@ -91,9 +88,9 @@ SpeckleEstimate EstimateSpeckle(const std::vector<StripePoint>& points,
 /// `kMinSpeckleContrast` or with too few samples, else twice the grain (bounded to 1..4 px).
 constexpr double kMinSpeckleContrast = 0.05;
 double AlongStripeSigmaPx(const SpeckleEstimate& speckle);
-/// The parabola's half-window along a trace: `plain` without speckle; under speckle 18 grains a
-/// side (bounded to 27 lines; the noise a line over 8 grains, bounded to 12, had): the centre's
-/// speckle error averages over grains, not lines, so the window follows the grain.
+/// The line fit's half-window along a trace: `plain` without speckle; under speckle wide enough
+/// to span 16 grains (bounded to 12 lines): the centre's speckle error averages over grains, not
+/// lines, so the window follows the grain.
 int SmoothHalfLines(const SpeckleEstimate& speckle, int plain);
 
 /// The points of one frame (`points`, one scan's or both) with `rejected` (the candidates the
