@@ -159,14 +159,7 @@ double QuadraticAtZero(const std::array<double, 5>& m,
   return std::isfinite(at_zero) ? at_zero : fallback;
 }
 
-// The value at d = 0 of the line fitted by least squares to the same moments; `fallback` with
-// fewer than three centres.
-double LineAtZero(const std::array<double, 5>& m, const std::array<double, 3>& t, double fallback) {
-  const double det = m[0] * m[2] - m[1] * m[1];
-  return (m[0] >= 3 && det > 0) ? (t[0] * m[2] - t[1] * m[1]) / det : fallback;
-}
-
-// Adds one sample a at d to the moments QuadraticAtZero and LineAtZero read.
+// Adds one sample a at d to the moments QuadraticAtZero reads.
 void AddMoments(int d, double a, std::array<double, 5>* m, std::array<double, 3>* t) {
   double p = 1.0;
   for (size_t e = 0; e < 5; ++e, p *= d) {
@@ -192,16 +185,17 @@ std::uint64_t FitAlongTraces(std::vector<Candidate>& all, int half) {
       const int line = members[i]->stripe.Line();
       // A window as long on both sides: a one-sided one bends a curving stripe's centre.
       const int reach = std::min({half, line - first, last - line});
-      // Moments of d^0..d^4 and of the centres times d^0..d^2 over the window.
-      std::array<double, 5> m{};
-      std::array<double, 3> t{};
+      double s0 = 0, s1 = 0, s2 = 0, t0 = 0, t1 = 0;
       for (size_t k = i - std::min(i, static_cast<size_t>(half)); k < n; ++k) {
         const int d = members[k]->stripe.Line() - line;
         if (d < -reach) continue;
         if (d > reach) break;
-        AddMoments(d, members[k]->stripe.Along(), &m, &t);
+        const double a = members[k]->stripe.Along();
+        s0 += 1, s1 += d, s2 += d * d, t0 += a, t1 += a * d;
       }
-      fitted[i] = LineAtZero(m, t, members[i]->stripe.Along());
+      const double det = s0 * s2 - s1 * s1;
+      // Three centres at least: the fit at d = 0.
+      fitted[i] = (s0 >= 3 && det > 0) ? (t0 * s2 - t1 * s1) / det : members[i]->stripe.Along();
     }
     for (size_t i = 0; i < n; ++i) {
       StripePoint& s = members[i]->stripe;
