@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -291,6 +292,32 @@ int JudgeFewLines(const PairEvidence& e,
   return d < -needed ? -1 : 0;
 }
 
+// The median of ln(light) over a whole trace (a saturated member counts its clipped peak: a
+// bound from below).
+double MedianLogLight(const std::vector<Candidate*>& members) {
+  std::vector<double> v;
+  v.reserve(members.size());
+  for (const Candidate* m : members) v.push_back(std::log(m->light));
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// Whether the verdict of the shared lines is contradicted by the traces as wholes: the winner is
+// the shorter trace and clearly the dimmer over its length. A reflection of the stripe's bright
+// middle can land beside the stripe's dim end (a cylinder's limb: Lambert's cosine) and outshine
+// it there; that local verdict made a whole stripe of 562 lines lose to a reflection of 30, kept
+// 0.7-5 mm off (corpus 7979 scene 61, the probe turned, over-exposed). Where the two kinds of
+// evidence disagree neither trace is believed: both go whole (the stripe's other lines too; a
+// missing stripe is safe, and letting the longer one keep its lines would keep a long
+// reflection's wherever a short stripe inside it is the one that wins locally).
+bool ContradictedByWholeTraces(const std::vector<Candidate*>& winner,
+                               const std::vector<Candidate*>& loser,
+                               const EpipolarOptions& o) {
+  if (winner.size() >= loser.size()) return false;
+  return MedianLogLight(loser) - MedianLogLight(winner) > std::log(o.min_dominance);
+}
+
 // Marks the losers of every conflict: on the shared lines, the weaker trace's candidates (both
 // traces' in a draw); a trace that lost over many lines is a reflection and goes whole.
 void Decide(std::vector<Candidate>& all,
@@ -302,6 +329,17 @@ void Decide(std::vector<Candidate>& all,
     bool whole = paired;
     const int verdict =
         paired ? Judge(e.log_ratios, o) : JudgeFewLines(e, all, traces, ids, o, &whole);
+    const int winner = verdict > 0 ? ids.first : ids.second;
+    const int loser = verdict > 0 ? ids.second : ids.first;
+    if (verdict != 0 && ContradictedByWholeTraces(traces.at(winner), traces.at(loser), o)) {
+      for (const auto& [lo, hi] : e.who) {
+        Mark(all[static_cast<size_t>(lo)], nullptr);
+        Mark(all[static_cast<size_t>(hi)], nullptr);
+      }
+      lost.emplace(winner, nullptr);
+      lost.emplace(loser, nullptr);
+      continue;
+    }
     for (const auto& [lo, hi] : e.who) {
       Candidate& a = all[static_cast<size_t>(lo)];
       Candidate& b = all[static_cast<size_t>(hi)];

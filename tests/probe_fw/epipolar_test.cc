@@ -72,6 +72,33 @@ TEST(OneDirectPerEpipolarLine, TracesThatLightCannotTellApartAreDroppedWhereThey
   EXPECT_EQ(counts.undecided, 200u);
 }
 
+// Corpus 7979 scene 61 in small: the stripe (rows 600-899) dims over its last ten rows (a
+// cylinder's limb), and a reflection of its bright middle, 30 rows long, lands beside that end
+// and outshines it there. By the shared rows alone the reflection was direct and the whole
+// stripe went; over their lengths the stripe is the brighter and the longer. Where the two
+// disagree neither is believed: nothing is kept of either.
+TEST(OneDirectPerEpipolarLine, AShortReflectionOutshiningTheStripesDimEndWinsNothing) {
+  std::vector<StripePoint> points;
+  AddTrace(&points, 600, 889, 1000.0, 0.1, 200.0);  // the stripe
+  AddTrace(&points, 890, 899, 1029.0, 0.1, 60.0);   // its dim end, the same line on
+  AddTrace(&points, 890, 919, 1070.0, 0.1, 120.0);  // the reflection
+  EpipolarCounts counts;
+  KeepOneDirectPerEpipolarLine(Model(), {}, NoFit(), &points, &counts);
+  EXPECT_EQ(WithLight(points, 120.0), 0u) << "the reflection";
+  EXPECT_EQ(points.size(), 0u);
+  EXPECT_EQ(counts.undecided, 330u);
+  // The same reflection beside a stripe no brighter than it over its length: the shared rows'
+  // verdict stands (the stripe goes whole, as for any clearly weaker trace).
+  points.clear();
+  AddTrace(&points, 600, 889, 1000.0, 0.1, 110.0);
+  AddTrace(&points, 890, 899, 1029.0, 0.1, 60.0);
+  AddTrace(&points, 890, 919, 1070.0, 0.1, 120.0);
+  counts = {};
+  KeepOneDirectPerEpipolarLine(Model(), {}, NoFit(), &points, &counts);
+  EXPECT_EQ(WithLight(points, 120.0), 30u);
+  EXPECT_EQ(counts.second_on_line, 300u);
+}
+
 // A draw over many lines: the shorter trace, the likelier piece of a reflection, goes whole, so
 // its lines where the stripe is missing do not stand alone (fresh seeds 6001 47395 and 6002
 // 99460: reflection points 4.4 and 7.4 mm off under heavy speckle, gone with this rule).
