@@ -90,7 +90,7 @@ ReflectanceCounts CorrectReflectanceSlope(std::vector<SweepObservation>* observa
   ReflectanceCounts counts;
   for (std::size_t at = 0; at < order.size(); ++at) {
     const SweepObservation& o = obs[order[at]];
-    if (o.indirect || !(o.stripe.mass_dn > 0.0)) continue;
+    if (o.indirect || o.doubted || !(o.stripe.mass_dn > 0.0)) continue;
     const SweepObservation* before = neighbour(at, o.frame - 1);
     const SweepObservation* after = neighbour(at, o.frame + 1);
     if (!before && !after) continue;

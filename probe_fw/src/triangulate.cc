@@ -146,7 +146,7 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
   counts->points -= slope.dropped;
   std::vector<CloudPoint> cloud;
   for (const SweepObservation& o : seen) {
-    if (o.indirect) continue;  // light from elsewhere, or a reflectance too uneven to correct
+    if (o.indirect || o.doubted) continue;  // from elsewhere, too uneven, or its order unsure
     CloudPoint p;
     const std::optional<Vec3> point = Triangulate(model, o.stripe.x_px, o.stripe.y_px, o.column);
     // A grazing ray has no depth; behind the camera is no real surface.

@@ -38,6 +38,14 @@ std::size_t Indirect(const std::vector<SweepObservation>& obs, double amplitude)
   return n;
 }
 
+// Kept out of the cloud: indirect, or doubted by the ordering test (still a reference for the
+// tests after it).
+std::size_t Out(const std::vector<SweepObservation>& obs, double amplitude) {
+  std::size_t n = 0;
+  for (const auto& o : obs) n += (o.indirect || o.doubted) && o.stripe.amplitude_dn == amplitude;
+  return n;
+}
+
 TEST(RejectIndirectLight, AWeakerTraceOverTheStripesPixelsIsRejectedWhole) {
   std::vector<SweepObservation> obs;
   for (int y = 0; y < 3; ++y) {
@@ -165,11 +173,21 @@ TEST(DirectMotion, AProjectorWhoseMiddleSheetRunsBesideTheOpticalAxisStillHasADi
 
 // A coarse sweep (110 px between frames) of a plane on one row, and a reflection lit in the last
 // frame standing between frames 7 and 8: no other candidate on its epipolar line or its pixel,
-// but its column is out of order with the direct light on both sides.
+// but its column is out of order with the direct light on both sides. It goes; frames 8 and 9,
+// the two it could replace in a sequence one shorter (the line's order alone cannot say which of
+// them is direct: ALineThatOrdersAlmostAsWellAnotherWayKeepsNeither), leave the cloud too but
+// stay references for the later tests. Standing between frames 6 and 7 (two shorter) it goes
+// alone.
 TEST(RejectOutOfOrder, AReflectionBetweenACoarseSweepsFramesIsOutOfOrder) {
   std::vector<SweepObservation> obs;
   AddTrace(&obs, 200, 0, 9, 100.0, 110.0, 0.0, 120.0);  // columns 0, 2, .. 18
   AddTrace(&obs, 200, 10, 10, 880.0, 0.0, 0.0, 60.0);   // column 20 at 880 px
+  EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &obs), 3u);
+  EXPECT_EQ(Indirect(obs, 60.0), 1u);
+  EXPECT_EQ(Indirect(obs, 120.0), 0u) << "frames 8 and 9 stay references";
+  EXPECT_TRUE(obs[8].doubted && obs[9].doubted);
+  for (auto& o : obs) o.indirect = o.doubted = false;
+  obs.back().stripe.x_px = 770.0;
   EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &obs), 1u);
   EXPECT_EQ(Indirect(obs, 60.0), 1u);
   EXPECT_EQ(Indirect(obs, 120.0), 0u);
@@ -197,6 +215,47 @@ TEST(RejectOutOfOrder, TwoThatCouldTakeTheSamePlaceAreBothDropped) {
   EXPECT_EQ(Indirect(obs, kReflection), 1u);
   EXPECT_EQ(Indirect(obs, kDirect), 1u);
   EXPECT_TRUE(obs[8].indirect);  // the frame-8 centre, the one the reflection could replace
+}
+
+// Corpus 5050 scene 162 in small: the stripe's last two frames on the line (6, 7 at 700 and 800
+// px) and a reflection lagging behind it through frames 8-10 (620, 650, 680 px). Each is in order
+// after frames 0-5; the reflection's three make the longer sequence, and were kept (the stripe's
+// two went). A sequence only one shorter orders the line the other way: neither way is kept
+// (the stripe's two are doubted: out of the cloud, still references), frames 0-5 are.
+TEST(RejectOutOfOrder, ALineThatOrdersAlmostAsWellAnotherWayKeepsNeither) {
+  constexpr double kDirect = 120.0, kReflection = 60.0;
+  std::vector<SweepObservation> obs;
+  AddTrace(&obs, 300, 0, 7, 100.0, 100.0, 0.0, kDirect);  // 100 .. 800 px
+  AddTrace(&obs, 300, 8, 10, 620.0, 30.0, 0.0, kReflection);
+  // The reflection's three lie on the longest sequence: doubted (references still); the
+  // stripe's two on the one a member shorter: indirect, as before this rule.
+  EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &obs), 5u);
+  EXPECT_EQ(Out(obs, kReflection), 3u);
+  EXPECT_EQ(Out(obs, kDirect), 2u);
+  EXPECT_EQ(Indirect(obs, kReflection), 0u);
+  for (int f = 0; f <= 5; ++f) {
+    const SweepObservation& o = obs[static_cast<std::size_t>(f)];
+    EXPECT_FALSE(o.indirect || o.doubted) << f;
+  }
+  // Two frames of the reflection: the two ways tie (8 members each) and, as before this rule,
+  // the members that could take the same place all go.
+  obs.pop_back();
+  for (auto& o : obs) o.indirect = o.doubted = false;
+  EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &obs), 4u);
+  EXPECT_EQ(Indirect(obs, kReflection), 2u);
+  // One frame of it at 620 px: frames 0-5 and it make a sequence still one shorter than the
+  // stripe's, so the stripe's frames 6 and 7 go with it (corpus 5050 scene 179 had the direct
+  // light the one frame and a reflection the two). Lagging further, at 520 px (frames 0-4 and
+  // it, two shorter), it goes alone.
+  obs.pop_back();
+  for (auto& o : obs) o.indirect = o.doubted = false;
+  EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &obs), 3u);
+  EXPECT_EQ(Out(obs, kDirect), 2u);
+  EXPECT_EQ(Indirect(obs, kDirect), 0u) << "doubted, still references";
+  for (auto& o : obs) o.indirect = o.doubted = false;
+  obs.back().stripe.x_px = 520.0;
+  EXPECT_EQ(RejectOutOfOrder(+1.0, 0.0, 1.0, &obs), 1u);
+  EXPECT_EQ(Indirect(obs, kDirect), 0u);
 }
 
 // Corpus 7777 scene 45 in small: a plane's coarse sweep on row 300 takes sheets 0-2 at 14, 221

@@ -25,6 +25,11 @@ struct SweepObservation {
   double column = 0.0;
   int frame = 0;
   bool indirect = false;  ///< set by RejectIndirectLight
+  /// Kept out of the cloud but still direct light for the sweep's later tests: a centre whose
+  /// line orders almost as well without it (RejectOutOfOrder). Marked indirect, it was taken out
+  /// of the references the later tests order the line against, and reflections they had caught
+  /// got through (corpus 8080 scene 70).
+  bool doubted = false;
 };
 
 struct GhostOptions {
@@ -94,8 +99,11 @@ std::size_t RejectRayConflicts(const ProbeModel& model,
 /// both sides of it. Keeps what every longest ordered sequence of each line holds (within
 /// `tolerance_px` back-steps: the centres' noise in a fine sweep) and marks the rest `indirect`:
 /// two members that could take the same place in it (a reflection just behind the stripe's last
-/// centre) both go. Lines of an axis whose sign is 0 are left alone. Returns how many were
-/// marked.
+/// centre) both go. The members of a longest sequence that a sequence one member shorter
+/// leaves out (a line that orders almost as well another way: a reflection trailing the stripe
+/// that takes over where the stripe leaves the image) are marked `doubted`: out of the cloud,
+/// still references for the tests after this one. Lines of an axis whose sign is 0 are left
+/// alone. Returns how many were marked indirect or doubted.
 std::size_t RejectOutOfOrder(double row_sign,
                              double column_sign,
                              double tolerance_px,
