@@ -4,7 +4,9 @@
 #include "mlp/probe_fw/ghost.h"
 #include "mlp/probe_fw/reflectance.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 namespace mlp::probe_fw {
@@ -96,6 +98,32 @@ constexpr double kOrderTolerancePx = 1.0;
 // under speckle (0.1-0.5 px), so a fine sweep's noise never strings two together.
 constexpr double kBackStepPx = 2.0;
 
+namespace {
+
+// The sweep's tests for light from elsewhere, in this order, one statement each (each test reads
+// what the one before marked). Returns the centres they took out of the cloud, counted once each:
+// one the order doubted (still a reference) may later be found indirect too.
+std::uint64_t MarkIndirectLight(const ProbeModel& model,
+                                const GhostOptions& ghost,
+                                const std::vector<SweepObservation>& evidence,
+                                std::vector<SweepObservation>* seen) {
+  const double rows = ghost.row_motion_sign, columns = ghost.column_motion_sign;
+  RejectIndirectLight(seen, ghost);
+  RejectRayConflicts(model, RayOptions{}, seen);
+  RejectBackwardRuns(rows, columns, kBackStepPx, 2, 2, seen);
+  RejectOutOfOrder(rows, columns, kOrderTolerancePx, seen);
+  RejectSweptTwice(rows, columns, evidence, SweptOptions{}, seen);
+  RejectBehindClippedLight(rows, columns, evidence, kOrderTolerancePx, seen);
+  RejectAcrossOrder(rows, columns, kOrderTolerancePx, seen);
+  RejectOffRate(rows, columns, RateOptions{}, seen);
+  SpreadAlongStripes(EpipolarOptions{}.link_gate_px, EpipolarOptions{}.max_line_gap, 0.5, seen);
+  return static_cast<std::uint64_t>(
+      std::count_if(seen->begin(), seen->end(),
+                    [](const SweepObservation& o) { return o.indirect || o.doubted; }));
+}
+
+}  // namespace
+
 std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
                                          const std::vector<Frame>& laser_frames,
                                          const RowMask& mask,
@@ -127,18 +155,7 @@ std::vector<CloudPoint> ReconstructSweep(const ProbeModel& model,
     }
     ++index;
   }
-  // In this order, one statement each (each test reads what the one before marked).
-  const double rows = ghost.row_motion_sign, columns = ghost.column_motion_sign;
-  std::size_t indirect = RejectIndirectLight(&seen, ghost);
-  indirect += RejectRayConflicts(model, RayOptions{}, &seen);
-  indirect += RejectBackwardRuns(rows, columns, kBackStepPx, 2, 2, &seen);
-  indirect += RejectOutOfOrder(rows, columns, kOrderTolerancePx, &seen);
-  indirect += RejectSweptTwice(rows, columns, evidence, SweptOptions{}, &seen);
-  indirect += RejectBehindClippedLight(rows, columns, evidence, kOrderTolerancePx, &seen);
-  indirect += RejectAcrossOrder(rows, columns, kOrderTolerancePx, &seen);
-  indirect += RejectOffRate(rows, columns, RateOptions{}, &seen);
-  indirect += SpreadAlongStripes(EpipolarOptions{}.link_gate_px, EpipolarOptions{}.max_line_gap,
-                                 0.5, &seen);
+  const std::uint64_t indirect = MarkIndirectLight(model, ghost, evidence, &seen);
   counts->indirect += indirect;
   counts->points -= indirect;
   const ReflectanceCounts slope = CorrectReflectanceSlope(&seen, ReflectanceOptions{});
